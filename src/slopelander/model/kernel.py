@@ -1,0 +1,897 @@
+"""The compiled integrator: one step of the planar landing model, and a whole landing.
+
+Why this shape (``docs/model.md`` has the full account):
+
+* The feet are light (~10 g effective) on a stiff, heavily damped ground contact
+  (k_g = 2.17e4 N/m, b_g = 437 N*s/m: twelve times critical). An explicit integrator would
+  need steps of ~20 us. Instead each step is semi-implicit Euler with the contact
+  spring-dampers, the foot's stiction spring and the Coulomb force (tied to the normal force)
+  linearised implicitly: ``(M - h D - h^2 K) v' = M v + h f - h D v``, solved for the five
+  generalised velocities. Contact modes (separated / stuck / slipping) are settled by a
+  small active-set loop inside the step, so a foot that stops slipping sticks exactly.
+* The friction joints' massless frames E, F (paper Fig. 5) are first-order: in each mode
+  (stuck, slipping, slipping inside the end-of-travel zone) q_E obeys a linear ODE that is
+  integrated exactly over the step, so the flex torque is exactly +-tau while slipping and
+  the joint cannot creep while stuck.
+* Everything is plain float arrays (parameters in ``PARAMETER_NAMES`` order, one flat
+  state vector) so the same step serves the whole-landing function, the batch path and the
+  1200 Hz stepper of the simulated vehicle.
+
+Coordinates: x downhill-positive horizontal, z up, angles counter-clockwise positive.
+Q = (x, z, pitch, q_C, q_D); q_C is the left (-x) leg's angle below the body plane, q_D the
+right (+x) leg's; both grow as the leg extends. The surface passes through the origin.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from slopelander.model.parameters import PARAMETER_NAMES
+
+# --- parameter indices (PARAMETER_NAMES order) -------------------------------------------
+_P = {n: i for i, n in enumerate(PARAMETER_NAMES)}
+P_G = _P["gravity"]
+P_MB = _P["body_mass"]
+P_IB = _P["body_inertia"]
+P_ROT = _P["rotor_arm"]
+P_JX = _P["joint_x"]
+P_JZ = _P["joint_z"]
+P_ML = _P["leg_mass"]
+P_IL = _P["leg_inertia"]
+P_LL = _P["leg_length"]
+P_QMAX = _P["leg_angle_max_deg"]
+P_TRAVEL = _P["leg_travel_deg"]
+P_NJ = _P["joints_per_planar_leg"]
+P_KQ = _P["flex_stiffness"]
+P_BQ = _P["flex_damping"]
+P_EZ = _P["eot_zone_deg"]
+P_KE = _P["eot_stiffness"]
+P_BE = _P["eot_damping"]
+P_FTAU = _P["factor_tau"]
+P_FMU = _P["factor_mu"]
+P_KG = _P["ground_stiffness"]
+P_BG = _P["ground_damping"]
+P_MUK = _P["friction_kinetic"]
+P_MUS = _P["friction_static"]
+P_KT = _P["stiction_stiffness"]
+P_BT = _P["stiction_damping"]
+P_VS = _P["friction_smoothing_speed"]
+P_TMAX = _P["rotor_thrust_max"]
+P_REV = _P["rotor_reverse_ratio"]
+P_TAUM = _P["rotor_time_constant"]
+P_DELAY = _P["rotor_reversal_delay"]
+
+# --- effect switches ---------------------------------------------------------------------
+F_FLEX = 0
+F_EOT = 1
+F_TAU_GROWTH = 2
+F_MU_GROWTH = 3
+F_STICTION = 4
+F_REGULARISED = 5
+F_ROTORS = 6
+F_REV_DELAY = 7
+F_RIGID = 8
+N_FLAGS = 9
+
+# --- context: the surface and the leg settings (may change between steps) ----------------
+C_SIN = 0  # sin(slope)
+C_COS = 1  # cos(slope)
+C_DOWN = 2  # index of the downhill leg: 0 = C (left), 1 = D (right)
+C_TAU = 3  # 3, 4: planar friction torque of leg C, D (N*m, already x joints_per_planar_leg)
+C_QINIT = 5  # 5, 6: leg angle the compression is measured from (rad)
+N_CTX = 7
+
+# --- state vector layout ------------------------------------------------------------------
+S_Q = 0  # 0..4 generalised coordinates
+S_V = 5  # 5..9 generalised velocities
+S_QE = 10  # 10, 11 friction-joint angle of leg C, D (massless frames E, F)
+S_JM = 12  # 12, 13 joint mode: 0 stuck, -1 slipping toward compression, +1 toward extension
+S_CM = 14  # 14..19 contact mode per point: 0 off, 1 stuck, 2 slipping +t, 3 slipping -t
+S_ANC = 20  # 20..25 stiction anchor (tangential coordinate) per point
+S_W = 26  # 26, 27 rotor speed (fraction of full, signed)
+S_DIR = 28  # 28, 29 rotor direction the ESC is set to (+1 / -1)
+S_WAIT = 30  # 30, 31 remaining reversal dead time (s)
+S_T = 32  # simulated time (s)
+S_FF = 33  # 33, 34 foot friction force magnitude of leg C, D last step (N)
+S_TIMP = 35  # time of first contact (s), -1 before
+S_QEMIN = 36  # 36, 37 smallest friction-joint angle reached per leg
+S_TOUCH = 38  # a joint or rotor has touched the surface (0/1)
+S_PMIN = 39  # most negative pitch (rad)
+S_PMAX = 40  # most positive pitch (rad)
+S_X0 = 41  # 41, 42 centre-of-mass position at first contact
+S_REST = 43  # time the rest condition has held continuously (s)
+S_DISS = 44  # 44..49 energy dissipated: joint friction, flex damper, EOT damper,
+#             ground damper, foot friction + stiction damper, and work done by the rotors
+S_NF = 50  # 50..55 normal force per contact point (N), last step
+S_FT = 56  # 56..61 tangential force per contact point (N), last step
+S_THR = 62  # 62, 63 rotor thrust (N), last step
+N_STATE = 64
+
+D_JOINT, D_FLEX, D_EOT, D_GROUND, D_FOOT, D_ROTOR = range(6)
+N_POINTS = 6  # feet C, D; joints C, D; rotors 1, 2
+MAX_ACTIVE_SET_ITERATIONS = 6
+
+DEG = math.pi / 180.0
+
+
+@njit(cache=True)
+def no_extra_force(t, st, ctx, up, out):  # pragma: no cover - compiled
+    """Default user-effect hook: adds nothing."""
+    return
+
+
+@njit(cache=True)
+def _rot(c, s, a, b):
+    return c * a - s * b, s * a + c * b
+
+
+@njit(cache=True)
+def _leg_geometry(p, j, q):
+    """Joint position (body frame), leg unit vector u and du/dq for leg j at angle q."""
+    sgn = -1.0 if j == 0 else 1.0
+    hx = sgn * p[P_JX]
+    hz = -p[P_JZ]
+    ux = sgn * math.cos(q)
+    uz = -math.sin(q)
+    dux = -sgn * math.sin(q)
+    duz = -math.cos(q)
+    return hx, hz, ux, uz, dux, duz
+
+
+@njit(cache=True)
+def kinematics(p, st, M, f, pts, vel, J):
+    """Mass matrix, velocity-product + gravity forces, and the contact points' kinematics.
+
+    pts[i] / vel[i] are world position / velocity of point i, J[i] its 2x5 Jacobian.
+    """
+    th = st[S_Q + 2]
+    c = math.cos(th)
+    s = math.sin(th)
+    w = st[S_V + 2]
+    g = p[P_G]
+    mb = p[P_MB]
+    ml = p[P_ML]
+    il = p[P_IL]
+    L = p[P_LL]
+    for a in range(5):
+        f[a] = 0.0
+        for b in range(5):
+            M[a, b] = 0.0
+    M[0, 0] = mb
+    M[1, 1] = mb
+    M[2, 2] = p[P_IB]
+    f[1] = -mb * g
+
+    for i in range(N_POINTS):
+        for a in range(2):
+            for b in range(5):
+                J[i, a, b] = 0.0
+
+    # Legs: centre of mass (for M and forces) and foot (contact points 0, 1).
+    for j in range(2):
+        qi = 3 + j
+        q = st[S_Q + qi]
+        qd = st[S_V + qi]
+        hx, hz, ux, uz, dux, duz = _leg_geometry(p, j, q)
+        for k in range(2):
+            ell = 0.5 * L if k == 0 else L
+            rx = hx + ell * ux
+            rz = hz + ell * uz
+            wx, wz = _rot(c, s, rx, rz)  # R r
+            srx, srz = _rot(c, s, -rz, rx)  # R S r
+            dx, dz = _rot(c, s, ell * dux, ell * duz)  # R l u'
+            sdx, sdz = _rot(c, s, -ell * duz, ell * dux)  # R S l u'
+            # Jacobian columns: x, z, pitch, own leg angle
+            jx0, jz0 = 1.0, 0.0
+            jx1, jz1 = 0.0, 1.0
+            jx2, jz2 = srx, srz
+            jxq, jzq = dx, dz
+            # velocity-product acceleration: -w^2 R r + 2 w qd R S l u' - qd^2 R l u
+            bx = -w * w * wx + 2.0 * w * qd * sdx - qd * qd * ell * (c * ux - s * uz)
+            bz = -w * w * wz + 2.0 * w * qd * sdz - qd * qd * ell * (s * ux + c * uz)
+            if k == 0:
+                cols_x = (jx0, jx1, jx2, jxq)
+                cols_z = (jz0, jz1, jz2, jzq)
+                idx = (0, 1, 2, qi)
+                for a in range(4):
+                    for b in range(4):
+                        M[idx[a], idx[b]] += ml * (cols_x[a] * cols_x[b] + cols_z[a] * cols_z[b])
+                    f[idx[a]] += -ml * (cols_x[a] * bx + cols_z[a] * bz) - ml * g * cols_z[a]
+                # leg rotation: omega = pitch_rate + qd_C (left) or pitch_rate - qd_D (right)
+                sg = 1.0 if j == 0 else -1.0
+                M[2, 2] += il
+                M[2, qi] += il * sg
+                M[qi, 2] += il * sg
+                M[qi, qi] += il
+            else:
+                pi_ = j
+                pts[pi_, 0] = st[S_Q + 0] + wx
+                pts[pi_, 1] = st[S_Q + 1] + wz
+                J[pi_, 0, 0] = 1.0
+                J[pi_, 1, 1] = 1.0
+                J[pi_, 0, 2] = jx2
+                J[pi_, 1, 2] = jz2
+                J[pi_, 0, qi] = jxq
+                J[pi_, 1, qi] = jzq
+        # joint point (contact 2 + j), on the body
+        wx, wz = _rot(c, s, hx, hz)
+        srx, srz = _rot(c, s, -hz, hx)
+        pts[2 + j, 0] = st[S_Q + 0] + wx
+        pts[2 + j, 1] = st[S_Q + 1] + wz
+        J[2 + j, 0, 0] = 1.0
+        J[2 + j, 1, 1] = 1.0
+        J[2 + j, 0, 2] = srx
+        J[2 + j, 1, 2] = srz
+    # rotor hubs (contact 4, 5), on the body
+    for r in range(2):
+        rx = -p[P_ROT] if r == 0 else p[P_ROT]
+        wx, wz = _rot(c, s, rx, 0.0)
+        srx, srz = _rot(c, s, 0.0, rx)
+        pts[4 + r, 0] = st[S_Q + 0] + wx
+        pts[4 + r, 1] = st[S_Q + 1] + wz
+        J[4 + r, 0, 0] = 1.0
+        J[4 + r, 1, 1] = 1.0
+        J[4 + r, 0, 2] = srx
+        J[4 + r, 1, 2] = srz
+    for i in range(N_POINTS):
+        for a in range(2):
+            acc = 0.0
+            for b in range(5):
+                acc += J[i, a, b] * st[S_V + b]
+            vel[i, a] = acc
+
+
+@njit(cache=True)
+def _solve5(A, b, x, n):
+    """Gaussian elimination with partial pivoting (A, b are overwritten)."""
+    for k in range(n):
+        piv = k
+        best = abs(A[k, k])
+        for r in range(k + 1, n):
+            if abs(A[r, k]) > best:
+                best = abs(A[r, k])
+                piv = r
+        if piv != k:
+            for cc in range(n):
+                tmp = A[k, cc]
+                A[k, cc] = A[piv, cc]
+                A[piv, cc] = tmp
+            tmp = b[k]
+            b[k] = b[piv]
+            b[piv] = tmp
+        d = A[k, k]
+        for r in range(k + 1, n):
+            fct = A[r, k] / d
+            if fct != 0.0:
+                for cc in range(k, n):
+                    A[r, cc] -= fct * A[k, cc]
+                b[r] -= fct * b[k]
+    for k in range(n - 1, -1, -1):
+        acc = b[k]
+        for cc in range(k + 1, n):
+            acc -= A[k, cc] * x[cc]
+        x[k] = acc / A[k, k]
+
+
+@njit(cache=True)
+def _thrust(p, w):
+    if w >= 0.0:
+        return p[P_TMAX] * w * w
+    return -p[P_TMAX] * p[P_REV] * w * w
+
+
+def make_workspace():
+    """Scratch arrays for :func:`step` (allocate once per simulated vehicle)."""
+    return (
+        np.zeros((5, 5)),  # M
+        np.zeros(5),  # f
+        np.zeros((N_POINTS, 2)),  # pts
+        np.zeros((N_POINTS, 2)),  # vel
+        np.zeros((N_POINTS, 2, 5)),  # J
+        np.zeros((5, 5)),  # A base
+        np.zeros(5),  # rhs base
+        np.zeros((5, 5)),  # A work
+        np.zeros(5),  # rhs work
+        np.zeros(5),  # v new
+        np.zeros(5),  # extra force
+        np.zeros((N_POINTS, 2, 5)),  # jn/jt rows per point
+    )
+
+
+_make_workspace_jit = njit(cache=True)(make_workspace)
+
+
+@njit(cache=True)
+def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
+    """Advance the state ``st`` by ``h`` seconds with rotor commands u0, u1 in [-1, 1]."""
+    M, f, pts, vel, J, A0, r0, A, r, vn, fx, JNT = ws
+    kinematics(p, st, M, f, pts, vel, J)
+    V = st[S_V : S_V + 5]
+    t = st[S_T]
+    sa = ctx[C_SIN]
+    ca = ctx[C_COS]
+    # surface normal n (out of the ground) and tangent t (toward +x)
+    nx, nz = sa, ca
+    tx, tz = ca, -sa
+    down = int(ctx[C_DOWN])
+    # downhill unit vector along the surface
+    dsg = 1.0 if sa >= 0.0 else -1.0
+    dhx, dhz = dsg * tx, dsg * tz
+
+    rigid = fl[F_RIGID] != 0
+    flex = fl[F_FLEX] != 0 and not rigid
+    q_end = (p[P_QMAX] - p[P_TRAVEL]) * DEG
+    q_max = p[P_QMAX] * DEG
+    q_zone = q_end + (p[P_EZ] * DEG if fl[F_EOT] != 0 else 0.0)
+    ke = p[P_KE] if fl[F_EOT] != 0 else 0.0
+    be = p[P_BE] if fl[F_EOT] != 0 else 0.0
+    # a planar leg is a pair of real legs in parallel: torque, stiffness and damping add
+    kq = p[P_KQ] * p[P_NJ]
+    bq = p[P_BQ] * p[P_NJ]
+
+    # Implicit terms go straight into A0 = M - h D - h^2 K; f keeps only the explicit part,
+    # so that r0 = M v + h f.
+    for a in range(5):
+        fx[a] = 0.0
+    extra_force(t, st, ctx, up, fx)
+    for a in range(5):
+        f[a] += fx[a]
+
+    # rotors: thrust along body z at the hubs, from the speed at the start of the step
+    bzx = -math.sin(st[S_Q + 2])
+    bzz = math.cos(st[S_Q + 2])
+    for rr in range(2):
+        T = _thrust(p, st[S_W + rr]) if fl[F_ROTORS] != 0 else 0.0
+        st[S_THR + rr] = T
+        for b in range(5):
+            f[b] += J[4 + rr, 0, b] * T * bzx + J[4 + rr, 1, b] * T * bzz
+
+    for a in range(5):
+        for b in range(5):
+            A0[a, b] = M[a, b]
+
+    # friction joints
+    tau = np.empty(2)
+    zone = np.zeros(2)
+    for j in range(2):
+        tj = ctx[C_TAU + j]
+        if j == down and fl[F_TAU_GROWTH] != 0:
+            tj *= 1.0 + p[P_FTAU] * st[S_FF + j]
+        tau[j] = tj
+        qi = 3 + j
+        if rigid:
+            continue
+        qE = st[S_QE + j]
+        qc = st[S_Q + qi]
+        vc = V[qi]
+        m = st[S_JM + j]
+        if flex:
+            zj = 1.0 if qE < q_zone else 0.0
+            zone[j] = zj
+            if m == 0.0:
+                # flex spring explicit (no numerical damping of the leg's bending mode);
+                # its damper -b_q v_C implicit, carried by A0 alone
+                f[qi] += kq * (qE - qc)
+                A0[qi, qi] += h * bq
+            else:
+                B = bq + zj * be
+                K = kq + zj * ke
+                c0 = -tj * m + zj * ke * q_zone + kq * qc + bq * vc
+                qEd = (c0 - K * qE) / B
+                Tf = kq * (qE - qc) + bq * (qEd - vc)
+                f[qi] += Tf
+                dd = zj * be * bq / B
+                A0[qi, qi] += h * dd
+                f[qi] += dd * vc
+        else:
+            zj = 1.0 if qc < q_zone else 0.0
+            zone[j] = zj
+            if m != 0.0:
+                f[qi] += -tj * m + zj * ke * (q_zone - qc)
+                A0[qi, qi] += h * be * zj + h * h * ke * zj
+                # -b_e v is implicit: nothing explicit left
+
+    for a in range(5):
+        acc = 0.0
+        for b in range(5):
+            acc += M[a, b] * V[b]
+        r0[a] = acc + h * f[a]
+
+    # --- contacts: an active-set loop over modes --------------------------------------------
+    kg = p[P_KG]
+    bg = p[P_BG]
+    kt = p[P_KT]
+    bt = p[P_BT]
+    mus = p[P_MUS]
+    stiction = fl[F_STICTION] != 0
+    regular = fl[F_REGULARISED] != 0
+    d0 = np.empty(N_POINTS)
+    dd0 = np.empty(N_POINTS)
+    s0 = np.empty(N_POINTS)
+    sd0 = np.empty(N_POINTS)
+    mu = np.empty(N_POINTS)
+    active = np.zeros(N_POINTS, dtype=np.bool_)
+    for i in range(N_POINTS):
+        d0[i] = nx * pts[i, 0] + nz * pts[i, 1]
+        dd0[i] = nx * vel[i, 0] + nz * vel[i, 1]
+        s0[i] = tx * pts[i, 0] + tz * pts[i, 1]
+        sd0[i] = tx * vel[i, 0] + tz * vel[i, 1]
+        for b in range(5):
+            JNT[i, 0, b] = nx * J[i, 0, b] + nz * J[i, 1, b]
+            JNT[i, 1, b] = tx * J[i, 0, b] + tz * J[i, 1, b]
+        N0 = -kg * d0[i] - bg * dd0[i]
+        if d0[i] < 0.0 and N0 > 0.0:
+            active[i] = True
+            if st[S_CM + i] == 0.0:
+                st[S_CM + i] = 1.0
+                st[S_ANC + i] = s0[i]
+        else:
+            st[S_CM + i] = 0.0
+        mu[i] = p[P_MUK]
+        if i == down and fl[F_MU_GROWTH] != 0:
+            vj = dhx * vel[2 + down, 0] + dhz * vel[2 + down, 1]
+            mu[i] *= max(0.0, 1.0 + p[P_FMU] * vj)
+
+    locked = np.zeros(5, dtype=np.bool_)
+    for j in range(2):
+        if rigid or (not flex and st[S_JM + j] == 0.0):
+            locked[3 + j] = True
+
+    for _it in range(MAX_ACTIVE_SET_ITERATIONS):
+        for a in range(5):
+            r[a] = r0[a]
+            for b in range(5):
+                A[a, b] = A0[a, b]
+        for i in range(N_POINTS):
+            if not active[i]:
+                continue
+            cn = h * h * kg + h * bg
+            for a in range(5):
+                jna = JNT[i, 0, a]
+                if jna != 0.0:
+                    r[a] += h * jna * (-kg * d0[i])
+                    for b in range(5):
+                        A[a, b] += cn * jna * JNT[i, 0, b]
+            mode = st[S_CM + i]
+            if stiction:
+                if mode == 1.0:
+                    ct = h * h * kt + h * bt
+                    ft = -kt * (s0[i] - st[S_ANC + i])
+                    for a in range(5):
+                        jta = JNT[i, 1, a]
+                        if jta != 0.0:
+                            r[a] += h * jta * ft
+                            for b in range(5):
+                                A[a, b] += ct * jta * JNT[i, 1, b]
+                else:
+                    sg = 1.0 if mode == 2.0 else -1.0
+                    for a in range(5):
+                        jta = JNT[i, 1, a]
+                        if jta != 0.0:
+                            r[a] += h * jta * (sg * mu[i] * kg * d0[i])
+                            for b in range(5):
+                                A[a, b] += -sg * mu[i] * cn * jta * JNT[i, 0, b]
+            elif regular:
+                N0 = -kg * d0[i] - bg * dd0[i]
+                xx = sd0[i] / p[P_VS]
+                th_ = math.tanh(xx)
+                gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
+                ft = -mu[i] * N0 * th_
+                for a in range(5):
+                    jta = JNT[i, 1, a]
+                    if jta != 0.0:
+                        r[a] += h * jta * (ft + gg * sd0[i])
+                        for b in range(5):
+                            A[a, b] += h * gg * jta * JNT[i, 1, b]
+        # locked joints (rigid gear, or a stuck joint without leg flex)
+        for a in range(5):
+            if locked[a]:
+                for b in range(5):
+                    A[a, b] = 0.0
+                    A[b, a] = 0.0
+                A[a, a] = 1.0
+                r[a] = 0.0
+        _solve5(A, r, vn, 5)
+        changed = False
+        for i in range(N_POINTS):
+            if not active[i]:
+                continue
+            ddn = 0.0
+            sdn = 0.0
+            for b in range(5):
+                ddn += JNT[i, 0, b] * vn[b]
+                sdn += JNT[i, 1, b] * vn[b]
+            dn = d0[i] + h * ddn
+            Nn = -kg * dn - bg * ddn
+            if Nn < 0.0:
+                active[i] = False
+                st[S_CM + i] = 0.0
+                changed = True
+                continue
+            if not stiction:
+                continue
+            mode = st[S_CM + i]
+            if mode == 1.0:
+                ftn = -kt * (s0[i] + h * sdn - st[S_ANC + i]) - bt * sdn
+                if abs(ftn) > mus * Nn:
+                    st[S_CM + i] = 2.0 if ftn < 0.0 else 3.0
+                    changed = True
+            else:
+                sg = 1.0 if mode == 2.0 else -1.0
+                if sg * sdn < 0.0:
+                    st[S_CM + i] = 1.0
+                    st[S_ANC + i] = s0[i]
+                    changed = True
+        if not changed:
+            break
+
+    # --- forces actually applied this step (for outputs, effects and energy bookkeeping) ----
+    for i in range(N_POINTS):
+        st[S_NF + i] = 0.0
+        st[S_FT + i] = 0.0
+        if not active[i]:
+            continue
+        ddn = 0.0
+        sdn = 0.0
+        for b in range(5):
+            ddn += JNT[i, 0, b] * vn[b]
+            sdn += JNT[i, 1, b] * vn[b]
+        Nn = -kg * (d0[i] + h * ddn) - bg * ddn
+        st[S_DISS + D_GROUND] += bg * ddn * ddn * h
+        if stiction:
+            mode = st[S_CM + i]
+            if mode == 1.0:
+                ft = -kt * (s0[i] + h * sdn - st[S_ANC + i]) - bt * sdn
+                st[S_DISS + D_FOOT] += bt * sdn * sdn * h
+            else:
+                sg = 1.0 if mode == 2.0 else -1.0
+                ft = -sg * mu[i] * Nn
+                st[S_DISS + D_FOOT] += mu[i] * Nn * abs(sdn) * h
+        elif regular:
+            ft = -mu[i] * Nn * math.tanh(sdn / p[P_VS])
+            st[S_DISS + D_FOOT] += -ft * sdn * h
+        else:
+            ft = 0.0
+        st[S_NF + i] = Nn
+        st[S_FT + i] = ft
+    for j in range(2):
+        st[S_FF + j] = abs(st[S_FT + j])
+    for i in range(2, N_POINTS):
+        if active[i]:
+            st[S_TOUCH] = 1.0
+
+    # constraint torque of locked joints (needed to decide when a locked joint slips)
+    lam = np.zeros(2)
+    if not flex and not rigid:
+        for j in range(2):
+            qi = 3 + j
+            if locked[qi]:
+                # rebuild the row of the unlocked system: A0 row + contact rows
+                acc = -r0[qi]
+                for b in range(5):
+                    acc += A0[qi, b] * vn[b]
+                for i in range(N_POINTS):
+                    if active[i]:
+                        acc -= h * (JNT[i, 0, qi] * st[S_NF + i] + JNT[i, 1, qi] * st[S_FT + i])
+                lam[j] = acc / h
+
+    # rotor work
+    for rr in range(2):
+        vz = bzx * (J[4 + rr, 0, 0] * vn[0] + J[4 + rr, 0, 2] * vn[2])
+        vz += bzz * (J[4 + rr, 1, 1] * vn[1] + J[4 + rr, 1, 2] * vn[2])
+        st[S_DISS + D_ROTOR] += st[S_THR + rr] * vz * h
+
+    # --- advance positions ------------------------------------------------------------------
+    qc_old0 = st[S_Q + 3]
+    qc_old1 = st[S_Q + 4]
+    for a in range(5):
+        st[S_V + a] = vn[a]
+        st[S_Q + a] += h * vn[a]
+
+    # --- friction joints: exact update of the massless frames, then mode changes -----------
+    for j in range(2):
+        qi = 3 + j
+        qc0 = qc_old0 if j == 0 else qc_old1
+        qc1 = st[S_Q + qi]
+        vc = vn[qi]
+        tj = tau[j]
+        if rigid:
+            st[S_QE + j] = qc1
+            continue
+        if not flex:
+            m = st[S_JM + j]
+            st[S_QE + j] = qc1
+            zj = zone[j]
+            if m == 0.0:
+                net = lam[j] - zj * ke * (q_zone - qc1)
+                if net > tj and qc1 > q_end:
+                    st[S_JM + j] = -1.0
+                elif net < -tj and qc1 < q_max:
+                    st[S_JM + j] = 1.0
+            else:
+                st[S_DISS + D_JOINT] += tj * abs(qc1 - qc0)
+                st[S_DISS + D_EOT] += zj * be * vc * vc * h
+                if m * vc <= 0.0:
+                    st[S_JM + j] = 0.0
+            if st[S_Q + qi] < q_end:
+                st[S_Q + qi] = q_end
+                st[S_V + qi] = 0.0
+                st[S_JM + j] = 0.0
+            elif st[S_Q + qi] > q_max:
+                st[S_Q + qi] = q_max
+                st[S_V + qi] = 0.0
+                st[S_JM + j] = 0.0
+            st[S_QE + j] = st[S_Q + qi]
+            continue
+        qE = st[S_QE + j]
+        m = st[S_JM + j]
+        zj = zone[j]
+        if m == 0.0:
+            Tst = kq * (qE - qc1) - bq * vc
+            st[S_DISS + D_FLEX] += bq * vc * vc * h
+            net = Tst - zj * ke * (q_zone - qE)
+            if net > tj and qE > q_end:
+                st[S_JM + j] = -1.0
+            elif net < -tj and qE < q_max:
+                st[S_JM + j] = 1.0
+        else:
+            B = bq + zj * be
+            K = kq + zj * ke
+            c0 = -tj * m + zj * ke * q_zone + kq * qc0 + bq * vc
+            cs = kq * vc / K
+            aa = (c0 - B * cs) / K
+            e = math.exp(-K * h / B)
+            qE1 = aa + cs * h + (qE - aa) * e
+            qEd1 = cs - (K / B) * (qE - aa) * e
+            # energy: joint friction on |dqE|, flex damper and EOT damper on the rates
+            rel = 0.5 * ((cs - (K / B) * (qE - aa)) + qEd1) - vc
+            st[S_DISS + D_JOINT] += tj * abs(qE1 - qE)
+            st[S_DISS + D_FLEX] += bq * rel * rel * h
+            st[S_DISS + D_EOT] += zj * be * qEd1 * qEd1 * h
+            qE = qE1
+            if m * qEd1 <= 0.0:
+                st[S_JM + j] = 0.0
+            if qE <= q_end:
+                qE = q_end
+                st[S_JM + j] = 0.0
+            elif qE >= q_max:
+                qE = q_max
+                st[S_JM + j] = 0.0
+            st[S_QE + j] = qE
+
+    # --- rotors: direction changes wait out the reversal delay, speed is first order -------
+    for rr in range(2):
+        u = u0 if rr == 0 else u1
+        if fl[F_ROTORS] == 0:
+            st[S_W + rr] = 0.0
+            continue
+        want = 1.0 if u > 0.0 else (-1.0 if u < 0.0 else 0.0)
+        target = u
+        if want != 0.0 and want != st[S_DIR + rr]:
+            if fl[F_REV_DELAY] == 0:
+                st[S_DIR + rr] = want
+            else:
+                if st[S_WAIT + rr] <= 0.0:
+                    st[S_WAIT + rr] = p[P_DELAY]
+                st[S_WAIT + rr] -= h
+                target = 0.0
+                if st[S_WAIT + rr] <= 0.0:
+                    st[S_WAIT + rr] = 0.0
+                    st[S_DIR + rr] = want
+                    target = u
+        else:
+            st[S_WAIT + rr] = 0.0
+        e = math.exp(-h / p[P_TAUM])
+        st[S_W + rr] = target + (st[S_W + rr] - target) * e
+
+    # --- bookkeeping ----------------------------------------------------------------------
+    st[S_T] = t + h
+    if st[S_TIMP] < 0.0:
+        for i in range(N_POINTS):
+            if active[i]:
+                st[S_TIMP] = t
+                st[S_X0] = st[S_Q + 0]
+                st[S_X0 + 1] = st[S_Q + 1]
+                break
+    for j in range(2):
+        if st[S_QE + j] < st[S_QEMIN + j]:
+            st[S_QEMIN + j] = st[S_QE + j]
+    th = st[S_Q + 2]
+    if th < st[S_PMIN]:
+        st[S_PMIN] = th
+    if th > st[S_PMAX]:
+        st[S_PMAX] = th
+
+
+# --- whole landings -------------------------------------------------------------------------
+# conditions row (LandingConditions field order)
+K_SLOPE, K_SPEED, K_VX, K_PITCH, K_RATE, K_TAU_UP, K_TAU_DOWN, K_Q_UP, K_Q_DOWN, K_REV, K_REVDLY = (
+    range(11)
+)
+N_COND = 11
+# criteria (OutcomeCriteria field order)
+R_HORIZON, R_SLIDE, R_UNDER, R_FLIP, R_SPEED, R_RATE, R_SETTLE = range(7)
+# result row (RESULT_FIELDS order)
+O_CODE, O_CUP, O_CDOWN, O_SLIDE, O_PFINAL, O_PMIN, O_TSETTLE, O_TEND = range(8)
+N_RESULT = 8
+
+
+@njit(cache=True)
+def init_landing(p, fl, cond, st, ctx, ws):
+    """Fill ``st``/``ctx`` for a landing: lowest point just touching, impact velocity set."""
+    a = cond[K_SLOPE] * DEG
+    ctx[C_SIN] = math.sin(a)
+    ctx[C_COS] = math.cos(a)
+    down = 1 if a >= 0.0 else 0
+    up = 1 - down
+    ctx[C_DOWN] = down
+    nj = p[P_NJ]
+    ctx[C_TAU + up] = cond[K_TAU_UP] * nj
+    ctx[C_TAU + down] = cond[K_TAU_DOWN] * nj
+    for i in range(N_STATE):
+        st[i] = 0.0
+    qup = cond[K_Q_UP] * DEG
+    qdown = cond[K_Q_DOWN] * DEG
+    st[S_Q + 3 + up] = qup
+    st[S_Q + 3 + down] = qdown
+    st[S_QE + up] = qup
+    st[S_QE + down] = qdown
+    ctx[C_QINIT + up] = qup
+    ctx[C_QINIT + down] = qdown
+    st[S_Q + 2] = cond[K_PITCH] * DEG
+    st[S_V + 0] = cond[K_VX]
+    st[S_V + 1] = -cond[K_SPEED]
+    st[S_V + 2] = cond[K_RATE] * DEG
+    st[S_DIR] = 1.0
+    st[S_DIR + 1] = 1.0
+    st[S_TIMP] = -1.0
+    M, f, pts, vel, J = ws[0], ws[1], ws[2], ws[3], ws[4]
+    kinematics(p, st, M, f, pts, vel, J)
+    dmin = 1e300
+    for i in range(N_POINTS):
+        d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
+        if d < dmin:
+            dmin = d
+    st[S_Q + 1] = -dmin / ctx[C_COS]
+    st[S_QEMIN] = st[S_QE]
+    st[S_QEMIN + 1] = st[S_QE + 1]
+    st[S_PMIN] = st[S_Q + 2]
+    st[S_PMAX] = st[S_Q + 2]
+
+
+@njit(cache=True)
+def _at_rest(st, crit):
+    if abs(st[S_V]) > crit[R_SPEED] or abs(st[S_V + 1]) > crit[R_SPEED]:
+        return False
+    if abs(st[S_V + 2]) > crit[R_RATE] * DEG:
+        return False
+    for j in range(2):
+        if st[S_JM + j] != 0.0:
+            return False
+    touching = False
+    for i in range(N_POINTS):
+        cm = st[S_CM + i]
+        if cm >= 2.0:
+            return False
+        if cm == 1.0:
+            touching = True
+    return touching
+
+
+@njit(cache=True)
+def classify(p, fl, ctx, st, crit, settled, slid, res):
+    """Outcome of Sec. V-A from the bookkeeping in ``st`` (worst class reached wins)."""
+    down = int(ctx[C_DOWN])
+    up = 1 - down
+    q_end = (p[P_QMAX] - p[P_TRAVEL]) * DEG
+    if fl[F_EOT] != 0:
+        q_eot = q_end + p[P_EZ] * DEG
+    else:
+        q_eot = q_end + 1e-6
+    comp = np.zeros(2)
+    eot = False
+    rigid = fl[F_RIGID] != 0
+    for j in range(2):
+        span = ctx[C_QINIT + j] - q_end
+        if not rigid and span > 0.0:
+            comp[j] = (ctx[C_QINIT + j] - st[S_QEMIN + j]) / span
+            if st[S_QEMIN + j] <= q_eot:
+                eot = True
+    flip = max(-st[S_PMIN], st[S_PMAX]) > crit[R_FLIP] * DEG
+    if flip:
+        code = 5
+    elif st[S_TOUCH] != 0.0:
+        code = 4
+    elif slid or not settled:
+        code = 3
+    elif eot:
+        code = 2
+    elif not rigid and max(comp[0], comp[1]) < crit[R_UNDER]:
+        code = 1
+    else:
+        code = 0
+    res[O_CODE] = code
+    res[O_CUP] = comp[up]
+    res[O_CDOWN] = comp[down]
+    res[O_PFINAL] = st[S_Q + 2] / DEG
+    res[O_PMIN] = st[S_PMIN] / DEG
+    res[O_TEND] = st[S_T] - max(st[S_TIMP], 0.0)
+
+
+@njit(cache=True)
+def _slide(ctx, st):
+    dsg = 1.0 if ctx[C_SIN] >= 0.0 else -1.0
+    if st[S_TIMP] < 0.0:
+        return 0.0
+    return dsg * (ctx[C_COS] * (st[S_Q] - st[S_X0]) - ctx[C_SIN] * (st[S_Q + 1] - st[S_X0 + 1]))
+
+
+@njit(cache=True)
+def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, extra_force, up, res):
+    """Simulate one landing from first contact; fill ``res``; return the samples recorded.
+
+    ``rec`` (n x N_STATE) receives a copy of the state every ``rec_every`` steps (if
+    rec_every > 0). The outcome is frozen the moment the vehicle settles, so a run that
+    stops there and one that goes on to the horizon report the same result.
+    """
+    st = np.zeros(N_STATE)
+    ctx = np.zeros(N_CTX)
+    ws = _make_workspace_jit()
+    init_landing(p, fl, cond, st, ctx, ws)
+    n_rec = 0
+    if rec_every > 0 and rec.shape[0] > 0:
+        rec[0, :] = st
+        n_rec = 1
+    settled = False
+    frozen = False
+    slid = False
+    cmd = -cond[K_REV] / 100.0
+    k = 0
+    res[O_TSETTLE] = np.nan
+    res[O_SLIDE] = 0.0
+    while True:
+        t = st[S_T]
+        u = 0.0
+        if cmd != 0.0 and st[S_TIMP] >= 0.0 and t >= st[S_TIMP] + cond[K_REVDLY]:
+            u = cmd
+        step(p, fl, ctx, st, h, u, u, ws, extra_force, up)
+        k += 1
+        if rec_every > 0 and k % rec_every == 0 and n_rec < rec.shape[0]:
+            rec[n_rec, :] = st
+            n_rec += 1
+        if frozen:
+            if st[S_T] - max(st[S_TIMP], 0.0) >= crit[R_HORIZON]:
+                break
+            continue
+        sl = _slide(ctx, st)
+        if abs(sl) > crit[R_SLIDE]:
+            slid = True
+        if _at_rest(st, crit):
+            st[S_REST] += h
+        else:
+            st[S_REST] = 0.0
+        if st[S_REST] >= crit[R_SETTLE] and st[S_TIMP] >= 0.0:
+            settled = True
+        flip = max(-st[S_PMIN], st[S_PMAX]) > crit[R_FLIP] * DEG
+        over = st[S_T] - max(st[S_TIMP], 0.0) >= crit[R_HORIZON]
+        if settled or flip or slid or over:
+            classify(p, fl, ctx, st, crit, settled, slid, res)
+            res[O_SLIDE] = sl
+            if settled:
+                res[O_TSETTLE] = st[S_T] - st[S_TIMP] - st[S_REST]
+            frozen = True
+            if stop_at_settle or not settled or over:
+                break
+    return n_rec
+
+
+@njit(cache=True, parallel=True)
+def run_batch(p, fl, conds, h, crit, stop_at_settle, extra_force, up, out):
+    """Outcomes of many landings (rows of ``conds``), spread over all cores."""
+    n = conds.shape[0]
+    for i in prange(n):
+        rec = np.zeros((0, N_STATE))
+        run_landing(p, fl, conds[i], h, crit, stop_at_settle, 0, rec, extra_force, up, out[i])

@@ -1,0 +1,253 @@
+"""Whole landings: the model object, one simulated landing, and the batch path."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from slopelander.model import kernel as k
+from slopelander.model.conditions import LandingConditions, conditions_array
+from slopelander.model.effects import (
+    BUILTIN_EFFECTS,
+    EffectError,
+    UserEffect,
+    check_effect_names,
+    combined_force,
+    flags_for,
+)
+from slopelander.model.outcome import RESULT_DTYPE, RESULT_FIELDS, Outcome, OutcomeCriteria
+from slopelander.model.parameters import ModelParams
+
+DEFAULT_DT = 2.5e-4
+"""Integration step (s). Chosen by the step-size study in docs/model.md."""
+
+
+@dataclass(frozen=True)
+class Model:
+    """Parameters + effects + step: everything that decides how a landing unfolds."""
+
+    params: ModelParams
+    effects: tuple[str, ...]
+    user_effects: tuple[UserEffect, ...] = ()
+    dt: float = DEFAULT_DT
+    criteria: OutcomeCriteria = field(default_factory=OutcomeCriteria)
+
+    def __post_init__(self) -> None:
+        check_effect_names(self.effects)
+        names = [e.name for e in self.user_effects]
+        if len(set(names)) != len(names):
+            raise EffectError("a user effect is listed twice")
+        if not (1e-6 <= self.dt <= 5e-3):
+            raise EffectError(f"dt = {self.dt} s is outside 1e-6..5e-3 s")
+
+    # -- construction ---------------------------------------------------------------------
+    @classmethod
+    def default(cls) -> Model:
+        """The paper's FSA model with the shipped parameters and all their effects."""
+        params = ModelParams.default()
+        return cls(params, params.effects)
+
+    @classmethod
+    def from_file(cls, path: str) -> Model:
+        params = ModelParams.load(path)
+        return cls(params, params.effects)
+
+    def rigid(self) -> Model:
+        """The stock F450: the same vehicle with its joints locked (no shock absorbers)."""
+        drop = {"leg_flex", "end_of_travel", "downhill_torque_growth", "downhill_friction_growth"}
+        kept = tuple(e for e in self.effects if e not in drop)
+        return replace(self, effects=(*kept, "rigid_gear") if "rigid_gear" not in kept else kept)
+
+    def with_effects(self, *names: str) -> Model:
+        added = tuple(n for n in names if n not in self.effects)
+        return replace(self, effects=self.effects + added)
+
+    def without(self, *names: str) -> Model:
+        for n in names:
+            if n not in BUILTIN_EFFECTS and n not in [e.name for e in self.user_effects]:
+                raise EffectError(f"unknown effect {n!r}")
+        return replace(
+            self,
+            effects=tuple(e for e in self.effects if e not in names),
+            user_effects=tuple(e for e in self.user_effects if e.name not in names),
+        )
+
+    def with_user_effect(self, effect: UserEffect) -> Model:
+        return replace(self, user_effects=(*self.user_effects, effect))
+
+    def with_params(self, **values: float) -> Model:
+        return replace(self, params=self.params.with_values(**values))
+
+    # -- what the integrator sees ---------------------------------------------------------
+    def flags(self) -> np.ndarray:
+        return flags_for(self.effects)
+
+    def criteria_array(self) -> np.ndarray:
+        c = self.criteria
+        return np.array(
+            [c.horizon, c.slide_limit, c.underused_fraction, c.flip_pitch_deg,
+             c.settle_speed, c.settle_rate_dps, c.settle_time],
+            dtype=np.float64,
+        )
+
+    def extra_force(self):
+        return combined_force(self.user_effects)
+
+    @property
+    def rigid_gear(self) -> bool:
+        return "rigid_gear" in self.effects
+
+
+@dataclass(frozen=True)
+class LandingResult:
+    """The outcome of one landing and the numbers behind it."""
+
+    outcome: Outcome
+    compression_up: float
+    compression_down: float
+    slide: float
+    final_pitch_deg: float
+    min_pitch_deg: float
+    settle_time: float
+    t_end: float
+
+    @classmethod
+    def from_row(cls, row: np.ndarray) -> LandingResult:
+        vals = {n: float(row[i]) for i, n in enumerate(RESULT_FIELDS)}
+        vals["outcome"] = Outcome(int(vals["outcome"]))
+        return cls(**vals)
+
+    def summary(self) -> str:
+        settle = "never" if math.isnan(self.settle_time) else f"{self.settle_time:.2f} s"
+        return (
+            f"outcome: {self.outcome.label}\n"
+            f"  peak compression: uphill {100 * self.compression_up:.0f} %, "
+            f"downhill {100 * self.compression_down:.0f} %\n"
+            f"  slide along the slope: {self.slide:+.3f} m\n"
+            f"  pitch: final {self.final_pitch_deg:+.1f} deg, most negative {self.min_pitch_deg:+.1f} deg\n"
+            f"  at rest after: {settle}"
+        )
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A simulated landing sampled like motion capture.
+
+    ``states`` columns are the paper's six (x, z, pitch, x rate, z rate, pitch rate) in SI
+    units (rad, rad/s); ``raw`` keeps every sampled state vector (kernel layout).
+    """
+
+    t: np.ndarray
+    raw: np.ndarray
+    conditions: LandingConditions
+    model: Model
+    result: LandingResult
+
+    @property
+    def states(self) -> np.ndarray:
+        r = self.raw
+        return np.column_stack(
+            [r[:, k.S_Q], r[:, k.S_Q + 1], r[:, k.S_Q + 2],
+             r[:, k.S_V], r[:, k.S_V + 1], r[:, k.S_V + 2]]
+        )
+
+    @property
+    def leg_angles(self) -> np.ndarray:
+        """Leg angles (rad) of the left (C) and right (D) legs."""
+        return self.raw[:, k.S_Q + 3 : k.S_Q + 5]
+
+    @property
+    def joint_angles(self) -> np.ndarray:
+        """Friction-joint angles (rad) q_E, q_F."""
+        return self.raw[:, k.S_QE : k.S_QE + 2]
+
+    @property
+    def thrust(self) -> np.ndarray:
+        return self.raw[:, k.S_THR : k.S_THR + 2]
+
+
+def _prepare(model: Model | None, dt: float | None) -> tuple[Model, float]:
+    model = model or Model.default()
+    h = model.dt if dt is None else float(dt)
+    if not (1e-6 <= h <= 5e-3):
+        raise EffectError(f"dt = {h} s is outside 1e-6..5e-3 s")
+    return model, h
+
+
+def _cond_row(c: LandingConditions, model: Model) -> np.ndarray:
+    c.validate(model.params.angle_min_deg, model.params.angle_max_deg)
+    return conditions_array([c]).view(np.float64).copy()
+
+
+def simulate(
+    conditions: LandingConditions | None = None,
+    model: Model | None = None,
+    *,
+    dt: float | None = None,
+    sample_rate: float = 200.0,
+    full_horizon: bool = True,
+) -> Trajectory:
+    """Simulate one landing and sample it at ``sample_rate`` Hz (motion capture: 200 Hz).
+
+    With ``full_horizon`` the recording goes on to the end of the horizon after the vehicle
+    settles; the outcome is the same either way.
+    """
+    conditions = conditions or LandingConditions()
+    model, h = _prepare(model, dt)
+    row = _cond_row(conditions, model)
+    every = max(1, round(1.0 / (sample_rate * h)))
+    n_max = int(model.criteria.horizon / (every * h)) + 8
+    rec = np.zeros((n_max, k.N_STATE))
+    res = np.zeros(k.N_RESULT)
+    fx, up = model.extra_force()
+    n = k.run_landing(
+        model.params.as_array(), model.flags(), row, h, model.criteria_array(),
+        not full_horizon, every, rec, fx, up, res,
+    )
+    raw = rec[:n].copy()
+    return Trajectory(raw[:, k.S_T].copy(), raw, conditions, model, LandingResult.from_row(res))
+
+
+def simulate_batch(
+    conditions: list[LandingConditions] | np.ndarray,
+    model: Model | None = None,
+    *,
+    dt: float | None = None,
+) -> np.ndarray:
+    """Outcomes only, for many landings at once, on every core.
+
+    ``conditions`` is a list of :class:`LandingConditions` or a structured array with the
+    same fields (see :func:`~slopelander.model.conditions.condition_grid`). Returns a
+    structured array with the fields of :data:`~slopelander.model.outcome.RESULT_FIELDS`.
+    """
+    model, h = _prepare(model, dt)
+    arr = conditions_array(conditions)
+    _validate_rows(arr, model)
+    conds = arr.view(np.float64).reshape(len(arr), k.N_COND).copy()
+    out = np.zeros((len(arr), k.N_RESULT))
+    fx, up = model.extra_force()
+    if len(arr):
+        k.run_batch(model.params.as_array(), model.flags(), conds, h, model.criteria_array(),
+                    True, fx, up, out)
+    result = np.zeros(len(arr), dtype=RESULT_DTYPE)
+    for i, n in enumerate(RESULT_FIELDS):
+        result[n] = out[:, i]
+    return result
+
+
+def _validate_rows(arr: np.ndarray, model: Model) -> None:
+    """Validate a batch cheaply: check column ranges, then name the first bad row."""
+    lo, hi = model.params.angle_min_deg, model.params.angle_max_deg
+    ok = (
+        (np.abs(arr["slope_deg"]) <= 75) & (arr["speed"] >= 0) & (arr["speed"] <= 15)
+        & (arr["angle_up_deg"] >= lo) & (arr["angle_up_deg"] <= hi)
+        & (arr["angle_down_deg"] >= lo) & (arr["angle_down_deg"] <= hi)
+        & (arr["tau_up"] >= 0) & (arr["tau_down"] >= 0)
+        & (arr["reverse_percent"] >= 0) & (arr["reverse_percent"] <= 100)
+    )
+    if not ok.all():
+        i = int(np.flatnonzero(~ok)[0])
+        row = LandingConditions(**{n: float(arr[n][i]) for n in arr.dtype.names})
+        row.validate(lo, hi)  # raises with the field's name
