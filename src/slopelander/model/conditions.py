@@ -122,6 +122,6 @@ def condition_grid(**axes: object) -> np.ndarray:
     out = np.empty(size, dtype=CONDITION_DTYPE)
     for n in CONDITION_FIELDS:
         out[n] = getattr(defaults, n)
-    for n, m in zip(names, mesh):
+    for n, m in zip(names, mesh, strict=True):
         out[n] = m.ravel()
     return out

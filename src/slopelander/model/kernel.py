@@ -708,9 +708,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
 
 # --- whole landings -------------------------------------------------------------------------
 # conditions row (LandingConditions field order)
-K_SLOPE, K_SPEED, K_VX, K_PITCH, K_RATE, K_TAU_UP, K_TAU_DOWN, K_Q_UP, K_Q_DOWN, K_REV, K_REVDLY = (
-    range(11)
-)
+K_SLOPE, K_SPEED, K_VX, K_PITCH, K_RATE, K_TAU_UP, K_TAU_DOWN, K_Q_UP, K_Q_DOWN, K_REV, K_REVDLY = range(11)
 N_COND = 11
 # criteria (OutcomeCriteria field order)
 R_HORIZON, R_SLIDE, R_UNDER, R_FLIP, R_SPEED, R_RATE, R_SETTLE = range(7)
@@ -787,10 +785,7 @@ def classify(p, fl, ctx, st, crit, settled, slid, res):
     down = int(ctx[C_DOWN])
     up = 1 - down
     q_end = (p[P_QMAX] - p[P_TRAVEL]) * DEG
-    if fl[F_EOT] != 0:
-        q_eot = q_end + p[P_EZ] * DEG
-    else:
-        q_eot = q_end + 1e-6
+    q_eot = q_end + (p[P_EZ] * DEG if fl[F_EOT] != 0 else 1e-6)
     comp = np.zeros(2)
     eot = False
     rigid = fl[F_RIGID] != 0

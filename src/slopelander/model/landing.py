@@ -87,8 +87,15 @@ class Model:
     def criteria_array(self) -> np.ndarray:
         c = self.criteria
         return np.array(
-            [c.horizon, c.slide_limit, c.underused_fraction, c.flip_pitch_deg,
-             c.settle_speed, c.settle_rate_dps, c.settle_time],
+            [
+                c.horizon,
+                c.slide_limit,
+                c.underused_fraction,
+                c.flip_pitch_deg,
+                c.settle_speed,
+                c.settle_rate_dps,
+                c.settle_time,
+            ],
             dtype=np.float64,
         )
 
@@ -149,8 +156,7 @@ class Trajectory:
     def states(self) -> np.ndarray:
         r = self.raw
         return np.column_stack(
-            [r[:, k.S_Q], r[:, k.S_Q + 1], r[:, k.S_Q + 2],
-             r[:, k.S_V], r[:, k.S_V + 1], r[:, k.S_V + 2]]
+            [r[:, k.S_Q], r[:, k.S_Q + 1], r[:, k.S_Q + 2], r[:, k.S_V], r[:, k.S_V + 1], r[:, k.S_V + 2]]
         )
 
     @property
@@ -203,8 +209,17 @@ def simulate(
     res = np.zeros(k.N_RESULT)
     fx, up = model.extra_force()
     n = k.run_landing(
-        model.params.as_array(), model.flags(), row, h, model.criteria_array(),
-        not full_horizon, every, rec, fx, up, res,
+        model.params.as_array(),
+        model.flags(),
+        row,
+        h,
+        model.criteria_array(),
+        not full_horizon,
+        every,
+        rec,
+        fx,
+        up,
+        res,
     )
     raw = rec[:n].copy()
     return Trajectory(raw[:, k.S_T].copy(), raw, conditions, model, LandingResult.from_row(res))
@@ -229,8 +244,9 @@ def simulate_batch(
     out = np.zeros((len(arr), k.N_RESULT))
     fx, up = model.extra_force()
     if len(arr):
-        k.run_batch(model.params.as_array(), model.flags(), conds, h, model.criteria_array(),
-                    True, fx, up, out)
+        k.run_batch(
+            model.params.as_array(), model.flags(), conds, h, model.criteria_array(), True, fx, up, out
+        )
     result = np.zeros(len(arr), dtype=RESULT_DTYPE)
     for i, n in enumerate(RESULT_FIELDS):
         result[n] = out[:, i]
@@ -241,11 +257,17 @@ def _validate_rows(arr: np.ndarray, model: Model) -> None:
     """Validate a batch cheaply: check column ranges, then name the first bad row."""
     lo, hi = model.params.angle_min_deg, model.params.angle_max_deg
     ok = (
-        (np.abs(arr["slope_deg"]) <= 75) & (arr["speed"] >= 0) & (arr["speed"] <= 15)
-        & (arr["angle_up_deg"] >= lo) & (arr["angle_up_deg"] <= hi)
-        & (arr["angle_down_deg"] >= lo) & (arr["angle_down_deg"] <= hi)
-        & (arr["tau_up"] >= 0) & (arr["tau_down"] >= 0)
-        & (arr["reverse_percent"] >= 0) & (arr["reverse_percent"] <= 100)
+        (np.abs(arr["slope_deg"]) <= 75)
+        & (arr["speed"] >= 0)
+        & (arr["speed"] <= 15)
+        & (arr["angle_up_deg"] >= lo)
+        & (arr["angle_up_deg"] <= hi)
+        & (arr["angle_down_deg"] >= lo)
+        & (arr["angle_down_deg"] <= hi)
+        & (arr["tau_up"] >= 0)
+        & (arr["tau_down"] >= 0)
+        & (arr["reverse_percent"] >= 0)
+        & (arr["reverse_percent"] <= 100)
     )
     if not ok.all():
         i = int(np.flatnonzero(~ok)[0])

@@ -67,13 +67,13 @@ SPECS: tuple[ParameterSpec, ...] = (
     _spec("leg_angle_max_deg", "deg", 0.0, 89.0, "fully extended leg angle below the body plane"),
     _spec("leg_travel_deg", "deg", 1.0, 89.0, "joint travel from full extension to end of travel"),
     _spec("joints_per_planar_leg", "1", 1.0, 4.0, "real joints a planar leg stands for"),
-    _spec("flex_stiffness", "N*m/rad", 1e-3, 1e5, "k_q: bending of one real leg, in series with its friction joint"),
+    _spec("flex_stiffness", "N*m/rad", 1e-3, 1e5, "k_q: bending of one real leg, in series with its joint"),
     _spec("flex_damping", "N*m*s/rad", 1e-6, 1e3, "b_q: damping of one real leg's bending"),
     _spec("eot_zone_deg", "deg", 0.0, 20.0, "end-of-travel spring-damper acts within this of the limit"),
     _spec("eot_stiffness", "N*m/rad", 0.0, 1e5, "end-of-travel spring"),
     _spec("eot_damping", "N*m*s/rad", 0.0, 1e3, "end-of-travel damper"),
     _spec("factor_tau", "1/N", 0.0, 1.0, "downhill joint torque growth per newton of foot friction (eq. 3)"),
-    _spec("factor_mu", "s/m", 0.0, 10.0, "downhill foot friction growth per m/s of joint speed downhill (eq. 4)"),
+    _spec("factor_mu", "s/m", 0.0, 10.0, "downhill foot friction growth per m/s downhill (eq. 4)"),
     _spec("ground_stiffness", "N/m", 1.0, 1e8, "k_g: contact normal spring"),
     _spec("ground_damping", "N*s/m", 0.0, 1e6, "b_g: contact normal damper"),
     _spec("friction_kinetic", "1", 0.0, 5.0, "mu_k: sliding friction of a foot"),
@@ -81,7 +81,7 @@ SPECS: tuple[ParameterSpec, ...] = (
     _spec("stiction_stiffness", "N/m", 1.0, 1e8, "tangential spring of a stuck foot"),
     _spec("stiction_damping", "N*s/m", 0.0, 1e6, "tangential damper of a stuck foot"),
     _spec("friction_smoothing_speed", "m/s", 1e-6, 1.0, "slip speed scale of the regularised law"),
-    _spec("rotor_thrust_max", "N", 0.0, 500.0, "forward thrust of one planar rotor (a real pair) at full speed"),
+    _spec("rotor_thrust_max", "N", 0.0, 500.0, "full forward thrust of one planar rotor (a real pair)"),
     _spec("rotor_reverse_ratio", "1", 0.0, 1.0, "full reverse thrust as a fraction of full forward"),
     _spec("rotor_time_constant", "s", 1e-3, 2.0, "first-order rotor speed response"),
     _spec("rotor_reversal_delay", "s", 0.0, 2.0, "stop-and-restart dead time when a rotor changes direction"),
@@ -123,9 +123,7 @@ class ModelParams:
         for name, p in self.values.items():
             _check_value(name, p, self.source)
         if self.values["friction_static"].value < self.values["friction_kinetic"].value:
-            raise ParameterError(
-                "friction_static", "must not be below friction_kinetic", self.source
-            )
+            raise ParameterError("friction_static", "must not be below friction_kinetic", self.source)
         if self.values["leg_travel_deg"].value > self.values["leg_angle_max_deg"].value:
             raise ParameterError("leg_travel_deg", "exceeds leg_angle_max_deg", self.source)
         arr = np.array([self.values[n].value for n in PARAMETER_NAMES], dtype=np.float64)
