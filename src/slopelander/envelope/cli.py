@@ -1,0 +1,127 @@
+"""``slopelander map KIND`` and ``slopelander table``: thin layers over envelope.reports/table."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import time
+
+from slopelander.errors import SlopelanderError
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("grid")
+    g.add_argument("--slope-step", type=float, default=1.0, help="deg (default 1)")
+    g.add_argument("--speed-step", type=float, default=0.1, help="m/s (default 0.1)")
+    g.add_argument("--slope-min", type=float, default=0.0)
+    g.add_argument("--slope-max", type=float, default=60.0)
+    g.add_argument("--speed-min", type=float, default=0.5)
+    g.add_argument("--speed-max", type=float, default=3.0)
+    p.add_argument("--params", metavar="FILE", help="model parameter YAML (default: shipped set)")
+    p.add_argument("--refine", action="store_true",
+                   help="continuous torque optimisation after the 16 level pairs")
+    p.add_argument("--optimal-angle", action="store_true",
+                   help="search the uphill leg angle instead of the paper's linear rule")
+    p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def register(subparsers) -> None:
+    from slopelander.envelope.reports import MAP_KINDS
+
+    p = subparsers.add_parser("map", help="landing maps of the paper's Sec. V (PNG + NPZ + CSV)",
+                              description="Compute a landing map over slope x vertical impact speed.")
+    p.add_argument("kind", choices=MAP_KINDS)
+    p.add_argument("--out", required=True, metavar="DIR", help="directory for the files")
+    p.add_argument("--config", default="rvt",
+                   choices=("symmetric", "asymmetric", "angle", "rvt", "rigid", "rigid_rvt"),
+                   help="presets flown by the uncertainty and robustness maps (default rvt)")
+    p.add_argument("--sets", type=int, default=3, help="parameter sets for 'uncertainty' (default 3)")
+    p.add_argument("--draws", type=int, default=10, help="robustness draws per cell (default 10)")
+    p.add_argument("--seed", type=int, default=0)
+    _common(p)
+    p.set_defaults(handler=run_map)
+
+    t = subparsers.add_parser("table", help="write the preset lookup table the controller flies with",
+                              description="Choose presets per (slope, speed) and write the YAML table.")
+    t.add_argument("--out", required=True, metavar="FILE", help="table file (.yaml)")
+    t.add_argument("--strategy", default="rvt", choices=("asymmetric", "angle", "rvt"),
+                   help="how the vehicle lands (default rvt: linear uphill angle + 100 %% reverse thrust)")
+    _common(t)
+    t.set_defaults(handler=run_table)
+
+
+def _setup(args):
+    from slopelander.envelope.axes import MapAxes
+    from slopelander.model import Model
+
+    axes = MapAxes.build(args.slope_step, args.speed_step, slope_min=args.slope_min,
+                         slope_max=args.slope_max, speed_min=args.speed_min, speed_max=args.speed_max)
+    model = Model.from_file(args.params) if args.params else Model.default()
+    client = None
+    if args.dask:
+        from slopelander.envelope.sweep import connect
+
+        client = connect(args.dask)
+    progress = None if not args.quiet else False
+    return axes, model, client, progress
+
+
+def run_map(args) -> int:
+    from slopelander.envelope.reports import make_map
+
+    axes, model, client, progress = _setup(args)
+    t0 = time.perf_counter()
+    try:
+        result = make_map(args.kind, args.out, model=model, axes=axes, refine=args.refine,
+                          optimal_angle=args.optimal_angle, config=args.config, sets=args.sets,
+                          seed=args.seed, draws=args.draws, client=client, progress=progress)
+    finally:
+        if client is not None:
+            client.close()
+    result["seconds"] = round(time.perf_counter() - t0, 1)
+    print(json.dumps(result, indent=2, default=float))
+    return 0
+
+
+def run_table(args) -> int:
+    from slopelander.envelope.presets import STRATEGIES
+    from slopelander.envelope.table import build_table, write_table
+
+    axes, model, client, progress = _setup(args)
+    strategy = STRATEGIES[args.strategy].with_options(refine=args.refine,
+                                                      optimal_angle=args.optimal_angle)
+    command = "slopelander " + shlex.join(sys.argv[1:]) if sys.argv[1:] else None
+    t0 = time.perf_counter()
+    try:
+        doc, presets = build_table(model, axes, strategy, client=client, progress=progress,
+                                   command=command)
+    finally:
+        if client is not None:
+            client.close()
+    path = write_table(doc, args.out)
+    landed = presets.landed()
+    print(f"wrote {path}: {axes.shape[0]} slopes x {axes.shape[1]} speeds, "
+          f"{int(landed.sum())} cells land, {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run these subcommands on their own (``python -m slopelander.envelope.cli map ...``)."""
+    parser = argparse.ArgumentParser(prog="slopelander")
+    register(parser.add_subparsers(dest="command", metavar="COMMAND"))
+    args = parser.parse_args(argv)
+    if not getattr(args, "handler", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.handler(args) or 0)
+    except SlopelanderError as exc:
+        print(f"slopelander {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
