@@ -12,13 +12,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import BoundaryNorm, ListedColormap, to_rgb  # noqa: E402
-from matplotlib.patches import Patch  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import BoundaryNorm, ListedColormap, to_rgb
+from matplotlib.patches import Patch
 
-from slopelander.envelope.maps import LandingMap, envelope_area  # noqa: E402
-from slopelander.model import OUTCOME_COLORS, Outcome  # noqa: E402
+from slopelander.envelope.maps import LandingMap, envelope_area
+from slopelander.model import OUTCOME_COLORS, Outcome
 
 _CODES = list(Outcome)
 OUTCOME_CMAP = ListedColormap([OUTCOME_COLORS[o] for o in _CODES])
@@ -81,7 +81,7 @@ def plot_preset_maps(m: LandingMap, path: str | Path, title: str | None = None) 
     fig, axes = plt.subplots(1, len(panels) + 1, figsize=(5.0 * (len(panels) + 1), 4.6),
                              constrained_layout=True)
     failed = ~m.landed()
-    for ax, (name, label) in zip(axes, panels):
+    for ax, (name, label) in zip(axes, panels, strict=False):
         v = np.ma.masked_array(m.fields[name], mask=failed)
         levels = np.unique(np.round(m.fields[name][~failed], 4)) if (~failed).any() else np.array([0.0])
         if strategy.get("torques") == "levels" and name.startswith("tau") and levels.size <= 8:
@@ -106,8 +106,10 @@ def plot_preset_maps(m: LandingMap, path: str | Path, title: str | None = None) 
     return _save(fig, path)
 
 
-def plot_envelopes(maps: dict[str, LandingMap], path: str | Path, *, static_friction: float | None = None,
-                   title: str = "Landing envelopes: ideal (green) landings only, as the paper's Fig. 11") -> Path:
+def plot_envelopes(maps: dict[str, LandingMap], path: str | Path, *,
+                   static_friction: float | None = None,
+                   title: str = "Landing envelopes: ideal (green) landings only, as the paper's Fig. 11",
+                   ) -> Path:
     """Fig. 11: the green (ideal) zone of several maps side by side, each with its area."""
     n = len(maps)
     cols = 2 if n > 1 else 1
@@ -116,7 +118,7 @@ def plot_envelopes(maps: dict[str, LandingMap], path: str | Path, *, static_fric
                              constrained_layout=True, sharex=True, sharey=True)
     green = ListedColormap(["#ffffff", OUTCOME_COLORS[Outcome.IDEAL]])
     limit = math.degrees(math.atan(static_friction)) if static_friction else None
-    for ax, (label, m) in zip(axes.ravel(), maps.items()):
+    for ax, (label, m) in zip(axes.ravel(), maps.items(), strict=False):
         ax.pcolormesh(_edges(m.axes.slopes), _edges(m.axes.speeds), m.ideal().astype(float).T,
                       cmap=green, vmin=0, vmax=1, edgecolors="none")
         if limit is not None:

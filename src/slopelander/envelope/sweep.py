@@ -36,14 +36,14 @@ def _progress_enabled(progress: bool | None) -> bool:
     return progress
 
 
-def connect(address: str):
+def connect(address: str, timeout: str = "10s"):
     """A Dask client for ``address`` (``tcp://host:8786``), or a clear error."""
     try:
         from distributed import Client
     except ImportError:  # pragma: no cover - the test extra installs it
         raise SweepError("--dask needs dask[distributed]: pip install 'slopelander[cluster]'") from None
     try:
-        return Client(address, timeout="10s")
+        return Client(address, timeout=timeout)
     except (OSError, TimeoutError) as exc:
         raise SweepError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
 

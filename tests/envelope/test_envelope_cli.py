@@ -1,0 +1,48 @@
+"""``slopelander map`` and ``slopelander table`` write readable files from a tiny grid."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from slopelander.controller.table import LookupTable
+from slopelander.envelope.cli import main
+
+GRID = ["--slope-step", "30", "--speed-step", "1.0", "--speed-min", "1.0", "--quiet"]
+
+
+@pytest.mark.parametrize("kind", ["symmetric", "asymmetric", "rigid", "uncertainty", "robustness"])
+def test_map_writes_png_data_and_a_summary(kind, tmp_path, capsys):
+    assert main(["map", kind, "--out", str(tmp_path), *GRID, "--draws", "2"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    summary = json.loads((tmp_path / f"{kind}_summary.json").read_text())
+    assert printed["kind"] == summary["kind"] == kind
+    pngs = list(tmp_path.glob("*.png"))
+    assert pngs and all(p.stat().st_size > 10_000 for p in pngs)
+    assert list(tmp_path.glob("*.csv")) and list(tmp_path.glob("*.npz"))
+    if kind == "rigid":
+        assert "area_ratio_fsa_rvt_vs_rigid" in summary
+    if kind == "robustness":
+        assert 0.0 <= summary["overall_success_rate"] <= 1.0 or summary["nominal_cells"] == 0
+    if kind == "uncertainty":
+        assert len(list(tmp_path.glob("params_set*.yaml"))) == 3
+
+
+def test_table_command_writes_a_table_the_controller_loads(tmp_path, capsys):
+    out = tmp_path / "table.yaml"
+    assert main(["table", "--out", str(out), *GRID]) == 0
+    assert "wrote" in capsys.readouterr().out
+    t = LookupTable.load(out)
+    assert t.slope_range == (0.0, 60.0) and t.speed_range == (1.0, 3.0)
+
+
+def test_a_bad_grid_is_an_error_message_not_a_traceback(tmp_path, capsys):
+    assert main(["map", "symmetric", "--out", str(tmp_path), "--slope-step", "0"]) == 1
+    assert "step must be positive" in capsys.readouterr().err
+
+
+def test_the_main_command_lists_map_and_table():
+    from slopelander.cli import SUBCOMMAND_MODULES
+
+    assert "slopelander.envelope.cli" in SUBCOMMAND_MODULES

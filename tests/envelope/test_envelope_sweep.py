@@ -1,0 +1,55 @@
+"""Chunked local sweeps and Dask sweeps give exactly the landings of one batch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from slopelander.envelope.sweep import SweepError, connect, run_sweep
+from slopelander.model import simulate_batch
+
+
+@pytest.fixture(scope="module")
+def grid(tiny_axes):
+    g = tiny_axes.conditions(tau_up=1.1, tau_down=2.3)
+    return g
+
+
+@pytest.fixture(scope="module")
+def reference(grid, model):
+    return simulate_batch(grid, model)
+
+
+def same(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.dtype == b.dtype and a.tobytes() == b.tobytes()   # NaN-aware, bit for bit
+
+
+def test_chunks_do_not_change_any_landing(grid, model, reference):
+    assert same(run_sweep(grid, model, chunk=3, progress=False), reference)
+
+
+def test_a_progress_bar_counts_every_landing(grid, model, reference, capsys):
+    out = run_sweep(grid, model, chunk=7, progress=True, desc="probe")
+    assert same(out, reference)
+    err = capsys.readouterr().err
+    assert f"{len(grid)}/{len(grid)}" in err and "probe" in err
+
+
+def test_a_zero_chunk_is_refused(grid, model):
+    with pytest.raises(SweepError, match="chunk"):
+        run_sweep(grid, model, chunk=0)
+
+
+def test_a_dask_cluster_gives_identical_results(grid, model, reference):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        out = run_sweep(grid, model, chunk=6, client=client, progress=False)
+    assert same(out, reference)
+
+
+def test_an_unreachable_scheduler_is_a_clear_error():
+    pytest.importorskip("distributed")
+    with pytest.raises(SweepError, match="cannot reach"):
+        connect("tcp://127.0.0.1:9", timeout="1s")
