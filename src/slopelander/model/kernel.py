@@ -74,7 +74,8 @@ F_REGULARISED = 5
 F_ROTORS = 6
 F_REV_DELAY = 7
 F_RIGID = 8
-N_FLAGS = 9
+F_IMPLICIT_K = 9  # solver setting, not an effect: springs implicit (stable) or explicit (symplectic)
+N_FLAGS = 10
 
 # --- context: the surface and the leg settings (may change between steps) ----------------
 C_SIN = 0  # sin(slope)
@@ -331,6 +332,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
     # a planar leg is a pair of real legs in parallel: torque, stiffness and damping add
     kq = p[P_KQ] * p[P_NJ]
     bq = p[P_BQ] * p[P_NJ]
+    ik = 1.0 if fl[F_IMPLICIT_K] != 0 else 0.0
 
     # Implicit terms go straight into A0 = M - h D - h^2 K; f keeps only the explicit part,
     # so that r0 = M v + h f.
@@ -391,7 +393,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
             zone[j] = zj
             if m != 0.0:
                 f[qi] += -tj * m + zj * ke * (q_zone - qc)
-                A0[qi, qi] += h * be * zj + h * h * ke * zj
+                A0[qi, qi] += h * be * zj + h * h * ke * zj * ik
                 # -b_e v is implicit: nothing explicit left
 
     for a in range(5):
@@ -448,7 +450,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
         for i in range(N_POINTS):
             if not active[i]:
                 continue
-            cn = h * h * kg + h * bg
+            cn = h * h * kg * ik + h * bg
             for a in range(5):
                 jna = JNT[i, 0, a]
                 if jna != 0.0:
@@ -458,7 +460,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
             mode = st[S_CM + i]
             if stiction:
                 if mode == 1.0:
-                    ct = h * h * kt + h * bt
+                    ct = h * h * kt * ik + h * bt
                     ft = -kt * (s0[i] - st[S_ANC + i])
                     for a in range(5):
                         jta = JNT[i, 1, a]
@@ -811,8 +813,14 @@ def classify(p, fl, ctx, st, crit, settled, slid, res):
     res[O_CODE] = code
     res[O_CUP] = comp[up]
     res[O_CDOWN] = comp[down]
-    res[O_PFINAL] = st[S_Q + 2] / DEG
-    res[O_PMIN] = st[S_PMIN] / DEG
+    # pitches in the downhill frame (negative = toward downhill), so a mirrored slope
+    # reports the same numbers
+    if ctx[C_SIN] >= 0.0:
+        res[O_PFINAL] = st[S_Q + 2] / DEG
+        res[O_PMIN] = st[S_PMIN] / DEG
+    else:
+        res[O_PFINAL] = -st[S_Q + 2] / DEG
+        res[O_PMIN] = -st[S_PMAX] / DEG
     res[O_TEND] = st[S_T] - max(st[S_TIMP], 0.0)
 
 
@@ -890,3 +898,60 @@ def run_batch(p, fl, conds, h, crit, stop_at_settle, extra_force, up, out):
     for i in prange(n):
         rec = np.zeros((0, N_STATE))
         run_landing(p, fl, conds[i], h, crit, stop_at_settle, 0, rec, extra_force, up, out[i])
+
+
+@njit(cache=True)
+def advance(p, fl, ctx, st, h, n, u0, u1, ws, extra_force, up):
+    """``n`` steps of ``h`` with fixed rotor commands (one call per stepper tick)."""
+    for _ in range(n):
+        step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up)
+
+
+@njit(cache=True)
+def mechanical_energy(p, fl, ctx, st, ws, out):
+    """Kinetic, gravitational, ground-spring, stiction-spring, flex-spring and EOT-spring
+    energy of the state (J), in that order."""
+    M, f, pts, vel, J = ws[0], ws[1], ws[2], ws[3], ws[4]
+    kinematics(p, st, M, f, pts, vel, J)
+    ke = 0.0
+    for a in range(5):
+        for b in range(5):
+            ke += 0.5 * st[S_V + a] * M[a, b] * st[S_V + b]
+    out[0] = ke
+    # gravity: body at its centre, legs at their centres
+    g = p[P_G]
+    th = st[S_Q + 2]
+    c = math.cos(th)
+    s = math.sin(th)
+    pe = p[P_MB] * g * st[S_Q + 1]
+    for j in range(2):
+        hx, hz, ux, uz, _, _ = _leg_geometry(p, j, st[S_Q + 3 + j])
+        rx = hx + 0.5 * p[P_LL] * ux
+        rz = hz + 0.5 * p[P_LL] * uz
+        _, wz = _rot(c, s, rx, rz)
+        pe += p[P_ML] * g * (st[S_Q + 1] + wz)
+    out[1] = pe
+    eg = 0.0
+    es = 0.0
+    for i in range(N_POINTS):
+        d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
+        if d < 0.0:
+            eg += 0.5 * p[P_KG] * d * d
+        if st[S_CM + i] == 1.0 and fl[F_STICTION] != 0:
+            sx = ctx[C_COS] * pts[i, 0] - ctx[C_SIN] * pts[i, 1]
+            es += 0.5 * p[P_KT] * (sx - st[S_ANC + i]) ** 2
+    out[2] = eg
+    out[3] = es
+    ef = 0.0
+    ee = 0.0
+    rigid = fl[F_RIGID] != 0
+    flex = fl[F_FLEX] != 0 and not rigid
+    q_zone = (p[P_QMAX] - p[P_TRAVEL] + p[P_EZ]) * DEG
+    for j in range(2):
+        if flex:
+            dq = st[S_QE + j] - st[S_Q + 3 + j]
+            ef += 0.5 * p[P_KQ] * p[P_NJ] * dq * dq
+        if fl[F_EOT] != 0 and not rigid and st[S_QE + j] < q_zone:
+            ee += 0.5 * p[P_KE] * (q_zone - st[S_QE + j]) ** 2
+    out[4] = ef
+    out[5] = ee

@@ -33,6 +33,10 @@ class Model:
     user_effects: tuple[UserEffect, ...] = ()
     dt: float = DEFAULT_DT
     criteria: OutcomeCriteria = field(default_factory=OutcomeCriteria)
+    implicit_springs: bool = True
+    """Springs of the contacts in the implicit solve (stable at any stiffness, slightly
+    dissipative); False keeps them explicit (symplectic: energy-conserving, needs a step
+    well under the foot's contact period)."""
 
     def __post_init__(self) -> None:
         check_effect_names(self.effects)
@@ -82,7 +86,9 @@ class Model:
 
     # -- what the integrator sees ---------------------------------------------------------
     def flags(self) -> np.ndarray:
-        return flags_for(self.effects)
+        fl = flags_for(self.effects)
+        fl[k.F_IMPLICIT_K] = 1 if self.implicit_springs else 0
+        return fl
 
     def criteria_array(self) -> np.ndarray:
         c = self.criteria

@@ -81,7 +81,8 @@ RESULT_FIELDS: tuple[str, ...] = (
     "t_end",
 )
 """Columns of the batch path's result: outcome code, peak compression fraction of the
-uphill and downhill joints, slide distance along the slope (m, + downhill), final and most
-negative pitch (deg), time from impact to rest (s, NaN if it never settled), simulated time."""
+uphill and downhill joints, slide distance along the slope (m, + downhill), final pitch and
+the pitch furthest toward downhill (deg, negative = nose toward downhill, whatever the sign
+of the slope), time from impact to rest (s, NaN if it never settled), simulated time."""
 
 RESULT_DTYPE = np.dtype([(n, np.float64) for n in RESULT_FIELDS])

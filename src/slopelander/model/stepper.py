@@ -1,0 +1,202 @@
+"""The model as a stepper: advance the vehicle by dt given rotor commands and leg settings.
+
+This is what a simulated vehicle runs at ArduPilot's 1200 Hz physics rate: flight with
+thrust, touchdown, and the legs' friction presets changed on the fly. Each ``step`` runs as
+many sub-steps of the model's own ``dt`` as fit in the requested interval.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from slopelander.model import kernel as k
+from slopelander.model.conditions import ConditionError
+from slopelander.model.landing import Model
+
+ENERGY_TERMS = ("kinetic", "gravity", "ground_spring", "stiction_spring", "flex_spring", "eot_spring")
+DISSIPATION_TERMS = (
+    "joint_friction",
+    "flex_damper",
+    "eot_damper",
+    "ground_damper",
+    "foot_friction",
+    "rotor_work",
+)
+
+
+@dataclass(frozen=True)
+class BodyState:
+    """Where the body is and how it moves (SI units, pitch in rad, x downhill, z up)."""
+
+    t: float
+    x: float
+    z: float
+    pitch: float
+    vx: float
+    vz: float
+    pitch_rate: float
+
+
+class Stepper:
+    """A planar vehicle on a slope that can fly, land and be stepped in real time."""
+
+    def __init__(self, model: Model | None = None, slope_deg: float = 0.0) -> None:
+        self.model = model or Model.default()
+        if not -75.0 <= slope_deg <= 75.0:
+            raise ConditionError("slope_deg", slope_deg, "must lie within -75..75 deg")
+        self._p = self.model.params.as_array()
+        self._fl = self.model.flags()
+        self._fx, self._up = self.model.extra_force()
+        self._ws = k.make_workspace()
+        self.st = np.zeros(k.N_STATE)
+        self.ctx = np.zeros(k.N_CTX)
+        a = math.radians(slope_deg)
+        self.ctx[k.C_SIN] = math.sin(a)
+        self.ctx[k.C_COS] = math.cos(a)
+        self.ctx[k.C_DOWN] = 1 if a >= 0 else 0
+        self.slope_deg = slope_deg
+        self._accel = np.zeros(2)
+        amax = self.model.params.angle_max_deg
+        self.set_leg_angles(amax, amax)
+        self.set_friction(1.7, 1.7)
+        self.st[k.S_DIR] = 1.0
+        self.st[k.S_DIR + 1] = 1.0
+        self.st[k.S_TIMP] = -1.0
+        self.place(height=1.0)
+
+    # -- set-up ------------------------------------------------------------------------------
+    @property
+    def downhill(self) -> int:
+        return int(self.ctx[k.C_DOWN])
+
+    def set_friction(self, tau_up: float, tau_down: float) -> None:
+        """Friction torque per real joint (N*m) of the uphill and downhill pairs."""
+        for name, v in (("tau_up", tau_up), ("tau_down", tau_down)):
+            if not (0.0 <= v <= 10.0) or not math.isfinite(v):
+                raise ConditionError(name, v, "must lie within 0..10 N*m")
+        nj = self.model.params["joints_per_planar_leg"]
+        self.ctx[k.C_TAU + 1 - self.downhill] = tau_up * nj
+        self.ctx[k.C_TAU + self.downhill] = tau_down * nj
+
+    def set_leg_angles(self, angle_up_deg: float, angle_down_deg: float) -> None:
+        """Reset both legs to these angles (what the springs do once the joints are loose)."""
+        lo, hi = self.model.params.angle_min_deg, self.model.params.angle_max_deg
+        for name, v in (("angle_up_deg", angle_up_deg), ("angle_down_deg", angle_down_deg)):
+            if not lo <= v <= hi:
+                raise ConditionError(name, v, f"must lie within {lo}..{hi} deg")
+        for j, v in ((1 - self.downhill, angle_up_deg), (self.downhill, angle_down_deg)):
+            q = math.radians(v)
+            self.st[k.S_Q + 3 + j] = q
+            self.st[k.S_QE + j] = q
+            self.st[k.S_V + 3 + j] = 0.0
+            self.st[k.S_JM + j] = 0.0
+            self.st[k.S_QEMIN + j] = q
+            self.ctx[k.C_QINIT + j] = q
+
+    def place(
+        self,
+        height: float,
+        x: float = 0.0,
+        pitch_deg: float = 0.0,
+        vx: float = 0.0,
+        vz: float = 0.0,
+        pitch_rate_dps: float = 0.0,
+        rotor_speed: float = 0.0,
+    ) -> None:
+        """Put the vehicle with its lowest point ``height`` m above the surface (measured
+        along the surface normal), at rest or moving, rotors spinning at ``rotor_speed``."""
+        st = self.st
+        st[k.S_Q] = x
+        st[k.S_Q + 1] = 0.0
+        st[k.S_Q + 2] = math.radians(pitch_deg)
+        st[k.S_V] = vx
+        st[k.S_V + 1] = vz
+        st[k.S_V + 2] = math.radians(pitch_rate_dps)
+        lowest = min(self._clearances())
+        st[k.S_Q + 1] = (height - lowest) / self.ctx[k.C_COS]
+        st[k.S_W] = rotor_speed
+        st[k.S_W + 1] = rotor_speed
+        st[k.S_CM : k.S_CM + k.N_POINTS] = 0.0
+
+    def hover_command(self) -> float:
+        """Rotor command that holds a level vehicle in the air."""
+        p = self.model.params
+        weight = (p["body_mass"] + 2 * p["leg_mass"]) * p["gravity"]
+        return math.sqrt(weight / 2.0 / p["rotor_thrust_max"])
+
+    # -- running -----------------------------------------------------------------------------
+    def step(self, dt: float, u_left: float, u_right: float) -> None:
+        """Advance by ``dt`` seconds with rotor commands in [-1, 1] (left = -x side)."""
+        if not (0.0 < dt <= 1.0) or not math.isfinite(dt):
+            raise ValueError(f"dt = {dt} s must lie in (0, 1]")
+        u_left = min(1.0, max(-1.0, float(u_left)))
+        u_right = min(1.0, max(-1.0, float(u_right)))
+        n = max(1, math.ceil(dt / self.model.dt - 1e-9))
+        v0 = self.st[k.S_V : k.S_V + 2].copy()
+        k.advance(
+            self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._fx, self._up
+        )
+        self._accel = (self.st[k.S_V : k.S_V + 2] - v0) / dt
+
+    # -- reading -----------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        return float(self.st[k.S_T])
+
+    def body(self) -> BodyState:
+        s = self.st
+        return BodyState(
+            float(s[k.S_T]),
+            float(s[k.S_Q]),
+            float(s[k.S_Q + 1]),
+            float(s[k.S_Q + 2]),
+            float(s[k.S_V]),
+            float(s[k.S_V + 1]),
+            float(s[k.S_V + 2]),
+        )
+
+    def specific_force_body(self) -> tuple[float, float]:
+        """What an accelerometer on the body reads over the last step (m/s^2), along body
+        x (forward, +x when level) and body z (up): at rest level it reads (0, +g)."""
+        g = self.model.params["gravity"]
+        ax, az = self._accel[0], self._accel[1] + g
+        th = self.st[k.S_Q + 2]
+        c, s = math.cos(th), math.sin(th)
+        return c * ax + s * az, -s * ax + c * az
+
+    def leg_angles_deg(self) -> tuple[float, float]:
+        """(uphill, downhill) leg angles below the body plane (deg)."""
+        j = self.downhill
+        return (math.degrees(self.st[k.S_Q + 4 - j]), math.degrees(self.st[k.S_Q + 3 + j]))
+
+    def joint_angles_deg(self) -> tuple[float, float]:
+        """(uphill, downhill) friction-joint angles (deg): the FSA's own position."""
+        j = self.downhill
+        return (math.degrees(self.st[k.S_QE + 1 - j]), math.degrees(self.st[k.S_QE + j]))
+
+    def clearance(self) -> float:
+        """Height of the lowest point above the surface (m); negative while pressed in."""
+        return min(self._clearances())
+
+    def in_contact(self) -> bool:
+        return bool(np.any(self.st[k.S_NF : k.S_NF + k.N_POINTS] > 0.0))
+
+    def thrust(self) -> tuple[float, float]:
+        return float(self.st[k.S_THR]), float(self.st[k.S_THR + 1])
+
+    def energy(self) -> dict[str, float]:
+        out = np.zeros(len(ENERGY_TERMS))
+        k.mechanical_energy(self._p, self._fl, self.ctx, self.st, self._ws, out)
+        return dict(zip(ENERGY_TERMS, out.tolist(), strict=True))
+
+    def dissipated(self) -> dict[str, float]:
+        d = self.st[k.S_DISS : k.S_DISS + len(DISSIPATION_TERMS)]
+        return dict(zip(DISSIPATION_TERMS, d.tolist(), strict=True))
+
+    def _clearances(self) -> np.ndarray:
+        M, f, pts, vel, J = self._ws[:5]
+        k.kinematics(self._p, self.st, M, f, pts, vel, J)
+        return pts[:, 0] * self.ctx[k.C_SIN] + pts[:, 1] * self.ctx[k.C_COS]
