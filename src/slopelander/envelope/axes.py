@@ -62,11 +62,11 @@ class MapAxes:
 
     @property
     def slope_step(self) -> float:
-        return float(self.slopes[1] - self.slopes[0]) if self.slopes.size > 1 else 1.0
+        return round(float(self.slopes[1] - self.slopes[0]), 9) if self.slopes.size > 1 else 1.0
 
     @property
     def speed_step(self) -> float:
-        return float(self.speeds[1] - self.speeds[0]) if self.speeds.size > 1 else 0.1
+        return round(float(self.speeds[1] - self.speeds[0]), 9) if self.speeds.size > 1 else 0.1
 
     @property
     def cell_area(self) -> float:

@@ -134,8 +134,9 @@ def plot_envelopes(maps: dict[str, LandingMap], path: str | Path, *,
                                   label=f"static friction limit atan(mu_s = {static_friction:g}) "
                                         f"= {limit:.0f} deg"))
     fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=8, frameon=False)
-    first = next(iter(maps.values()))
-    fig.suptitle(f"{title}\n{_model_line(first)}", fontsize=10)
+    src = Path(str(next(iter(maps.values())).meta.get("model", {}).get("source") or "default")).name
+    fig.suptitle(f"{title}\nmodel: {src}; rigid gear = the same vehicle with its joints locked "
+                 "(effect rigid_gear, no leg flexibility)", fontsize=10)
     return _save(fig, path)
 
 
