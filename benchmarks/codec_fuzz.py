@@ -19,8 +19,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from slopelander.legs import codec, messages  # noqa: E402
-from slopelander.legs.messages import N_LEGS, FaultCode, LegState  # noqa: E402
+from slopelander.legs import codec, messages
+from slopelander.legs.messages import N_LEGS, FaultCode, LegState
 
 MUTATIONS = ("bitflip", "truncate", "insert", "drop", "splice")
 

@@ -286,10 +286,10 @@ class LegBoardPhysics:
             return
         if st is LegState.TIGHTENING or st is LegState.HOLDING:
             on_target = abs(lg.current - lg.target_a) * 1000.0 <= p.band_ma
-            if st is LegState.TIGHTENING and on_target and lg.settled_s == 0.0:
-                if lg.from_loose and lg.phase_s < p.min_travel_s:
-                    self._fail(lg, FaultCode.STUCK)
-                    return
+            first_on_target = on_target and lg.settled_s == 0.0 and st is LegState.TIGHTENING
+            if first_on_target and lg.from_loose and lg.phase_s < p.min_travel_s:
+                self._fail(lg, FaultCode.STUCK)
+                return
             lg.settled_s = lg.settled_s + dt if on_target else 0.0
             if st is LegState.TIGHTENING and lg.settled_s >= p.settle_s:
                 lg.state = LegState.HOLDING

@@ -20,11 +20,10 @@ import tty
 from dataclasses import dataclass
 from pathlib import Path
 
+from sitl.legboard.physics import LegBoardPhysics
 from slopelander.legs import codec, messages
 from slopelander.legs.framing import MAX_PAYLOAD
-from slopelander.legs.messages import Capability, MsgType, NakCode, legs_in
-
-from sitl.legboard.physics import LegBoardPhysics
+from slopelander.legs.messages import Capability, NakCode, legs_in
 
 IO_FAULTS = ("silent", "corrupt", "unplug")
 LEG_FAULTS = ("stuck", "slip", "overcurrent")
@@ -260,9 +259,9 @@ class BoardServer:
         ):
             return NakCode.UNSUPPORTED
         legs = legs_in(msg.mask)
-        if isinstance(msg, messages.SetFriction | messages.SetAngle):
-            if any(ph.legs[i].state is messages.LegState.FAULT for i in legs):
-                return NakCode.FAULTED
+        faulted = any(ph.legs[i].state is messages.LegState.FAULT for i in legs)
+        if faulted and isinstance(msg, messages.SetFriction | messages.SetAngle):
+            return NakCode.FAULTED
         for i in legs:
             if isinstance(msg, messages.SetFriction):
                 ph.set_friction(i, msg.target_ma[i])

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 from slopelander.legs import messages
 from slopelander.legs.framing import FrameSplitter, RejectCounters, encode_frame
-from slopelander.legs.messages import PAYLOAD_LENGTH, BadPayload, Message, MsgType
+from slopelander.legs.messages import PAYLOAD_LENGTH, BadPayloadError, Message, MsgType
 
 
 def encode(msg: Message, seq: int) -> bytes:
@@ -50,7 +50,7 @@ class Decoder:
                 continue
             try:
                 msg = messages.unpack(raw.msg_type, raw.payload)
-            except BadPayload:
+            except BadPayloadError:
                 self.rejects.bad_value += 1
                 continue
             self.accepted += 1

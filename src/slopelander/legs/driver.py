@@ -18,6 +18,7 @@ Timeouts are wall-clock seconds. Nothing here waits without a deadline.
 from __future__ import annotations
 
 import collections
+import contextlib
 import select
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -378,10 +379,8 @@ class LegBoard:
 
     def close(self) -> None:
         if self._ser is not None:
-            try:
+            with contextlib.suppress(serial.SerialException, OSError):
                 self._ser.close()
-            except (serial.SerialException, OSError):
-                pass
             self._ser = None
 
     def __enter__(self) -> LegBoard:
@@ -685,7 +684,5 @@ class LegBoard:
     def _wait_readable(self, timeout: float) -> None:
         if self._ser is None or timeout <= 0:
             return
-        try:
+        with contextlib.suppress(OSError, ValueError):  # the next read reports a failure
             select.select([self._ser.fileno()], [], [], timeout)
-        except (OSError, ValueError):
-            pass  # the next read reports the failure

@@ -15,11 +15,11 @@ class LegBoardError(SlopelanderError):
     """Anything that went wrong between the companion and the leg board."""
 
 
-class LegTimeout(LegBoardError):
+class LegTimeout(LegBoardError):  # noqa: N818 (names the landing controller reads)
     """The board did not answer, or sent nothing, within the allowed time."""
 
 
-class BoardDisconnected(LegBoardError):
+class BoardDisconnected(LegBoardError):  # noqa: N818 (names the landing controller reads)
     """The serial port failed or vanished (cable pulled, board reset)."""
 
 
@@ -27,7 +27,7 @@ class ProtocolError(LegBoardError):
     """Bytes arrive but make no valid frames, or the board speaks another version."""
 
 
-class CommandRejected(LegBoardError):
+class CommandRejected(LegBoardError):  # noqa: N818 (names the landing controller reads)
     """The board answered a command with NAK."""
 
     def __init__(self, command: str, code: int, text: str) -> None:
@@ -37,7 +37,7 @@ class CommandRejected(LegBoardError):
         super().__init__(f"leg board refused {command}: {text} (NAK code {code})")
 
 
-class LegFault(LegBoardError):
+class LegFault(LegBoardError):  # noqa: N818 (names the landing controller reads)
     """A leg reports a fault; its motor is off until it is loosened."""
 
     def __init__(self, leg: int, code: int, text: str) -> None:
@@ -47,7 +47,7 @@ class LegFault(LegBoardError):
         super().__init__(f"leg {leg} fault {code} ({text})")
 
 
-class LegNotConverged(LegBoardError):
+class LegNotConverged(LegBoardError):  # noqa: N818 (names the landing controller reads)
     """A leg did not reach its target within the deadline.
 
     ``target`` and ``achieved`` are in the unit of the operation (N·m for friction,
@@ -75,7 +75,7 @@ class LegNotConverged(LegBoardError):
         )
 
 
-class TorqueOutOfRange(LegBoardError):
+class TorqueOutOfRange(LegBoardError):  # noqa: N818 (names the landing controller reads)
     """A friction torque the leg's calibration does not cover."""
 
 

@@ -83,7 +83,7 @@ class MsgType(IntEnum):
     STATUS = 0x84
 
 
-class BadPayload(ValueError):
+class BadPayloadError(ValueError):
     """A payload of the right length whose fields are out of range."""
 
 
@@ -101,7 +101,7 @@ def mask_of(legs) -> int:
 
 def _check_mask(mask: int) -> None:
     if mask == 0 or mask & ~ALL_LEGS_MASK:
-        raise BadPayload(f"leg mask 0x{mask:02x}")
+        raise BadPayloadError(f"leg mask 0x{mask:02x}")
 
 
 @dataclass(frozen=True)
@@ -249,19 +249,19 @@ def pack(msg: Message) -> bytes:
 
 
 def unpack(msg_type: int, payload: bytes) -> Message:
-    """Interpret a payload of known type and length; :class:`BadPayload` if out of range."""
+    """Interpret a payload of known type and length; :class:`BadPayloadError` if out of range."""
     t = MsgType(msg_type)
     if t is MsgType.HELLO:
         version, period = _HELLO.unpack(payload)
         if version == 0:
-            raise BadPayload("version 0")
+            raise BadPayloadError("version 0")
         return Hello(version, period)
     if t in (MsgType.SET_FRICTION, MsgType.SET_ANGLE):
         mask, *values = _FOUR.unpack(payload)
         _check_mask(mask)
         limit = MAX_TARGET_MA if t is MsgType.SET_FRICTION else MAX_ANGLE_CDEG
         if any(v > limit for v in values):
-            raise BadPayload(f"value above {limit}")
+            raise BadPayloadError(f"value above {limit}")
         cls = SetFriction if t is MsgType.SET_FRICTION else SetAngle
         return cls(mask, tuple(values))
     if t in (MsgType.LOOSEN, MsgType.STOP):
@@ -272,33 +272,33 @@ def unpack(msg_type: int, payload: bytes) -> Message:
     if t is MsgType.HELLO_REPLY:
         version, legs, caps, max_payload, clock = _HELLO_REPLY.unpack(payload)
         if version == 0 or legs != N_LEGS or caps & ~_CAPABILITY_MASK or max_payload == 0:
-            raise BadPayload("hello reply fields")
+            raise BadPayloadError("hello reply fields")
         return HelloReply(version, legs, caps, max_payload, clock)
     if t is MsgType.ACK:
         return Ack(payload[0], _command_type(payload[1]))
     if t is MsgType.NAK:
         if payload[2] not in NakCode._value2member_map_:
-            raise BadPayload(f"NAK code {payload[2]}")
+            raise BadPayloadError(f"NAK code {payload[2]}")
         return Nak(payload[0], _command_type(payload[1]), payload[2])
     clock, last_seq, flags = _STATUS_HEAD.unpack_from(payload)
     if flags & ~STATUS_FLAG_SIMULATED:
-        raise BadPayload(f"status flags 0x{flags:02x}")
+        raise BadPayloadError(f"status flags 0x{flags:02x}")
     legs = []
     for i in range(N_LEGS):
         state, fault, current, target, angle = _LEG.unpack_from(
             payload, _STATUS_HEAD.size + i * _LEG.size
         )
         if state > LegState.FAULT or fault > FaultCode.TIMEOUT:
-            raise BadPayload(f"leg {i} state {state} fault {fault}")
+            raise BadPayloadError(f"leg {i} state {state} fault {fault}")
         if target > MAX_TARGET_MA or angle > MAX_ANGLE_CDEG or abs(current) > MAX_CURRENT_MA:
-            raise BadPayload(f"leg {i} target {target} angle {angle}")
+            raise BadPayloadError(f"leg {i} target {target} angle {angle}")
         if (fault != FaultCode.NONE) != (state == LegState.FAULT):
-            raise BadPayload(f"leg {i} fault {fault} in state {state}")
+            raise BadPayloadError(f"leg {i} fault {fault} in state {state}")
         legs.append(LegReport(LegState(state), FaultCode(fault), current, target, angle))
     return Status(clock, last_seq, flags, tuple(legs))
 
 
 def _command_type(value: int) -> int:
     if value not in MsgType._value2member_map_ or value >= 0x80:
-        raise BadPayload(f"command type 0x{value:02x}")
+        raise BadPayloadError(f"command type 0x{value:02x}")
     return value
