@@ -100,11 +100,14 @@ def format_status(status: BoardStatus) -> str:
 
 
 def format_results(results: dict[int, LegResult], unit: str) -> str:
-    return "\n".join(
-        f"leg {r.leg}  {r.achieved:6.2f} {unit}  ({r.current_ma:.0f} mA, "
-        f"{r.angle_deg:.1f}°, {r.board_seconds:.1f} s)"
-        for r in results.values()
-    )
+    lines = []
+    for r in results.values():
+        angle = "" if unit == "°" else f", {r.angle_deg:.1f}°"
+        lines.append(
+            f"leg {r.leg}  {r.achieved:6.2f} {unit}  ({r.current_ma:.0f} mA{angle}, "
+            f"{r.board_seconds:.1f} s board time)"
+        )
+    return "\n".join(lines)
 
 
 def _status(args: argparse.Namespace) -> int:
