@@ -73,6 +73,15 @@ def _stop(proc: subprocess.Popen) -> None:
         proc.stdout.close()
 
 
+@pytest.fixture(autouse=True)
+def no_leaked_fds():
+    """Every port, pty, socket and pipe a test opens is closed by its end."""
+    before = set(os.listdir("/proc/self/fd"))
+    yield
+    leaked = set(os.listdir("/proc/self/fd")) - before
+    assert not leaked, f"file descriptors left open: {sorted(leaked)}"
+
+
 @pytest.fixture
 def sim_board():
     """Factory: ``sim_board("--fault", "stuck:1", speed=20)`` → a running :class:`SimBoard`."""
