@@ -142,8 +142,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     r = run(args.frames, args.seed)
     rejects = r["rejects"]
-    # Frames that reached the CRC with good framing and length: each passes a 16-bit CRC by
-    # chance with probability 2^-16; the type, length and field checks behind it catch most.
+    # Frames that reached the CRC with good framing and length: each passes a 32-bit CRC by
+    # chance with probability 2^-32; the type, length and field checks behind it catch most.
     crc_checked = rejects["crc"] + rejects["unknown_type"] + rejects["payload_length"]
     crc_checked += rejects["bad_value"] + r["accepted_corrupt"]
     print(f"mutated frames      {r['mutated_frames']}  (+ {r['good_frames_interleaved']} good)")
@@ -155,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     print("rejects             " + ", ".join(f"{k} {v}" for k, v in rejects.items()))
     after_crc = rejects["unknown_type"] + rejects["payload_length"] + rejects["bad_value"]
     print(f"CRC-checked corrupt {crc_checked}  (expected chance CRC passes"
-          f" {crc_checked / 65536:.2f}; caught after the CRC {after_crc})")
+          f" {crc_checked / 2**32:.1e}; caught after the CRC {after_crc})")
     if r["accepted_corrupt"]:
         print("FAIL: corrupted frames were accepted", file=sys.stderr)
         return 1

@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from slopelander.legs import codec, messages
-from slopelander.legs.framing import MAX_ENCODED, cobs_decode, cobs_encode, crc16
+from slopelander.legs.framing import MAX_ENCODED, cobs_decode, cobs_encode, crc32
 from slopelander.legs.messages import N_LEGS, FaultCode, LegState
 
 u8 = st.integers(0, 255)
@@ -46,7 +46,7 @@ any_message = st.one_of(
 
 
 def test_crc_is_ccitt_false():
-    assert crc16(b"123456789") == 0x29B1
+    assert crc32(b"123456789") == 0xCBF43926
 
 
 def test_every_message_type_is_covered():

@@ -1,4 +1,4 @@
-"""Frames on the serial line: COBS with a 0x00 delimiter and CRC-16/CCITT-FALSE.
+"""Frames on the serial line: COBS with a 0x00 delimiter and CRC-32 (IEEE 802.3).
 
 A raw frame is ``type | seq | len | payload | crc_hi | crc_lo``. COBS removes every zero so
 that a single 0x00 can end a frame: after any damage the receiver simply waits for the next
@@ -12,16 +12,17 @@ from dataclasses import dataclass, field
 
 MAX_PAYLOAD = 64
 HEADER_LEN = 3
-CRC_LEN = 2
+CRC_LEN = 4
 MAX_RAW = HEADER_LEN + MAX_PAYLOAD + CRC_LEN
 # COBS adds one byte per 254 data bytes; a raw frame never reaches 254 bytes.
 MAX_ENCODED = MAX_RAW + 1
 DELIMITER = b"\x00"
 
 
-def crc16(data: bytes) -> int:
-    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF): ``crc_hqx`` seeded with 0xFFFF."""
-    return binascii.crc_hqx(data, 0xFFFF)
+def crc32(data: bytes) -> int:
+    """CRC-32 (IEEE 802.3, as zlib): a 16-bit CRC lets ~1 in 65,536 heavily corrupted frames
+    through, which a 10^6-frame mutation run does hit (docs/leg-protocol.md)."""
+    return binascii.crc32(data)
 
 
 def cobs_encode(raw: bytes) -> bytes:
@@ -51,7 +52,7 @@ def pack_frame(msg_type: int, seq: int, payload: bytes) -> bytes:
     if len(payload) > MAX_PAYLOAD:
         raise ValueError(f"payload of {len(payload)} bytes exceeds {MAX_PAYLOAD}")
     body = bytes((msg_type & 0xFF, seq & 0xFF, len(payload))) + payload
-    return body + crc16(body).to_bytes(2, "big")
+    return body + crc32(body).to_bytes(CRC_LEN, "big")
 
 
 def encode_frame(msg_type: int, seq: int, payload: bytes) -> bytes:
@@ -142,7 +143,7 @@ class FrameSplitter:
         if n > HEADER_LEN + raw[2] + CRC_LEN:
             self.rejects.length += 1
             return None
-        if crc16(raw[:-2]) != int.from_bytes(raw[-2:], "big"):
+        if crc32(raw[:-CRC_LEN]) != int.from_bytes(raw[-CRC_LEN:], "big"):
             self.rejects.crc += 1
             return None
         return RawFrame(raw[0], raw[1], raw[HEADER_LEN:-CRC_LEN], raw)
