@@ -141,9 +141,7 @@ def parse_calibration(doc: object, name: str) -> Calibration:
         current = _numbers(entry.get("current_ma"), name, f"{where}.current_ma")
         torque = _numbers(entry.get("torque_nm"), name, f"{where}.torque_nm")
         if len(current) != len(torque):
-            raise CalibrationError(
-                name, f"{where}.torque_nm", "must have as many points as current_ma"
-            )
+            raise CalibrationError(name, f"{where}.torque_nm", "must have as many points as current_ma")
         _check_order(current, name, f"{where}.current_ma", strict=True)
         _check_order(torque, name, f"{where}.torque_nm", strict=False)
         if torque[0] < 0:
@@ -170,6 +168,4 @@ def _check_order(values: Sequence[float], name: str, field: str, strict: bool) -
         a, b = values[k - 1], values[k]
         if b < a or (strict and b == a):
             word = "strictly increasing" if strict else "non-decreasing"
-            raise CalibrationError(
-                name, field, f"must be {word} (point {k}: {b:g} after {a:g})"
-            )
+            raise CalibrationError(name, field, f"must be {word} (point {k}: {b:g} after {a:g})")

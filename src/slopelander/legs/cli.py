@@ -19,10 +19,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         p.add_argument("--timeout", type=float, default=20.0, help="seconds (default 20)")
 
     def pairs(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--uphill-legs", type=_leg_list, default=(0, 1),
-                       help="legs of the uphill pair (default 0,1)")
-        p.add_argument("--downhill-legs", type=_leg_list, default=(2, 3),
-                       help="legs of the downhill pair (default 2,3)")
+        p.add_argument(
+            "--uphill-legs", type=_leg_list, default=(0, 1), help="legs of the uphill pair (default 0,1)"
+        )
+        p.add_argument(
+            "--downhill-legs", type=_leg_list, default=(2, 3), help="legs of the downhill pair (default 2,3)"
+        )
 
     p = sub.add_parser("status", help="print each leg's state, current, torque and angle")
     common(p)
@@ -33,8 +35,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     pairs(p)
     p.add_argument("--uphill", type=float, help="uphill pair torque, N·m")
     p.add_argument("--downhill", type=float, help="downhill pair torque, N·m")
-    p.add_argument("--leg", type=_leg_value, action="append", default=[], metavar="I=NM",
-                   help="one leg's torque, e.g. --leg 2=1.7 (repeatable)")
+    p.add_argument(
+        "--leg",
+        type=_leg_value,
+        action="append",
+        default=[],
+        metavar="I=NM",
+        help="one leg's torque, e.g. --leg 2=1.7 (repeatable)",
+    )
     p.add_argument("--tolerance", type=float, default=0.1, help="N·m (default 0.1)")
     p.set_defaults(handler=_set)
 
@@ -74,8 +82,9 @@ def _leg_value(text: str) -> tuple[int, float]:
 
 def _open(args: argparse.Namespace) -> LegBoard:
     pairs = PairMap(getattr(args, "uphill_legs", (0, 1)), getattr(args, "downhill_legs", (2, 3)))
-    return LegBoard.open(args.port, args.baud, calibration=args.calibration, pairs=pairs,
-                         timeout=min(args.timeout, 5.0))
+    return LegBoard.open(
+        args.port, args.baud, calibration=args.calibration, pairs=pairs, timeout=min(args.timeout, 5.0)
+    )
 
 
 def _per_leg(args: argparse.Namespace, board: LegBoard) -> dict[int, float]:
@@ -124,9 +133,7 @@ def _set(args: argparse.Namespace) -> int:
         if not torques:
             print("nothing to set: give --uphill, --downhill or --leg")
             return 2
-        results = board.wait(
-            board.start_torques(torques, timeout=args.timeout, tolerance_nm=args.tolerance)
-        )
+        results = board.wait(board.start_torques(torques, timeout=args.timeout, tolerance_nm=args.tolerance))
         print(format_results(results, "N·m"))
     return 0
 

@@ -229,7 +229,9 @@ class Operation:
                         r.achieved if r else float("nan"),
                         unit=unit,
                         detail=f"state {state}, current {r.current_ma:.0f} mA of "
-                        f"{self.target_ma.get(leg, 0)} mA" if r else "no status",
+                        f"{self.target_ma.get(leg, 0)} mA"
+                        if r
+                        else "no status",
                         results=partial,
                     )
                 )
@@ -245,15 +247,10 @@ class Operation:
             return s.state is LegState.STOPPED
         return s.state is LegState.LOOSE  # loosen, angle
 
-    def _result(
-        self, leg: int, status: BoardStatus, cal: Calibration, final: bool
-    ) -> LegResult:
+    def _result(self, leg: int, status: BoardStatus, cal: Calibration, final: bool) -> LegResult:
         s = status.legs[leg]
         samples = list(self._samples.get(leg, ()))
-        if samples and not final:
-            current = sum(c for c, _ in samples) / len(samples)
-        else:
-            current = float(s.current_ma)
+        current = sum(c for c, _ in samples) / len(samples) if samples and not final else float(s.current_ma)
         angles = [a for _, a in samples] or [s.angle_deg]
         angle = angles[-1]
         target = self.targets.get(leg)
@@ -362,7 +359,10 @@ class LegBoard:
                             f"this driver {messages.PROTOCOL_VERSION}"
                         )
                     self.info = BoardInfo(
-                        msg.version, msg.legs, msg.capabilities, msg.max_payload,
+                        msg.version,
+                        msg.legs,
+                        msg.capabilities,
+                        msg.max_payload,
                         msg.board_time_ms / 1000.0,
                     )
                     self._last_good = time.monotonic()
@@ -370,8 +370,7 @@ class LegBoard:
                     return self.info
                 if isinstance(msg, messages.Nak) and msg.cmd_seq == seq:
                     raise ProtocolError(
-                        f"leg board on {self.port} refused HELLO: "
-                        f"{NAK_TEXT.get(msg.code, msg.code)}"
+                        f"leg board on {self.port} refused HELLO: {NAK_TEXT.get(msg.code, msg.code)}"
                     )
             if time.monotonic() >= deadline:
                 raise self._silence_error(f"no HELLO_REPLY within {timeout:g} s")
@@ -448,9 +447,7 @@ class LegBoard:
             raise ValueError("give an uphill or a downhill torque")
         return self.start_torques(torques, timeout=timeout, tolerance_nm=tolerance_nm)
 
-    def start_loosen(
-        self, legs: Iterable[int] | None = None, *, timeout: float = 20.0
-    ) -> Operation:
+    def start_loosen(self, legs: Iterable[int] | None = None, *, timeout: float = 20.0) -> Operation:
         """Start loosening legs (all by default) so their springs reset them."""
         legs = self._legs(range(N_LEGS) if legs is None else legs)
         return self._start("loosen", messages.Loosen(mask_of(legs)), legs, {}, {}, timeout, 0.1)
@@ -467,8 +464,9 @@ class LegBoard:
             if not 0.0 <= angles_deg[leg] <= MAX_ANGLE_DEG:
                 raise ValueError(f"leg {leg}: angle {angles_deg[leg]}° outside 0–37.5°")
         if self.info is not None and not self.info.angle_stop:
-            raise CommandRejected("SET_ANGLE", 3, "this board cannot set leg angles; "
-                                  "set them by hand before flight")
+            raise CommandRejected(
+                "SET_ANGLE", 3, "this board cannot set leg angles; set them by hand before flight"
+            )
         cdeg = tuple(round(angles_deg.get(i, 0.0) * 100) for i in range(N_LEGS))
         msg = messages.SetAngle(mask_of(legs), cdeg)
         return self._start("angle", msg, legs, dict(angles_deg), {}, timeout, tolerance_deg)
@@ -576,17 +574,20 @@ class LegBoard:
         else:
             start = self.info.board_time_s if self.info else 0.0
         op = Operation(
-            kind, legs, {k: targets[k] for k in legs if k in targets}, target_ma,
-            time.monotonic() + timeout, tolerance, start,
+            kind,
+            legs,
+            {k: targets[k] for k in legs if k in targets},
+            target_ma,
+            time.monotonic() + timeout,
+            tolerance,
+            start,
         )
         for other in self._ops:
             if set(other.legs) & set(legs):
                 other.fail(LegBoardError(f"{other.kind} on legs {other.legs} superseded by {kind}"))
         self._ops = [o for o in self._ops if not o.done] + [op]
         seq = self._send(msg)
-        self._pending[seq] = _Pending(
-            codec.encode(msg, seq), messages.type_of(msg), op, time.monotonic()
-        )
+        self._pending[seq] = _Pending(codec.encode(msg, seq), messages.type_of(msg), op, time.monotonic())
         return op
 
     def _send(self, msg: messages.Message) -> int:
@@ -646,10 +647,11 @@ class LegBoard:
                 if p.tries > self.ack_retries:
                     del self._pending[seq]
                     if p.op is not None:
-                        p.op.fail(LegTimeout(
-                            f"no acknowledgement of {MsgType(p.msg_type).name} "
-                            f"after {p.tries} tries"
-                        ))
+                        p.op.fail(
+                            LegTimeout(
+                                f"no acknowledgement of {MsgType(p.msg_type).name} after {p.tries} tries"
+                            )
+                        )
                     continue
                 self._write(p.data)
                 p.sent_at = now
@@ -665,19 +667,16 @@ class LegBoard:
             else:
                 torque = None
             legs.append(
-                LegStatus(i, r.state, r.fault, r.current_ma, r.target_ma,
-                          r.angle_cdeg / 100.0, torque)
+                LegStatus(i, r.state, r.fault, r.current_ma, r.target_ma, r.angle_cdeg / 100.0, torque)
             )
-        return BoardStatus(msg.board_time_ms / 1000.0, tuple(legs), time.monotonic(),
-                           msg.last_cmd_seq)
+        return BoardStatus(msg.board_time_ms / 1000.0, tuple(legs), time.monotonic(), msg.last_cmd_seq)
 
     def _silence_error(self, what: str) -> LegBoardError:
         rejected = self.decoder.rejects.total() - self._rejects_at_good
         if rejected:
             counts = ", ".join(f"{k} {v}" for k, v in self.decoder.rejects.as_dict().items() if v)
             return ProtocolError(
-                f"leg board on {self.port}: {what}; {rejected} frames rejected and none "
-                f"accepted ({counts})"
+                f"leg board on {self.port}: {what}; {rejected} frames rejected and none accepted ({counts})"
             )
         return LegTimeout(f"leg board on {self.port} silent: {what}")
 

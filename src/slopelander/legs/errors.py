@@ -70,8 +70,7 @@ class LegNotConverged(LegBoardError):  # noqa: N818 (names the landing controlle
         self.results = results or {}
         extra = f" ({detail})" if detail else ""
         super().__init__(
-            f"leg {leg} did not converge: wanted {target:.3g} {unit}, "
-            f"reached {achieved:.3g} {unit}{extra}"
+            f"leg {leg} did not converge: wanted {target:.3g} {unit}, reached {achieved:.3g} {unit}{extra}"
         )
 
 

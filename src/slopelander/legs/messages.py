@@ -178,9 +178,7 @@ class Status:
     legs: tuple[LegReport, ...]
 
 
-Message = (
-    Hello | SetFriction | Loosen | SetAngle | Stop | Query | HelloReply | Ack | Nak | Status
-)
+Message = Hello | SetFriction | Loosen | SetAngle | Stop | Query | HelloReply | Ack | Nak | Status
 
 _LEG = struct.Struct("<BBhHH")
 _STATUS_HEAD = struct.Struct("<IBB")
@@ -232,9 +230,7 @@ def pack(msg: Message) -> bytes:
     if isinstance(msg, Query):
         return b""
     if isinstance(msg, HelloReply):
-        return _HELLO_REPLY.pack(
-            msg.version, msg.legs, msg.capabilities, msg.max_payload, msg.board_time_ms
-        )
+        return _HELLO_REPLY.pack(msg.version, msg.legs, msg.capabilities, msg.max_payload, msg.board_time_ms)
     if isinstance(msg, Ack):
         return bytes((msg.cmd_seq, msg.cmd_type))
     if isinstance(msg, Nak):
@@ -242,8 +238,7 @@ def pack(msg: Message) -> bytes:
     if isinstance(msg, Status):
         head = _STATUS_HEAD.pack(msg.board_time_ms, msg.last_cmd_seq, msg.flags)
         return head + b"".join(
-            _LEG.pack(r.state, r.fault, r.current_ma, r.target_ma, r.angle_cdeg)
-            for r in msg.legs
+            _LEG.pack(r.state, r.fault, r.current_ma, r.target_ma, r.angle_cdeg) for r in msg.legs
         )
     raise TypeError(f"not a leg-board message: {msg!r}")
 
@@ -285,9 +280,7 @@ def unpack(msg_type: int, payload: bytes) -> Message:
         raise BadPayloadError(f"status flags 0x{flags:02x}")
     legs = []
     for i in range(N_LEGS):
-        state, fault, current, target, angle = _LEG.unpack_from(
-            payload, _STATUS_HEAD.size + i * _LEG.size
-        )
+        state, fault, current, target, angle = _LEG.unpack_from(payload, _STATUS_HEAD.size + i * _LEG.size)
         if state > LegState.FAULT or fault > FaultCode.TIMEOUT:
             raise BadPayloadError(f"leg {i} state {state} fault {fault}")
         if target > MAX_TARGET_MA or angle > MAX_ANGLE_CDEG or abs(current) > MAX_CURRENT_MA:
