@@ -14,7 +14,8 @@ from slopelander.errors import SlopelanderError
 
 # Modules that add subcommands, in the order they appear in ``--help``.
 SUBCOMMAND_MODULES = [
-    "slopelander.model.cli",
+    "slopelander.simulate_cli",
+    "slopelander.legs.cli",
     "slopelander.envelope.cli",
 ]
 

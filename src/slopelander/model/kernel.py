@@ -109,11 +109,16 @@ S_DISS = 44  # 44..49 energy dissipated: joint friction, flex damper, EOT damper
 S_NF = 50  # 50..55 normal force per contact point (N), last step
 S_FT = 56  # 56..61 tangential force per contact point (N), last step
 S_THR = 62  # 62, 63 rotor thrust (N), last step
-N_STATE = 64
+S_REFINE = 64  # macro-steps still to be taken as fine sub-steps after a touchdown
+N_STATE = 65
 
 D_JOINT, D_FLEX, D_EOT, D_GROUND, D_FOOT, D_ROTOR = range(6)
 N_POINTS = 6  # feet C, D; joints C, D; rotors 1, 2
 MAX_ACTIVE_SET_ITERATIONS = 6
+REFINE = 8  # a step in which a contact begins is redone as this many sub-steps...
+REFINE_WINDOW = 4  # ...and so are the next few: impacts settle within ~1 ms
+IMPACT_SPEED = 0.1  # m/s: a contact beginning faster than this is an impact (grazing is not)
+STICK_SPEED = 1e-3  # m/s: a contact arriving slower than this along the surface starts stuck
 
 DEG = math.pi / 180.0
 
@@ -299,6 +304,11 @@ def make_workspace():
         np.zeros(5),  # v new
         np.zeros(5),  # extra force
         np.zeros((N_POINTS, 2, 5)),  # jn/jt rows per point
+        np.zeros(N_STATE),  # state before the step (to redo a touchdown finely)
+        np.zeros((5, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu
+        np.zeros(N_POINTS, dtype=np.bool_),  # contact active this step
+        np.zeros(5, dtype=np.bool_),  # generalised coordinate locked this step
+        np.zeros((3, 2)),  # per joint: friction torque, in EOT zone, constraint torque
     )
 
 
@@ -307,8 +317,34 @@ _make_workspace_jit = njit(cache=True)(make_workspace)
 
 @njit(cache=True)
 def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
-    """Advance the state ``st`` by ``h`` seconds with rotor commands u0, u1 in [-1, 1]."""
-    M, f, pts, vel, J, A0, r0, A, r, vn, fx, JNT = ws
+    """Advance the state ``st`` by ``h`` seconds with rotor commands u0, u1 in [-1, 1].
+
+    A step in which a contact begins is redone as REFINE sub-steps, and so are the next
+    REFINE_WINDOW - 1 steps: whether a foot sticks or slides at touchdown is decided within
+    fractions of a millisecond, and deciding it on a coarse step biases the whole landing.
+    """
+    if st[S_REFINE] > 0.0:
+        st[S_REFINE] -= 1.0
+        for _ in range(REFINE):
+            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, extra_force, up)
+        return
+    backup = ws[12]
+    backup[:] = st
+    if _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up) > 0:
+        st[:] = backup
+        st[S_REFINE] = REFINE_WINDOW - 1
+        for _ in range(REFINE):
+            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, extra_force, up)
+
+
+@njit(cache=True)
+def _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
+    """One semi-implicit step; returns how many impacts (contacts beginning fast) it had."""
+    M, f, pts, vel, J, A0, r0, A, r, vn, fx, JNT = ws[:12]
+    cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
+    d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
+    tau, zone, lam = js[0], js[1], js[2]
+    began = 0
     kinematics(p, st, M, f, pts, vel, J)
     V = st[S_V : S_V + 5]
     t = st[S_T]
@@ -318,6 +354,8 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
     nx, nz = sa, ca
     tx, tz = ca, -sa
     down = int(ctx[C_DOWN])
+    # the downhill-leg effects (eq. 3, 4) need a downhill leg: none on level ground
+    dleg = down if sa != 0.0 else -1
     # downhill unit vector along the surface
     dsg = 1.0 if sa >= 0.0 else -1.0
     dhx, dhz = dsg * tx, dsg * tz
@@ -356,11 +394,11 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
             A0[a, b] = M[a, b]
 
     # friction joints
-    tau = np.empty(2)
-    zone = np.zeros(2)
     for j in range(2):
+        zone[j] = 0.0
+        lam[j] = 0.0
         tj = ctx[C_TAU + j]
-        if j == down and fl[F_TAU_GROWTH] != 0:
+        if j == dleg and fl[F_TAU_GROWTH] != 0:
             tj *= 1.0 + p[P_FTAU] * st[S_FF + j]
         tau[j] = tj
         qi = 3 + j
@@ -410,12 +448,6 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
     mus = p[P_MUS]
     stiction = fl[F_STICTION] != 0
     regular = fl[F_REGULARISED] != 0
-    d0 = np.empty(N_POINTS)
-    dd0 = np.empty(N_POINTS)
-    s0 = np.empty(N_POINTS)
-    sd0 = np.empty(N_POINTS)
-    mu = np.empty(N_POINTS)
-    active = np.zeros(N_POINTS, dtype=np.bool_)
     for i in range(N_POINTS):
         d0[i] = nx * pts[i, 0] + nz * pts[i, 1]
         dd0[i] = nx * vel[i, 0] + nz * vel[i, 1]
@@ -425,19 +457,29 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
             JNT[i, 0, b] = nx * J[i, 0, b] + nz * J[i, 1, b]
             JNT[i, 1, b] = tx * J[i, 0, b] + tz * J[i, 1, b]
         N0 = -kg * d0[i] - bg * dd0[i]
+        active[i] = False
         if d0[i] < 0.0 and N0 > 0.0:
             active[i] = True
             if st[S_CM + i] == 0.0:
-                st[S_CM + i] = 1.0
+                if dd0[i] < -IMPACT_SPEED:
+                    began += 1
+                # a foot arriving with tangential speed slides; it sticks once friction stops it
+                if sd0[i] > STICK_SPEED:
+                    st[S_CM + i] = 2.0
+                elif sd0[i] < -STICK_SPEED:
+                    st[S_CM + i] = 3.0
+                else:
+                    st[S_CM + i] = 1.0
                 st[S_ANC + i] = s0[i]
         else:
             st[S_CM + i] = 0.0
         mu[i] = p[P_MUK]
-        if i == down and fl[F_MU_GROWTH] != 0:
+        if i == dleg and fl[F_MU_GROWTH] != 0:
             vj = dhx * vel[2 + down, 0] + dhz * vel[2 + down, 1]
             mu[i] *= max(0.0, 1.0 + p[P_FMU] * vj)
 
-    locked = np.zeros(5, dtype=np.bool_)
+    for a in range(5):
+        locked[a] = False
     for j in range(2):
         if rigid or (not flex and st[S_JM + j] == 0.0):
             locked[3 + j] = True
@@ -566,7 +608,6 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
             st[S_TOUCH] = 1.0
 
     # constraint torque of locked joints (needed to decide when a locked joint slips)
-    lam = np.zeros(2)
     if not flex and not rigid:
         for j in range(2):
             qi = 3 + j
@@ -706,6 +747,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
         st[S_PMIN] = th
     if th > st[S_PMAX]:
         st[S_PMAX] = th
+    return began
 
 
 # --- whole landings -------------------------------------------------------------------------

@@ -179,6 +179,23 @@ class Trajectory:
     def thrust(self) -> np.ndarray:
         return self.raw[:, k.S_THR : k.S_THR + 2]
 
+    @property
+    def slope_deg(self) -> float:
+        return self.conditions.slope_deg
+
+    def outline(self, i: int) -> dict[str, np.ndarray]:
+        """World positions (x, z) of the vehicle's points in sample ``i``: the centre of
+        mass, the rotor hubs, the leg joints and the feet (each leg's two points)."""
+        ws = k.make_workspace()
+        M, f, pts, vel, J = ws[:5]
+        k.kinematics(self.model.params.as_array(), self.raw[i], M, f, pts, vel, J)
+        return {
+            "centre": self.raw[i, k.S_Q : k.S_Q + 2].copy(),
+            "rotors": pts[4:6].copy(),
+            "joints": pts[2:4].copy(),
+            "feet": pts[0:2].copy(),
+        }
+
 
 def _prepare(model: Model | None, dt: float | None) -> tuple[Model, float]:
     model = model or Model.default()

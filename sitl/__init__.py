@@ -1,0 +1,1 @@
+"""Software-in-the-loop: simulated vehicle and simulated leg board."""

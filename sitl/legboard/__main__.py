@@ -1,0 +1,66 @@
+"""``python -m sitl.legboard``: run a simulated leg board on a pseudo-terminal."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+
+from sitl.legboard.physics import LegBoardPhysics
+from sitl.legboard.server import FAULT_KINDS, BoardServer, FaultSpec
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m sitl.legboard",
+        description="Simulated leg board speaking the leg protocol on a pseudo-terminal.",
+    )
+    parser.add_argument("--link", help="symlink the pty's slave device here")
+    parser.add_argument("--control", help="control socket path (default: LINK.ctl)")
+    parser.add_argument("--speed", type=float, default=1.0,
+                        help="board seconds per wall second (default 1)")
+    parser.add_argument("--seed", type=int, default=0, help="noise seed")
+    parser.add_argument("--status-ms", type=int, default=100,
+                        help="status period in board ms when HELLO asks for 0")
+    parser.add_argument("--no-angle-stop", action="store_true",
+                        help="behave like the paper's prototype: no SET_ANGLE")
+    parser.add_argument("--fault", action="append", default=[], metavar="KIND[:ARG][@T]",
+                        help=f"inject a fault ({', '.join(FAULT_KINDS)}); @T = at board time T s")
+    args = parser.parse_args(argv)
+    try:
+        faults = tuple(FaultSpec.parse(f) for f in args.fault)
+    except ValueError as exc:
+        parser.error(str(exc))
+    if args.speed <= 0:
+        parser.error("--speed must be positive")
+    server = BoardServer(
+        LegBoardPhysics(seed=args.seed),
+        link=args.link,
+        control=args.control,
+        speed=args.speed,
+        status_period_ms=args.status_ms,
+        angle_stop=not args.no_angle_stop,
+        faults=faults,
+        seed=args.seed,
+    )
+
+    def stop(_signum: int, _frame: object) -> None:
+        server.running = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    pty = server.open()
+    print(
+        f"legboard ready pty={pty} link={server.link or ''} "
+        f"control={server.control_path or ''} speed={args.speed:g}",
+        flush=True,
+    )
+    try:
+        server.serve_forever()
+    finally:
+        server.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,154 @@
+"""``slopelander legs ...``: thin command-line wrappers over the leg-board driver."""
+
+from __future__ import annotations
+
+import argparse
+
+from slopelander.legs.driver import BoardStatus, LegBoard, LegResult, PairMap
+from slopelander.legs.messages import N_LEGS
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("legs", help="talk to the leg board (status, set, loosen)")
+    sub = parser.add_subparsers(dest="legs_command", metavar="ACTION", required=True)
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--port", required=True, help="serial port path, e.g. /dev/ttyACM0")
+        p.add_argument("--baud", type=int, default=115200, help="baud rate (default 115200)")
+        p.add_argument("--calibration", help="calibration file (default: shipped, assumed)")
+        p.add_argument("--timeout", type=float, default=20.0, help="seconds (default 20)")
+
+    def pairs(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "--uphill-legs", type=_leg_list, default=(0, 1), help="legs of the uphill pair (default 0,1)"
+        )
+        p.add_argument(
+            "--downhill-legs", type=_leg_list, default=(2, 3), help="legs of the downhill pair (default 2,3)"
+        )
+
+    p = sub.add_parser("status", help="print each leg's state, current, torque and angle")
+    common(p)
+    p.set_defaults(handler=_status)
+
+    p = sub.add_parser("set", help="set friction torques (N·m per joint) and wait")
+    common(p)
+    pairs(p)
+    p.add_argument("--uphill", type=float, help="uphill pair torque, N·m")
+    p.add_argument("--downhill", type=float, help="downhill pair torque, N·m")
+    p.add_argument(
+        "--leg",
+        type=_leg_value,
+        action="append",
+        default=[],
+        metavar="I=NM",
+        help="one leg's torque, e.g. --leg 2=1.7 (repeatable)",
+    )
+    p.add_argument("--tolerance", type=float, default=0.1, help="N·m (default 0.1)")
+    p.set_defaults(handler=_set)
+
+    p = sub.add_parser("loosen", help="loosen all legs so the springs reset them")
+    common(p)
+    p.set_defaults(handler=_loosen)
+
+    p = sub.add_parser("angle", help="set leg rest angles (degrees, 0..37.5)")
+    common(p)
+    pairs(p)
+    p.add_argument("--uphill", type=float, help="uphill pair angle, degrees")
+    p.add_argument("--downhill", type=float, help="downhill pair angle, degrees")
+    p.add_argument("--leg", type=_leg_value, action="append", default=[], metavar="I=DEG")
+    p.set_defaults(handler=_angle)
+
+
+def _leg_list(text: str) -> tuple[int, ...]:
+    try:
+        legs = tuple(int(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected leg indices like 0,1: {text!r}") from None
+    if not all(0 <= i < N_LEGS for i in legs):
+        raise argparse.ArgumentTypeError(f"legs are 0..{N_LEGS - 1}: {text!r}")
+    return legs
+
+
+def _leg_value(text: str) -> tuple[int, float]:
+    leg, sep, value = text.partition("=")
+    try:
+        out = int(leg), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LEG=VALUE, e.g. 2=1.7: {text!r}") from None
+    if not sep or not 0 <= out[0] < N_LEGS:
+        raise argparse.ArgumentTypeError(f"expected LEG=VALUE with LEG 0..{N_LEGS - 1}")
+    return out
+
+
+def _open(args: argparse.Namespace) -> LegBoard:
+    pairs = PairMap(getattr(args, "uphill_legs", (0, 1)), getattr(args, "downhill_legs", (2, 3)))
+    return LegBoard.open(
+        args.port, args.baud, calibration=args.calibration, pairs=pairs, timeout=min(args.timeout, 5.0)
+    )
+
+
+def _per_leg(args: argparse.Namespace, board: LegBoard) -> dict[int, float]:
+    values: dict[int, float] = {}
+    for pair in ("uphill", "downhill"):
+        if getattr(args, pair) is not None:
+            values.update(dict.fromkeys(board.pairs.legs(pair), getattr(args, pair)))
+    values.update(dict(args.leg))
+    return values
+
+
+def format_status(status: BoardStatus) -> str:
+    lines = [f"board time {status.board_time_s:.1f} s"]
+    for s in status.legs:
+        torque = "   -  " if s.torque_nm is None else f"{s.torque_nm:5.2f} "
+        fault = f"  fault: {s.fault.name}" if s.fault else ""
+        lines.append(
+            f"leg {s.leg}  {s.state.name:<11} {s.current_ma:5d} mA (target {s.target_ma:4d})"
+            f"  ≈{torque}N·m  {s.angle_deg:5.1f}°{fault}"
+        )
+    return "\n".join(lines)
+
+
+def format_results(results: dict[int, LegResult], unit: str) -> str:
+    lines = []
+    for r in results.values():
+        angle = "" if unit == "°" else f", {r.angle_deg:.1f}°"
+        lines.append(
+            f"leg {r.leg}  {r.achieved:6.2f} {unit}  ({r.current_ma:.0f} mA{angle}, "
+            f"{r.board_seconds:.1f} s board time)"
+        )
+    return "\n".join(lines)
+
+
+def _status(args: argparse.Namespace) -> int:
+    with _open(args) as board:
+        print(format_status(board.query(timeout=min(args.timeout, 5.0))))
+        if board.calibration.assumed:
+            print(f"(torques from an ASSUMED calibration: {board.calibration.source})")
+    return 0
+
+
+def _set(args: argparse.Namespace) -> int:
+    with _open(args) as board:
+        torques = _per_leg(args, board)
+        if not torques:
+            print("nothing to set: give --uphill, --downhill or --leg")
+            return 2
+        results = board.wait(board.start_torques(torques, timeout=args.timeout, tolerance_nm=args.tolerance))
+        print(format_results(results, "N·m"))
+    return 0
+
+
+def _loosen(args: argparse.Namespace) -> int:
+    with _open(args) as board:
+        print(format_results(board.loosen_all(timeout=args.timeout), "°"))
+    return 0
+
+
+def _angle(args: argparse.Namespace) -> int:
+    with _open(args) as board:
+        angles = _per_leg(args, board)
+        if not angles:
+            print("nothing to set: give --uphill, --downhill or --leg")
+            return 2
+        print(format_results(board.set_leg_angles(angles, timeout=args.timeout), "°"))
+    return 0

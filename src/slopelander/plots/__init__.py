@@ -1,0 +1,1 @@
+"""Figures a person looks at (PNG files): matplotlib only, imported on demand."""

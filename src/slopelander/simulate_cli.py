@@ -1,0 +1,98 @@
+"""``slopelander simulate``: one landing of the planar model, its outcome and a picture."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+from slopelander.model import LandingConditions, Model, Trajectory, load_effects, simulate
+
+_D = LandingConditions()
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "simulate",
+        help="simulate one landing with the planar model",
+        description="Simulate one landing with the planar model and print its outcome.",
+    )
+    p.add_argument("--slope", type=float, default=_D.slope_deg, help="surface slope, deg")
+    p.add_argument("--speed", type=float, default=_D.speed, help="vertical impact speed, m/s")
+    p.add_argument(
+        "--horizontal-speed",
+        type=float,
+        default=_D.horizontal_speed,
+        help="horizontal speed at impact, m/s (+ = downhill)",
+    )
+    p.add_argument("--pitch", type=float, default=_D.pitch_deg, help="pitch at impact, deg")
+    p.add_argument("--pitch-rate", type=float, default=_D.pitch_rate_dps, help="pitch rate, deg/s")
+    p.add_argument("--tau-up", type=float, default=_D.tau_up, help="uphill joint friction, N*m")
+    p.add_argument("--tau-down", type=float, default=_D.tau_down, help="downhill joint friction, N*m")
+    p.add_argument("--angle-up", type=float, default=_D.angle_up_deg, help="uphill leg angle, deg")
+    p.add_argument("--angle-down", type=float, default=_D.angle_down_deg, help="downhill leg angle, deg")
+    p.add_argument("--rvt", action="store_true", help="100 %% reverse thrust commanded at impact")
+    p.add_argument("--rvt-percent", type=float, default=None, help="reverse thrust percent (implies --rvt)")
+    p.add_argument("--rvt-delay", type=float, default=0.0, help="seconds from impact to the command")
+    p.add_argument("--rigid", action="store_true", help="stock rigid landing gear instead of FSA legs")
+    p.add_argument("--params", type=Path, help="model parameter file (YAML)")
+    p.add_argument("--without", nargs="+", default=[], metavar="EFFECT", help="switch effects off")
+    p.add_argument("--effects-file", type=Path, help="Python file with user effects to add")
+    p.add_argument("--dt", type=float, default=None, help="integration step, s")
+    p.add_argument("--plot", type=Path, help="write a PNG of the landing here")
+    p.add_argument("--csv", type=Path, help="write the 200 Hz trajectory here")
+    p.set_defaults(handler=run)
+
+
+def build_model(args: argparse.Namespace) -> Model:
+    model = Model.from_file(str(args.params)) if args.params else Model.default()
+    if args.rigid:
+        model = model.rigid()
+    if args.without:
+        model = model.without(*args.without)
+    if args.effects_file:
+        for effect in load_effects(args.effects_file):
+            model = model.with_user_effect(effect)
+    return model
+
+
+def run(args: argparse.Namespace) -> int:
+    pct = args.rvt_percent if args.rvt_percent is not None else (100.0 if args.rvt else 0.0)
+    cond = LandingConditions(
+        slope_deg=args.slope,
+        speed=args.speed,
+        horizontal_speed=args.horizontal_speed,
+        pitch_deg=args.pitch,
+        pitch_rate_dps=args.pitch_rate,
+        tau_up=args.tau_up,
+        tau_down=args.tau_down,
+        angle_up_deg=args.angle_up,
+        angle_down_deg=args.angle_down,
+        reverse_percent=pct,
+        reverse_delay=args.rvt_delay,
+    )
+    model = build_model(args)
+    tr = simulate(cond, model, dt=args.dt)
+    gear = "rigid gear" if model.rigid_gear else "FSA legs"
+    print(
+        f"landing: {cond.slope_deg:g} deg slope, {cond.speed:g} m/s, {gear}, "
+        f"tau up/down {cond.tau_up:g}/{cond.tau_down:g} N*m, reverse thrust {pct:g} %"
+    )
+    print(tr.result.summary())
+    if args.plot:
+        from slopelander.plots.landing import plot_landing
+
+        print(f"plot: {plot_landing(tr, args.plot)}")
+    if args.csv:
+        print(f"trajectory: {write_csv(tr, args.csv)}")
+    return 0
+
+
+def write_csv(tr: Trajectory, path: Path) -> Path:
+    """The sampled trajectory in the drop-recording column order (SI units)."""
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t", "x", "z", "pitch", "x_rate", "z_rate", "pitch_rate"])
+        for t, row in zip(tr.t, tr.states, strict=True):
+            w.writerow([f"{t:.4f}", *(f"{v:.6f}" for v in row)])
+    return path

@@ -1,0 +1,42 @@
+"""``slopelander legs ...`` against the simulated board."""
+
+from __future__ import annotations
+
+import pytest
+
+from slopelander import cli
+
+
+@pytest.fixture
+def run(monkeypatch, capsys):
+    # The worktree may not have every part's subcommands yet; the legs part is enough here.
+    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", ["slopelander.legs.cli"])
+
+    def run_cli(*argv: str) -> tuple[int, str, str]:
+        code = cli.main(list(argv))
+        out = capsys.readouterr()
+        return code, out.out, out.err
+
+    return run_cli
+
+
+def test_status_set_loosen(board, run):
+    port = str(board.link)
+    code, out, _ = run("legs", "status", "--port", port)
+    assert code == 0 and out.count("LOOSE") == 4 and "ASSUMED" in out
+    code, out, _ = run("legs", "set", "--port", port, "--uphill", "1.7", "--downhill", "2.3",
+                       "--timeout", str(board.wall(20)))
+    assert code == 0 and len(out.splitlines()) == 4
+    with board.ctl() as ctl:
+        torques = ctl.friction_torques()
+    assert torques == pytest.approx([1.7, 1.7, 2.3, 2.3], abs=0.15)
+    code, out, _ = run("legs", "loosen", "--port", port, "--timeout", str(board.wall(20)))
+    assert code == 0 and out.count("37.50 °") == 4
+
+
+def test_errors_are_one_clear_line(board, run):
+    code, _, err = run("legs", "set", "--port", str(board.link), "--leg", "1=9")
+    assert code == 1 and "Traceback" not in err
+    assert "legs: error: leg 1: 9.0 N·m is outside the calibrated range" in err
+    code, _, err = run("legs", "status", "--port", "/nonexistent/tty", "--timeout", "1")
+    assert code == 1 and "cannot open leg board port /nonexistent/tty" in err

@@ -1,0 +1,48 @@
+"""``slopelander simulate`` as a user runs it: real process, real PNG."""
+
+import subprocess
+import sys
+
+
+def _run(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "slopelander.cli", "simulate", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def test_simulate_prints_outcome_and_writes_plot_and_csv(tmp_path):
+    png, csv = tmp_path / "landing.png", tmp_path / "landing.csv"
+    r = _run(
+        "--slope",
+        "35",
+        "--speed",
+        "2.7",
+        "--tau-up",
+        "1.7",
+        "--tau-down",
+        "1.7",
+        "--rvt",
+        "--plot",
+        str(png),
+        "--csv",
+        str(csv),
+    )
+    assert r.returncode == 0, r.stderr
+    assert "outcome:" in r.stdout and "reverse thrust 100 %" in r.stdout
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    lines = csv.read_text().splitlines()
+    assert lines[0] == "t,x,z,pitch,x_rate,z_rate,pitch_rate"
+    assert len(lines) > 300  # 2 s at 200 Hz
+
+
+def test_bad_input_is_one_clear_line(tmp_path):
+    r = _run("--slope", "95")
+    assert r.returncode == 1
+    assert "slope_deg" in r.stderr and "Traceback" not in r.stderr
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("schema: slopelander.model-parameters/1\nparameters: {}\n")
+    r = _run("--params", str(bad))
+    assert r.returncode == 1 and "missing" in r.stderr and "Traceback" not in r.stderr
