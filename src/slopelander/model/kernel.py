@@ -453,13 +453,13 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
         dd0[i] = nx * vel[i, 0] + nz * vel[i, 1]
         s0[i] = tx * pts[i, 0] + tz * pts[i, 1]
         sd0[i] = tx * vel[i, 0] + tz * vel[i, 1]
-        for b in range(5):
-            JNT[i, 0, b] = nx * J[i, 0, b] + nz * J[i, 1, b]
-            JNT[i, 1, b] = tx * J[i, 0, b] + tz * J[i, 1, b]
         N0 = -kg * d0[i] - bg * dd0[i]
         active[i] = False
         if d0[i] < 0.0 and N0 > 0.0:
             active[i] = True
+            for b in range(5):
+                JNT[i, 0, b] = nx * J[i, 0, b] + nz * J[i, 1, b]
+                JNT[i, 1, b] = tx * J[i, 0, b] + tz * J[i, 1, b]
             if st[S_CM + i] == 0.0:
                 if dd0[i] < -IMPACT_SPEED:
                     began += 1
