@@ -5,6 +5,9 @@ landing: :func:`~slopelander.model.simulate_batch` already spreads a chunk over 
 core, and a chunk is large enough that a Dask task's overhead (~1 ms) is negligible next to
 its run time (~1 s). Chunks are independent, so the result does not depend on where or in
 which order they ran.
+
+On a Dask cluster every worker imports :mod:`slopelander` itself, so it needs the same version
+installed (``pip install slopelander[cluster]``); the model object is sent once per worker.
 """
 
 from __future__ import annotations
