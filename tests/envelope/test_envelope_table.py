@@ -52,3 +52,20 @@ def test_lookups_on_grid_points_return_the_written_cells(built, tiny_axes):
     p = t.lookup(float(tiny_axes.slopes[3]), float(tiny_axes.speeds[2]))
     assert p.cell == (3, 2)
     assert p.tau_up == pytest.approx(presets.fields["tau_up"][3, 2], abs=1e-4)
+
+
+def test_any_lookup_inside_a_generated_table_stays_within_its_values(built):
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    t = LookupTable.load(built[2])
+    (s0, s1), (v0, v1) = t.slope_range, t.speed_range
+
+    @settings(max_examples=200, deadline=None)
+    @given(st.floats(s0, s1), st.floats(v0, v1))
+    def check(slope, speed):
+        p = t.lookup(slope, speed)
+        for f in ("tau_up", "tau_down", "angle_up_deg", "angle_down_deg"):
+            assert t.cells[f].min() <= getattr(p, f) <= t.cells[f].max()
+
+    check()
