@@ -154,8 +154,10 @@ def main(argv: list[str] | None = None) -> int:
     print("mutations           " + ", ".join(f"{k} {v}" for k, v in r["mutations"].items()))
     print("rejects             " + ", ".join(f"{k} {v}" for k, v in rejects.items()))
     after_crc = rejects["unknown_type"] + rejects["payload_length"] + rejects["bad_value"]
-    print(f"CRC-checked corrupt {crc_checked}  (expected chance CRC passes"
-          f" {crc_checked / 2**32:.1e}; caught after the CRC {after_crc})")
+    print(
+        f"CRC-checked corrupt {crc_checked}  (expected chance CRC passes"
+        f" {crc_checked / 2**32:.1e}; caught after the CRC {after_crc})"
+    )
     if r["accepted_corrupt"]:
         print("FAIL: corrupted frames were accepted", file=sys.stderr)
         return 1

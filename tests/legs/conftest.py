@@ -42,12 +42,9 @@ class SimBoard:
 def _start(directory: Path, flags: tuple[str, ...], speed: float) -> SimBoard:
     link = directory / "legs"
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(
-        [str(ROOT / "src"), str(ROOT), env.get("PYTHONPATH", "")]
-    )
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(ROOT), env.get("PYTHONPATH", "")])
     proc = subprocess.Popen(
-        [sys.executable, "-m", "sitl.legboard", "--link", str(link),
-         "--speed", str(speed), *flags],
+        [sys.executable, "-m", "sitl.legboard", "--link", str(link), "--speed", str(speed), *flags],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         env=env,
@@ -103,4 +100,3 @@ def sim_board():
 def board(sim_board):
     """A default simulated board."""
     return sim_board()
-

@@ -74,8 +74,9 @@ def test_reported_current_is_noisy_but_centred():
     assert 0.5 < sd < 3.0
 
 
-@pytest.mark.parametrize(("kind", "fault"), [("stuck", FaultCode.STUCK),
-                                             ("overcurrent", FaultCode.OVERCURRENT)])
+@pytest.mark.parametrize(
+    ("kind", "fault"), [("stuck", FaultCode.STUCK), ("overcurrent", FaultCode.OVERCURRENT)]
+)
 def test_injected_drive_faults_are_detected_by_the_firmware(kind, fault):
     board = LegBoardPhysics()
     board.inject(kind, 2)

@@ -13,8 +13,7 @@ GOOD = """provenance: measured
 units: {current: mA, torque: N*m}
 legs:
 """ + "".join(
-    f"  - {{leg: {i}, current_ma: [0, 40, 100, 160], torque_nm: [0, 0, 1.5, 3.3]}}\n"
-    for i in range(4)
+    f"  - {{leg: {i}, current_ma: [0, 40, 100, 160], torque_nm: [0, 0, 1.5, 3.3]}}\n" for i in range(4)
 )
 
 
@@ -29,9 +28,7 @@ def test_default_curve_is_shipped_and_marked_assumed():
             assert abs(cal.torque(leg, cal.current_for(leg, level)) - level) < 0.03
 
 
-curve_points = st.lists(
-    st.tuples(st.floats(0.1, 100), st.floats(0, 1)), min_size=2, max_size=12
-)
+curve_points = st.lists(st.tuples(st.floats(0.1, 100), st.floats(0, 1)), min_size=2, max_size=12)
 
 
 def build_curve(steps) -> LegCurve:
@@ -83,8 +80,7 @@ def test_out_of_range_torque_names_leg_range_and_file(tmp_path):
 @pytest.mark.parametrize(
     ("change", "field"),
     [
-        (("current_ma: [0, 40, 100, 160]", "current_ma: [0, 40, 40, 160]", 1),
-         "legs[0].current_ma"),
+        (("current_ma: [0, 40, 100, 160]", "current_ma: [0, 40, 40, 160]", 1), "legs[0].current_ma"),
         (("torque_nm: [0, 0, 1.5, 3.3]", "torque_nm: [0, 0, 1.5, 1.0]", 1), "legs[0].torque_nm"),
         (("torque_nm: [0, 0, 1.5, 3.3]", "torque_nm: [0, 1.5, 3.3]", 1), "legs[0].torque_nm"),
         (("torque_nm: [0, 0, 1.5, 3.3]", "torque_nm: [0, 0, .nan, 3.3]", 1), "legs[0].torque_nm"),
@@ -93,8 +89,7 @@ def test_out_of_range_torque_names_leg_range_and_file(tmp_path):
         (("torque: N*m", "torque: kgf", 1), "units.torque"),
         (("provenance: measured", "provenance: guessed", 1), "provenance"),
         (("{leg: 3,", "{leg: 2,", 1), "legs[3].leg"),
-        (("  - {leg: 3, current_ma: [0, 40, 100, 160], torque_nm: [0, 0, 1.5, 3.3]}\n", "", 1),
-         "legs"),
+        (("  - {leg: 3, current_ma: [0, 40, 100, 160], torque_nm: [0, 0, 1.5, 3.3]}\n", "", 1), "legs"),
     ],
 )
 def test_bad_files_name_the_file_and_the_field(tmp_path, change, field):

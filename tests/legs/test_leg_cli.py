@@ -24,8 +24,18 @@ def test_status_set_loosen(board, run):
     port = str(board.link)
     code, out, _ = run("legs", "status", "--port", port)
     assert code == 0 and out.count("LOOSE") == 4 and "ASSUMED" in out
-    code, out, _ = run("legs", "set", "--port", port, "--uphill", "1.7", "--downhill", "2.3",
-                       "--timeout", str(board.wall(20)))
+    code, out, _ = run(
+        "legs",
+        "set",
+        "--port",
+        port,
+        "--uphill",
+        "1.7",
+        "--downhill",
+        "2.3",
+        "--timeout",
+        str(board.wall(20)),
+    )
     assert code == 0 and len(out.splitlines()) == 4
     with board.ctl() as ctl:
         torques = ctl.friction_torques()

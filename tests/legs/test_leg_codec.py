@@ -20,11 +20,12 @@ four = st.tuples(*[st.integers(0, 1000)] * N_LEGS)
 @st.composite
 def leg_report(draw):
     state = draw(st.sampled_from(LegState))
-    fault = draw(st.sampled_from(list(FaultCode)[1:])) if state is LegState.FAULT else (
-        FaultCode.NONE
-    )
+    fault = draw(st.sampled_from(list(FaultCode)[1:])) if state is LegState.FAULT else (FaultCode.NONE)
     return messages.LegReport(
-        state, fault, draw(st.integers(-2000, 2000)), draw(st.integers(0, 1000)),
+        state,
+        fault,
+        draw(st.integers(-2000, 2000)),
+        draw(st.integers(0, 1000)),
         draw(st.integers(0, 3750)),
     )
 
@@ -36,12 +37,19 @@ any_message = st.one_of(
     st.builds(messages.SetAngle, mask, st.tuples(*[st.integers(0, 3750)] * N_LEGS)),
     st.builds(messages.Stop, mask),
     st.just(messages.Query()),
-    st.builds(messages.HelloReply, st.integers(1, 255), st.just(N_LEGS), st.integers(0, 3),
-              st.integers(1, 255), st.integers(0, 2**32 - 1)),
+    st.builds(
+        messages.HelloReply,
+        st.integers(1, 255),
+        st.just(N_LEGS),
+        st.integers(0, 3),
+        st.integers(1, 255),
+        st.integers(0, 2**32 - 1),
+    ),
     st.builds(messages.Ack, u8, st.integers(1, 6)),
     st.builds(messages.Nak, u8, st.integers(1, 6), st.integers(1, 5)),
-    st.builds(messages.Status, st.integers(0, 2**32 - 1), u8, st.integers(0, 1),
-              st.tuples(*[leg_report()] * N_LEGS)),
+    st.builds(
+        messages.Status, st.integers(0, 2**32 - 1), u8, st.integers(0, 1), st.tuples(*[leg_report()] * N_LEGS)
+    ),
 )
 
 
@@ -50,13 +58,21 @@ def test_crc_is_ccitt_false():
 
 
 def test_every_message_type_is_covered():
-    seen = {messages.type_of(m) for m in (
-        messages.Hello(), messages.SetFriction(1, (0,) * 4), messages.Loosen(1),
-        messages.SetAngle(1, (0,) * 4), messages.Stop(1), messages.Query(),
-        messages.HelloReply(1, 4, 0, 64, 0), messages.Ack(0, 1), messages.Nak(0, 1, 1),
-        messages.Status(0, 0, 0, (messages.LegReport(LegState.LOOSE, FaultCode.NONE, 0, 0, 0),)
-                        * 4),
-    )}
+    seen = {
+        messages.type_of(m)
+        for m in (
+            messages.Hello(),
+            messages.SetFriction(1, (0,) * 4),
+            messages.Loosen(1),
+            messages.SetAngle(1, (0,) * 4),
+            messages.Stop(1),
+            messages.Query(),
+            messages.HelloReply(1, 4, 0, 64, 0),
+            messages.Ack(0, 1),
+            messages.Nak(0, 1, 1),
+            messages.Status(0, 0, 0, (messages.LegReport(LegState.LOOSE, FaultCode.NONE, 0, 0, 0),) * 4),
+        )
+    }
     assert seen == set(messages.MsgType)
 
 

@@ -44,7 +44,7 @@ def test_stepper_lands_like_simulate(model):
     s = Stepper(model, slope_deg=20.0)
     s.set_friction(1.7, 1.7)
     s.place(height=0.0, vz=-2.0)
-    for _ in range(int(0.3 / model.dt)):
+    for _ in range(round(0.3 / model.dt)):
         s.step(model.dt, 0.0, 0.0)
     i = int(np.argmin(np.abs(tr.t - s.t)))
     assert tr.t[i] == pytest.approx(s.t, abs=1e-9)

@@ -1,6 +1,5 @@
 """Sec. III sizing, and what a planar leg stands for (DESIGN.md 3: a real pair)."""
 
-
 import pytest
 
 from slopelander.model import LandingConditions, Outcome, simulate

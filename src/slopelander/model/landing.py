@@ -21,8 +21,9 @@ from slopelander.model.effects import (
 from slopelander.model.outcome import RESULT_DTYPE, RESULT_FIELDS, Outcome, OutcomeCriteria
 from slopelander.model.parameters import ModelParams
 
-DEFAULT_DT = 2.5e-4
-"""Integration step (s). Chosen by the step-size study in docs/model.md."""
+DEFAULT_DT = 1.0 / 2400.0
+"""Integration step (s): 12 steps per 200 Hz motion-capture sample, 2 per 1200 Hz SITL tick;
+chosen by the step-size study in docs/model.md."""
 
 
 @dataclass(frozen=True)

@@ -83,6 +83,7 @@ class ReferenceLanding:
         self.qe_min = self.st[k.S_QE : k.S_QE + 2].copy()
         self.pitch_min = self.pitch_max = self.st[k.S_Q + 2]
         self.events = 0
+        self.flipped = False
         self._last_key = None
         self._last: dict = {}
         # after a mode change, the change that would undo it waits this long (a slip that has
@@ -367,7 +368,7 @@ class ReferenceLanding:
                 n = min(hit, key=lambda n: sol.t_events[n][0])
                 self.events += 1
                 if self._apply(events[n][2], t, y):
-                    flipped = True
+                    flipped = self.flipped = True
                     ts.append(t)
                     ys.append(y.copy())
                     break
@@ -421,6 +422,10 @@ class ReferenceLanding:
         st[k.S_QEMIN : k.S_QEMIN + 2] = self.qe_min
         st[k.S_TOUCH] = 1.0 if self.touched else 0.0
         st[k.S_PMIN], st[k.S_PMAX] = self.pitch_min, self.pitch_max
+        if self.flipped:  # the event stops exactly at the threshold; the flip is past it
+            edge = self.model.criteria.flip_pitch_deg * DEG + 1e-9
+            st[k.S_PMIN] = min(st[k.S_PMIN], -edge) if y[2] < 0 else st[k.S_PMIN]
+            st[k.S_PMAX] = max(st[k.S_PMAX], edge) if y[2] > 0 else st[k.S_PMAX]
         st[k.S_TIMP] = self.t_impact or 0.0
         st[k.S_T] = ts[-1]
         st[k.S_X0 : k.S_X0 + 2] = self.x0
