@@ -6,8 +6,8 @@ import json
 
 import pytest
 
+from slopelander.cli import main
 from slopelander.controller.table import LookupTable
-from slopelander.envelope.cli import main
 
 GRID = ["--slope-step", "30", "--speed-step", "1.0", "--speed-min", "1.0", "--quiet"]
 

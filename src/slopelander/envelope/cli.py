@@ -8,8 +8,6 @@ import shlex
 import sys
 import time
 
-from slopelander.errors import SlopelanderError
-
 
 def _common(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("grid")
@@ -107,21 +105,3 @@ def run_table(args) -> int:
           f"{int(landed.sum())} cells land, {time.perf_counter() - t0:.1f} s")
     return 0
 
-
-def main(argv: list[str] | None = None) -> int:
-    """Run these subcommands on their own (``python -m slopelander.envelope.cli map ...``)."""
-    parser = argparse.ArgumentParser(prog="slopelander")
-    register(parser.add_subparsers(dest="command", metavar="COMMAND"))
-    args = parser.parse_args(argv)
-    if not getattr(args, "handler", None):
-        parser.print_help()
-        return 2
-    try:
-        return int(args.handler(args) or 0)
-    except SlopelanderError as exc:
-        print(f"slopelander {args.command}: error: {exc}", file=sys.stderr)
-        return 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -283,6 +283,17 @@ def _solve5(A, b, x, n):
 
 
 @njit(cache=True)
+def _contact_rates(JNT, i, v):
+    """Normal and tangential speed of contact point i for generalised velocities v."""
+    ddn = 0.0
+    sdn = 0.0
+    for b in range(5):
+        ddn += JNT[i, 0, b] * v[b]
+        sdn += JNT[i, 1, b] * v[b]
+    return ddn, sdn
+
+
+@njit(cache=True)
 def _thrust(p, w):
     if w >= 0.0:
         return p[P_TMAX] * w * w
@@ -543,11 +554,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
         for i in range(N_POINTS):
             if not active[i]:
                 continue
-            ddn = 0.0
-            sdn = 0.0
-            for b in range(5):
-                ddn += JNT[i, 0, b] * vn[b]
-                sdn += JNT[i, 1, b] * vn[b]
+            ddn, sdn = _contact_rates(JNT, i, vn)
             dn = d0[i] + h * ddn
             Nn = -kg * dn - bg * ddn
             if Nn < 0.0:
@@ -578,11 +585,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
         st[S_FT + i] = 0.0
         if not active[i]:
             continue
-        ddn = 0.0
-        sdn = 0.0
-        for b in range(5):
-            ddn += JNT[i, 0, b] * vn[b]
-            sdn += JNT[i, 1, b] * vn[b]
+        ddn, sdn = _contact_rates(JNT, i, vn)
         Nn = -kg * (d0[i] + h * ddn) - bg * ddn
         st[S_DISS + D_GROUND] += bg * ddn * ddn * h
         if stiction:
