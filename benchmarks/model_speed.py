@@ -83,7 +83,7 @@ def main() -> None:
         ref = ReferenceLanding(model, c)
         # a flip ends the kernel's run at -80 deg; let the reference reach its own flip
         ts, ys, _ = ref.run(kr.t_end + (0.1 if kr.outcome == Outcome.FLIP else 0.0))
-        rr = ref.result(ts, ys, kr.t_end, settled=kr.outcome.value < Outcome.SLID.value)
+        rr = ref.result(ts, ys, settled=kr.outcome.value < Outcome.SLID.value)
         t_ref += time.perf_counter() - t0
         agree += rr.outcome == kr.outcome
         diffs.append(

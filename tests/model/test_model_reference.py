@@ -21,7 +21,7 @@ def test_kernel_agrees_with_solve_ivp(model, cond):
     kr = simulate(cond, model, full_horizon=False).result
     ref = ReferenceLanding(model, cond)
     ts, ys, _ = ref.run(kr.t_end)
-    rr = ref.result(ts, ys, kr.t_end, settled=kr.outcome.value < Outcome.SLID.value)
+    rr = ref.result(ts, ys, settled=kr.outcome.value < Outcome.SLID.value)
     assert ref.events > 5  # contacts, stick-slip and joint slips were all found as events
     assert rr.outcome == kr.outcome
     assert rr.compression_up == pytest.approx(kr.compression_up, abs=0.03)

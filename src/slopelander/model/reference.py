@@ -23,7 +23,6 @@ from slopelander.model.landing import LandingResult, Model
 
 DEG = math.pi / 180.0
 # continuous state y: Q (5), V (5), q_E (2), rotor speed (2)
-NY = 14
 # the mode change that undoes each one
 _UNDO = {
     "touch": "release",
@@ -412,7 +411,7 @@ class ReferenceLanding:
         self.pitch_min = min(self.pitch_min, ys[2].min())
         self.pitch_max = max(self.pitch_max, ys[2].max())
 
-    def result(self, ts: np.ndarray, ys: np.ndarray, t_end_kernel: float, settled: bool) -> LandingResult:
+    def result(self, ts: np.ndarray, ys: np.ndarray, settled: bool) -> LandingResult:
         """Classify like the kernel, from this run's bookkeeping."""
         st = self.st.copy()
         y = ys[-1]
@@ -446,4 +445,4 @@ def reference_landing(cond: LandingConditions, model: Model, t_end: float, settl
     """
     ref = ReferenceLanding(model, cond)
     ts, ys, _ = ref.run(t_end)
-    return ref.result(ts, ys, t_end, settled)
+    return ref.result(ts, ys, settled)
