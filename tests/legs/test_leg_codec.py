@@ -53,7 +53,7 @@ any_message = st.one_of(
 )
 
 
-def test_crc_is_ccitt_false():
+def test_crc_is_crc32_ieee():
     assert crc32(b"123456789") == 0xCBF43926
 
 
