@@ -24,6 +24,7 @@ order declared.
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import sys
 from collections.abc import Callable, Iterable, Sequence
@@ -31,7 +32,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from slopelander.errors import SlopelanderError
 from slopelander.model import kernel as k
@@ -188,7 +188,9 @@ def load_effects(path: str | Path) -> list[UserEffect]:
     path = Path(path)
     if not path.is_file():
         raise EffectError(f"{path}: no such effect file")
-    mod_name = f"slopelander_user_effects_{abs(hash(path.resolve()))}"
+    # named by content: the compiled integrator that calls it is cached under this name
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+    mod_name = f"slopelander_user_effects_{digest}"
     spec = importlib.util.spec_from_file_location(mod_name, path)
     if spec is None or spec.loader is None:
         raise EffectError(f"{path}: not a Python file")
@@ -208,26 +210,6 @@ def load_effects(path: str | Path) -> list[UserEffect]:
     return list(found)
 
 
-_combined_cache: dict[tuple[int, ...], Callable] = {}
-
-
-def combined_force(effects: Sequence[UserEffect]) -> tuple[Callable, np.ndarray]:
-    """One compiled function calling every user effect's force, and their parameter array."""
-    if not effects:
-        return k.no_extra_force, np.zeros(1)
-    key = tuple(id(e.force) for e in effects) + tuple(len(e.parameters) for e in effects)
-    fn = _combined_cache.get(key)
-    if fn is None:
-        lines = ["def combined(t, st, ctx, up, out):"]
-        scope: dict[str, object] = {}
-        offset = 0
-        for i, e in enumerate(effects):
-            n = len(e.parameters)
-            scope[f"f{i}"] = e.force
-            lines.append(f"    f{i}(t, st, ctx, up[{offset}:{offset + n}], out)")
-            offset += n
-        exec("\n".join(lines), scope)  # generated glue only: calls the users' own functions
-        fn = njit(scope["combined"])
-        _combined_cache[key] = fn
-    values = np.concatenate([e.values() for e in effects] + [np.zeros(1)])
-    return fn, values
+def user_parameter_values(effects: Sequence[UserEffect]) -> np.ndarray:
+    """The user effects' parameters in one array, in the order their forces read them."""
+    return np.concatenate([e.values() for e in effects] + [np.zeros(1)])

@@ -129,6 +129,13 @@ def no_extra_force(t, st, ctx, up, out):  # pragma: no cover - compiled
     return
 
 
+# The user-effect hook is a module global, never an argument: numba's cache keys a function
+# passed as an argument by that function object's identity, new in every process, so each run
+# compiled and saved new variants. A model with user effects runs a generated copy of this
+# module in which the next line imports the user's combined force instead (see usercode.py).
+_extra_force = no_extra_force  # USER-EFFECT-HOOK
+
+
 @njit(cache=True)
 def _rot(c, s, a, b):
     return c * a - s * b, s * a + c * b
@@ -327,7 +334,7 @@ _make_workspace_jit = njit(cache=True)(make_workspace)
 
 
 @njit(cache=True)
-def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
+def step(p, fl, ctx, st, h, u0, u1, ws, up):
     """Advance the state ``st`` by ``h`` seconds with rotor commands u0, u1 in [-1, 1].
 
     A step in which a contact begins is redone as REFINE sub-steps, and so are the next
@@ -337,19 +344,19 @@ def step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
     if st[S_REFINE] > 0.0:
         st[S_REFINE] -= 1.0
         for _ in range(REFINE):
-            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, extra_force, up)
+            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, up)
         return
     backup = ws[12]
     backup[:] = st
-    if _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up) > 0:
+    if _substep(p, fl, ctx, st, h, u0, u1, ws, up) > 0:
         st[:] = backup
         st[S_REFINE] = REFINE_WINDOW - 1
         for _ in range(REFINE):
-            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, extra_force, up)
+            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, up)
 
 
 @njit(cache=True)
-def _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
+def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
     """One semi-implicit step; returns how many impacts (contacts beginning fast) it had."""
     M, f, pts, vel, J, A0, r0, A, r, vn, fx, JNT = ws[:12]
     cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
@@ -387,7 +394,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, extra_force, up):
     # so that r0 = M v + h f.
     for a in range(5):
         fx[a] = 0.0
-    extra_force(t, st, ctx, up, fx)
+    _extra_force(t, st, ctx, up, fx)
     for a in range(5):
         f[a] += fx[a]
 
@@ -878,7 +885,7 @@ def _slide(ctx, st):
 
 
 @njit(cache=True)
-def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, extra_force, up, res):
+def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, up, res):
     """Simulate one landing from first contact; fill ``res``; return the samples recorded.
 
     ``rec`` (n x N_STATE) receives a copy of the state every ``rec_every`` steps (if
@@ -905,7 +912,7 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, extra_forc
         u = 0.0
         if cmd != 0.0 and st[S_TIMP] >= 0.0 and t >= st[S_TIMP] + cond[K_REVDLY]:
             u = cmd
-        step(p, fl, ctx, st, h, u, u, ws, extra_force, up)
+        step(p, fl, ctx, st, h, u, u, ws, up)
         k += 1
         if rec_every > 0 and k % rec_every == 0 and n_rec < rec.shape[0]:
             rec[n_rec, :] = st
@@ -937,19 +944,19 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, extra_forc
 
 
 @njit(cache=True, parallel=True)
-def run_batch(p, fl, conds, h, crit, stop_at_settle, extra_force, up, out):
+def run_batch(p, fl, conds, h, crit, stop_at_settle, up, out):
     """Outcomes of many landings (rows of ``conds``), spread over all cores."""
     n = conds.shape[0]
     for i in prange(n):
         rec = np.zeros((0, N_STATE))
-        run_landing(p, fl, conds[i], h, crit, stop_at_settle, 0, rec, extra_force, up, out[i])
+        run_landing(p, fl, conds[i], h, crit, stop_at_settle, 0, rec, up, out[i])
 
 
 @njit(cache=True)
-def advance(p, fl, ctx, st, h, n, u0, u1, ws, extra_force, up):
+def advance(p, fl, ctx, st, h, n, u0, u1, ws, up):
     """``n`` steps of ``h`` with fixed rotor commands (one call per stepper tick)."""
     for _ in range(n):
-        step(p, fl, ctx, st, h, u0, u1, ws, extra_force, up)
+        step(p, fl, ctx, st, h, u0, u1, ws, up)
 
 
 @njit(cache=True)

@@ -15,11 +15,12 @@ from slopelander.model.effects import (
     EffectError,
     UserEffect,
     check_effect_names,
-    combined_force,
     flags_for,
+    user_parameter_values,
 )
 from slopelander.model.outcome import RESULT_DTYPE, RESULT_FIELDS, Outcome, OutcomeCriteria
 from slopelander.model.parameters import ModelParams
+from slopelander.model.usercode import compiling_notice, kernel_for
 
 DEFAULT_DT = 1.0 / 2400.0
 """Integration step (s): 12 steps per 200 Hz motion-capture sample, 2 per 1200 Hz SITL tick;
@@ -107,8 +108,9 @@ class Model:
             dtype=np.float64,
         )
 
-    def extra_force(self):
-        return combined_force(self.user_effects)
+    def kernel(self):
+        """The compiled integrator for this model and its user effects' parameter array."""
+        return kernel_for(self.user_effects), user_parameter_values(self.user_effects)
 
     @property
     def rigid_gear(self) -> bool:
@@ -232,20 +234,20 @@ def simulate(
     n_max = int(model.criteria.horizon / (every * h)) + 8
     rec = np.zeros((n_max, k.N_STATE))
     res = np.zeros(k.N_RESULT)
-    fx, up = model.extra_force()
-    n = k.run_landing(
-        model.params.as_array(),
-        model.flags(),
-        row,
-        h,
-        model.criteria_array(),
-        not full_horizon,
-        every,
-        rec,
-        fx,
-        up,
-        res,
-    )
+    km, up = model.kernel()
+    with compiling_notice():
+        n = km.run_landing(
+            model.params.as_array(),
+            model.flags(),
+            row,
+            h,
+            model.criteria_array(),
+            not full_horizon,
+            every,
+            rec,
+            up,
+            res,
+        )
     raw = rec[:n].copy()
     return Trajectory(raw[:, k.S_T].copy(), raw, conditions, model, LandingResult.from_row(res))
 
@@ -271,18 +273,17 @@ def simulate_batch(
     _validate_rows(arr, model)
     conds = arr.view(np.float64).reshape(len(arr), k.N_COND).copy()
     out = np.zeros((len(arr), k.N_RESULT))
-    fx, up = model.extra_force()
+    km, up = model.kernel()
     if len(arr):
         # landings last from 0.1 to 2 s: hand them out a few at a time, not in two halves
-        with numba.parallel_chunksize(4):
-            k.run_batch(
+        with numba.parallel_chunksize(4), compiling_notice():
+            km.run_batch(
                 model.params.as_array(),
                 model.flags(),
                 conds,
                 h,
                 model.criteria_array(),
                 stop_at_rest,
-                fx,
                 up,
                 out,
             )

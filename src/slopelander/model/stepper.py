@@ -15,6 +15,7 @@ import numpy as np
 from slopelander.model import kernel as k
 from slopelander.model.conditions import ConditionError
 from slopelander.model.landing import Model
+from slopelander.model.usercode import compiling_notice
 
 ENERGY_TERMS = ("kinetic", "gravity", "ground_spring", "stiction_spring", "flex_spring", "eot_spring")
 DISSIPATION_TERMS = (
@@ -49,7 +50,8 @@ class Stepper:
             raise ConditionError("slope_deg", slope_deg, "must lie within -75..75 deg")
         self._p = self.model.params.as_array()
         self._fl = self.model.flags()
-        self._fx, self._up = self.model.extra_force()
+        self._k, self._up = self.model.kernel()
+        self._compiled = False
         self._ws = k.make_workspace()
         self.st = np.zeros(k.N_STATE)
         self.ctx = np.zeros(k.N_CTX)
@@ -136,9 +138,13 @@ class Stepper:
         u_right = min(1.0, max(-1.0, float(u_right)))
         n = max(1, math.ceil(dt / self.model.dt - 1e-9))
         v0 = self.st[k.S_V : k.S_V + 2].copy()
-        k.advance(
-            self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._fx, self._up
-        )
+        args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._up)
+        if self._compiled:
+            self._k.advance(*args)
+        else:
+            with compiling_notice():
+                self._k.advance(*args)
+            self._compiled = True
         self._accel = (self.st[k.S_V : k.S_V + 2] - v0) / dt
 
     # -- reading -----------------------------------------------------------------------------
