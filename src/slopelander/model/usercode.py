@@ -113,11 +113,13 @@ def check_types(effect: UserEffect) -> None:
     try:
         effect.force.compile((types.float64, arr, arr, arr, arr))
     except NumbaError as exc:
-        msg = str(exc)
-        where = [(f, ln) for f, ln in _FILE_LINE.findall(msg) if os.path.abspath(f) == user_file]
-        line = where[-1][1] if where else str(fn.__code__.co_firstlineno)
-        first = next((s.strip() for s in msg.splitlines() if s.strip()), type(exc).__name__)
-        first = re.sub(r"\x1b\[[0-9;]*m", "", first)
+        msg = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))
+        base = os.path.basename(user_file)
+        where = [ln for f, ln in _FILE_LINE.findall(msg) if os.path.basename(f) == base]
+        line = where[0] if where else str(fn.__code__.co_firstlineno)
+        skip = ("Failed in", "File ", "During", "^", "def ")
+        texts = [t.strip() for t in msg.splitlines()]
+        first = next((t for t in texts if t and not t.startswith(skip)), type(exc).__name__)
         raise EffectError(
             f"{user_file}:{line}: user effect {effect.name!r} ({fn.__name__}) does not compile: {first}"
         ) from None

@@ -1,0 +1,63 @@
+"""The compiled model is cached across processes, and a user effect's mistakes are named."""
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from slopelander.model import EffectError, LandingConditions, load_effects, simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+
+PROBE = (
+    "from slopelander.model import LandingConditions, simulate, simulate_batch; "
+    "simulate(LandingConditions(slope_deg=30, speed=2)); "
+    "simulate_batch([LandingConditions(slope_deg=20, speed=1.5)] * 4)"
+)
+
+
+def _probe() -> str:
+    env = dict(os.environ, NUMBA_DEBUG_CACHE="1", PYTHONPATH=f"{ROOT / 'src'}{os.pathsep}{ROOT}")
+    r = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return r.stdout + r.stderr
+
+
+def test_second_process_loads_everything_from_the_cache():
+    _probe()  # warms the cache if this checkout's code changed
+    out = _probe()
+    assert "[cache] data loaded" in out
+    assert "[cache] data saved" not in out, out
+
+
+BAD_EFFECT = textwrap.dedent(
+    """
+    import numba
+    from slopelander.model.effects import UserEffect
+
+
+    @numba.njit
+    def leaky(t, st, ctx, up, out):
+        out[2] -= up[0] * st.no_such_field
+        return
+
+
+    EFFECTS = [UserEffect("leaky", "a mistake", leaky, {"leak": (1.0, "1")})]
+    """
+)
+
+
+def test_typing_error_names_the_effect_and_the_line(tmp_path, model, monkeypatch):
+    monkeypatch.setenv("SLOPELANDER_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "bad_effects.py"
+    path.write_text(BAD_EFFECT)
+    (effect,) = load_effects(path)
+    with pytest.raises(EffectError) as info:
+        simulate(LandingConditions(), model.with_user_effect(effect))
+    msg = str(info.value)
+    assert f"{path}:8:" in msg and "'leaky'" in msg and "no_such_field" in msg
+    assert "\n" not in msg  # one line, not numba's pages
+    assert not list((tmp_path / "cache").glob("**/*.py"))  # nothing half-built left behind
