@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 from pathlib import Path
 
+from slopelander.errors import SlopelanderError
 from slopelander.model import LandingConditions, Model, Trajectory, load_effects, simulate
 
 _D = LandingConditions()
@@ -56,8 +58,29 @@ def build_model(args: argparse.Namespace) -> Model:
     return model
 
 
+class OutputError(SlopelanderError):
+    """An output file that cannot be written: found before any work is done."""
+
+
+def check_output(path: Path | None, what: str) -> None:
+    """Refuse an output whose folder is missing or unwritable now, not after the work."""
+    if path is None:
+        return
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise OutputError(f"{what} {path} is a folder; give a file name")
+    if not folder.is_dir():
+        raise OutputError(f"{what} {path}: folder {folder} does not exist (create it first)")
+    if not os.access(folder, os.W_OK):
+        raise OutputError(f"{what} {path}: folder {folder} is not writable")
+
+
 def run(args: argparse.Namespace) -> int:
+    check_output(args.plot, "--plot")
+    check_output(args.csv, "--csv")
     pct = args.rvt_percent if args.rvt_percent is not None else (100.0 if args.rvt else 0.0)
+    if pct > 0 and "rotors" in args.without:
+        raise OutputError("reverse thrust needs the rotors: drop --rvt/--rvt-percent or 'rotors' from --without")
     cond = LandingConditions(
         slope_deg=args.slope,
         speed=args.speed,
@@ -88,11 +111,15 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+CSV_HEADER = ["t_s", "x_m", "z_m", "pitch_rad", "x_rate_m_s", "z_rate_m_s", "pitch_rate_rad_s"]
+
+
 def write_csv(tr: Trajectory, path: Path) -> Path:
-    """The sampled trajectory in the drop-recording column order (SI units)."""
+    """The sampled trajectory in the drop-recording column order, SI units named in the header
+    (pitch in radians, x downhill, z up)."""
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["t", "x", "z", "pitch", "x_rate", "z_rate", "pitch_rate"])
+        w.writerow(CSV_HEADER)
         for t, row in zip(tr.t, tr.states, strict=True):
             w.writerow([f"{t:.4f}", *(f"{v:.6f}" for v in row)])
     return path

@@ -7,6 +7,8 @@ import argparse
 from slopelander.legs.driver import BoardStatus, LegBoard, LegResult, PairMap
 from slopelander.legs.messages import N_LEGS
 
+ANGLE_MAX_DEG = 37.5  # fully extended leg (paper Sec. III)
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("legs", help="talk to the leg board (status, set, loosen)")
@@ -53,8 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = sub.add_parser("angle", help="set leg rest angles (degrees, 0..37.5)")
     common(p)
     pairs(p)
-    p.add_argument("--uphill", type=float, help="uphill pair angle, degrees")
-    p.add_argument("--downhill", type=float, help="downhill pair angle, degrees")
+    p.add_argument("--uphill", type=_angle_deg, help="uphill pair angle, degrees")
+    p.add_argument("--downhill", type=_angle_deg, help="downhill pair angle, degrees")
     p.add_argument("--leg", type=_leg_value, action="append", default=[], metavar="I=DEG")
     p.set_defaults(handler=_angle)
 
@@ -142,6 +144,17 @@ def _loosen(args: argparse.Namespace) -> int:
     with _open(args) as board:
         print(format_results(board.loosen_all(timeout=args.timeout), "°"))
     return 0
+
+
+def _angle_deg(text: str) -> float:
+    """A leg rest angle within the joint's travel, refused before the board is opened."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of degrees") from None
+    if not 0.0 <= v <= ANGLE_MAX_DEG:
+        raise argparse.ArgumentTypeError(f"{v:g} deg is outside the legs' travel 0..{ANGLE_MAX_DEG:g} deg")
+    return v
 
 
 def _angle(args: argparse.Namespace) -> int:

@@ -1,6 +1,6 @@
 """Frames on the serial line: COBS with a 0x00 delimiter and CRC-32 (IEEE 802.3).
 
-A raw frame is ``type | seq | len | payload | crc_hi | crc_lo``. COBS removes every zero so
+A raw frame is ``type | seq | len | payload | crc32`` (4 bytes, big-endian). COBS removes every zero so
 that a single 0x00 can end a frame: after any damage the receiver simply waits for the next
 delimiter. See ``docs/leg-protocol.md`` §2.
 """

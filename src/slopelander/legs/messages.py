@@ -1,4 +1,4 @@
-"""The messages of leg-board protocol version 1 and their payload layouts.
+"""The messages of leg-board protocol version 2 and their payload layouts.
 
 One dataclass per message type; :func:`pack` and :func:`unpack` convert between them and
 payload bytes. ``unpack`` checks every field's range, because after the CRC the field checks
@@ -11,7 +11,7 @@ import struct
 from dataclasses import dataclass
 from enum import IntEnum
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2  # 2: CRC-32 frames (1 used CRC-16)
 N_LEGS = 4
 MAX_TARGET_MA = 1000
 MAX_ANGLE_CDEG = 3750  # 37.5°, the leg fully extended
