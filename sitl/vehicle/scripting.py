@@ -20,6 +20,8 @@ from typing import Protocol
 from lupa import lua53
 
 MAVLINK_MSG_T_PAYLOAD = 255  # payload bytes the script sees, zero-filled as in mavlink_message_t
+INSTRUCTION_LIMIT = 100_000  # Lua VM instructions per callback before the script is stopped
+MEMORY_LIMIT = 1 << 20  # bytes of Lua heap (the prelude included) before the script is stopped
 LUA_ERROR_SEVERITY = 2  # MAV_SEVERITY_CRITICAL
 
 
@@ -64,7 +66,7 @@ class ScriptError(RuntimeError):
 # The binding tables, in Lua, calling the Python functions handed in as ``P``. Userdata that
 # ArduPilot returns (uint32_t, Vector3f) are small Lua tables with the same methods.
 _PRELUDE = r"""
-local P = ...
+local P, instruction_limit = ...
 local U32 = {}
 U32.__index = U32
 local function u32(v) return setmetatable({v = math.floor(v) % 4294967296}, U32) end
@@ -136,6 +138,17 @@ function rc:get_pwm(chan) return P.rc_pwm(chan) end
 param = {}
 function param:get(name) return P.param_get(tostring(name)) end
 function param:set(name, value) return P.param_set(tostring(name), value) end
+
+-- runs one callback under an instruction budget, as ArduPilot's SCR_VM_I_COUNT
+local sethook, pack, unpack, pcall, error = debug.sethook, table.pack, table.unpack, pcall, error
+local function over_budget() error("exceeded time allocation", 0) end
+return function(fn)
+  sethook(over_budget, "", instruction_limit)
+  local r = pack(pcall(fn))
+  sethook()
+  if not r[1] then error(r[2], 0) end
+  return unpack(r, 2, r.n)
+end
 """
 
 _BINDING_CALL = re.compile(r"\b([A-Za-z_][A-Za-z0-9_]*)\s*([:.])\s*([A-Za-z_][A-Za-z0-9_]*)\s*\(")
@@ -164,8 +177,14 @@ def pack_mavlink_message_t(raw: bytes) -> bytes:
     """A MAVLink 2 frame (as sent on the wire) in the layout of ArduPilot's ``mavlink_message_t``
     that ``mavlink:receive_chan()`` returns: checksum, magic, len, incompat, compat, seq, sysid,
     compid, msgid (uint24), payload zero-filled."""
+    if len(raw) >= 8 and raw[0] == 0xFE:  # MAVLink 1: no flags, one-byte message id
+        length, seq, sysid, compid, msgid = raw[1:6]
+        payload = raw[6 : 6 + length]
+        crc = int.from_bytes(raw[6 + length : 8 + length], "little")
+        head = struct.pack("<HBBBBBBB", crc, 0xFE, length, 0, 0, seq, sysid, compid)
+        return head + msgid.to_bytes(3, "little") + payload.ljust(MAVLINK_MSG_T_PAYLOAD, b"\0")
     if len(raw) < 12 or raw[0] != 0xFD:
-        raise ValueError("not a MAVLink 2 frame")
+        raise ValueError("not a MAVLink frame")
     length, incompat, compat, seq, sysid, compid = raw[1:7]
     msgid = int.from_bytes(raw[7:10], "little")
     payload = raw[10 : 10 + length]
@@ -198,11 +217,12 @@ class ScriptHost:
             unpack_returned_tuples=True,
             encoding="latin-1",
             attribute_filter=_deny_attributes,
+            max_memory=MEMORY_LIMIT,
         )
+        self._guarded = self._lua.execute(_PRELUDE, self._lua.table_from(self._bindings()), INSTRUCTION_LIMIT)
         g = self._lua.globals()
         for name in ("python", "require", "dofile", "loadfile", "load", "io", "os", "debug", "package"):
             g[name] = None
-        self._lua.execute(_PRELUDE, self._lua.table_from(self._bindings()))
         try:
             chunk = self._lua.compile(source)
         except lua53.LuaSyntaxError as exc:
@@ -226,8 +246,10 @@ class ScriptHost:
             return False
         if len(self._queue) >= self._queue_len:
             return False
-        raw = bytes(msg.get_msgbuf())  # type: ignore[attr-defined]
-        self._queue.append((pack_mavlink_message_t(raw), chan, self._now_ms))
+        raw = msg.get_msgbuf()  # type: ignore[attr-defined]
+        if not raw:
+            raise ValueError("deliver() needs a packed or received MAVLink message")
+        self._queue.append((pack_mavlink_message_t(bytes(raw)), chan, self._now_ms))
         return True
 
     def blocks_command(self, command: int) -> bool:
@@ -242,9 +264,12 @@ class ScriptHost:
     # -- running the Lua side -----------------------------------------------------------------
     def _call(self, fn: object) -> None:
         try:
-            result = fn()  # type: ignore[operator]
+            result = self._guarded(fn)  # type: ignore[operator]
         except lua53.LuaError as exc:
             self._stop(str(exc))
+            return
+        except Exception as exc:  # a binding given arguments it cannot use: a script error in ArduPilot too
+            self._stop(f"{type(exc).__name__}: {exc}")
             return
         if isinstance(result, tuple) and len(result) >= 2 and result[0] is not None:
             delay = result[1]
