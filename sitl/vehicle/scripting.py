@@ -156,16 +156,21 @@ _LUA_LIBRARIES = {"string", "math", "table", "utf8", "coroutine", "os", "io", "d
 
 
 def binding_calls(source: str) -> set[str]:
-    """Every ``object:method`` call on an ArduPilot binding in a Lua source, comments and
-    strings removed; Lua's own libraries (``string.pack`` ...) are not bindings."""
+    """Every call on an ArduPilot binding object in a Lua source, as ``object:method`` or
+    ``object.method`` (the dot form is itself a bug for a binding). Comments and strings are
+    removed; Lua's own libraries (``string.pack`` ...) and the script's own local tables are not
+    bindings."""
     text = re.sub(r"--\[\[.*?\]\]", "", source, flags=re.S)
     text = re.sub(r"--[^\n]*", "", text)
     text = re.sub(r'"(?:\\.|[^"\\])*"|\'(?:\\.|[^\'\\])*\'', '""', text)
+    local = set(re.findall(r"\blocal\s+function\s+([A-Za-z_]\w*)", text))
+    for names in re.findall(r"\blocal\s+([A-Za-z_]\w*(?:\s*,\s*[A-Za-z_]\w*)*)", text):
+        local.update(n.strip() for n in names.split(","))
     calls = set()
     for obj, sep, meth in _BINDING_CALL.findall(text):
-        if obj in _LUA_LIBRARIES or sep == ".":
+        if obj in _LUA_LIBRARIES or (sep == "." and obj in local):
             continue
-        calls.add(f"{obj}:{meth}")
+        calls.add(f"{obj}{sep}{meth}")
     return calls
 
 

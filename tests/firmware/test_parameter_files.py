@@ -49,8 +49,15 @@ def problems(path: Path, ref: dict[str, dict]) -> list[str]:
             if not lo <= value <= hi:
                 found.append(f"{where}: {value:g} outside {spec['range']}")
         if spec["values"] and not spec["bitmask"]:
-            allowed = {float(v.split("=")[0]) for v in spec["values"].split(";") if "=" in v}
-            if allowed and value not in allowed:
+            keys = [v.split("=")[0] for v in spec["values"].split(";") if "=" in v]
+            # integer keys are an enum; decimal keys (MOT_SPIN_* "0.15=Default") are only suggestions;
+            # the reference cuts long lists (sorted as text) at 300 characters: a value sorting after
+            # the last listed key may have been cut, so it is not judged
+            enum = all(re.fullmatch(r"-?\d+", k) for k in keys)
+            cut = len(spec["values"]) >= 300
+            allowed = {float(k) for k in keys}
+            past_cut = cut and f"{value:g}" > keys[-1]
+            if enum and allowed and value not in allowed and not past_cut:
                 found.append(f"{where}: {value:g} is not one of its values")
         if spec["bitmask"]:
             bits = {int(v.split("=")[0]) for v in spec["bitmask"].split(";") if "=" in v}
@@ -89,3 +96,15 @@ def test_route_a_output_range_is_the_same_on_vehicle_and_sitl() -> None:
     for name in ("FRAME_CLASS", "MOT_PWM_TYPE", "MOT_PWM_MIN", "MOT_PWM_MAX", "SCR_ENABLE", "RNGFND1_ORIENT"):
         assert vals["f450-fsa.parm"][name] == vals["sitl.parm"][name], name
     assert vals["sitl.parm"]["MOT_PWM_MIN"] > 1500 + 20  # the mixer never reaches the ESC's neutral
+
+
+def test_suggestions_and_cut_lists_are_not_false_alarms(tmp_path: Path, reference: Path) -> None:
+    ok = tmp_path / "ok.parm"
+    ok.write_text(
+        "MOT_SPIN_MIN 0.12  # a suggestion list, not an enum\n"
+        "RNGFND1_TYPE 35    # TeraRanger Evo serial: listed past the reference's cut\n"
+    )
+    assert problems(ok, load_reference(reference)) == []
+    bad = tmp_path / "bad.parm"
+    bad.write_text("RNGFND1_TYPE 101  # sorts before the cut and is not listed\n")
+    assert problems(bad, load_reference(reference)) != []

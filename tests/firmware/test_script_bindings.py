@@ -36,3 +36,15 @@ def test_a_wrong_binding_is_caught(reference: Path) -> None:
 def test_comments_and_strings_do_not_count() -> None:
     src = '-- gcs:nonexistent(1)\nlocal s = "arming:fake()"\n--[[ ins:bogus() ]]\ngcs:send_text(6, "x")\n'
     assert binding_calls(src) == {"gcs:send_text"}
+
+
+def test_a_dot_call_on_a_binding_is_caught_and_local_tables_are_not(reference: Path) -> None:
+    src = "local t = {}\nfunction t.f() end\nt.f()\ngcs.send_text(6, 'x')\n"
+    assert unknown_calls(src, reference) == {"gcs.send_text"}
+
+
+def test_the_host_provides_every_binding_the_script_calls() -> None:
+    from sitl.vehicle.scripting import _PRELUDE
+
+    provided = set(re.findall(r"^function\s+(\w+:\w+)\s*\(", _PRELUDE, flags=re.M))
+    assert binding_calls(SCRIPT.read_text()) <= provided
