@@ -1,1 +1,1 @@
-"""The simulated ArduCopter that runs slopelander's on-board script (``scripting``) in Lua 5.3."""
+"""A simulated ArduCopter quad flying the planar landing model, spoken to over MAVLink."""
