@@ -1,0 +1,110 @@
+"""Every .parm line names a real ArduCopter parameter, with a value it accepts, and says why."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+FIRMWARE = REPO / "firmware_params"
+
+PARM_FILES = sorted(FIRMWARE.glob("*.parm"))
+
+
+def load_reference(ref: Path) -> dict[str, dict]:
+    out = {}
+    lines = (ref / "ardupilot-copter-params.tsv").read_text().splitlines()
+    for line in lines[2:]:
+        name, _units, rng, values, bitmask = (line.split("\t") + [""] * 5)[:5]
+        out[name] = {"range": rng, "values": values, "bitmask": bitmask}
+    return out
+
+
+def parse_parm(path: Path) -> list[tuple[int, str, float, str]]:
+    rows = []
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        body, _, comment = line.partition("#")
+        if not body.strip():
+            continue
+        parts = re.split(r"[\s,]+", body.strip())
+        assert len(parts) == 2, f"{path.name}:{n}: expected NAME VALUE, got {body.strip()!r}"
+        rows.append((n, parts[0], float(parts[1]), comment.strip()))
+    return rows
+
+
+def problems(path: Path, ref: dict[str, dict]) -> list[str]:
+    found = []
+    for n, name, value, comment in parse_parm(path):
+        where = f"{path.name}:{n} {name}"
+        if name not in ref:
+            found.append(f"{where}: no such ArduCopter parameter")
+            continue
+        if not comment:
+            found.append(f"{where}: no comment saying why")
+        spec = ref[name]
+        if spec["range"]:
+            lo, hi = (float(x) for x in spec["range"].split(".."))
+            if not lo <= value <= hi:
+                found.append(f"{where}: {value:g} outside {spec['range']}")
+        if spec["values"] and not spec["bitmask"]:
+            keys = [v.split("=")[0] for v in spec["values"].split(";") if "=" in v]
+            # integer keys are an enum; decimal keys (MOT_SPIN_* "0.15=Default") are only suggestions;
+            # the reference cuts long lists (sorted as text) at 300 characters: a value sorting after
+            # the last listed key may have been cut, so it is not judged
+            enum = all(re.fullmatch(r"-?\d+", k) for k in keys)
+            cut = len(spec["values"]) >= 300
+            allowed = {float(k) for k in keys}
+            past_cut = cut and f"{value:g}" > keys[-1]
+            if enum and allowed and value not in allowed and not past_cut:
+                found.append(f"{where}: {value:g} is not one of its values")
+        if spec["bitmask"]:
+            bits = {int(v.split("=")[0]) for v in spec["bitmask"].split(";") if "=" in v}
+            iv = int(value)
+            if iv != value or iv < 0 or any((iv >> b) & 1 and b not in bits for b in range(32)):
+                found.append(f"{where}: {value:g} sets bits that do not exist")
+    return found
+
+
+def test_there_are_the_vehicle_and_the_sitl_files() -> None:
+    assert {p.name for p in PARM_FILES} >= {"f450-fsa.parm", "sitl.parm"}
+
+
+@pytest.mark.parametrize("path", PARM_FILES, ids=lambda p: p.name)
+def test_every_line_is_a_real_parameter_with_a_valid_value_and_a_reason(path: Path, reference: Path) -> None:
+    assert problems(path, load_reference(reference)) == []
+
+
+def test_the_check_catches_bad_lines(tmp_path: Path, reference: Path) -> None:
+    bad = tmp_path / "bad.parm"
+    bad.write_text(
+        "FRAME_CLASS 99   # no such frame\n"
+        "MOT_PWM_MAX 2500 # beyond range\n"
+        "NOT_A_PARAM 1    # invented\n"
+        "ANGLE_MAX 4500\n"
+    )
+    found = problems(bad, load_reference(reference))
+    assert any("FRAME_CLASS" in f and "values" in f for f in found)
+    assert any("MOT_PWM_MAX" in f and "outside" in f for f in found)
+    assert any("NOT_A_PARAM" in f and "no such" in f for f in found)
+    assert any("ANGLE_MAX" in f and "comment" in f for f in found)
+
+
+def test_route_a_output_range_is_the_same_on_vehicle_and_sitl() -> None:
+    vals = {p.name: {name: v for _, name, v, _ in parse_parm(p)} for p in PARM_FILES}
+    for name in ("FRAME_CLASS", "MOT_PWM_TYPE", "MOT_PWM_MIN", "MOT_PWM_MAX", "SCR_ENABLE", "RNGFND1_ORIENT"):
+        assert vals["f450-fsa.parm"][name] == vals["sitl.parm"][name], name
+    assert vals["sitl.parm"]["MOT_PWM_MIN"] > 1500 + 20  # the mixer never reaches the ESC's neutral
+
+
+def test_suggestions_and_cut_lists_are_not_false_alarms(tmp_path: Path, reference: Path) -> None:
+    ok = tmp_path / "ok.parm"
+    ok.write_text(
+        "MOT_SPIN_MIN 0.12  # a suggestion list, not an enum\n"
+        "RNGFND1_TYPE 35    # TeraRanger Evo serial: listed past the reference's cut\n"
+    )
+    assert problems(ok, load_reference(reference)) == []
+    bad = tmp_path / "bad.parm"
+    bad.write_text("RNGFND1_TYPE 101  # sorts before the cut and is not listed\n")
+    assert problems(bad, load_reference(reference)) != []

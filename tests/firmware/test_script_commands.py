@@ -1,0 +1,141 @@
+"""The real on-board script in real Lua 5.3: commands, its own COMMAND_ACKs, outputs, refusals."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from conftest import Bench
+
+ACTUATOR, REFLEX = 31010, 31011
+ACCEPTED, TEMP_REJECTED, DENIED = 0, 1, 2
+
+
+def test_registers_and_blocks_its_commands(bench: Bench) -> None:
+    assert bench.host.running, bench.host.error
+    assert bench.host.blocks_command(ACTUATOR) and bench.host.blocks_command(REFLEX)
+    assert not bench.host.blocks_command(400)
+    assert any(t.startswith("SL: slopelander script v1") for t in bench.io.sl_texts())
+
+
+@pytest.mark.parametrize(
+    ("action", "pct", "pwm", "state"),
+    [(1, 0, 1500, 1), (2, 100, 1000, 2), (2, 50, 1250, 2)],
+)
+def test_stop_and_reverse_outputs(bench: Bench, action: int, pct: float, pwm: int, state: int) -> None:
+    ack = bench.command(ACTUATOR, action, pct, 1000)
+    assert ack.get_type() == "COMMAND_ACK"
+    assert (ack.command, ack.result) == (ACTUATOR, ACCEPTED)
+    assert (ack.target_system, ack.target_component) == (255, 190)
+    assert bench.outputs() == [pwm] * 4
+    assert bench.io.state() == state
+
+
+def test_ack_goes_back_on_the_receiving_channel(bench: Bench) -> None:
+    ack = bench.command(ACTUATOR, 1, 0, 1000, chan=2)
+    assert ack.result == ACCEPTED
+
+
+def test_release_gives_outputs_back(bench: Bench) -> None:
+    bench.command(ACTUATOR, 1, 0, 2000)
+    assert bench.outputs() == [1500] * 4
+    assert bench.command(ACTUATOR, 0).result == ACCEPTED
+    bench.run(40)
+    assert bench.outputs() == [None] * 4
+    assert bench.io.state() == 0
+
+
+def test_refused_when_disarmed(bench: Bench) -> None:
+    bench.io.armed = False
+    refused = ((ACTUATOR, (2, 100, 1000)), (ACTUATOR, (1, 0, 1000)), (REFLEX, (1, 0.3, 30, 100, 300, 2000)))
+    for cmd, params in refused:
+        ack = bench.command(cmd, *params)
+        assert ack.result == TEMP_REJECTED
+        assert bench.io.sl_texts()[-1] == "SL: disarmed"
+        assert bench.outputs() == [None] * 4
+    assert bench.command(ACTUATOR, 0).result == ACCEPTED  # release always accepted
+
+
+BAD = [
+    ((ACTUATOR, (math.nan, 0, 1000)), "unknown action"),
+    ((ACTUATOR, (3, 0, 1000)), "unknown action"),
+    ((ACTUATOR, (2, math.nan, 1000)), "thrust percent"),
+    ((ACTUATOR, (2, 101, 1000)), "thrust percent"),
+    ((ACTUATOR, (2, -1, 1000)), "thrust percent"),
+    ((ACTUATOR, (2, 50, 10)), "validity"),
+    ((ACTUATOR, (2, 50, math.inf)), "validity"),
+    ((REFLEX, (2, 0.3, 30, 100, 300, 2000)), "unknown reflex action"),
+    ((REFLEX, (1, 0.05, 30, 100, 300, 2000)), "cut height"),
+    ((REFLEX, (1, math.nan, 30, 100, 300, 2000)), "cut height"),
+    ((REFLEX, (1, 0.3, 4, 100, 300, 2000)), "impact threshold"),
+    ((REFLEX, (1, 0.3, 30, 120, 300, 2000)), "thrust percent"),
+    ((REFLEX, (1, 0.3, 30, 100, 6000, 2000)), "reverse duration"),
+    ((REFLEX, (1, 0.3, 30, 100, 300, 50)), "validity"),
+]
+
+
+@pytest.mark.parametrize(("cmd", "reason"), BAD, ids=[f"{c[0]}-{r}-{i}" for i, (c, r) in enumerate(BAD)])
+def test_bad_arguments_denied_outputs_unchanged(bench: Bench, cmd, reason: str) -> None:
+    bench.command(ACTUATOR, 2, 50, 3000)
+    ack = bench.command(cmd[0], *cmd[1])
+    assert (ack.command, ack.result) == (cmd[0], DENIED)
+    assert bench.io.sl_texts()[-1].startswith("SL: " + reason)
+    assert bench.outputs() == [1250] * 4
+    assert bench.io.state() == 2
+
+
+@pytest.mark.parametrize("target", [(2, 1), (1, 50)])
+def test_wrong_target_denied(bench: Bench, target) -> None:
+    ack = bench.command(ACTUATOR, 2, 100, 1000, target=target)
+    assert ack.result == DENIED
+    assert bench.io.sl_texts()[-1] == "SL: command for another vehicle"
+    assert bench.outputs() == [None] * 4
+
+
+def test_validity_lapse_gives_outputs_back_to_the_mixer(bench: Bench) -> None:
+    bench.command(ACTUATOR, 2, 100, 100, wait_ms=12)  # processed within the 10 ms idle period
+    bench.run(80)
+    assert bench.outputs() == [1000] * 4
+    bench.run(60)  # validity (100 ms) plus the override's own timeout
+    assert bench.outputs() == [None] * 4
+    assert bench.io.state() == 0
+    assert "SL: command validity lapsed" in bench.io.sl_texts()
+
+
+def test_emergency_stop_wins(bench: Bench) -> None:
+    bench.command(ACTUATOR, 2, 100, 3000)
+    assert bench.outputs() == [1000] * 4
+    bench.io.estop = True
+    bench.run(50)
+    assert bench.outputs() == [None] * 4
+    assert bench.io.state() == 20
+    ack = bench.command(ACTUATOR, 1, 0, 1000)
+    assert ack.result == TEMP_REJECTED
+    assert bench.io.sl_texts()[-1] == "SL: emergency stop"
+    assert bench.outputs() == [None] * 4
+    bench.io.estop = False
+    bench.run(20)
+    assert bench.io.state() == 0
+    assert bench.outputs() == [None] * 4  # nothing resumes by itself
+
+
+def test_disarm_returns_to_idle(bench: Bench) -> None:
+    bench.command(ACTUATOR, 1, 0, 3000)
+    bench.io.armed = False
+    bench.run(50)
+    assert bench.io.state() == 0
+    assert bench.outputs() == [None] * 4
+
+
+def test_state_announcements(bench: Bench) -> None:
+    start = bench.io.now_ms
+    bench.run(2000)
+    window = [(t, n) for t, n, _ in bench.io.named if t > start]
+    states = [t for t, n in window if n == "SL_STATE"]
+    versions = [v for t, n, v in bench.io.named if n == "SL_VER" and t > start]
+    assert 9 <= len(states) <= 11  # 5 Hz
+    assert len(versions) == 2 and set(versions) == {1.0}  # 1 Hz, contract version 1
+    before = len(bench.io.named)
+    bench.command(ACTUATOR, 1, 0, 1000, wait_ms=12)
+    changes = [(t, v) for t, n, v in bench.io.named[before:] if n == "SL_STATE"]
+    assert changes and changes[0][1] == 1  # announced at once on the change

@@ -1,0 +1,234 @@
+"""The landing reflex of the real on-board script in real Lua 5.3: trusted-range cut, impact,
+reverse thrust, HOLD, and the rules for lapses and missed impacts."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+from conftest import Bench
+
+from sitl.vehicle.scripting import RangeReading
+
+REFLEX = 31011
+ACCEPTED = 0
+CUT_M, IMPACT, PCT, DUR_MS = 0.30, 30.0, 80.0, 300.0
+ARMED, CUT, RVT, HOLD, IDLE = 10, 11, 12, 13, 0
+GOOD = 4
+
+
+def good(d: float, quality: int = 100, lo: float = 0.1, hi: float = 3.0) -> RangeReading:
+    return RangeReading(distance_m=d, status=GOOD, signal_quality_pct=quality, min_m=lo, max_m=hi)
+
+
+def arm(bench: Bench, validity_ms: float = 3000) -> None:
+    ack = bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, validity_ms)
+    assert ack.result == ACCEPTED
+    assert bench.io.state() == ARMED
+    assert bench.outputs() == [None] * 4
+
+
+Trace = list[tuple[int, float, int | None]]
+
+
+def descend(bench: Bench, h0: float, speed: float, ms: int, reading=good) -> Trace:
+    """Fly down at `speed` m/s from `h0` m for `ms`; returns (t, true height, output) per tick."""
+    t0 = bench.io.now_ms
+    trace = []
+
+    def each(t: int) -> None:
+        h = h0 - speed * (t - t0) / 1000
+        bench.io.range = reading(h)
+        trace.append((t, h))
+
+    out = []
+    for _ in range(ms):
+        bench.run(1, each)
+        out.append((*trace[-1], bench.outputs()[0]))
+    return out
+
+
+def test_cut_at_the_set_height_on_a_trusted_descent(bench: Bench) -> None:
+    bench.io.range = good(1.0)
+    arm(bench)
+    trace = descend(bench, 0.9, 0.5, 1400)
+    cut = next((t, h) for t, h, pwm in trace if pwm == 1500)
+    assert bench.io.state() in (CUT, HOLD)
+    first_below = next(t for t, h, _ in trace if h <= CUT_M)
+    assert cut[1] <= CUT_M  # never before the cut height
+    assert cut[0] - first_below <= 40  # three readings 10 ms apart, then the next update
+    assert all(pwm is None for t, h, pwm in trace if t < cut[0])
+
+
+def bad_status(h: float) -> RangeReading:
+    return RangeReading(h, 1, 100, 0.1, 3.0)
+
+
+def invalid_quality(h: float) -> RangeReading:
+    return good(h, quality=0)
+
+
+def below_sensor_min(h: float) -> RangeReading:
+    return good(h, lo=0.5)
+
+
+def above_sensor_max(h: float) -> RangeReading:
+    return good(h, hi=0.2)
+
+
+@pytest.mark.parametrize("reading", [bad_status, invalid_quality, below_sensor_min])
+def test_no_cut_on_untrustworthy_range(bench: Bench, reading) -> None:
+    bench.io.range = good(1.0)
+    arm(bench)
+    trace = descend(bench, 0.9, 0.5, 1500, reading=reading)  # down to 0.15 m true height
+    assert all(pwm is None for _, _, pwm in trace)
+    assert bench.io.state() == ARMED
+
+
+def test_no_cut_on_spikes_below_the_cut_height(bench: Bench) -> None:
+    rng = random.Random(5)
+    bench.io.range = good(1.2)
+    arm(bench)
+    seen = []
+
+    def spiky(h: float) -> RangeReading:  # e.g. grass or a bird under the sensor
+        seen.append(0.12 if rng.random() < 0.3 else h)
+        return good(seen[-1])
+
+    trace = descend(bench, 1.2, 0.5, 1300, reading=spiky)  # true height stays above 0.55 m
+    assert sum(d <= CUT_M for d in seen) > 300
+    assert all(pwm is None for _, _, pwm in trace)
+    assert bench.io.state() == ARMED
+
+
+def test_no_cut_when_the_reading_is_beyond_the_sensor_maximum(bench: Bench) -> None:
+    bench.io.range = good(1.0)
+    arm(bench)
+    trace = descend(bench, 0.9, 0.5, 1500, reading=above_sensor_max)
+    # readings above 0.2 m are beyond this sensor's max: untrusted; below it they are good again
+    assert all(pwm is None for _, h, pwm in trace if h > 0.2)
+
+
+def test_no_cut_on_a_noisy_descent_above_the_cut_height(bench: Bench) -> None:
+    rng = random.Random(7)
+    bench.io.range = good(1.5)
+    arm(bench)
+    seen = []
+
+    def noisy(h: float) -> RangeReading:
+        seen.append(max(0.1, h + rng.gauss(0.0, 0.35)))
+        return good(seen[-1])
+
+    trace = descend(bench, 1.5, 0.5, 1600, reading=noisy)  # true height stays above 0.7 m
+    assert sum(d <= CUT_M for d in seen) >= 5  # the noise does reach below the cut height
+    assert all(pwm is None for _, _, pwm in trace)
+
+
+def cut_now(bench: Bench, validity_ms: float = 3000) -> None:
+    bench.io.range = good(0.5)
+    arm(bench, validity_ms)
+    descend(bench, 0.32, 0.5, 80)
+    assert bench.io.state() == CUT
+    bench.io.range = good(0.2)
+
+
+def test_impact_reverses_then_holds(bench: Bench) -> None:
+    cut_now(bench)
+    bench.run(100)
+    assert bench.outputs() == [1500] * 4
+    bench.io.accel_body = (2.0, 1.0, -45.0)  # touchdown spike
+    bench.run(5)
+    assert bench.io.state() == RVT
+    assert bench.outputs() == [1500 - 5 * int(PCT)] * 4
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    bench.run(int(DUR_MS) - 20)
+    assert bench.outputs() == [1100] * 4
+    bench.run(30)
+    assert bench.io.state() == HOLD
+    assert bench.outputs() == [1500] * 4
+
+
+def test_accel_noise_below_the_threshold_does_not_fire(bench: Bench) -> None:
+    rng = random.Random(3)
+    bench.io.range = good(1.0)
+    arm(bench)
+
+    def shaky(t: int) -> None:
+        bench.io.accel_body = (rng.uniform(-15, 15), rng.uniform(-15, 15), -9.81 + rng.uniform(-15, 15))
+
+    bench.run(300, shaky)  # in flight before the cut: strong vibration, even spikes, no effect
+    assert bench.io.state() == ARMED
+    bench.io.accel_body = (0.0, 0.0, -60.0)
+    bench.run(20)
+    assert bench.io.state() == ARMED and bench.outputs() == [None] * 4
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    cut_now(bench)
+
+    def mild(t: int) -> None:
+        bench.io.accel_body = (rng.uniform(-8, 8), rng.uniform(-8, 8), -9.81 + rng.uniform(-8, 8))
+
+    bench.run(500, mild)  # |a| < 9.81 + 8 * sqrt(3) < 30: below the threshold
+    assert bench.io.state() == CUT
+    assert bench.outputs() == [1500] * 4
+
+
+def test_missed_impact_on_the_ground_holds(bench: Bench) -> None:
+    cut_now(bench)
+    bench.run(1050)
+    assert bench.io.state() == HOLD
+    assert bench.outputs() == [1500] * 4
+    assert "SL: no impact seen, holding motors stopped" in bench.io.sl_texts()
+
+
+def test_missed_impact_in_the_air_releases(bench: Bench) -> None:
+    cut_now(bench)
+    bench.io.range = good(0.8)  # the vehicle is not on the ground: the cut was false
+    bench.run(1080)
+    assert bench.io.state() == IDLE
+    assert bench.outputs() == [None] * 4
+    assert "SL: false cut, motors released" in bench.io.sl_texts()
+    assert bench.io.armed
+
+
+def test_hold_with_lapsed_validity_disarms(bench: Bench) -> None:
+    cut_now(bench, validity_ms=1500)
+    bench.io.accel_body = (0.0, 0.0, -50.0)
+    bench.run(5)
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    bench.run(400)
+    assert bench.io.state() == HOLD and bench.io.armed
+    bench.run(1200)
+    assert not bench.io.armed
+    assert bench.io.state() == IDLE
+    assert "SL: companion silent after landing: disarmed" in bench.io.sl_texts()
+
+
+def test_refresh_extends_the_hold(bench: Bench) -> None:
+    cut_now(bench, validity_ms=1500)
+    bench.run(1100)
+    assert bench.io.state() == HOLD
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 1500).result == ACCEPTED
+    bench.run(1000)  # past the first validity, within the refreshed one
+    assert bench.io.armed and bench.io.state() == HOLD
+
+
+def test_armed_reflex_lapses_to_idle(bench: Bench) -> None:
+    bench.io.range = good(1.0)
+    arm(bench, validity_ms=200)
+    bench.run(250)
+    assert bench.io.state() == IDLE
+    assert "SL: reflex validity lapsed" in bench.io.sl_texts()
+
+
+def test_abort_releases_a_cut(bench: Bench) -> None:
+    cut_now(bench)
+    assert bench.command(REFLEX, 0).result == ACCEPTED
+    bench.run(40)
+    assert bench.io.state() == IDLE and bench.outputs() == [None] * 4
+
+
+def test_emergency_stop_releases_a_cut(bench: Bench) -> None:
+    cut_now(bench)
+    bench.io.estop = True
+    bench.run(40)
+    assert bench.io.state() == 20 and bench.outputs() == [None] * 4
