@@ -1,0 +1,69 @@
+"""Synthetic drops: the truth underneath, and noise shaped like motion capture."""
+
+import math
+
+import numpy as np
+
+from slopelander.ident.synth import PAPER_TORQUE_LEVELS, NoiseModel, paper_drops, synthesize, true_states
+from slopelander.model import Outcome, simulate
+
+
+def test_paper_spread_of_drops():
+    conds = paper_drops(10, seed=0)
+    slopes = [c.slope_deg for c in conds]
+    speeds = [c.speed for c in conds]
+    assert 0 <= min(slopes) < 5 and 40 < max(slopes) <= 45
+    assert 1 <= min(speeds) < 1.3 and 2.7 < max(speeds) <= 3
+    assert all(c.tau_up in PAPER_TORQUE_LEVELS and c.tau_down in PAPER_TORQUE_LEVELS for c in conds)
+
+
+def test_some_paper_drops_flip(model):
+    drops = synthesize(model, paper_drops(10, seed=0), NoiseModel.none(), duration=0.3)
+    outcomes = [d.outcome for d in drops]
+    assert Outcome.FLIP in outcomes and any(o.success for o in outcomes)
+
+
+def test_noiseless_synthesis_is_the_simulation(model):
+    cond = paper_drops(3, seed=1)[1]
+    d = synthesize(model, [cond], NoiseModel.none(), duration=0.5)[0]
+    tr = simulate(cond, model, sample_rate=200.0)
+    after = d.t >= 0
+    np.testing.assert_allclose(d.states[after], tr.states[: after.sum()], atol=1e-9)
+    # before contact: free fall that ends in the impact state
+    before = d.states[~after]
+    np.testing.assert_allclose(before[-1, 4], -cond.speed - 9.81 * d.t[~after][-1], rtol=1e-9)
+
+
+def test_noise_has_the_stated_size_and_rates_come_from_noisy_positions(model):
+    conds = paper_drops(4, seed=2)
+    noise = NoiseModel(position_sd=1e-3, angle_sd_deg=0.3, latency=0.005)
+    drops = synthesize(model, conds, noise, seed=5, duration=0.5)
+    err_pos, err_ang = [], []
+    for d in drops:
+        truth, _ = true_states(model, d.conditions, d.t - noise.latency)
+        err_pos.append(d.states[:, :2] - truth[:, :2])
+        err_ang.append(d.states[:, 2] - truth[:, 2])
+        np.testing.assert_allclose(d.states[:, 3:], np.gradient(d.states[:, :3], d.t, axis=0))
+    sd_pos = np.concatenate(err_pos).std()
+    sd_ang = math.degrees(np.concatenate(err_ang).std())
+    assert 0.85e-3 < sd_pos < 1.15e-3
+    assert 0.25 < sd_ang < 0.35
+
+
+def test_latency_delays_the_recording(model):
+    cond = paper_drops(2, seed=0)[0]
+    late = synthesize(model, [cond], NoiseModel(0, 0, 0.01), duration=0.3)[0]
+    truth, _ = true_states(model, cond, late.t - 0.01)
+    np.testing.assert_allclose(late.states[:, :3], truth[:, :3], atol=1e-12)
+    ontime, _ = true_states(model, cond, late.t)
+    assert np.abs(late.states[:, 1] - ontime[:, 1]).max() > 0.005
+
+
+def test_seeds_differ_and_repeat(model):
+    cond = paper_drops(1, seed=0)
+    a = synthesize(model, cond, seed=1, duration=0.2)[0].states
+    b = synthesize(model, cond, seed=1, duration=0.2)[0].states
+    c = synthesize(model, cond, seed=2, duration=0.2)[0].states
+    np.testing.assert_array_equal(a, b)
+    assert not np.allclose(a, c)
+
