@@ -59,6 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--rate", type=float, default=200.0, help="sample rate, Hz")
     _model_args(p, "truth")
     p.set_defaults(handler=run_synth)
+    register_compare(subparsers)
 
 
 def run_synth(args: argparse.Namespace) -> int:
@@ -82,4 +83,43 @@ def run_synth(args: argparse.Namespace) -> int:
     write_dataset(drops, args.out)
     flips = sum(d.outcome is not None and d.outcome.name == "FLIP" for d in drops)
     print(f"wrote {len(drops)} drops ({flips} flipped) to {args.out}")
+    return 0
+
+
+def _dataset_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("dataset", type=Path, metavar="DATASET",
+                   help="folder of drop recordings (docs/recordings.md)")
+
+
+def register_compare(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "compare", help="compare the model with recorded drops: NRMSE, phases, outcomes, report",
+        description="Simulate every recorded drop, report NRMSE per state, drop and phase, outcome "
+                    "matches and where the residual concentrates; write a Markdown report with a plot "
+                    "per drop.")
+    _dataset_arg(p)
+    p.add_argument("--report", type=Path, metavar="DIR", help="folder for report.md and one PNG per drop")
+    _model_args(p, "analysed")
+    p.set_defaults(handler=run_compare)
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    from slopelander.ident.compare import compare
+    from slopelander.ident.recording import STATES, load_dataset
+    from slopelander.ident.report import write_report
+
+    drops = load_dataset(args.dataset)
+    model = build_model(args)
+    c = compare(model, drops)
+    ok, known = c.outcome_matches()
+    print(f"NRMSE {c.nrmse:.4f} over {len(drops)} drops (angular states x2); outcomes match {ok}/{known}")
+    print("  per state: " + ", ".join(f"{s} {v:.4f}" for s, v in zip(STATES, c.per_state, strict=True)))
+    share = c.phase_share()
+    print("  per phase: " + ", ".join(f"{p} {v:.4f} ({100 * share[p]:.0f} % of residual)"
+                                      for p, v in c.per_phase().items()))
+    for w in c.worst_windows(3):
+        print(f"  worst: {w.drop} {w.start:.2f}-{w.end:.2f} s ({w.phase}, {w.state}): {100 * w.share:.1f} %")
+    if args.report:
+        out = write_report(c, args.report, model_note=f"Model: effects {', '.join(model.effects)}.")
+        print(f"report: {out}")
     return 0
