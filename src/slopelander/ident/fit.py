@@ -1,0 +1,441 @@
+"""Identify named model parameters from recorded drops, as the paper did (Sec. IV-D).
+
+A global search (CMA-ES, from the centre of the bounds, so the start says nothing about the
+answer) then a local least-squares polish with a finite-difference Jacobian whose columns are
+simulated in parallel. The Jacobian at the optimum also gives confidence intervals and shows
+directions the data cannot pin down (flat or correlated), which are reported as warnings.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing as mp
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from slopelander.errors import SlopelanderError
+from slopelander.ident.compare import WEIGHTS, compare, predict, state_ranges
+from slopelander.ident.recording import Drop
+from slopelander.model import BUILTIN_EFFECTS, Model
+
+PAPER_SEVEN: tuple[str, ...] = (
+    "flex_stiffness",
+    "flex_damping",
+    "factor_tau",
+    "factor_mu",
+    "ground_stiffness",
+    "ground_damping",
+    "friction_kinetic",
+)
+"""The parameters the paper identified from its drops (Table II, GA means): k_q, b_q,
+factor_tau, factor_mu_k, k_g, b_g, mu_k. Masses and inertias were measured, not fitted."""
+
+DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
+    "flex_stiffness": (2.0, 200.0),
+    "flex_damping": (0.005, 1.0),
+    "factor_tau": (0.0, 0.01),
+    "factor_mu": (0.0, 3.0),
+    "ground_stiffness": (2e3, 2e5),
+    "ground_damping": (50.0, 3000.0),
+    "friction_kinetic": (0.2, 1.2),
+    "eot_stiffness": (10.0, 2000.0),
+    "eot_damping": (0.05, 10.0),
+}
+"""Search bounds of the parameters a user is likely to fit; wide, a decade or more either side
+of the paper's values where the quantity is a stiffness or damping."""
+
+
+class FitError(SlopelanderError, ValueError):
+    """A parameter that cannot be fitted as asked (unknown, no bounds, its effect is off)."""
+
+
+@dataclass(frozen=True)
+class FitParam:
+    name: str
+    low: float
+    high: float
+    log: bool
+    """Searched on a log scale (bounds positive and more than a decade apart)."""
+
+    def value(self, u: float) -> float:
+        u = min(max(u, 0.0), 1.0)
+        if self.log:
+            return self.low * (self.high / self.low) ** u
+        return self.low + (self.high - self.low) * u
+
+    def unit(self, value: float) -> float:
+        if self.log:
+            return math.log(value / self.low) / math.log(self.high / self.low)
+        return (value - self.low) / (self.high - self.low)
+
+    def slope(self, u: float) -> float:
+        """d value / d u, to carry uncertainties from the unit cube to the parameter."""
+        return self.value(u) * math.log(self.high / self.low) if self.log else self.high - self.low
+
+
+def make_param(name: str, low: float, high: float) -> FitParam:
+    if not (math.isfinite(low) and math.isfinite(high) and low < high):
+        raise FitError(f"parameter {name!r}: bounds {low}..{high} must be finite with low < high")
+    return FitParam(name, float(low), float(high), low > 0 and high / low > 10.0)
+
+
+def effect_of(name: str) -> str | None:
+    for e in BUILTIN_EFFECTS.values():
+        if name in e.parameters:
+            return e.name
+    return None
+
+
+def resolve_params(model: Model, names: Sequence[str] | None = None,
+                   bounds: dict[str, tuple[float, float]] | None = None) -> list[FitParam]:
+    """The fit parameters: ``names`` (default the paper's seven, less those whose effect the
+    model lacks) with ``bounds`` overriding :data:`DEFAULT_BOUNDS`. A user effect's parameter
+    needs its bounds given."""
+    bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
+    explicit = names is not None
+    names = list(PAPER_SEVEN if names is None else names)
+    user = {p: e for e in model.user_effects for p in e.parameters}
+    out = []
+    for n in names:
+        eff = effect_of(n)
+        if n in user:
+            pass
+        elif n not in model.params.values:
+            raise FitError(f"unknown parameter {n!r}")
+        elif eff is not None and eff not in model.effects:
+            if explicit:
+                raise FitError(f"parameter {n!r} belongs to effect {eff!r}, which the model does not have")
+            continue
+        if n not in bounds:
+            raise FitError(f"parameter {n!r} has no default bounds: give them as {n}=LOW:HIGH")
+        out.append(make_param(n, *bounds[n]))
+    if not out:
+        raise FitError("nothing to fit")
+    return out
+
+
+def apply(model: Model, params: Sequence[FitParam], values: Sequence[float]) -> Model:
+    """``model`` with the named parameters set (built-in or of a user effect)."""
+    builtin, users = {}, list(model.user_effects)
+    for p, v in zip(params, values, strict=True):
+        for i, e in enumerate(users):
+            if p.name in e.parameters:
+                users[i] = e.with_values(**{p.name: v})
+                break
+        else:
+            builtin[p.name] = v
+    m = model.with_params(**builtin) if builtin else model
+    return replace(m, user_effects=tuple(users))
+
+
+@dataclass
+class Problem:
+    """Residuals of a model over a set of drops as a function of the unit-cube parameters."""
+
+    model: Model
+    drops: list[Drop]
+    params: list[FitParam]
+    ranges: np.ndarray
+
+    def __post_init__(self) -> None:
+        horizon = max(float(d.t[-1]) for d in self.drops) + 0.01
+        self.model = replace(self.model, criteria=replace(self.model.criteria, horizon=horizon))
+        self._scale = [
+            np.sqrt(WEIGHTS / WEIGHTS.sum()) / self.ranges / math.sqrt((d.t >= 0).sum() * len(self.drops))
+            for d in self.drops
+        ]
+
+    def values(self, u: Sequence[float]) -> list[float]:
+        return [p.value(float(x)) for p, x in zip(self.params, u, strict=True)]
+
+    def model_at(self, u: Sequence[float]) -> Model:
+        return apply(self.model, self.params, self.values(u))
+
+    def residuals(self, u: Sequence[float]) -> np.ndarray:
+        try:
+            m = self.model_at(u)
+        except SlopelanderError:
+            return np.full(self.size, 10.0)
+        out = []
+        for d, sc in zip(self.drops, self._scale, strict=True):
+            sim, _ = predict(m, d, outcome=False)
+            after = d.t >= 0
+            out.append(((sim[after] - d.states[after]) * sc).ravel())
+        r = np.concatenate(out)
+        return np.where(np.isfinite(r), r, 10.0)
+
+    @property
+    def size(self) -> int:
+        return sum(int((d.t >= 0).sum()) * 6 for d in self.drops)
+
+    def cost(self, u: Sequence[float]) -> float:
+        r = self.residuals(u)
+        return float(r @ r)
+
+
+# -- running many evaluations ---------------------------------------------------------------
+_WORKER_PROBLEM: Problem | None = None
+
+
+def _init_worker(problem: Problem) -> None:
+    global _WORKER_PROBLEM
+    _WORKER_PROBLEM = problem
+
+
+def _worker_residuals(u: np.ndarray) -> np.ndarray:
+    assert _WORKER_PROBLEM is not None
+    return _WORKER_PROBLEM.residuals(u)
+
+
+def _dask_residuals(problem: Problem, u: np.ndarray) -> np.ndarray:
+    return problem.residuals(u)
+
+
+class Evaluator:
+    """Evaluates residual vectors for many parameter points: in this process, on a pool of
+    forked processes (one per core), or on a Dask cluster."""
+
+    def __init__(self, problem: Problem, workers: int | None = None, client=None) -> None:
+        self.problem = problem
+        self.client = client
+        self.workers = workers if workers is not None else (os.cpu_count() or 1)
+        self._pool = None
+        if client is None and self.workers > 1 and "fork" in mp.get_all_start_methods():
+            self._pool = mp.get_context("fork").Pool(self.workers, _init_worker, (problem,))
+        self.nfev = 0
+
+    def residuals(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
+        self.nfev += len(points)
+        if self.client is not None:
+            futs = self.client.map(_dask_residuals, [self.problem] * len(points), list(points), pure=False)
+            return self.client.gather(futs)
+        if self._pool is not None and len(points) > 1:
+            return self._pool.map(_worker_residuals, list(points))
+        return [self.problem.residuals(u) for u in points]
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self) -> Evaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# -- the fit ---------------------------------------------------------------------------------
+@dataclass
+class FitResult:
+    params: list[FitParam]
+    values: dict[str, float]
+    u: np.ndarray
+    cost: float
+    train_nrmse: float
+    ci95: dict[str, float]
+    """Half-width of the 95 % confidence interval (from J^T J; optimistic: motion-capture
+    samples are not independent)."""
+    warnings: list[str]
+    nfev: int
+    seconds: float
+    model: Model
+    validation_nrmse: float | None = None
+    train_names: list[str] = field(default_factory=list)
+    validation_names: list[str] = field(default_factory=list)
+
+
+def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> np.ndarray:
+    pts = []
+    steps = []
+    for i in range(len(u)):
+        step = h if u[i] + h <= 1.0 else -h
+        v = u.copy()
+        v[i] += step
+        pts.append(v)
+        steps.append(step)
+    cols = ev.residuals(pts)
+    return np.column_stack([(c - r0) / s for c, s in zip(cols, steps, strict=True)])
+
+
+def identifiability(params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.ndarray,
+                    values: dict[str, float]) -> tuple[dict[str, float], list[str]]:
+    """95 % half-widths from the Gauss-Newton covariance, and warnings for parameters the data
+    cannot identify: a flat direction (tiny singular value), a strong correlation, or an
+    interval wider than half the value."""
+    n = len(params)
+    dof = max(len(r) - n, 1)
+    s2 = float(r @ r) / dof
+    JtJ = J.T @ J
+    warnings = []
+    sv = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
+    _, _, Vt = np.linalg.svd(J, full_matrices=False)
+    if sv.size and sv[0] > 0:
+        for k in np.flatnonzero(sv / sv[0] < 1e-3):
+            lead = [params[i].name for i in np.argsort(-np.abs(Vt[k]))[:2]]
+            warnings.append(f"flat direction: the data barely constrain a combination of "
+                            f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})")
+    cov = np.linalg.pinv(JtJ) * s2
+    sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
+    ci = {}
+    for i, p in enumerate(params):
+        ci[p.name] = 1.96 * sd_u[i] * p.slope(float(u[i]))
+        v = values[p.name]
+        if ci[p.name] > 0.5 * abs(v) and abs(v) > 0:
+            warnings.append(f"{p.name} is poorly identified: 95 % interval +-{ci[p.name]:.3g} "
+                            f"on a value of {v:.3g}")
+        if u[i] < 0.01 or u[i] > 0.99:
+            warnings.append(f"{p.name} = {v:.3g} sits at its bound ({p.low:g}..{p.high:g}): widen the bounds "
+                            "or the data do not need it")
+    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    corr = cov / np.outer(d, d)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if abs(corr[i, j]) > 0.95:
+                warnings.append(f"{params[i].name} and {params[j].name} are correlated "
+                                f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each")
+    return ci, warnings
+
+
+def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *,
+        ranges: np.ndarray | None = None, cma_evals: int = 400, ls_evals: int = 30, seed: int = 0,
+        workers: int | None = None, client=None, progress: Callable[[int], None] | None = None,
+        validation: list[Drop] | None = None) -> FitResult:
+    """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
+
+    ``cma_evals`` bounds the global search, ``ls_evals`` the local iterations; ``progress`` is
+    called with the number of new model evaluations (for a progress bar).
+    """
+    import cma
+    from scipy.optimize import least_squares
+
+    t0 = time.perf_counter()
+    params = params or resolve_params(model)
+    ranges = state_ranges(drops + (validation or [])) if ranges is None else ranges
+    prob = Problem(model, drops, params, ranges)
+    n = len(params)
+    tick = progress or (lambda k: None)
+    with Evaluator(prob, workers, client) as ev:
+        best_u, best_c = np.full(n, 0.5), math.inf
+        if cma_evals > 0 and n == 1:  # CMA-ES needs two dimensions: scan the line instead
+            X = [np.array([x]) for x in np.linspace(0.0, 1.0, max(3, min(cma_evals, 41)))]
+            costs = [float(r @ r) for r in ev.residuals(X)]
+            tick(len(X))
+            i = int(np.argmin(costs))
+            best_u, best_c = X[i].copy(), costs[i]
+        elif cma_evals > 0:
+            popsize = max(8, 4 + int(3 * math.log(n)))
+            if workers is None or workers > 1:
+                popsize += popsize % max(1, ev.workers)
+            es = cma.CMAEvolutionStrategy(
+                [0.5] * n, 0.3,
+                {"bounds": [0, 1], "popsize": popsize, "seed": seed + 1, "verbose": -9,
+                 "maxfevals": cma_evals, "tolfun": 1e-10},
+            )
+            while not es.stop():
+                X = es.ask()
+                rs = ev.residuals([np.asarray(x) for x in X])
+                costs = [float(r @ r) for r in rs]
+                es.tell(X, costs)
+                tick(len(X))
+                i = int(np.argmin(costs))
+                if costs[i] < best_c:
+                    best_u, best_c = np.asarray(X[i], dtype=float).copy(), costs[i]
+        cache: dict[bytes, np.ndarray] = {}
+
+        def fun(u: np.ndarray) -> np.ndarray:
+            key = np.asarray(u).tobytes()
+            if key not in cache:
+                cache[key] = ev.residuals([np.asarray(u)])[0]
+                tick(1)
+            return cache[key]
+
+        def jac(u: np.ndarray) -> np.ndarray:
+            J = _jacobian(ev, np.asarray(u, dtype=float), fun(u))
+            tick(len(u))
+            return J
+
+        u0 = np.clip(best_u, 1e-6, 1 - 1e-6)
+        ls = least_squares(fun, u0, jac=jac, bounds=(0.0, 1.0), x_scale="jac", max_nfev=ls_evals,
+                           xtol=1e-8, ftol=1e-10, gtol=1e-10)
+        u = ls.x if 2 * ls.cost <= best_c else best_u
+        r = fun(u)
+        J = jac(u)
+        values = dict(zip([p.name for p in params], prob.values(u), strict=True))
+        ci, warns = identifiability(params, J, u, r, values)
+        nfev = ev.nfev
+    fitted = apply(model, params, [values[p.name] for p in params])
+    train = compare(fitted, drops, ranges).nrmse
+    val = compare(fitted, validation, ranges).nrmse if validation else None
+    return FitResult(params, values, u, float(r @ r), train, ci, warns, nfev, time.perf_counter() - t0,
+                     fitted, val, [d.name for d in drops], [d.name for d in validation or []])
+
+
+def subsets(n: int, repeats: int = 3, train: int | None = None,
+            seed: int = 0) -> list[tuple[list[int], list[int]]]:
+    """Training / validation index splits: by default 3 x (60 % / 40 %), as the paper's
+    three fits of 6 drops validated on the other 4."""
+    train = round(0.6 * n) if train is None else train
+    if not 1 <= train < n:
+        raise FitError(f"need at least one training and one validation drop (have {n} drops, train {train})")
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(repeats):
+        perm = rng.permutation(n)
+        out.append((sorted(perm[:train].tolist()), sorted(perm[train:].tolist())))
+    return out
+
+
+@dataclass
+class SubsetFits:
+    """Fits repeated over training subsets: the Table-II-style summary."""
+
+    fits: list[FitResult]
+
+    def mean_sd(self) -> dict[str, tuple[float, float]]:
+        names = [p.name for p in self.fits[0].params]
+        return {n: (float(np.mean([f.values[n] for f in self.fits])),
+                    float(np.std([f.values[n] for f in self.fits], ddof=1)) if len(self.fits) > 1 else 0.0)
+                for n in names}
+
+    @property
+    def train_nrmse(self) -> float:
+        return float(np.mean([f.train_nrmse for f in self.fits]))
+
+    @property
+    def validation_nrmse(self) -> float:
+        return float(np.mean([f.validation_nrmse for f in self.fits if f.validation_nrmse is not None]))
+
+    def warnings(self) -> list[str]:
+        seen = []
+        for f in self.fits:
+            for w in f.warnings:
+                if w.split(":")[0] not in [s.split(":")[0] for s in seen]:
+                    seen.append(w)
+        return seen
+
+    def table(self) -> str:
+        lines = ["| parameter | mean | sigma | 95 % CI (first fit) |", "|---|---:|---:|---:|"]
+        for n, (m, s) in self.mean_sd().items():
+            lines.append(f"| {n} | {m:.4g} | {s:.2g} | +-{self.fits[0].ci95[n]:.2g} |")
+        lines.append("")
+        lines.append(f"NRMSE training {self.train_nrmse:.4f}, validation {self.validation_nrmse:.4f} "
+                     f"(mean of {len(self.fits)} fits)")
+        return "\n".join(lines)
+
+
+def fit_subsets(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *,
+                repeats: int = 3, train: int | None = None, seed: int = 0, **kw) -> SubsetFits:
+    """The paper's procedure: ``repeats`` fits on different training subsets, each validated on
+    the drops it did not see."""
+    ranges = state_ranges(drops)
+    fits = []
+    for k, (tr, va) in enumerate(subsets(len(drops), repeats, train, seed)):
+        fits.append(fit(model, [drops[i] for i in tr], params, ranges=ranges, seed=seed + k,
+                        validation=[drops[i] for i in va], **kw))
+    return SubsetFits(fits)
