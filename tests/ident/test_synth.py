@@ -4,7 +4,14 @@ import math
 
 import numpy as np
 
-from slopelander.ident.synth import PAPER_TORQUE_LEVELS, NoiseModel, paper_drops, synthesize, true_states
+from slopelander.ident.synth import (
+    PAPER_TORQUE_LEVELS,
+    NoiseModel,
+    differentiate,
+    paper_drops,
+    synthesize,
+    true_states,
+)
 from slopelander.model import Outcome, simulate
 
 
@@ -43,11 +50,21 @@ def test_noise_has_the_stated_size_and_rates_come_from_noisy_positions(model):
         truth, _ = true_states(model, d.conditions, d.t - noise.latency)
         err_pos.append(d.states[:, :2] - truth[:, :2])
         err_ang.append(d.states[:, 2] - truth[:, 2])
-        np.testing.assert_allclose(d.states[:, 3:], np.gradient(d.states[:, :3], d.t, axis=0))
+        np.testing.assert_allclose(d.states[:, 3:], differentiate(d.states[:, :3], d.t, 7))
     sd_pos = np.concatenate(err_pos).std()
     sd_ang = math.degrees(np.concatenate(err_ang).std())
     assert 0.85e-3 < sd_pos < 1.15e-3
     assert 0.25 < sd_ang < 0.35
+
+
+def test_the_differentiator_is_exact_on_a_parabola_and_quiets_noise():
+    t = np.arange(0, 0.5, 0.005)
+    x = np.column_stack([3 * t**2 - t, np.sin(0 * t)])
+    np.testing.assert_allclose(differentiate(x, t, 7)[3:-3, 0], 6 * t[3:-3] - 1, atol=1e-9)
+    noise = np.random.default_rng(0).normal(0, 1e-3, (20000, 1))
+    tt = np.arange(20000) * 0.005
+    ratio = differentiate(noise, tt, 7)[3:-3].std() / np.gradient(noise[:, 0], tt).std()
+    assert 0.2 < ratio < 0.35  # sqrt(1/28) / (sqrt(1/2)) = 0.27
 
 
 def test_latency_delays_the_recording(model):

@@ -13,7 +13,7 @@ import numpy as np
 
 from slopelander.ident.phases import PHASES, phase_labels
 from slopelander.ident.recording import STATES, Drop
-from slopelander.ident.synth import ballistic
+from slopelander.ident.synth import ballistic, differentiate
 from slopelander.model import LandingConditions, Model, Outcome, simulate
 
 WEIGHTS = np.array([1.0, 1.0, 2.0, 1.0, 1.0, 2.0])
@@ -24,7 +24,8 @@ WINDOW = 0.05
 
 def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarray, Outcome | None]:
     """The model's states at the drop's sample times (free flight before contact) and, with
-    ``outcome``, its predicted outcome over the model's full horizon."""
+    ``outcome``, its predicted outcome over the model's full horizon. When the recording's rates
+    were differentiated from its positions, the model's are too, the same way."""
     t = drop.t
     horizon = float(t[-1]) + 0.01
     if outcome:
@@ -38,6 +39,8 @@ def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarr
     pre = t < 0
     if pre.any():
         after[pre] = ballistic(drop.conditions, t[pre], float(s[0, 1]), model.params["gravity"])
+    if drop.rate_window:  # observe the model as the recording was observed
+        after[:, 3:] = differentiate(after[:, :3], t, drop.rate_window)
     return after, (tr.result.outcome if outcome else None)
 
 

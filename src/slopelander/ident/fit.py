@@ -305,11 +305,14 @@ def identifiability(params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.
 def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *,
         ranges: np.ndarray | None = None, cma_evals: int = 400, ls_evals: int = 30, seed: int = 0,
         workers: int | None = None, client=None, progress: Callable[[int], None] | None = None,
-        validation: list[Drop] | None = None) -> FitResult:
+        validation: list[Drop] | None = None, start: dict[str, float] | None = None,
+        sigma: float = 0.3) -> FitResult:
     """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
 
     ``cma_evals`` bounds the global search, ``ls_evals`` the local iterations; ``progress`` is
-    called with the number of new model evaluations (for a progress bar).
+    called with the number of new model evaluations (for a progress bar). The search starts
+    from the centre of the bounds, or from ``start`` (values by name, e.g. a previous fit's)
+    where given; ``sigma`` is the initial search width in units of the bounds.
     """
     import cma
     from scipy.optimize import least_squares
@@ -320,8 +323,12 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
     prob = Problem(model, drops, params, ranges)
     n = len(params)
     tick = progress or (lambda k: None)
+    x0 = np.array([p.unit(start[p.name]) if start and p.name in start else 0.5 for p in params])
+    x0 = np.clip(x0, 0.0, 1.0)
     with Evaluator(prob, workers, client) as ev:
-        best_u, best_c = np.full(n, 0.5), math.inf
+        best_u, best_c = x0, math.inf
+        if start:
+            best_c = float(np.sum(ev.residuals([x0])[0] ** 2))
         if cma_evals > 0 and n == 1:  # CMA-ES needs two dimensions: scan the line instead
             X = [np.array([x]) for x in np.linspace(0.0, 1.0, max(3, min(cma_evals, 41)))]
             costs = [float(r @ r) for r in ev.residuals(X)]
@@ -333,7 +340,7 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
             if workers is None or workers > 1:
                 popsize += popsize % max(1, ev.workers)
             es = cma.CMAEvolutionStrategy(
-                [0.5] * n, 0.3,
+                list(x0), sigma,
                 {"bounds": [0, 1], "popsize": popsize, "seed": seed + 1, "verbose": -9,
                  "maxfevals": cma_evals, "tolfun": 1e-10},
             )

@@ -71,6 +71,15 @@ class Drop:
     source: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def rate_window(self) -> int | None:
+        """Samples of the least-squares slope the recording's rates were differentiated with
+        (``meta.rates``), or None when the rates were measured directly."""
+        rates = self.meta.get("rates") if isinstance(self.meta, dict) else None
+        if isinstance(rates, dict) and rates.get("method") == "lsq_slope":
+            return int(rates.get("window", 3))
+        return None
+
     def __post_init__(self) -> None:
         if self.states.shape != (len(self.t), len(STATES)):
             raise ValueError(f"drop {self.name}: states must be ({len(self.t)}, 6), got {self.states.shape}")
@@ -223,7 +232,18 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
                                  f"unknown outcome {outcome!r}; known: {', '.join(OUTCOME_NAMES)}")
         outcome = OUTCOME_NAMES[outcome]
     meta = doc.get("meta") or {}
-    return cond, outcome, str(doc.get("source", "")), meta if isinstance(meta, dict) else {}
+    if not isinstance(meta, dict):
+        raise RecordingError(path, _json_line(text, "meta"), "meta", "must be an object")
+    rates = meta.get("rates")
+    if rates is not None:
+        win = rates.get("window") if isinstance(rates, dict) else None
+        ok = (isinstance(rates, dict) and rates.get("method") in ("lsq_slope", "measured")
+              and (rates.get("method") == "measured" or (isinstance(win, int) and win >= 3 and win % 2)))
+        if not ok:
+            raise RecordingError(path, _json_line(text, "rates"), "meta.rates",
+                                 "must be {\"method\": \"measured\"} or {\"method\": \"lsq_slope\", "
+                                 "\"window\": odd number >= 3}")
+    return cond, outcome, str(doc.get("source", "")), meta
 
 
 def load_drop(csv_path: str | Path) -> Drop:

@@ -27,9 +27,12 @@ class NoiseModel:
     """m, white noise on x and z."""
     angle_sd_deg: float = 0.3
     """deg, white noise on pitch."""
-    latency: float = 0.005
+    latency: float = 0.002
     """s, the recording shows the state this long ago."""
     sample_rate: float = 200.0
+    rate_window: int = 7
+    """Samples of the least-squares slope that turns positions into rates (motion-capture
+    software differentiates over a short window; 7 samples = 30 ms at 200 Hz)."""
 
     @classmethod
     def none(cls, sample_rate: float = 200.0) -> NoiseModel:
@@ -41,6 +44,23 @@ class NoiseModel:
                 raise ValueError(f"noise {name} must be a finite number >= 0")
         if not (10.0 <= self.sample_rate <= 2400.0):
             raise ValueError("noise sample_rate must lie within 10..2400 Hz")
+        if self.rate_window < 3 or self.rate_window % 2 == 0:
+            raise ValueError("noise rate_window must be an odd number of samples >= 3")
+
+
+def differentiate(x: np.ndarray, t: np.ndarray, window: int = 7) -> np.ndarray:
+    """Rates of sampled positions (columns of ``x``) by the least-squares slope over ``window``
+    samples centred on each one; central differences where the window does not fit."""
+    out = np.gradient(x, t, axis=0)
+    h = window // 2
+    if len(t) <= window or h < 2:
+        return out
+    k = np.arange(-h, h + 1, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    coef = k / (k @ k) / dt
+    for j in range(x.shape[1]):
+        out[h:-h, j] = np.correlate(x[:, j], coef, mode="valid")
+    return out
 
 
 def paper_drops(n: int = 10, seed: int = 0) -> list[LandingConditions]:
@@ -101,8 +121,9 @@ def synthesize(model: Model, conditions: list[LandingConditions], noise: NoiseMo
         if noise.angle_sd_deg:
             pos[:, 2] += rng.normal(0.0, math.radians(noise.angle_sd_deg), len(t))
         noisy = noise.position_sd > 0 or noise.angle_sd_deg > 0
-        rates = np.gradient(pos, t, axis=0) if noisy else truth[:, 3:]
-        drops.append(Drop(f"drop{i:02d}", t, np.column_stack([pos, rates]), cond, outcome, source,
-                          {"noise": {"position_sd_m": noise.position_sd, "angle_sd_deg": noise.angle_sd_deg,
-                                     "latency_s": noise.latency, "seed": seed}}))
+        rates = differentiate(pos, t, noise.rate_window) if noisy else truth[:, 3:]
+        meta = {"rates": {"method": "lsq_slope", "window": noise.rate_window}} if noisy else {}
+        meta["noise"] = {"position_sd_m": noise.position_sd, "angle_sd_deg": noise.angle_sd_deg,
+                         "latency_s": noise.latency, "seed": seed}
+        drops.append(Drop(f"drop{i:02d}", t, np.column_stack([pos, rates]), cond, outcome, source, meta))
     return drops
