@@ -60,6 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _model_args(p, "truth")
     p.set_defaults(handler=run_synth)
     register_compare(subparsers)
+    register_fit(subparsers)
+    register_diagnose(subparsers)
 
 
 def run_synth(args: argparse.Namespace) -> int:
@@ -122,4 +124,143 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.report:
         out = write_report(c, args.report, model_note=f"Model: effects {', '.join(model.effects)}.")
         print(f"report: {out}")
+    return 0
+
+
+def _search_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("search")
+    g.add_argument("--fit", nargs="+", default=None, metavar="NAME[=LOW:HIGH]",
+                   help="parameters to identify, with bounds where the defaults do not suit "
+                        "(default: the paper's seven the model has)")
+    g.add_argument("--repeats", type=int, default=3,
+                   help="training subsets (each 60 %% train / 40 %% validation)")
+    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--cma-evals", type=int, default=600,
+                   help="model evaluations of the global search per fit")
+    g.add_argument("--ls-evals", type=int, default=30, help="local least-squares iterations per fit")
+    g.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    g.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
+    g.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _fit_spec(items: list[str] | None) -> tuple[list[str] | None, dict[str, tuple[float, float]]]:
+    if items is None:
+        return None, {}
+    names, bounds = [], {}
+    for item in items:
+        name, _, rng = item.partition("=")
+        names.append(name)
+        if rng:
+            lo, _, hi = rng.partition(":")
+            try:
+                bounds[name] = (float(lo), float(hi))
+            except ValueError:
+                raise IdentCliError(f"--fit {item!r}: expected NAME=LOW:HIGH") from None
+    return names, bounds
+
+
+class _Bar:
+    """A tqdm bar counting model evaluations (silent with --quiet or without a terminal)."""
+
+    def __init__(self, quiet: bool, desc: str) -> None:
+        import sys
+
+        from tqdm import tqdm
+
+        self.bar = tqdm(desc=desc, unit="sim", disable=quiet or not sys.stderr.isatty())
+
+    def __call__(self, n: int) -> None:
+        self.bar.update(n)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _client(args: argparse.Namespace):
+    if not args.dask:
+        return None
+    from slopelander.envelope.sweep import connect
+
+    return connect(args.dask)
+
+
+def register_fit(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "fit", help="identify model parameters from recorded drops (CMA-ES + least squares)",
+        description="Identify named parameters from recorded drops as the paper did: repeated fits on "
+                    "training subsets, validated on the other drops; prints a Table-II-style mean +- sigma, "
+                    "confidence intervals and identifiability warnings.")
+    _dataset_arg(p)
+    p.add_argument("--out", type=Path, metavar="FILE", help="write the identified parameter set (YAML)")
+    _model_args(p, "analysed")
+    _search_args(p)
+    p.set_defaults(handler=run_fit)
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    from slopelander.ident.fit import FitError, fit_subsets, resolve_params
+    from slopelander.ident.recording import load_dataset
+    from slopelander.simulate_cli import check_output
+
+    check_output(args.out, "--out")
+    drops = load_dataset(args.dataset)
+    model = build_model(args)
+    names, bounds = _fit_spec(args.fit)
+    try:
+        params = resolve_params(model, names, bounds)
+    except FitError as exc:
+        raise IdentCliError(str(exc)) from None
+    bar = _Bar(args.quiet, "fit")
+    try:
+        sf = fit_subsets(model, drops, params, repeats=args.repeats, seed=args.seed, cma_evals=args.cma_evals,
+                         ls_evals=args.ls_evals, workers=args.workers, client=_client(args), progress=bar)
+    except FitError as exc:
+        raise IdentCliError(str(exc)) from None
+    finally:
+        bar.close()
+    print(sf.table())
+    for w in sf.warnings():
+        print(f"warning: {w}")
+    if args.out:
+        means = {n: m for n, (m, _) in sf.mean_sd().items()}
+        builtin = {n: v for n, v in means.items() if n in model.params.values}
+        model.params.with_values(**builtin).save(args.out)
+        print(f"identified parameters: {args.out}")
+    return 0
+
+
+def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "diagnose", help="find which physical effect the model is missing",
+        description="Screen each candidate effect the model lacks (built-in: leg_flex, "
+                    "downhill_torque_growth, downhill_friction_growth; plus --candidates FILE), refit "
+                    "the model with it, and rank by held-out error with a penalty per added parameter.")
+    _dataset_arg(p)
+    p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects to try")
+    p.add_argument("--refits", type=int, default=None, help="refit only the N best-screened candidates")
+    _model_args(p, "analysed")
+    _search_args(p)
+    p.set_defaults(handler=run_diagnose, repeats=1)
+
+
+def run_diagnose(args: argparse.Namespace) -> int:
+    from slopelander.ident.diagnose import diagnose
+    from slopelander.ident.fit import FitError
+    from slopelander.ident.recording import load_dataset
+
+    drops = load_dataset(args.dataset)
+    model = build_model(args)
+    names, bounds = _fit_spec(args.fit)
+    users = load_effects(args.candidates) if args.candidates else None
+    bar = _Bar(args.quiet, "diagnose")
+    try:
+        d = diagnose(model, drops, user_effects=users, names=names, bounds=bounds, repeats=args.repeats,
+                     refits=args.refits, seed=args.seed, cma_evals=args.cma_evals, ls_evals=args.ls_evals,
+                     workers=args.workers, client=_client(args), progress=bar)
+    except FitError as exc:
+        raise IdentCliError(str(exc)) from None
+    finally:
+        bar.close()
+    print(d.table())
+    print(d.verdict())
     return 0

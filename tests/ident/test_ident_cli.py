@@ -1,0 +1,42 @@
+"""The ident subcommands as a user runs them: a real process, this checkout's code."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
+    return subprocess.run([sys.executable, "-m", "slopelander.cli", *args], capture_output=True, text=True,
+                          env=env, timeout=120)
+
+
+def test_synth_then_compare_with_report(tmp_path):
+    ds = tmp_path / "ds"
+    r = run("synth", "--out", str(ds), "--drops", "3", "--duration", "0.4", "--seed", "4")
+    assert r.returncode == 0, r.stderr
+    assert "wrote 3 drops" in r.stdout and len(list(ds.glob("*.csv"))) == 3
+    rep = tmp_path / "rep"
+    r = run("compare", str(ds), "--without", "leg_flex", "--report", str(rep))
+    assert r.returncode == 0, r.stderr
+    assert "NRMSE" in r.stdout and "per phase" in r.stdout and "worst:" in r.stdout
+    assert (rep / "report.md").is_file() and len(list(rep.glob("*.png"))) == 3
+    again = run("synth", "--out", str(ds))
+    assert again.returncode == 1 and "already holds drops" in again.stderr
+
+
+def test_bad_requests_are_one_line_errors(tmp_path):
+    ds = tmp_path / "ds"
+    assert run("synth", "--out", str(ds), "--drops", "2", "--duration", "0.2").returncode == 0
+    for args, words in [
+        (("fit", str(ds), "--fit", "nope"), "unknown parameter 'nope'"),
+        (("fit", str(ds), "--fit", "friction_kinetic=a:b"), "NAME=LOW:HIGH"),
+        (("fit", str(ds), "--without", "leg_flex", "--fit", "flex_stiffness"), "leg_flex"),
+        (("compare", str(tmp_path / "none")), "no such dataset folder"),
+        (("synth", "--out", str(tmp_path / "x"), "--set", "body_mass=-1"), "body_mass"),
+    ]:
+        r = run(*args)
+        assert r.returncode == 1 and words in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)
