@@ -39,3 +39,18 @@ def test_nothing_missing_when_nothing_is(truth):
     assert d.missing is None
     assert all(d.gain(r) < MIN_GAIN for r in d.results if r.fits)
     assert d.verdict().startswith("nothing missing")
+
+
+def test_steps_error_falls_where_the_effect_is_added(truth, tmp_path):
+    from slopelander.ident.diagnose import BUILTIN_CANDIDATES, Candidate
+    from slopelander.ident.steps import run_steps
+
+    drops = synthesize(truth, paper_drops(8, seed=0), NoiseModel(), seed=4, duration=0.6)
+    base = truth.without("leg_flex")
+    st = run_steps(base, drops, [Candidate("leg_flex", BUILTIN_CANDIDATES["leg_flex"])], seed=4,
+                   cma_evals=200, refit_evals=100)
+    assert [s.label for s in st.steps] == ["base", "+ leg_flex"]
+    assert st.steps[1].validation < 0.8 * st.steps[0].validation
+    assert st.steps[1].train < st.steps[0].train
+    assert "| + leg_flex |" in st.table()
+    assert st.plot(tmp_path / "steps.png").stat().st_size > 10_000

@@ -1,4 +1,4 @@
-"""``slopelander synth|compare|fit|diagnose``: thin layers over the ident modules."""
+"""``slopelander synth|compare|fit|diagnose|steps``: thin layers over the ident modules."""
 
 from __future__ import annotations
 
@@ -62,6 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     register_compare(subparsers)
     register_fit(subparsers)
     register_diagnose(subparsers)
+    register_steps(subparsers)
 
 
 def run_synth(args: argparse.Namespace) -> int:
@@ -263,4 +264,59 @@ def run_diagnose(args: argparse.Namespace) -> int:
         bar.close()
     print(d.table())
     print(d.verdict())
+    return 0
+
+
+def register_steps(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "steps", help="add effects one by one, re-identify, and show the error fall",
+        description="Base model, then + each effect in turn, re-identifying at every step: the "
+                    "error-fall table (training and validation NRMSE, per state) and its plot.")
+    _dataset_arg(p)
+    p.add_argument("--add", nargs="+", required=True, metavar="EFFECT",
+                   help="effects to add in this order (built-in names or effects of --candidates)")
+    p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects")
+    p.add_argument("--plot", type=Path, metavar="PNG", help="write the error-fall plot here")
+    _model_args(p, "base")
+    _search_args(p)
+    p.set_defaults(handler=run_steps_cmd, repeats=1)
+
+
+def run_steps_cmd(args: argparse.Namespace) -> int:
+    from slopelander.ident.diagnose import BUILTIN_CANDIDATES, Candidate
+    from slopelander.ident.fit import FitError
+    from slopelander.ident.recording import load_dataset
+    from slopelander.ident.steps import run_steps
+    from slopelander.simulate_cli import check_output
+
+    check_output(args.plot, "--plot")
+    users = {e.name: e for e in load_effects(args.candidates)} if args.candidates else {}
+    effects = []
+    for name in args.add:
+        if name in BUILTIN_CANDIDATES:
+            effects.append(Candidate(name, BUILTIN_CANDIDATES[name]))
+        elif name in users:
+            effects.append(Candidate(name, tuple(users[name].parameters), users[name]))
+        else:
+            more = ", or one of --candidates" if users else ""
+            raise IdentCliError(f"--add {name!r}: not a candidate effect; built-in: "
+                                f"{', '.join(BUILTIN_CANDIDATES)}{more}")
+    drops = load_dataset(args.dataset)
+    model = build_model(args)
+    for c in effects:
+        if c.user is None and c.name in model.effects:
+            raise IdentCliError(f"--add {c.name!r}: the base model already has it (remove it with --without)")
+    names, bounds = _fit_spec(args.fit)
+    bar = _Bar(args.quiet, "steps")
+    try:
+        st = run_steps(model, drops, effects, names=names, bounds=bounds, repeats=args.repeats,
+                       seed=args.seed, cma_evals=args.cma_evals, ls_evals=args.ls_evals, workers=args.workers,
+                       client=_client(args), progress=bar)
+    except FitError as exc:
+        raise IdentCliError(str(exc)) from None
+    finally:
+        bar.close()
+    print(st.table())
+    if args.plot:
+        print(f"plot: {st.plot(args.plot)}")
     return 0

@@ -1,0 +1,106 @@
+"""Add effects one at a time and watch the error fall: base -> + effect -> + effect ...
+
+Each step re-identifies the parameters (the previous step's values plus the new effect's),
+on the same training subsets, and reports training and validation NRMSE overall and per state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from slopelander.ident.compare import compare, state_ranges
+from slopelander.ident.diagnose import NEUTRAL, Candidate, candidate_params
+from slopelander.ident.fit import DEFAULT_BOUNDS, FitResult, fit, resolve_params, subsets
+from slopelander.ident.recording import STATES, Drop
+from slopelander.model import Model
+
+
+@dataclass
+class Step:
+    label: str
+    fits: list[FitResult]
+    validation_per_state: np.ndarray
+
+    @property
+    def train(self) -> float:
+        return float(np.mean([f.train_nrmse for f in self.fits]))
+
+    @property
+    def validation(self) -> float:
+        return float(np.mean([f.validation_nrmse for f in self.fits]))
+
+
+@dataclass
+class Steps:
+    steps: list[Step]
+
+    def table(self) -> str:
+        head = "| step | train NRMSE | validation NRMSE | " + " | ".join(f"val {s}" for s in STATES) + " |"
+        lines = [head, "|---|" + "---:|" * (2 + len(STATES))]
+        for s in self.steps:
+            lines.append(f"| {s.label} | {s.train:.4f} | {s.validation:.4f} | "
+                         + " | ".join(f"{v:.4f}" for v in s.validation_per_state) + " |")
+        return "\n".join(lines)
+
+    def plot(self, path: str | Path) -> Path:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        x = np.arange(len(self.steps))
+        fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
+        a.plot(x, [s.train for s in self.steps], "o-", label="training")
+        a.plot(x, [s.validation for s in self.steps], "s-", label="validation")
+        a.set_ylabel("NRMSE (angular x2)")
+        a.set_title("error per step")
+        a.legend()
+        per = np.array([s.validation_per_state for s in self.steps])
+        for i, name in enumerate(STATES):
+            b.plot(x, per[:, i], "o-", label=name)
+        b.set_title("validation NRMSE per state")
+        b.legend(fontsize=8)
+        for ax in (a, b):
+            ax.set_xticks(x, [s.label for s in self.steps], rotation=20, ha="right", fontsize=8)
+            ax.set_ylim(bottom=0)
+            ax.grid(alpha=0.3)
+        fig.tight_layout()
+        path = Path(path)
+        fig.savefig(path, dpi=90)
+        plt.close(fig)
+        return path
+
+
+def run_steps(model: Model, drops: list[Drop], effects: list[Candidate], *, names: list[str] | None = None,
+              bounds: dict[str, tuple[float, float]] | None = None, repeats: int = 1, seed: int = 0,
+              cma_evals: int = 400, refit_evals: int = 200, ls_evals: int = 20, workers: int | None = None,
+              client=None, progress=None) -> Steps:
+    """Fit ``model``, then ``model`` + effects[0], + effects[1], ... re-identifying at each step."""
+    bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
+    ranges = state_ranges(drops)
+    splits = subsets(len(drops), repeats, seed=seed)
+    params = resolve_params(model, names, bounds)
+    kw = {"ranges": ranges, "workers": workers, "client": client, "progress": progress, "ls_evals": ls_evals}
+    out: list[Step] = []
+    prev: list[FitResult] = []
+    current = model
+    for i in range(len(effects) + 1):
+        if i:
+            c = effects[i - 1]
+            params = candidate_params(current, c, params, bounds)
+            current = c.add_to(current)
+        fits = []
+        for k, (tr, va) in enumerate(splits):
+            start = {**prev[k].values, **NEUTRAL} if prev else None
+            fits.append(fit(current, [drops[j] for j in tr], params, seed=seed + k,
+                            cma_evals=refit_evals if prev else cma_evals, start=start,
+                            sigma=0.2 if prev else 0.3, validation=[drops[j] for j in va], **kw))
+        per_state = np.mean([compare(f.model, [drops[j] for j in va], ranges).per_state
+                             for f, (_, va) in zip(fits, splits, strict=True)], axis=0)
+        label = "base" if i == 0 else f"+ {effects[i - 1].name}"
+        out.append(Step(label, fits, per_state))
+        prev = fits
+    return Steps(out)
