@@ -54,3 +54,26 @@ def test_steps_error_falls_where_the_effect_is_added(truth, tmp_path):
     assert st.steps[1].train < st.steps[0].train
     assert "| + leg_flex |" in st.table()
     assert st.plot(tmp_path / "steps.png").stat().st_size > 10_000
+
+
+def test_hidden_torque_growth_is_found(model):
+    """factor_tau at the paper's 5.8e-4 1/N changes these drops by less than the noise (see
+    docs/ident.md), so the truth uses 5e-3 1/N."""
+    truth = model.without("downhill_friction_growth").with_params(factor_tau=5e-3)
+    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=1)
+    d = diagnose(truth.without("downhill_torque_growth"), drops, seed=1, **BUDGET)
+    best = d.missing
+    assert best is not None and best.candidate.name == "downhill_torque_growth", d.table()
+    assert 1 - best.validation_nrmse / d.base_validation >= 0.30, d.table()
+    assert best.values()["factor_tau"] == pytest.approx(5e-3, rel=0.15)
+
+
+def test_hidden_friction_growth_is_found(model):
+    """Ranked first and cuts the validation error; its value is NOT yet recovered within 15 %:
+    factor_mu trades off against friction_kinetic on six training drops (docs/ident.md)."""
+    truth = model.without("downhill_torque_growth")
+    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=2)
+    d = diagnose(truth.without("downhill_friction_growth"), drops, seed=2, **BUDGET)
+    best = d.missing
+    assert best is not None and best.candidate.name == "downhill_friction_growth", d.table()
+    assert 1 - best.validation_nrmse / d.base_validation >= 0.30, d.table()

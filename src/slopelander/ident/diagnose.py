@@ -155,7 +155,8 @@ def candidate_params(model: Model, cand: Candidate, base_params: list[FitParam],
 
 def screen(base_model: Model, drops: list[Drop], cands: list[Candidate], base_params: list[FitParam],
            ranges: np.ndarray, bounds: dict[str, tuple[float, float]]) -> dict[str, float]:
-    """Cheap signature test: switch each candidate on at the centre of its bounds and measure
+    """Cheap signature test: switch each candidate on (a tenth of its range from "off", or at
+    the centre of its bounds) and measure
     how much of the base residual the change in the simulated states removes (best step along
     it). One simulation per candidate and drop."""
     base_prob = Problem(base_model, drops, [], ranges)
@@ -164,7 +165,9 @@ def screen(base_model: Model, drops: list[Drop], cands: list[Candidate], base_pa
     for c in cands:
         params = candidate_params(base_model, c, [], bounds)
         prob = Problem(c.add_to(base_model), drops, params, ranges)
-        d = prob.residuals([0.5] * len(params)) - r
+        # a small step from "off" where the effect has an off value, else the bounds' centre
+        u = [p.unit(NEUTRAL[p.name]) + 0.1 if p.name in NEUTRAL else 0.5 for p in params]
+        d = prob.residuals(u) - r
         dd = float(d @ d)
         alpha = -float(r @ d) / dd if dd > 0 else 0.0
         alpha = min(max(alpha, 0.0), 1.0)
@@ -216,7 +219,7 @@ def diagnose(model: Model, drops: list[Drop], *, user_effects: list[UserEffect] 
             for k, (tr, va) in enumerate(splits):
                 res.fits.append(fit(c.add_to(model), [drops[j] for j in tr], params, seed=seed + k,
                                     cma_evals=refit_evals, validation=[drops[j] for j in va],
-                                    start={**base_fits[k].values, **NEUTRAL}, sigma=0.2, **kw))
+                                    start=base_fits[k].values, also=[NEUTRAL], sigma=0.25, **kw))
         results.append(res)
     results.sort(key=lambda r: (not r.fits, r.score if r.fits else -r.screening))
     return Diagnosis(base_fits, results)

@@ -306,13 +306,14 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
         ranges: np.ndarray | None = None, cma_evals: int = 400, ls_evals: int = 30, seed: int = 0,
         workers: int | None = None, client=None, progress: Callable[[int], None] | None = None,
         validation: list[Drop] | None = None, start: dict[str, float] | None = None,
-        sigma: float = 0.3) -> FitResult:
+        sigma: float = 0.3, also: list[dict[str, float]] | None = None) -> FitResult:
     """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
 
     ``cma_evals`` bounds the global search, ``ls_evals`` the local iterations; ``progress`` is
     called with the number of new model evaluations (for a progress bar). The search starts
     from the centre of the bounds, or from ``start`` (values by name, e.g. a previous fit's)
-    where given; ``sigma`` is the initial search width in units of the bounds.
+    where given; ``sigma`` is the initial search width in units of the bounds. Points in
+    ``also`` (values by name; unnamed ones from ``start``) are evaluated first and kept if best.
     """
     import cma
     from scipy.optimize import least_squares
@@ -327,8 +328,15 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
     x0 = np.clip(x0, 0.0, 1.0)
     with Evaluator(prob, workers, client) as ev:
         best_u, best_c = x0, math.inf
-        if start:
-            best_c = float(np.sum(ev.residuals([x0])[0] ** 2))
+        firsts = [x0] if start else []
+        for extra in also or []:
+            merged = {**(start or {}), **extra}
+            point = [p.unit(merged[p.name]) if p.name in merged else 0.5 for p in params]
+            firsts.append(np.clip(point, 0.0, 1.0))
+        if firsts:
+            costs0 = [float(r @ r) for r in ev.residuals(firsts)]
+            i0 = int(np.argmin(costs0))
+            best_u, best_c = np.asarray(firsts[i0], dtype=float), costs0[i0]
         if cma_evals > 0 and n == 1:  # CMA-ES needs two dimensions: scan the line instead
             X = [np.array([x]) for x in np.linspace(0.0, 1.0, max(3, min(cma_evals, 41)))]
             costs = [float(r @ r) for r in ev.residuals(X)]

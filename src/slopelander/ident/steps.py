@@ -94,9 +94,10 @@ def run_steps(model: Model, drops: list[Drop], effects: list[Candidate], *, name
             current = c.add_to(current)
         fits = []
         for k, (tr, va) in enumerate(splits):
-            start = {**prev[k].values, **NEUTRAL} if prev else None
+            start = prev[k].values if prev else None
             fits.append(fit(current, [drops[j] for j in tr], params, seed=seed + k,
                             cma_evals=refit_evals if prev else cma_evals, start=start,
+                            also=[NEUTRAL] if prev else None,
                             sigma=0.2 if prev else 0.3, validation=[drops[j] for j in va], **kw))
         per_state = np.mean([compare(f.model, [drops[j] for j in va], ranges).per_state
                              for f, (_, va) in zip(fits, splits, strict=True)], axis=0)
