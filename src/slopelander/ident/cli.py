@@ -193,6 +193,8 @@ def register_fit(subparsers: argparse._SubParsersAction) -> None:
                     "confidence intervals and identifiability warnings.")
     _dataset_arg(p)
     p.add_argument("--out", type=Path, metavar="FILE", help="write the identified parameter set (YAML)")
+    p.add_argument("--restarts", type=int, default=0,
+                   help="extra CMA-ES runs from random points, sharing the budget (noisy data)")
     _model_args(p, "analysed")
     _search_args(p)
     p.set_defaults(handler=run_fit)
@@ -214,7 +216,8 @@ def run_fit(args: argparse.Namespace) -> int:
     bar = _Bar(args.quiet, "fit")
     try:
         sf = fit_subsets(model, drops, params, repeats=args.repeats, seed=args.seed, cma_evals=args.cma_evals,
-                         ls_evals=args.ls_evals, workers=args.workers, client=_client(args), progress=bar)
+                         ls_evals=args.ls_evals, workers=args.workers, client=_client(args), progress=bar,
+                         restarts=args.restarts)
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:

@@ -306,7 +306,7 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
         ranges: np.ndarray | None = None, cma_evals: int = 400, ls_evals: int = 30, seed: int = 0,
         workers: int | None = None, client=None, progress: Callable[[int], None] | None = None,
         validation: list[Drop] | None = None, start: dict[str, float] | None = None,
-        sigma: float = 0.3, also: list[dict[str, float]] | None = None) -> FitResult:
+        sigma: float = 0.3, also: list[dict[str, float]] | None = None, restarts: int = 0) -> FitResult:
     """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
 
     ``cma_evals`` bounds the global search, ``ls_evals`` the local iterations; ``progress`` is
@@ -314,6 +314,8 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
     from the centre of the bounds, or from ``start`` (values by name, e.g. a previous fit's)
     where given; ``sigma`` is the initial search width in units of the bounds. Points in
     ``also`` (values by name; unnamed ones from ``start``) are evaluated first and kept if best.
+    ``restarts`` splits the global budget over that many more CMA-ES runs from random points
+    (a noisy cost has false basins one run can fall into).
     """
     import cma
     from scipy.optimize import least_squares
@@ -347,20 +349,23 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
             popsize = max(8, 4 + int(3 * math.log(n)))
             if workers is None or workers > 1:
                 popsize += popsize % max(1, ev.workers)
-            es = cma.CMAEvolutionStrategy(
-                list(x0), sigma,
-                {"bounds": [0, 1], "popsize": popsize, "seed": seed + 1, "verbose": -9,
-                 "maxfevals": cma_evals, "tolfun": 1e-10},
-            )
-            while not es.stop():
-                X = es.ask()
-                rs = ev.residuals([np.asarray(x) for x in X])
-                costs = [float(r @ r) for r in rs]
-                es.tell(X, costs)
-                tick(len(X))
-                i = int(np.argmin(costs))
-                if costs[i] < best_c:
-                    best_u, best_c = np.asarray(X[i], dtype=float).copy(), costs[i]
+            runs = 1 + max(0, restarts)
+            for run in range(runs):
+                es = cma.CMAEvolutionStrategy(
+                    list(x0) if run == 0 else list(np.random.default_rng(seed + run).uniform(0.2, 0.8, n)),
+                    sigma,
+                    {"bounds": [0, 1], "popsize": popsize, "seed": seed + 1 + 100 * run, "verbose": -9,
+                     "maxfevals": cma_evals // runs, "tolfun": 1e-10},
+                )
+                while not es.stop():
+                    X = es.ask()
+                    rs = ev.residuals([np.asarray(x) for x in X])
+                    costs = [float(r @ r) for r in rs]
+                    es.tell(X, costs)
+                    tick(len(X))
+                    i = int(np.argmin(costs))
+                    if costs[i] < best_c:
+                        best_u, best_c = np.asarray(X[i], dtype=float).copy(), costs[i]
         cache: dict[bytes, np.ndarray] = {}
 
         def fun(u: np.ndarray) -> np.ndarray:
