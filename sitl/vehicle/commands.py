@@ -96,8 +96,7 @@ def _interval(v: Vehicle, p) -> int:
         return DENIED
     if interval > 0 and interval < MIN_INTERVAL_US:
         v.statustext(
-            f"{1e6 / interval:.0f}Hz too fast for msg {msgid}: increase SCHED_LOOP_RATE",
-            mavlink.MAV_SEVERITY_WARNING,
+            f"Rate {1e6 / interval:.0f}Hz too high: increase SCHED_LOOP_RATE", mavlink.MAV_SEVERITY_WARNING
         )
         return DENIED
     v.streams.set_interval(msgid, None if interval == 0 else (-1.0 if interval < 0 else interval / 1e6))

@@ -15,7 +15,18 @@ from slopelander.model.landing import Model
 
 RANGE_FAULTS = ("rangefinder_dropout", "rangefinder_spike", "rangefinder_stuck", "rangefinder_noise")
 IMU_FAULTS = ("imu_noise", "imu_spike")
-TOP_KEYS = {"seed", "slope_deg", "roof_x", "roof_z", "start_x", "noise", "rc", "faults", "model_params"}
+TOP_KEYS = {
+    "seed",
+    "start_on",
+    "slope_deg",
+    "roof_x",
+    "roof_z",
+    "start_x",
+    "noise",
+    "rc",
+    "faults",
+    "model_params",
+}
 DEFAULT_RC = {1: 1500, 2: 1500, 3: 1000, 4: 1500}
 
 
@@ -37,7 +48,8 @@ class Scenario:
     slope_deg: float = 20.0
     roof_x: float = 3.0
     roof_z: float = 0.5
-    start_x: float = 0.0
+    start_x: float = 0.0  # m, world x; on the roof: beyond roof_x
+    start_on: str = "pad"  # or "roof"
     accel_noise: float = 0.05  # m/s^2, 1 sigma per sample
     gyro_noise: float = 0.002  # rad/s
     range_noise: float = 0.005  # m
@@ -124,7 +136,13 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
     s.slope_deg = _num(src, "slope_deg", data.get("slope_deg", s.slope_deg), 0.0, 60.0)
     s.roof_x = _num(src, "roof_x", data.get("roof_x", s.roof_x), 0.5, 1000.0)
     s.roof_z = _num(src, "roof_z", data.get("roof_z", s.roof_z), -10.0, 100.0)
-    s.start_x = _num(src, "start_x", data.get("start_x", s.start_x), -1000.0, s.roof_x - 0.5)
+    s.start_on = data.get("start_on", "pad")
+    if s.start_on not in ("pad", "roof"):
+        raise ScenarioError(f"{src}: start_on must be 'pad' or 'roof', got {s.start_on!r}")
+    if s.start_on == "pad":
+        s.start_x = _num(src, "start_x", data.get("start_x", s.start_x), -1000.0, s.roof_x - 0.5)
+    else:
+        s.start_x = _num(src, "start_x", data.get("start_x", s.roof_x + 1.0), s.roof_x + 0.5, 1e4)
     noise = data.get("noise", {})
     if not isinstance(noise, dict) or set(noise) - {"accel", "gyro", "range"}:
         raise ScenarioError(f"{src}: noise must be a mapping with accel, gyro, range (1-sigma, SI)")

@@ -45,7 +45,10 @@ class Vehicle:
         self.rng = np.random.default_rng(scenario.seed)
         self.stepper = Stepper(scenario.model())
         self.world = World(scenario.slope_deg, scenario.roof_x, scenario.roof_z)
-        self.stepper.place(height=0.0, x=scenario.start_x)
+        if scenario.start_on == "roof":
+            self.stepper.set_slope(scenario.slope_deg, scenario.roof_x, scenario.roof_z)
+            self.world.ox, self.world.oz, self.world.on_roof = scenario.roof_x, scenario.roof_z, True
+        self.stepper.place(height=0.0, x=scenario.start_x - self.world.ox)
         self.stepper.step(0.5, 0.0, 0.0)  # settle on the pad
         b = self.stepper.body()
         self.home = (b.x, b.z)
