@@ -118,3 +118,53 @@ def start_vehicle(
         tmp.cleanup()
         raise RuntimeError(f"vehicle did not start: {msg.strip()[-2000:]}")
     return VehicleProcess(proc, port, line.strip(), tmp)
+
+
+class LegboardProcess:
+    def __init__(
+        self, proc: subprocess.Popen, pty: str, control: Path, tmp: tempfile.TemporaryDirectory
+    ) -> None:
+        self.proc, self.pty, self.control, self._tmp = proc, pty, control, tmp
+
+    def stop(self, timeout: float = 5.0) -> int:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._tmp.cleanup()
+        return self.proc.returncode
+
+
+def start_legboard(speed: float = 1.0, timeout: float = 30.0) -> LegboardProcess:
+    """Start ``python -m sitl.legboard`` with a control socket in a temporary directory."""
+    tmp = tempfile.TemporaryDirectory(prefix="sl-legs-")
+    link, ctl = Path(tmp.name) / "legs", Path(tmp.name) / "legs.ctl"
+    cmd = [
+        sys.executable,
+        "-m",
+        "sitl.legboard",
+        "--link",
+        str(link),
+        "--control",
+        str(ctl),
+        "--speed",
+        str(speed),
+    ]
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=child_env(), cwd=REPO
+    )
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if line.startswith("legboard ready"):
+            fields = dict(f.split("=", 1) for f in line.split()[2:] if "=" in f)
+            return LegboardProcess(proc, fields.get("link") or fields["pty"], ctl, tmp)
+        if not line and proc.poll() is not None:
+            break
+    proc.kill()
+    proc.wait()
+    tmp.cleanup()
+    raise RuntimeError("leg board did not start")
