@@ -72,7 +72,7 @@ def _takeoff(v: Vehicle, p) -> int:
     if not math.isfinite(alt) or alt <= 0:
         return DENIED
     b = v._world_body()
-    hz = v.world.to_world(*v.home)[1]
+    hz = v.home[1]
     v.target = Target(x=b.x, z=hz + alt)
     v.target_is_velocity = False
     return ACCEPTED
@@ -195,7 +195,7 @@ def _position_target(v: Vehicle, chan: int, m) -> None:
     vals = (m.x, m.y, m.z, m.vx, m.vy, m.vz)
     if not all(math.isfinite(x) for x in vals):
         return
-    hx, hz = v.world.to_world(*v.home)
+    hx, hz = v.home
     t = Target()
     if use_pos:
         t.x, t.z = hx + m.x, hz - m.z

@@ -65,7 +65,7 @@ def _attitude(v: Vehicle):
 
 def _local_position(v: Vehicle):
     b = v._world_body()
-    hx, hz = v.world.to_world(*v.home)
+    hx, hz = v.home
     return M.MAVLink_local_position_ned_message(int(v.t * 1000), b.x - hx, 0.0, -(b.z - hz), b.vx, 0.0, -b.vz)
 
 

@@ -51,7 +51,7 @@ class Vehicle:
         self.stepper.place(height=0.0, x=scenario.start_x - self.world.ox)
         self.stepper.step(0.5, 0.0, 0.0)  # settle on the pad
         b = self.stepper.body()
-        self.home = (b.x, b.z)
+        self.home = self.world.to_world(b.x, b.z)  # world frame: it stays put when the surface switches
         p = self.stepper.model.params
         mass = p["body_mass"] + 2 * p["leg_mass"]
         self.fc = FlightControl(mass, p["body_inertia"], p["rotor_arm"], p["gravity"], p["rotor_thrust_max"])
@@ -242,7 +242,7 @@ class Vehicle:
                 self.target = t = Target(x=b.x, z=b.z)
             return t
         if m == modes.RTL:
-            hx, hz = self.world.to_world(*self.home)
+            hx, hz = self.home
             alt = max(self.params["RTL_ALT"] / 100.0, 0.0)
             if abs(b.x - hx) > 0.3:
                 return Target(x=hx, z=max(b.z, hz + alt))
