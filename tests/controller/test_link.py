@@ -168,3 +168,26 @@ def test_bad_input_errors():
             link.request_stream(27, 500)
     finally:
         link.close()
+
+
+def test_actions_send_the_contracts_commands(pair):
+    from slopelander.controller.actions import MavActions
+    from slopelander.controller.config import load_config
+    link, peer, clk = pair
+    found(link, peer)
+    act = MavActions(link, load_config())
+    act.reflex_arm()
+    act.descend(0.5)
+    act.descend(0.5)  # within the re-send period: not sent twice
+    act.set_mode("LOITER")
+    got = settle(link, peer)
+    arm = [m for m in got if m.get_type() == "COMMAND_LONG" and m.command == 31011]
+    a = arm[0]
+    assert (a.param1, a.param2, a.param4, a.param6) == (1, pytest.approx(0.3), 60, 1000)
+    sp = [m for m in got if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
+    assert len(sp) == 1 and sp[0].type_mask == 0x0DC7 and sp[0].vz == 0.5 and sp[0].target_system == 7
+    mode = [m for m in got if m.get_type() == "COMMAND_LONG" and m.command == mavlink.MAV_CMD_DO_SET_MODE]
+    assert mode and mode[0].param2 == 5
+    clk.advance(0.11)
+    act.descend(0.5)
+    assert [m for m in settle(link, peer) if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
