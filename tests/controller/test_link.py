@@ -191,3 +191,29 @@ def test_actions_send_the_contracts_commands(pair):
     clk.advance(0.11)
     act.descend(0.5)
     assert [m for m in settle(link, peer) if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
+
+
+def test_lander_over_the_link_aborts_without_a_leg_board(pair, tmp_path):
+    """Everything else healthy (GUIDED, armed, script, range): no leg board means no descent."""
+    from slopelander.controller.config import load_config
+    from slopelander.controller.runner import Lander
+    link, peer, _ = pair
+    rec = (tmp_path / "t.jsonl").open("w")
+    lander = Lander(link, load_config(), (0.8, 1.5), legs=None, record=rec)
+    for i in range(5):
+        peer.conn.mav.heartbeat_send(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                     mavlink.MAV_MODE_FLAG_SAFETY_ARMED | 1, 4, mavlink.MAV_STATE_ACTIVE)
+        peer.conn.mav.named_value_float_send(1000 + i * 20, b"SL_STATE", 0)
+        peer.conn.mav.distance_sensor_send(1000 + i * 20, 20, 1000, 500, 10, 1, 25, 100)
+        time.sleep(0.01)
+        lander.poll()
+        peer.drain(0.01)
+    rec.close()
+    assert lander.machine.name == "ABORTED"
+    assert "no leg board" in lander.machine.history[-1]["reason"]
+    got = settle(link, peer)
+    aborts = [m for m in peer.received if m.get_type() == "COMMAND_LONG" and m.command == 31011]
+    assert aborts and aborts[-1].param1 == 0
+    assert not [m for m in got + peer.received if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
+    assert (tmp_path / "t.jsonl").read_text().count("\n") == len(lander.machine.history)
+    assert any("SL ABORTED" in m.text for m in peer.received if m.get_type() == "STATUSTEXT")

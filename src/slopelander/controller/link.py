@@ -128,6 +128,7 @@ class Link:
         self._last_heartbeat_tx = -math.inf
         self._last_timesync_usec = 0
         self._script_seen_at: float | None = None
+        self.script_state: int | None = None
         self._listeners: list[Callable[[object], None]] = []
 
     # ---------------------------------------------------------------- receiving
@@ -195,6 +196,7 @@ class Link:
             name = msg.name.rstrip("\x00") if isinstance(msg.name, str) else msg.name
             if name == "SL_STATE":
                 self._script_seen_at = now
+                self.script_state = int(msg.value)
             elif name == "SL_VER" and self.info is not None:
                 self.info.script_version = float(msg.value)
                 self._script_seen_at = now
