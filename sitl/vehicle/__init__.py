@@ -1,0 +1,1 @@
+"""A simulated ArduCopter quad flying the planar landing model, spoken to over MAVLink."""
