@@ -84,7 +84,8 @@ def test_nominal_sequence_records_every_transition():
 
 def test_legs_not_ready_in_time_aborts_before_descent():
     m, act, _ = make()
-    for i in range(400):
+    limit = m.ctx.cfg["legs.ready_timeout_s"]
+    for i in range(int(limit / 0.02) + 10):
         m.step(replace(OK, t=i * 0.02, legs_ready=False))
     assert m.name == "ABORTED" and "descend" not in act.names()
 
