@@ -18,6 +18,7 @@ SUBCOMMAND_MODULES = [
     "slopelander.simulate_cli",
     "slopelander.legs.cli",
     "slopelander.envelope.cli",
+    "slopelander.land_cli",
 ]
 
 

@@ -1,0 +1,57 @@
+"""LANDED, TAKEOFF, RESET, READY: on the ground disarmed; on command take off, loosen, re-preset."""
+
+from __future__ import annotations
+
+from slopelander.controller.states.base import Context, Inputs, State
+
+
+class Landed(State):
+    name = "LANDED"
+
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        ctx.act.reflex_abort()
+        return None
+
+    def step(self, ctx: Context, inp: Inputs):
+        if inp.armed and inp.t - ctx.entered_at > 1.0 and not inp.takeoff_request:
+            ctx.act.disarm()  # the disarm is re-sent until it takes
+        if inp.takeoff_request:
+            return ("TAKEOFF", "take-off commanded")
+        return None
+
+
+class Takeoff(State):
+    name = "TAKEOFF"
+
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        ctx.act.release()
+        ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+        return None
+
+    def step(self, ctx: Context, inp: Inputs):
+        if inp.range_m is not None and inp.range_m >= ctx.cfg["takeoff.clear_height_m"]:
+            return ("RESET", f"clear of the ground at {inp.range_m:.2f} m")
+        return None
+
+
+class Reset(State):
+    name = "RESET"
+
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        ctx.act.loosen_legs()
+        return None
+
+    def step(self, ctx: Context, inp: Inputs):
+        return ("READY", "legs loosened")
+
+
+class Ready(State):
+    """Flying again with the next preset on the legs; a new landing starts a new machine run."""
+
+    name = "READY"
+
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        if ctx.next_preset is not None:
+            ctx.preset = ctx.next_preset
+            ctx.act.set_legs(*ctx.preset)
+        return None
