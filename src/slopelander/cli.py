@@ -15,6 +15,7 @@ from slopelander.errors import SlopelanderError
 
 # Modules that add subcommands, in the order they appear in ``--help``.
 SUBCOMMAND_MODULES = [
+    "slopelander.demo_cli",
     "slopelander.simulate_cli",
     "slopelander.legs.cli",
     "slopelander.envelope.cli",

@@ -33,7 +33,7 @@ def test_defaults_load_and_override(tmp_path):
     cfg = load_config()
     assert cfg["reflex.cut_height_m"] == 0.30 and cfg.descent["rate_mps"] == 0.5
     cfg = load_config(write(tmp_path, {"reflex": {"cut_height_m": 0.4}}))
-    assert cfg["reflex.cut_height_m"] == 0.4 and cfg["reflex.reverse_thrust_pct"] == 60
+    assert cfg["reflex.cut_height_m"] == 0.4 and cfg["reflex.reverse_thrust_pct"] == 100
 
 
 @pytest.mark.parametrize(("doc", "field"), [

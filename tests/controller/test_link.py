@@ -183,7 +183,7 @@ def test_actions_send_the_contracts_commands(pair):
     got = settle(link, peer)
     arm = [m for m in got if m.get_type() == "COMMAND_LONG" and m.command == 31011]
     a = arm[0]
-    assert (a.param1, a.param2, a.param4, a.param6) == (1, pytest.approx(0.3), 60, 1000)
+    assert (a.param1, a.param2, a.param4, a.param6) == (1, pytest.approx(0.3), 100, 1000)
     sp = [m for m in got if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
     assert len(sp) == 1 and sp[0].type_mask == 0x0DC7 and sp[0].vz == 0.5 and sp[0].target_system == 7
     mode = [m for m in got if m.get_type() == "COMMAND_LONG" and m.command == mavlink.MAV_CMD_DO_SET_MODE]

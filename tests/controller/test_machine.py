@@ -157,3 +157,25 @@ def test_false_cut_and_no_impact():
     t = run_to(m, "CUT")
     m.step(replace(OK, t=t + 2.0, range_m=0.2, script_state=11))
     assert m.name == "ABORTED" and "no impact" in m.history[-1]["reason"]
+
+
+def test_reset_waits_for_the_legs_to_loosen_before_the_next_preset():
+    m, act, _ = make()
+    run_to(m, "LANDED")
+    run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
+    t = 200.0
+    for _ in range(50):
+        t += 0.02
+        m.step(replace(OK, t=t, legs_ready=False))
+    assert m.name == "RESET" and ("set_legs", 0.6, 1.2) not in act.calls
+    m.step(replace(OK, t=t + 0.02, legs_ready=True))
+    assert m.name == "READY" and m.history[-1]["reason"].startswith("legs loosened")
+    assert ("set_legs", 0.6, 1.2) in act.calls
+
+
+def test_reset_reports_legs_that_do_not_loosen():
+    m, _, _ = make()
+    run_to(m, "LANDED")
+    run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
+    m.step(replace(OK, t=300.0, legs_ready=False, legs_fault="leg 2: motor stalled"))
+    assert m.name == "READY" and "did not loosen: leg 2: motor stalled" in m.history[-1]["reason"]

@@ -170,6 +170,8 @@ class Link:
             return
         self.last[mtype] = msg
         self._rates.setdefault(mtype, _Rate()).add(now)
+        for fn in self._listeners:
+            fn(msg)
         fld = _USEC_FIELDS.get(mtype)
         if fld is not None:
             if fld == "time_usec":

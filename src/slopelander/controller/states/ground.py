@@ -42,7 +42,12 @@ class Reset(State):
         return None
 
     def step(self, ctx: Context, inp: Inputs):
-        return ("READY", "legs loosened")
+        # the springs reset the legs only once the board has let the friction go
+        if inp.legs_fault is not None:
+            return ("READY", f"legs did not loosen: {inp.legs_fault}")
+        if inp.legs_ready:
+            return ("READY", "legs loosened: the springs reset them")
+        return None
 
 
 class Ready(State):
