@@ -176,7 +176,9 @@ def run_demo(
         raise DemoError(f"--speed must lie within 0.1..20, got {speed:g}")
     check_out_dir(out)
     out.mkdir(exist_ok=True)
-    table_path = table or Path(__file__).parent / "controller" / "default_table.yaml"
+    from slopelander.controller.table import DEFAULT_TABLE
+
+    table_path = table or DEFAULT_TABLE
     lookup = LookupTable.load(table_path)
     cfg = load_config()
     calibration = load_calibration()

@@ -14,7 +14,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--connect", required=True, help="MAVLink connection string, e.g. udpin:0.0.0.0:14550")
     p.add_argument("--legs", required=True, help="leg board serial port, e.g. /dev/ttyACM1")
     p.add_argument("--slope", required=True, type=float, help="slope of the landing site, deg (0..89)")
-    p.add_argument("--table", help="lookup table file (YAML); without it the pilot's RC preset is needed")
+    p.add_argument("--table", help="lookup table file (YAML); default: the shipped table")
     p.add_argument("--config", help="controller settings overriding the shipped defaults")
     p.add_argument("--record", default="landing.jsonl",
                    help="transitions as JSON lines (default landing.jsonl)")
@@ -38,7 +38,9 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise SlopelanderError(f"--timeout must be a positive number of seconds, got {args.timeout:g}")
     cfg = load_config(args.config)
-    table = LookupTable.load(args.table) if args.table else None
+    from slopelander.controller.table import DEFAULT_TABLE
+
+    table = LookupTable.load(args.table or DEFAULT_TABLE)
     calibration = load_calibration()
     speed = expected_impact_speed(cfg["descent.rate_mps"], cfg["reflex.cut_height_m"], args.slope,
                                   leg_geometry())
