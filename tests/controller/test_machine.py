@@ -179,3 +179,10 @@ def test_reset_reports_legs_that_do_not_loosen():
     run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
     m.step(replace(OK, t=300.0, legs_ready=False, legs_fault="leg 2: motor stalled"))
     assert m.name == "READY" and "did not loosen: leg 2: motor stalled" in m.history[-1]["reason"]
+
+
+def test_reset_does_not_take_the_previous_presets_readiness_for_the_loosening():
+    m, _, _ = make()
+    run_to(m, "LANDED")
+    run_to(m, "RESET", t0=100.0)  # legs_ready stays True in these inputs, as the preset's op was
+    assert m.name == "RESET"

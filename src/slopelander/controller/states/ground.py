@@ -42,7 +42,10 @@ class Reset(State):
         return None
 
     def step(self, ctx: Context, inp: Inputs):
-        # the springs reset the legs only once the board has let the friction go
+        # the springs reset the legs only once the board has let the friction go; the inputs of
+        # the step that entered RESET still describe the preset before it, so wait for fresh ones
+        if inp.t <= ctx.entered_at:
+            return None
         if inp.legs_fault is not None:
             return ("READY", f"legs did not loosen: {inp.legs_fault}")
         if inp.legs_ready:
