@@ -22,6 +22,7 @@ SUBCOMMAND_MODULES = {
     "slopelander.legs.cli": ("legs",),
     "slopelander.simulate_cli": ("simulate",),
     "slopelander.envelope.cli": ("map", "table"),
+    "slopelander.lookup_cli": ("lookup",),
 }
 
 

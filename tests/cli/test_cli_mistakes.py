@@ -55,3 +55,19 @@ def test_leg_angle_outside_the_travel_is_refused_before_opening_the_port(
     err = capsys.readouterr().err
     assert "50 deg is outside the legs' travel 0..37.5 deg" in err
     assert "Traceback" not in err
+
+
+def test_lookup_prints_the_tables_preset(capsys: pytest.CaptureFixture[str]) -> None:
+    from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+
+    assert main(["lookup", "--slope", "35", "--speed", "1.5"]) == 0
+    out = capsys.readouterr().out
+    p = LookupTable.load(DEFAULT_TABLE).lookup(35, 1.5)
+    assert f"uphill {p.tau_up:.2f} N*m, downhill {p.tau_down:.2f} N*m" in out
+    assert f"leg angle uphill {p.angle_up_deg:.1f} deg" in out and p.outcome in out
+
+
+def test_lookup_outside_the_table_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["lookup", "--slope", "75", "--speed", "1.5"]) == 1
+    err = capsys.readouterr().err
+    assert "outside the table's range" in err and err.count("\n") == 1
