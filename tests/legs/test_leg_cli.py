@@ -65,7 +65,8 @@ def test_set_from_the_lookup_table(board, run):
     assert f"uphill {p.tau_up:.2f} N·m, downhill {p.tau_down:.2f} N·m" in out
     with board.ctl() as ctl:
         torques = ctl.friction_torques()
-    assert torques[0] == pytest.approx(p.tau_up, abs=0.15) and torques[3] == pytest.approx(p.tau_down, abs=0.15)
+    assert torques[0] == pytest.approx(p.tau_up, abs=0.15)
+    assert torques[3] == pytest.approx(p.tau_down, abs=0.15)
 
 
 def test_set_from_the_table_needs_slope_and_speed(run):
