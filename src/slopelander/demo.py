@@ -189,7 +189,10 @@ def run_demo(
     files = {"telemetry log": str(out / "flight.tlog"), "transitions": str(out / "transitions.jsonl")}
     wall0 = time.monotonic()
     scenario = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "start_on": "pad"}
-    echo(f"starting the simulated leg board and vehicle ({speed:g}x real time) ...")
+    echo(
+        f"starting the simulated leg board and vehicle ({speed:g}x real time; the first run after an "
+        "install compiles the model, about half a minute) ..."
+    )
     board = start_legboard(speed=speed)
     vehicle = None
     link = None
