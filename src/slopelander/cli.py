@@ -13,13 +13,18 @@ import sys
 from slopelander import __version__
 from slopelander.errors import SlopelanderError
 
-# Modules that add subcommands, in the order they appear in ``--help``.
-SUBCOMMAND_MODULES = [
-    "slopelander.simulate_cli",
-    "slopelander.legs.cli",
-    "slopelander.envelope.cli",
-    "slopelander.ident.cli",
-]
+# Modules that add subcommands, in the order they appear in ``--help``, with the subcommands
+# each adds: on a companion computer that installed only the core, the simulation's are listed
+# but say which extra they need.
+SUBCOMMAND_MODULES = {
+    "slopelander.demo_cli": ("demo",),
+    "slopelander.land_cli": ("land",),
+    "slopelander.legs.cli": ("legs",),
+    "slopelander.simulate_cli": ("simulate",),
+    "slopelander.envelope.cli": ("map", "table"),
+    "slopelander.lookup_cli": ("lookup",),
+    "slopelander.ident.cli": ("synth", "compare", "fit", "diagnose", "steps"),
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -37,9 +42,27 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"slopelander {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name in SUBCOMMAND_MODULES:
-        importlib.import_module(name).register(subparsers)
+    for module, names in SUBCOMMAND_MODULES.items():
+        try:
+            importlib.import_module(module).register(subparsers)
+        except ModuleNotFoundError as exc:
+            _needs_extra(subparsers, names, exc.name or str(exc))
     return parser
+
+
+def _needs_extra(subparsers: argparse._SubParsersAction, names: tuple[str, ...], missing: str) -> None:
+    """Subcommands whose dependencies are not installed: listed, and each says what to install."""
+
+    def refuse(args: argparse.Namespace) -> int:
+        raise SlopelanderError(
+            f"needs the simulation extra ({missing} is not installed): pip install 'slopelander[sim]'"
+        )
+
+    for name in names:
+        p = subparsers.choices.get(name) or subparsers.add_parser(
+            name, help="(needs: pip install 'slopelander[sim]')", add_help=False
+        )
+        p.set_defaults(handler=refuse)
 
 
 def main(argv: list[str] | None = None) -> int:

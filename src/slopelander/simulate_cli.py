@@ -80,7 +80,9 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.csv, "--csv")
     pct = args.rvt_percent if args.rvt_percent is not None else (100.0 if args.rvt else 0.0)
     if pct > 0 and "rotors" in args.without:
-        raise OutputError("reverse thrust needs the rotors: drop --rvt/--rvt-percent or 'rotors' from --without")
+        raise OutputError(
+            "reverse thrust needs the rotors: drop --rvt/--rvt-percent or 'rotors' from --without"
+        )
     cond = LandingConditions(
         slope_deg=args.slope,
         speed=args.speed,

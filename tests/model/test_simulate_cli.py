@@ -34,7 +34,7 @@ def test_simulate_prints_outcome_and_writes_plot_and_csv(tmp_path):
     assert "outcome:" in r.stdout and "reverse thrust 100 %" in r.stdout
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
     lines = csv.read_text().splitlines()
-    assert lines[0] == "t,x,z,pitch,x_rate,z_rate,pitch_rate"
+    assert lines[0] == "t_s,x_m,z_m,pitch_rad,x_rate_m_s,z_rate_m_s,pitch_rate_rad_s"
     assert len(lines) > 300  # 2 s at 200 Hz
 
 

@@ -29,6 +29,9 @@ import yaml
 from slopelander.errors import SlopelanderError
 
 SCHEMA = "slopelander.lookup-table/1"
+# Shipped with the package: `slopelander table --slope-step 5 --speed-step 0.25` (its generator
+# field records the exact command); the companion flies with it unless given another table.
+DEFAULT_TABLE = Path(__file__).with_name("default_table.yaml")
 SCHEMA_NAME, SCHEMA_VERSION = SCHEMA.rsplit("/", 1)
 
 OUTCOMES: tuple[str, ...] = ("ideal", "under_used", "end_of_travel", "slid", "joint_touch", "flip")

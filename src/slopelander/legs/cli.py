@@ -46,6 +46,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="one leg's torque, e.g. --leg 2=1.7 (repeatable)",
     )
     p.add_argument("--tolerance", type=float, default=0.1, help="N·m (default 0.1)")
+    p.add_argument(
+        "--table",
+        nargs="?",
+        const="default",
+        metavar="FILE",
+        help="take the torques from a lookup table (no FILE: the shipped one); needs --slope and --speed",
+    )
+    p.add_argument("--slope", type=float, help="landing slope for --table, deg")
+    p.add_argument("--speed", type=float, help="vertical impact speed for --table, m/s")
     p.set_defaults(handler=_set)
 
     p = sub.add_parser("loosen", help="loosen all legs so the springs reset them")
@@ -129,8 +138,31 @@ def _status(args: argparse.Namespace) -> int:
     return 0
 
 
+def _from_table(args: argparse.Namespace) -> None:
+    """Fill --uphill/--downhill from the lookup table, before the board is opened."""
+    from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+    from slopelander.errors import SlopelanderError
+
+    if args.slope is None or args.speed is None:
+        raise SlopelanderError("--table needs --slope and --speed")
+    if args.uphill is not None or args.downhill is not None or args.leg:
+        raise SlopelanderError("give either --table or torques (--uphill/--downhill/--leg), not both")
+    path = DEFAULT_TABLE if args.table == "default" else args.table
+    p = LookupTable.load(path).lookup(args.slope, args.speed)
+    args.uphill, args.downhill = p.tau_up, p.tau_down
+    print(
+        f"table {path}: {args.slope:g} deg, {args.speed:g} m/s -> uphill {p.tau_up:.2f} N·m, "
+        f"downhill {p.tau_down:.2f} N·m; set the uphill legs to {p.angle_up_deg:.1f}° "
+        f"(model predicts {p.outcome})"
+    )
+
+
 def _set(args: argparse.Namespace) -> int:
+    if args.table is not None:
+        _from_table(args)
     with _open(args) as board:
+        if board.calibration.assumed:
+            print(f"(torques through an ASSUMED calibration: {board.calibration.source})")
         torques = _per_leg(args, board)
         if not torques:
             print("nothing to set: give --uphill, --downhill or --leg")

@@ -123,6 +123,24 @@ class Stepper:
         st[k.S_W + 1] = rotor_speed
         st[k.S_CM : k.S_CM + k.N_POINTS] = 0.0
 
+    def set_slope(self, slope_deg: float, shift_x: float = 0.0, shift_z: float = 0.0) -> None:
+        """Fly over onto another surface: set its slope and move the vehicle by (-shift_x,
+        -shift_z) so that the new surface passes through the origin. Only while airborne,
+        since a contact's anchors belong to the old surface."""
+        if self.in_contact():
+            raise ConditionError("slope_deg", slope_deg, "cannot change the surface while in contact")
+        if not -75.0 <= slope_deg <= 75.0:
+            raise ConditionError("slope_deg", slope_deg, "must lie within -75..75 deg")
+        a = math.radians(slope_deg)
+        if (1 if a >= 0 else 0) != self.downhill:
+            raise ConditionError("slope_deg", slope_deg, "must keep the downhill side of the current surface")
+        self.ctx[k.C_SIN] = math.sin(a)
+        self.ctx[k.C_COS] = math.cos(a)
+        self.slope_deg = slope_deg
+        self.st[k.S_Q] -= shift_x
+        self.st[k.S_Q + 1] -= shift_z
+        self.st[k.S_CM : k.S_CM + k.N_POINTS] = 0.0
+
     def hover_command(self) -> float:
         """Rotor command that holds a level vehicle in the air."""
         p = self.model.params

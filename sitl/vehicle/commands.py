@@ -1,0 +1,257 @@
+"""MAVLink messages the vehicle answers: commands with COMMAND_ACK, modes, parameters,
+guided targets, stream intervals, TIMESYNC (also the lock-step echo) and RC overrides."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import TYPE_CHECKING
+
+from sitl.vehicle import modes
+from sitl.vehicle.flight_control import Target
+from sitl.vehicle.mavlink_endpoints import mavlink
+
+if TYPE_CHECKING:
+    from sitl.vehicle.vehicle import Vehicle
+
+ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
+TEMP_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+DENIED = mavlink.MAV_RESULT_DENIED
+UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
+FAILED = mavlink.MAV_RESULT_FAILED
+MIN_INTERVAL_US = 5000  # 200 Hz at SCHED_LOOP_RATE 400
+AUX_MOTOR_ESTOP = 31
+
+
+def handle(v: Vehicle, chan: int, m) -> None:
+    kind = m.get_type()
+    fn = _HANDLERS.get(kind)
+    if fn is None:
+        return
+    target = getattr(m, "target_system", None)
+    if target not in (None, 0, 1) and kind != "TIMESYNC":
+        return
+    fn(v, chan, m)
+
+
+def _command_long(v: Vehicle, chan: int, m) -> None:
+    cmd = m.command
+    if v.host is not None and v.host.blocks_command(cmd):
+        v.host.deliver(m, chan)
+        return
+    p = (m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7)
+    fn = _COMMANDS.get(cmd)
+    if fn is None:
+        v.ack(cmd, UNSUPPORTED)
+        return
+    if any(math.isnan(x) for x in p[:2]) and cmd != mavlink.MAV_CMD_NAV_TAKEOFF:
+        v.ack(cmd, DENIED)
+        return
+    v.ack(cmd, fn(v, p))
+
+
+def _arm(v: Vehicle, p) -> int:
+    force = int(p[1]) == 21196
+    if p[0] == 1:
+        return ACCEPTED if v.arm(force=force) else FAILED
+    if p[0] == 0:
+        return ACCEPTED if v.disarm() else FAILED
+    return DENIED
+
+
+def _do_set_mode(v: Vehicle, p) -> int:
+    if not int(p[0]) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+        return DENIED
+    return ACCEPTED if v.set_mode(int(p[1])) else DENIED
+
+
+def _takeoff(v: Vehicle, p) -> int:
+    if v.mode != modes.GUIDED or not v.armed:
+        return FAILED
+    alt = p[6]
+    if not math.isfinite(alt) or alt <= 0:
+        return DENIED
+    b = v._world_body()
+    hz = v.home[1]
+    v.target = Target(x=b.x, z=hz + alt)
+    v.target_is_velocity = False
+    return ACCEPTED
+
+
+def _aux(v: Vehicle, p) -> int:
+    if int(p[0]) != AUX_MOTOR_ESTOP:
+        return UNSUPPORTED
+    if int(p[1]) not in (0, 1, 2):
+        return DENIED
+    on = int(p[1]) == 2
+    if on != v.estop:
+        v.estop = on
+        v.statustext("Motor emergency stop " + ("on" if on else "off"), mavlink.MAV_SEVERITY_WARNING)
+    return ACCEPTED
+
+
+def _interval(v: Vehicle, p) -> int:
+    msgid, interval = int(p[0]), p[1]
+    if msgid not in v.streams.SENDERS:
+        return DENIED
+    if interval > 0 and interval < MIN_INTERVAL_US:
+        v.statustext(
+            f"Rate {1e6 / interval:.0f}Hz too high: increase SCHED_LOOP_RATE", mavlink.MAV_SEVERITY_WARNING
+        )
+        return DENIED
+    v.streams.set_interval(msgid, None if interval == 0 else (-1.0 if interval < 0 else interval / 1e6))
+    return ACCEPTED
+
+
+def _request_message(v: Vehicle, p) -> int:
+    msgid = int(p[0])
+    if msgid == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+        _send_version(v)
+        return ACCEPTED
+    if msgid in v.streams.SENDERS:
+        v.streams.send_now(v, msgid)
+        return ACCEPTED
+    return DENIED
+
+
+def _capabilities(v: Vehicle, p) -> int:
+    _send_version(v)
+    return ACCEPTED
+
+
+def _nav_land(v: Vehicle, p) -> int:
+    return ACCEPTED if v.set_mode(modes.LAND) else FAILED
+
+
+def _send_version(v: Vehicle) -> None:
+    caps = (
+        mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+        | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+        | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+        | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    )
+    ver = (4 << 24) | (6 << 16) | (0 << 8) | 255  # 4.6.0 official
+    v.links.send(
+        mavlink.MAVLink_autopilot_version_message(
+            caps, ver, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, 0, [0] * 18
+        )
+    )
+
+
+def _set_mode_msg(v: Vehicle, chan: int, m) -> None:
+    ok = bool(m.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) and v.set_mode(int(m.custom_mode))
+    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, ACCEPTED if ok else DENIED)
+
+
+def _param_value(v: Vehicle, name: str) -> None:
+    v.links.send(
+        mavlink.MAVLink_param_value_message(
+            name.encode(),
+            float(v.params[name]),
+            mavlink.MAV_PARAM_TYPE_REAL32,
+            len(v.params),
+            v.params.index(name),
+        )
+    )
+
+
+def _param_list(v: Vehicle, chan: int, m) -> None:
+    for name in v.params.names:
+        _param_value(v, name)
+
+
+def _param_read(v: Vehicle, chan: int, m) -> None:
+    name = _pname(m.param_id)
+    if m.param_index >= 0 and m.param_index < len(v.params):
+        name = v.params.names[m.param_index]
+    if name in v.params:
+        _param_value(v, name)
+
+
+def _param_set(v: Vehicle, chan: int, m) -> None:
+    name = _pname(m.param_id)
+    if name not in v.params:
+        v.statustext(f"Unknown parameter {name}", mavlink.MAV_SEVERITY_WARNING)
+        return
+    v.params.set(name, float(m.param_value))
+    _param_value(v, name)  # ArduPilot answers with the value it now holds
+
+
+def _pname(raw) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode(errors="replace")
+    return raw.rstrip("\0").upper()
+
+
+def _position_target(v: Vehicle, chan: int, m) -> None:
+    if v.mode != modes.GUIDED:
+        return
+    if m.coordinate_frame not in (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_OFFSET_NED):
+        v.statustext("Guided: only LOCAL_NED targets", mavlink.MAV_SEVERITY_WARNING)
+        return
+    mask = m.type_mask
+    use_pos = mask & 7 != 7
+    use_vel = mask & 56 != 56
+    vals = (m.x, m.y, m.z, m.vx, m.vy, m.vz)
+    if not all(math.isfinite(x) for x in vals):
+        return
+    hx, hz = v.home
+    t = Target()
+    if use_pos:
+        t.x, t.z = hx + m.x, hz - m.z
+    if use_vel:
+        t.vx, t.vz = m.vx, -m.vz
+        if not use_pos:
+            t.x = t.z = None
+    v.target = t
+    v.target_is_velocity = use_vel and not use_pos
+    v.target_time = v.t
+
+
+def _timesync(v: Vehicle, chan: int, m) -> None:
+    now_ns = int(v.t * 1e9)
+    if m.tc1 == 0:
+        v.links.send(mavlink.MAVLink_timesync_message(now_ns, m.ts1))
+    else:
+        # a companion's echo: ts1 is the newest vehicle time it has seen (ns)
+        echo = m.ts1 / 1e9
+        if v.echo_t is None or echo >= v.echo_t:
+            v.echo_t = echo
+            v.echo_wall = time.monotonic()
+
+
+def _data_stream(v: Vehicle, chan: int, m) -> None:
+    v.streams.request_data_stream(m.req_stream_id, m.req_message_rate if m.start_stop else 0)
+
+
+def _rc_override(v: Vehicle, chan: int, m) -> None:
+    for i in range(1, 9):
+        pwm = getattr(m, f"chan{i}_raw")
+        if pwm not in (0, 65535):
+            v.rc_override[i] = (int(pwm), v.t)
+        elif pwm == 0:
+            v.rc_override.pop(i, None)
+
+
+_COMMANDS = {
+    mavlink.MAV_CMD_COMPONENT_ARM_DISARM: _arm,
+    mavlink.MAV_CMD_DO_SET_MODE: _do_set_mode,
+    mavlink.MAV_CMD_NAV_TAKEOFF: _takeoff,
+    mavlink.MAV_CMD_NAV_LAND: _nav_land,
+    mavlink.MAV_CMD_DO_AUX_FUNCTION: _aux,
+    mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: _interval,
+    mavlink.MAV_CMD_REQUEST_MESSAGE: _request_message,
+    mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: _capabilities,
+}
+
+_HANDLERS = {
+    "COMMAND_LONG": _command_long,
+    "SET_MODE": _set_mode_msg,
+    "PARAM_REQUEST_LIST": _param_list,
+    "PARAM_REQUEST_READ": _param_read,
+    "PARAM_SET": _param_set,
+    "SET_POSITION_TARGET_LOCAL_NED": _position_target,
+    "TIMESYNC": _timesync,
+    "REQUEST_DATA_STREAM": _data_stream,
+    "RC_CHANNELS_OVERRIDE": _rc_override,
+}

@@ -1,0 +1,170 @@
+"""Start the simulated vehicle as a subprocess on a free port (for tests, benchmarks, demos).
+
+with start_vehicle(scenario={"slope_deg": 20}) as v:
+    conn = mavutil.mavlink_connection(v.mavlink_url)
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def child_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(REPO / "src"), str(REPO)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else [])
+    )
+    return env
+
+
+class VehicleProcess:
+    def __init__(
+        self, proc: subprocess.Popen, port: int, ready: str, tmp: tempfile.TemporaryDirectory
+    ) -> None:
+        self.proc, self.port, self.ready_line, self._tmp = proc, port, ready, tmp
+        self.mavlink_url = f"tcp:127.0.0.1:{port}"
+
+    def stop(self, timeout: float = 5.0) -> int:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._tmp.cleanup()
+        return self.proc.returncode
+
+    def __enter__(self) -> VehicleProcess:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+def start_vehicle(
+    scenario: dict | None = None,
+    params: Path | dict | None = None,
+    script: Path | None = None,
+    no_script: bool = False,
+    speed: float = 1.0,
+    lockstep: bool = False,
+    legboard_control: Path | None = None,
+    extra_endpoints: list[str] | None = None,
+    timeout: float = 60.0,
+) -> VehicleProcess:
+    """Start ``python -m sitl.vehicle`` listening on a free TCP port; returns once it is ready.
+    ``params`` may be a dict written to a .parm file. Raises RuntimeError with its stderr if it fails."""
+    tmp = tempfile.TemporaryDirectory(prefix="sl-vehicle-")
+    port = free_port()
+    cmd = [
+        sys.executable,
+        "-m",
+        "sitl.vehicle",
+        "--endpoint",
+        f"tcpin:127.0.0.1:{port}",
+        "--speed",
+        str(speed),
+    ]
+    for e in extra_endpoints or []:
+        cmd += ["--endpoint", e]
+    if isinstance(params, dict):
+        p = Path(tmp.name) / "vehicle.parm"
+        p.write_text("".join(f"{k} {v}\n" for k, v in params.items()))
+        params = p
+    if params is not None:
+        cmd += ["--params", str(params)]
+    if no_script:
+        cmd.append("--no-script")
+    elif script is not None:
+        cmd += ["--script", str(script)]
+    if scenario is not None:
+        sp = Path(tmp.name) / "scenario.yaml"
+        sp.write_text(yaml.safe_dump(scenario))
+        cmd += ["--scenario", str(sp)]
+    if lockstep:
+        cmd.append("--lockstep")
+    if legboard_control is not None:
+        cmd += ["--legboard-control", str(legboard_control)]
+    err = open(Path(tmp.name) / "stderr.txt", "w+")  # noqa: SIM115 - read back on failure
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True, env=child_env(), cwd=REPO)
+    deadline = time.monotonic() + timeout
+    line = ""
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if line.startswith("vehicle ready") or (not line and proc.poll() is not None):
+            break
+    if not line.startswith("vehicle ready"):
+        proc.kill()
+        proc.wait()
+        err.seek(0)
+        msg = err.read()
+        tmp.cleanup()
+        raise RuntimeError(f"vehicle did not start: {msg.strip()[-2000:]}")
+    return VehicleProcess(proc, port, line.strip(), tmp)
+
+
+class LegboardProcess:
+    def __init__(
+        self, proc: subprocess.Popen, pty: str, control: Path, tmp: tempfile.TemporaryDirectory
+    ) -> None:
+        self.proc, self.pty, self.control, self._tmp = proc, pty, control, tmp
+
+    def stop(self, timeout: float = 5.0) -> int:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._tmp.cleanup()
+        return self.proc.returncode
+
+
+def start_legboard(speed: float = 1.0, timeout: float = 30.0) -> LegboardProcess:
+    """Start ``python -m sitl.legboard`` with a control socket in a temporary directory."""
+    tmp = tempfile.TemporaryDirectory(prefix="sl-legs-")
+    link, ctl = Path(tmp.name) / "legs", Path(tmp.name) / "legs.ctl"
+    cmd = [
+        sys.executable,
+        "-m",
+        "sitl.legboard",
+        "--link",
+        str(link),
+        "--control",
+        str(ctl),
+        "--speed",
+        str(speed),
+    ]
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=child_env(), cwd=REPO
+    )
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if line.startswith("legboard ready"):
+            fields = dict(f.split("=", 1) for f in line.split()[2:] if "=" in f)
+            return LegboardProcess(proc, fields.get("link") or fields["pty"], ctl, tmp)
+        if not line and proc.poll() is not None:
+            break
+    proc.kill()
+    proc.wait()
+    tmp.cleanup()
+    raise RuntimeError("leg board did not start")

@@ -1,0 +1,53 @@
+"""Feed the simulated leg board from the vehicle: friction torques in, joint angles out.
+
+At about 50 Hz vehicle time: read the board's friction torque per real joint (legs 0, 1 uphill
+pair; 2, 3 downhill pair) and set the Stepper's planar pair torques (the mean of each pair);
+while airborne the board's joint angles become the legs' angles (the springs reset them);
+while in contact the Stepper's joint angles are written back to the board.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from sitl.legboard.control import BoardControl, ControlError
+
+if TYPE_CHECKING:
+    from sitl.vehicle.vehicle import Vehicle
+
+PERIOD_S = 0.02
+
+
+class LegsLink:
+    def __init__(self, control_path: Path) -> None:
+        self.ctl = BoardControl(control_path)
+        self.next_t = 0.0
+        self.error: str | None = None
+
+    def update(self, v: Vehicle) -> None:
+        if v.t < self.next_t or self.error is not None:
+            return
+        self.next_t = v.t + PERIOD_S
+        try:
+            legs = self.ctl.state()["legs"]
+            tau = [float(lg["torque_nm"]) for lg in legs]
+            up = 0.5 * (tau[0] + tau[1])
+            down = 0.5 * (tau[2] + tau[3])
+            v.stepper.set_friction(min(10.0, max(0.0, up)), min(10.0, max(0.0, down)))
+            st = v.stepper
+            if st.in_contact():
+                a_up, a_down = st.joint_angles_deg()
+                self.ctl.set_joint_angles([a_up, a_up, a_down, a_down])
+            else:
+                ang = [float(lg["angle_deg"]) for lg in legs]
+                lo, hi = st.model.params.angle_min_deg, st.model.params.angle_max_deg
+                a_up = min(hi, max(lo, 0.5 * (ang[0] + ang[1])))
+                a_down = min(hi, max(lo, 0.5 * (ang[2] + ang[3])))
+                st.set_leg_angles(a_up, a_down)
+        except (ControlError, KeyError, TypeError, ValueError) as exc:
+            self.error = str(exc)
+            v.statustext(f"Legs link lost: {exc}"[:50], 3)
+
+    def close(self) -> None:
+        self.ctl.close()

@@ -1,0 +1,198 @@
+"""Scenario file (YAML): the world, the pilot's RC inputs over time and sensor faults, all
+deterministic from the seed. See docs/simulated-vehicle.md for the format."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from sitl.vehicle.sensors import Range
+from slopelander.model.landing import Model
+
+RANGE_FAULTS = ("rangefinder_dropout", "rangefinder_spike", "rangefinder_stuck", "rangefinder_noise")
+IMU_FAULTS = ("imu_noise", "imu_spike")
+TOP_KEYS = {
+    "seed",
+    "start_on",
+    "slope_deg",
+    "roof_x",
+    "roof_z",
+    "start_x",
+    "noise",
+    "rc",
+    "faults",
+    "model_params",
+}
+DEFAULT_RC = {1: 1500, 2: 1500, 3: 1000, 4: 1500}
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be used; the message names the file and the field."""
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: str
+    start: float
+    end: float
+    value: float
+
+
+@dataclass
+class Scenario:
+    seed: int = 0
+    slope_deg: float = 20.0
+    roof_x: float = 3.0
+    roof_z: float = 0.5
+    start_x: float = 0.0  # m, world x; on the roof: beyond roof_x
+    start_on: str = "pad"  # or "roof"
+    accel_noise: float = 0.05  # m/s^2, 1 sigma per sample
+    gyro_noise: float = 0.002  # rad/s
+    range_noise: float = 0.005  # m
+    rc: list[tuple[float, dict[int, int]]] = field(default_factory=list)
+    faults: list[Fault] = field(default_factory=list)
+    model_params: dict[str, float] = field(default_factory=dict)
+    _stuck: float | None = None
+
+    def model(self) -> Model:
+        return Model.default().with_params(**self.model_params) if self.model_params else Model.default()
+
+    def rc_at(self, chan: int, t: float) -> int:
+        value = DEFAULT_RC.get(chan, 1500)
+        for t0, chans in self.rc:
+            if t0 > t:
+                break
+            value = chans.get(chan, value)
+        return value
+
+    def apply_events(self, vehicle: object) -> None:
+        """Hook for timed events that act on the vehicle itself (none yet besides RC and faults)."""
+
+    def _active(self, t: float, kinds: tuple[str, ...]) -> list[Fault]:
+        return [f for f in self.faults if f.kind in kinds and f.start <= t < f.end]
+
+    def imu_spike(self, t: float) -> float:
+        return sum(f.value for f in self._active(t, ("imu_spike",)))
+
+    def imu_extra_noise(self, t: float) -> float:
+        return sum(f.value for f in self._active(t, ("imu_noise",)))
+
+    def range_fault(self, t: float, r: Range, rng: np.random.Generator) -> Range:
+        d = r.distance_m + self.range_noise * rng.normal() if math.isfinite(r.distance_m) else r.distance_m
+        r = Range(d, r.status, r.quality_pct)
+        active = self._active(t, RANGE_FAULTS)
+        if not any(f.kind == "rangefinder_stuck" for f in active):
+            self._stuck = None
+        for f in active:
+            if f.kind == "rangefinder_dropout":
+                return Range(0.0, 1, 0)  # NoData
+            if f.kind == "rangefinder_stuck":
+                if self._stuck is None:
+                    self._stuck = r.distance_m
+                r = Range(self._stuck, r.status, r.quality_pct)
+            elif f.kind == "rangefinder_spike":
+                r = Range(f.value, r.status, r.quality_pct)
+            elif f.kind == "rangefinder_noise":
+                r = Range(r.distance_m + f.value * rng.normal(), r.status, r.quality_pct)
+        return r
+
+
+def _num(src: str, name: str, v: object, lo: float, hi: float) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
+        raise ScenarioError(f"{src}: {name} must be a number, got {v!r}")
+    if not lo <= float(v) <= hi:
+        raise ScenarioError(f"{src}: {name} = {v} must lie within {lo}..{hi}")
+    return float(v)
+
+
+def load_scenario(path: Path | None) -> Scenario:
+    if path is None:
+        return Scenario()
+    src = str(path)
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except OSError as exc:
+        raise ScenarioError(f"{src}: cannot read: {exc.strerror}") from None
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{src}: not valid YAML: {exc}") from None
+    return scenario_from_dict(data or {}, src)
+
+
+def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{src}: the top level must be a mapping")
+    unknown = set(data) - TOP_KEYS
+    if unknown:
+        raise ScenarioError(f"{src}: unknown field(s) {sorted(unknown)}; known: {sorted(TOP_KEYS)}")
+    s = Scenario()
+    if "seed" in data:
+        if not isinstance(data["seed"], int) or isinstance(data["seed"], bool) or data["seed"] < 0:
+            raise ScenarioError(f"{src}: seed must be a non-negative integer, got {data['seed']!r}")
+        s.seed = data["seed"]
+    s.slope_deg = _num(src, "slope_deg", data.get("slope_deg", s.slope_deg), 0.0, 60.0)
+    s.roof_x = _num(src, "roof_x", data.get("roof_x", s.roof_x), 0.5, 1000.0)
+    s.roof_z = _num(src, "roof_z", data.get("roof_z", s.roof_z), -10.0, 100.0)
+    s.start_on = data.get("start_on", "pad")
+    if s.start_on not in ("pad", "roof"):
+        raise ScenarioError(f"{src}: start_on must be 'pad' or 'roof', got {s.start_on!r}")
+    if s.start_on == "pad":
+        s.start_x = _num(src, "start_x", data.get("start_x", s.start_x), -1000.0, s.roof_x - 0.5)
+    else:
+        s.start_x = _num(src, "start_x", data.get("start_x", s.roof_x + 1.0), s.roof_x + 0.5, 1e4)
+    noise = data.get("noise", {})
+    if not isinstance(noise, dict) or set(noise) - {"accel", "gyro", "range"}:
+        raise ScenarioError(f"{src}: noise must be a mapping with accel, gyro, range (1-sigma, SI)")
+    s.accel_noise = _num(src, "noise.accel", noise.get("accel", s.accel_noise), 0.0, 50.0)
+    s.gyro_noise = _num(src, "noise.gyro", noise.get("gyro", s.gyro_noise), 0.0, 10.0)
+    s.range_noise = _num(src, "noise.range", noise.get("range", s.range_noise), 0.0, 5.0)
+    rc = data.get("rc", [])
+    if not isinstance(rc, list):
+        raise ScenarioError(f"{src}: rc must be a list of {{t: s, channels: {{1: pwm, ...}}}}")
+    last = -1.0
+    for i, ev in enumerate(rc):
+        where = f"rc[{i}]"
+        if not isinstance(ev, dict) or set(ev) != {"t", "channels"} or not isinstance(ev["channels"], dict):
+            raise ScenarioError(f"{src}: {where} must be {{t: s, channels: {{1: pwm, ...}}}}")
+        t = _num(src, f"{where}.t", ev["t"], 0.0, 1e6)
+        if t < last:
+            raise ScenarioError(f"{src}: {where}.t = {t} goes back in time")
+        last = t
+        chans = {}
+        for ch, pwm in ev["channels"].items():
+            if not isinstance(ch, int) or not 1 <= ch <= 16:
+                raise ScenarioError(f"{src}: {where}.channels: channel {ch!r} must be 1..16")
+            chans[ch] = int(_num(src, f"{where}.channels.{ch}", pwm, 800, 2200))
+        s.rc.append((t, chans))
+    faults = data.get("faults", [])
+    if not isinstance(faults, list):
+        raise ScenarioError(f"{src}: faults must be a list")
+    for i, f in enumerate(faults):
+        where = f"faults[{i}]"
+        if (
+            not isinstance(f, dict)
+            or not {"kind", "start", "end"} <= set(f)
+            or set(f) - {"kind", "start", "end", "value"}
+        ):
+            raise ScenarioError(f"{src}: {where} needs kind, start, end (s) and optionally value")
+        if f["kind"] not in RANGE_FAULTS + IMU_FAULTS:
+            raise ScenarioError(
+                f"{src}: {where}.kind {f['kind']!r} unknown; one of {RANGE_FAULTS + IMU_FAULTS}"
+            )
+        start = _num(src, f"{where}.start", f["start"], 0.0, 1e6)
+        end = _num(src, f"{where}.end", f["end"], start, 1e6)
+        value = _num(src, f"{where}.value", f.get("value", 0.0), -1e4, 1e4)
+        s.faults.append(Fault(f["kind"], start, end, value))
+    mp = data.get("model_params", {})
+    if not isinstance(mp, dict):
+        raise ScenarioError(f"{src}: model_params must be a mapping of model parameter names to values")
+    for name, v in mp.items():
+        s.model_params[str(name)] = _num(src, f"model_params.{name}", v, -1e9, 1e9)
+    try:
+        s.model()
+    except Exception as exc:  # the model's own validation names the parameter
+        raise ScenarioError(f"{src}: model_params: {exc}") from None
+    return s

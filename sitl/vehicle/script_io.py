@@ -1,0 +1,81 @@
+"""What the on-board script sees of the simulated vehicle: the ``VehicleIO`` the Lua host
+(``sitl.vehicle.scripting``) binds ArduPilot's scripting API to."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from sitl.vehicle.vehicle import Vehicle
+
+
+class ScriptIO:
+    def __init__(self, vehicle: Vehicle, range_cls: type) -> None:
+        self.v = vehicle
+        self._range_cls = range_cls
+
+    def time_ms(self) -> int:
+        return int(self.v.t * 1000)
+
+    def time_us(self) -> int:
+        return int(self.v.t * 1e6)
+
+    def is_armed(self) -> bool:
+        return self.v.armed
+
+    def arm(self) -> bool:
+        return self.v.arm(force=False, source="Script")
+
+    def disarm(self) -> bool:
+        return self.v.disarm(source="Script")
+
+    def mode(self) -> int:
+        return self.v.mode
+
+    def set_mode(self, mode: int) -> bool:
+        return self.v.set_mode(int(mode), source="Script")
+
+    def emergency_stop(self) -> bool:
+        return self.v.estop
+
+    def accel(self) -> tuple[float, float, float]:
+        a = self.v.imu.accel
+        return float(a[0]), float(a[1]), float(a[2])
+
+    def gyro(self) -> tuple[float, float, float]:
+        g = self.v.imu.gyro
+        return float(g[0]), float(g[1]), float(g[2])
+
+    def rangefinder(self, orientation: int):  # -> RangeReading | None
+        if orientation != int(self.v.params["RNGFND1_ORIENT"]):
+            return None
+        r = self.v.range
+        return self._range_cls(
+            distance_m=r.distance_m if math.isfinite(r.distance_m) else self.v.range_max,
+            status=r.status,
+            signal_quality_pct=r.quality_pct,
+            min_m=self.v.range_min,
+            max_m=self.v.range_max,
+        )
+
+    def rc_pwm(self, chan: int) -> int | None:
+        return self.v.rc(chan) if 1 <= chan <= 16 else None
+
+    def param(self, name: str) -> float | None:
+        return self.v.params.get(name)
+
+    def set_param(self, name: str, value: float) -> bool:
+        return self.v.params.set(name, value)
+
+    def send_text(self, severity: int, text: str) -> None:
+        self.v.statustext(text, severity)
+
+    def send_named_float(self, name: str, value: float) -> None:
+        self.v.send_named_float(name, value)
+
+    def send_mavlink(self, chan: int, msgid: int, payload: bytes) -> bool:
+        return self.v.links.send_payload(chan, msgid, payload)
+
+    def mixer_pwm(self, chan0: int) -> int:
+        return self.v.mixer_pwm[chan0] if 0 <= chan0 < len(self.v.mixer_pwm) else 0

@@ -1,0 +1,175 @@
+"""The landing controller's settings: one YAML file, every value range-checked by name.
+
+The shipped ``default_config.yaml`` holds every threshold with its unit in the key; a user file
+overrides any subset. A bad value never reaches the state machine: :class:`ConfigError` names the
+dotted field, what it got and what it expects.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from slopelander.errors import SlopelanderError
+
+# field -> (low, high, integer?)  (inclusive bounds)
+LIMITS: dict[str, tuple[float, float, bool]] = {
+    "link.link_loss_s": (0.2, 30.0, False),
+    "link.command_timeout_s": (0.05, 5.0, False),
+    "link.command_retries": (0, 10, True),
+    "link.imu_hz": (1, 200, False),
+    "link.range_hz": (1, 200, False),
+    "link.min_delivered_fraction": (0.0, 1.0, False),
+    "descent.rate_mps": (0.1, 3.0, False),
+    "descent.resend_hz": (5, 50, False),
+    "reflex.cut_height_m": (0.10, 2.00, False),
+    "reflex.arm_height_m": (0.2, 20.0, False),
+    "reflex.impact_threshold_mps2": (5, 200, False),
+    "reflex.reverse_thrust_pct": (0, 100, False),
+    "reflex.reverse_thrust_ms": (0, 5000, True),
+    "reflex.validity_ms": (100, 10000, True),
+    "reflex.refresh_s": (0.05, 5.0, False),
+    "range.max_age_s": (0.01, 5.0, False),
+    "range.min_quality": (0, 100, True),
+    "legs.tolerance_nm": (0.0, 2.0, False),
+    "legs.ready_timeout_s": (0.1, 60.0, False),
+    "legs.board_silent_s": (0.05, 10.0, False),
+    "settle.still_s": (0.1, 10.0, False),
+    "settle.still_mps2": (0.1, 10.0, False),
+    "takeoff.clear_height_m": (0.2, 10.0, False),
+    "rc_presets.channel": (1, 18, True),
+}
+RC_PRESET_LIMITS = {"min_us": (800, 2200), "max_us": (800, 2200), "tau_up_nm": (0.0, 10.0),
+                    "tau_down_nm": (0.0, 10.0)}
+
+
+class ConfigError(SlopelanderError, ValueError):
+    """A setting is missing, unknown or out of range; the message names the field."""
+
+    def __init__(self, source: str, field: str, why: str) -> None:
+        super().__init__(f"{source}: {field}: {why}")
+        self.field = field
+
+
+@dataclass(frozen=True)
+class RcPreset:
+    """One PWM band of the pilot's preset switch and the torques it selects (N·m)."""
+
+    min_us: float
+    max_us: float
+    tau_up_nm: float
+    tau_down_nm: float
+
+
+class Config:
+    """Validated settings; read with ``cfg['reflex.cut_height_m']`` or ``cfg.reflex['cut_height_m']``."""
+
+    def __init__(self, doc: dict[str, Any], source: str = "config") -> None:
+        self.source = source
+        self.doc = doc
+        self.rc_presets = _validate(doc, source)
+
+    def __getitem__(self, dotted: str) -> Any:
+        section, key = dotted.split(".", 1)
+        return self.doc[section][key]
+
+    def __getattr__(self, section: str) -> dict[str, Any]:
+        try:
+            return self.__dict__["doc"][section]
+        except KeyError:
+            raise AttributeError(section) from None
+
+
+def default_config_path() -> Path:
+    """The shipped defaults."""
+    return Path(str(resources.files("slopelander.controller") / "default_config.yaml"))
+
+
+def _read(path: Path) -> Any:
+    try:
+        return yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise ConfigError(str(path), "(file)", f"cannot read: {exc.strerror}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(str(path), "(file)", f"not valid YAML: {exc}") from None
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """The defaults, overridden by the file at ``path`` if given."""
+    base = _read(default_config_path())
+    if path is None:
+        return Config(base, str(default_config_path()))
+    user = _read(Path(path))
+    if user is None:
+        user = {}
+    return Config(merge(base, user, str(path)), str(path))
+
+
+def merge(base: dict[str, Any], user: Any, source: str) -> dict[str, Any]:
+    """Override ``base`` with ``user``; unknown sections/keys are errors (typos must not pass)."""
+    if not isinstance(user, dict):
+        raise ConfigError(source, "(top level)", "expected a mapping of sections")
+    out = copy.deepcopy(base)
+    for section, values in user.items():
+        if section not in base:
+            raise ConfigError(source, str(section), f"unknown section (known: {', '.join(base)})")
+        if not isinstance(values, dict):
+            raise ConfigError(source, str(section), "expected a mapping of settings")
+        for key, value in values.items():
+            if key not in base[section]:
+                raise ConfigError(source, f"{section}.{key}", "unknown setting")
+            out[section][key] = value
+    return out
+
+
+def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
+    if not isinstance(doc, dict):
+        raise ConfigError(source, "(top level)", "expected a mapping of sections")
+    for field, (lo, hi, integer) in LIMITS.items():
+        section, key = field.split(".")
+        try:
+            v = doc[section][key]
+        except (KeyError, TypeError):
+            raise ConfigError(source, field, "missing") from None
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ConfigError(source, field, f"expected a number, got {v!r}")
+        if integer and v != int(v):
+            raise ConfigError(source, field, f"expected a whole number, got {v!r}")
+        if not lo <= v <= hi:
+            raise ConfigError(source, field, f"{v!r} is outside {lo:g}..{hi:g}")
+    if doc["reflex"]["arm_height_m"] <= doc["reflex"]["cut_height_m"]:
+        raise ConfigError(source, "reflex.arm_height_m", "must be above reflex.cut_height_m")
+    if doc["reflex"]["refresh_s"] * 1000 >= doc["reflex"]["validity_ms"]:
+        raise ConfigError(source, "reflex.refresh_s", "must be shorter than reflex.validity_ms")
+    rc = doc.get("rc_presets", {})
+    if not isinstance(rc.get("enabled"), bool):
+        raise ConfigError(source, "rc_presets.enabled", "expected true or false")
+    items = rc.get("presets")
+    if not isinstance(items, list):
+        raise ConfigError(source, "rc_presets.presets", "expected a list")
+    presets = []
+    for i, item in enumerate(items):
+        name = f"rc_presets.presets[{i}]"
+        if not isinstance(item, dict) or set(item) != set(RC_PRESET_LIMITS):
+            raise ConfigError(source, name, f"expected exactly the keys {', '.join(RC_PRESET_LIMITS)}")
+        for k, (lo, hi) in RC_PRESET_LIMITS.items():
+            v = item[k]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi):
+                raise ConfigError(source, f"{name}.{k}", f"expected a number in {lo:g}..{hi:g}, got {v!r}")
+        if item["min_us"] >= item["max_us"]:
+            raise ConfigError(source, f"{name}.min_us", "must be below max_us")
+        presets.append(RcPreset(**{k: float(item[k]) for k in RC_PRESET_LIMITS}))
+    if rc["enabled"] and not presets:
+        raise ConfigError(source, "rc_presets.presets", "enabled but empty")
+    ordered = sorted(presets, key=lambda p: p.min_us)
+    for a, b in itertools.pairwise(ordered):
+        if b.min_us < a.max_us:
+            raise ConfigError(source, "rc_presets.presets", "PWM bands overlap")
+    return tuple(presets)

@@ -1,0 +1,298 @@
+"""The companion's MAVLink link to the autopilot: non-blocking, polled by the state machine.
+
+One :class:`Link` owns the connection. :meth:`Link.poll` drains every waiting message without
+blocking, keeps the vehicle clock, sends the companion's heartbeat (1 Hz) and the TIMESYNC echo
+(about 50 Hz of vehicle time; a lock-stepped simulator waits on it), re-sends commands that were
+not acknowledged and expires the ones that ran out of tries. Commands return a
+:class:`CommandHandle` that the caller polls instead of waiting.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from pymavlink import mavutil
+
+from slopelander.controller.clock import VehicleClock
+from slopelander.errors import SlopelanderError
+
+mavlink = mavutil.mavlink
+
+COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
+HEARTBEAT_PERIOD_S = 1.0
+TIMESYNC_PERIOD_S = 0.02
+SCRIPT_SILENT_S = 1.0
+# Messages that carry the autopilot's time, and the field holding it.
+_USEC_FIELDS = {"SYSTEM_TIME": "time_boot_ms", "RAW_IMU": "time_usec", "HIGHRES_IMU": "time_usec",
+                "ATTITUDE": "time_boot_ms", "LOCAL_POSITION_NED": "time_boot_ms",
+                "SERVO_OUTPUT_RAW": "time_usec", "DISTANCE_SENSOR": "time_boot_ms",
+                "NAMED_VALUE_FLOAT": "time_boot_ms", "RC_CHANNELS": "time_boot_ms"}
+
+
+class LinkError(SlopelanderError):
+    """The link cannot be opened or used (bad connection string, no autopilot)."""
+
+
+@dataclass
+class CommandHandle:
+    """One COMMAND_LONG in flight: poll ``state`` ('pending', 'accepted', 'rejected', 'timeout')."""
+
+    command: int
+    params: tuple[float, ...]
+    retries: int
+    timeout_s: float
+    state: str = "pending"
+    result: int | None = None
+    tries: int = 0
+    sent_at: float = 0.0
+
+    @property
+    def done(self) -> bool:
+        """Whether an answer (or the final timeout) has arrived."""
+        return self.state != "pending"
+
+    @property
+    def ok(self) -> bool:
+        """Whether the autopilot accepted the command."""
+        return self.state == "accepted"
+
+
+@dataclass
+class AutopilotInfo:
+    """What the companion found at the other end of the link."""
+
+    system: int
+    component: int
+    vehicle_type: int
+    autopilot: int
+    firmware: str = "unknown"
+    script_version: float | None = None
+
+    def describe(self) -> str:
+        """One line for the pilot."""
+        vt = mavlink.enums["MAV_TYPE"].get(self.vehicle_type)
+        ap = mavlink.enums["MAV_AUTOPILOT"].get(self.autopilot)
+        script = "absent" if self.script_version is None else f"v{self.script_version:g}"
+        return (f"system {self.system} component {self.component}: "
+                f"{vt.name if vt else self.vehicle_type}, {ap.name if ap else self.autopilot}, "
+                f"firmware {self.firmware}, on-board script {script}")
+
+
+@dataclass
+class _Rate:
+    """Arrival rate of one message type over a sliding window of local time."""
+
+    stamps: deque = field(default_factory=lambda: deque(maxlen=400))
+
+    def add(self, t: float) -> None:
+        self.stamps.append(t)
+
+    def hz(self, now: float, window: float = 2.0) -> float:
+        n = sum(1 for s in self.stamps if now - s <= window)
+        return n / window
+
+
+class Link:
+    """A polled MAVLink connection to one autopilot.
+
+    ``url`` is any pymavlink connection string (``udpin:0.0.0.0:14550``, ``tcp:host:5760``,
+    ``/dev/ttyACM0,921600``). ``link_loss_s`` is the silence (no HEARTBEAT, local time) after which
+    :attr:`lost` becomes true.
+    """
+
+    def __init__(self, url: str, *, link_loss_s: float = 1.5,
+                 monotonic: Callable[[], float] = time.monotonic) -> None:
+        if not isinstance(url, str) or not url.strip():
+            raise LinkError("connection string is empty (expected e.g. udpin:0.0.0.0:14550)")
+        if not (link_loss_s > 0 and math.isfinite(link_loss_s)):
+            raise LinkError(f"link_loss_s must be a positive number of seconds, got {link_loss_s!r}")
+        try:
+            self.conn = mavutil.mavlink_connection(url, source_system=1,
+                                                   source_component=COMPANION_COMPONENT,
+                                                   dialect="ardupilotmega", autoreconnect=True)
+        except Exception as exc:  # pymavlink raises many types for a bad string or device
+            raise LinkError(f"cannot open MAVLink connection {url!r}: {exc}") from exc
+        self.monotonic = monotonic
+        self.clock = VehicleClock(monotonic)
+        self.link_loss_s = link_loss_s
+        self.info: AutopilotInfo | None = None
+        self.last: dict[str, object] = {}
+        self.statustext: deque[str] = deque(maxlen=50)
+        self._rates: dict[str, _Rate] = {}
+        self._commands: list[CommandHandle] = []
+        self._last_heartbeat_rx: float | None = None
+        self._last_heartbeat_tx = -math.inf
+        self._last_timesync_usec = 0
+        self._script_seen_at: float | None = None
+        self.script_state: int | None = None
+        self._listeners: list[Callable[[object], None]] = []
+
+    # ---------------------------------------------------------------- receiving
+    def add_listener(self, fn: Callable[[object], None]) -> None:
+        """Call ``fn(msg)`` for every message from the autopilot (e.g. the impact detector)."""
+        self._listeners.append(fn)
+
+    def poll(self) -> int:
+        """Handle every waiting message, send what is due; return the number of messages read."""
+        n = 0
+        while True:
+            msg = self.conn.recv_match(blocking=False)
+            if msg is None:
+                break
+            n += 1
+            self._handle(msg)
+        self._send_due()
+        return n
+
+    def _from_autopilot(self, msg) -> bool:
+        if self.info is None:
+            return False
+        return msg.get_srcSystem() == self.info.system and msg.get_srcComponent() == self.info.component
+
+    def _handle(self, msg) -> None:
+        mtype = msg.get_type()
+        if mtype == "BAD_DATA":
+            return
+        now = self.monotonic()
+        if mtype == "HEARTBEAT" and self.info is None and msg.type not in (
+                mavlink.MAV_TYPE_GCS, mavlink.MAV_TYPE_ONBOARD_CONTROLLER) and \
+                msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID:
+            self.info = AutopilotInfo(msg.get_srcSystem(), msg.get_srcComponent(), msg.type, msg.autopilot)
+            self.conn.mav.srcSystem = msg.get_srcSystem()
+            self.conn.target_system = msg.get_srcSystem()
+            self.conn.target_component = msg.get_srcComponent()
+            self.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        if not self._from_autopilot(msg):
+            return
+        self.last[mtype] = msg
+        self._rates.setdefault(mtype, _Rate()).add(now)
+        for fn in self._listeners:
+            fn(msg)
+        fld = _USEC_FIELDS.get(mtype)
+        if fld is not None:
+            if fld == "time_usec":
+                self.clock.observe_usec(getattr(msg, fld))
+            else:
+                self.clock.observe_boot_ms(getattr(msg, fld))
+        if mtype == "HEARTBEAT":
+            self._last_heartbeat_rx = now
+        elif mtype == "COMMAND_ACK":
+            for h in self._commands:
+                if h.command == msg.command and not h.done:
+                    h.result = msg.result
+                    if msg.result == mavlink.MAV_RESULT_IN_PROGRESS:
+                        continue
+                    h.state = "accepted" if msg.result == mavlink.MAV_RESULT_ACCEPTED else "rejected"
+                    break
+            self._commands = [h for h in self._commands if not h.done]
+        elif mtype == "STATUSTEXT":
+            self.statustext.append(msg.text)
+        elif mtype == "AUTOPILOT_VERSION" and self.info is not None:
+            v = msg.flight_sw_version
+            self.info.firmware = f"{(v >> 24) & 0xFF}.{(v >> 16) & 0xFF}.{(v >> 8) & 0xFF}"
+        elif mtype == "NAMED_VALUE_FLOAT":
+            name = msg.name.rstrip("\x00") if isinstance(msg.name, str) else msg.name
+            if name == "SL_STATE":
+                self._script_seen_at = now
+                self.script_state = int(msg.value)
+            elif name == "SL_VER" and self.info is not None:
+                self.info.script_version = float(msg.value)
+                self._script_seen_at = now
+
+    # ------------------------------------------------------------------ sending
+    def _send_due(self) -> None:
+        now = self.monotonic()
+        if now - self._last_heartbeat_tx >= HEARTBEAT_PERIOD_S:
+            self._last_heartbeat_tx = now
+            self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID,
+                                         0, 0, mavlink.MAV_STATE_ACTIVE)
+        if self.clock.known and self.clock.usec - self._last_timesync_usec >= TIMESYNC_PERIOD_S * 1e6:
+            self._last_timesync_usec = self.clock.usec
+            self.conn.mav.timesync_send(0, self.clock.usec * 1000)
+        for h in self._commands:
+            if h.done or now - h.sent_at < h.timeout_s:
+                continue
+            if h.tries > h.retries:
+                h.state = "timeout"
+            else:
+                self._transmit(h)
+        self._commands = [h for h in self._commands if not h.done]
+
+    def _transmit(self, h: CommandHandle) -> None:
+        if self.info is None:
+            return
+        p = list(h.params) + [0.0] * (7 - len(h.params))
+        self.conn.mav.command_long_send(self.info.system, self.info.component, h.command,
+                                        min(h.tries, 255), *p)
+        h.tries += 1
+        h.sent_at = self.monotonic()
+
+    def command(self, command: int, *params: float, retries: int = 2,
+                timeout_s: float = 0.5) -> CommandHandle:
+        """Send COMMAND_LONG now; re-sent up to ``retries`` times ``timeout_s`` apart until answered."""
+        if self.info is None:
+            raise LinkError("no autopilot found yet: wait_autopilot() before sending commands")
+        if len(params) > 7:
+            raise LinkError(f"COMMAND_LONG takes at most 7 parameters, got {len(params)}")
+        h = CommandHandle(command, tuple(float(x) for x in params), retries, timeout_s)
+        # A newer command of the same id supersedes an older one still pending.
+        for old in self._commands:
+            if old.command == command and not old.done:
+                old.state = "timeout"
+        self._commands = [c for c in self._commands if not c.done]
+        self._transmit(h)
+        self._commands.append(h)
+        return h
+
+    def request_message(self, msg_id: int) -> None:
+        """Ask once for one message (MAV_CMD_REQUEST_MESSAGE), fire and forget."""
+        if self.info is not None:
+            self.conn.mav.command_long_send(self.info.system, self.info.component,
+                                            mavlink.MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0)
+
+    def request_stream(self, msg_id: int, hz: float) -> CommandHandle:
+        """Ask for ``msg_id`` at ``hz`` (MAV_CMD_SET_MESSAGE_INTERVAL; 0 < hz <= 200)."""
+        if not (0 < hz <= 200):
+            raise LinkError(f"stream rate must be in (0, 200] Hz, got {hz!r}")
+        return self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz)
+
+    def send_statustext(self, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
+        """Tell the pilot's ground station (50 characters at most are sent)."""
+        self.conn.mav.statustext_send(severity, text.encode("ascii", "replace")[:50])
+
+    # ------------------------------------------------------------------- status
+    def rate_hz(self, mtype: str, window: float = 2.0) -> float:
+        """Measured arrival rate of one message type over the last ``window`` local seconds."""
+        r = self._rates.get(mtype)
+        return 0.0 if r is None else r.hz(self.monotonic(), window)
+
+    @property
+    def lost(self) -> bool:
+        """No autopilot HEARTBEAT for ``link_loss_s`` local seconds (true before the first one)."""
+        if self._last_heartbeat_rx is None:
+            return True
+        return self.monotonic() - self._last_heartbeat_rx > self.link_loss_s
+
+    @property
+    def script_present(self) -> bool:
+        """The on-board script announced its state within the last second."""
+        return self._script_seen_at is not None and self.monotonic() - self._script_seen_at <= SCRIPT_SILENT_S
+
+    def wait_autopilot(self, timeout_s: float = 10.0,
+                       sleep: Callable[[float], None] = time.sleep) -> AutopilotInfo:
+        """Poll until an autopilot heartbeat (and its version, briefly) arrives; raise if none."""
+        t0 = self.monotonic()
+        while self.info is None or (self.info.firmware == "unknown" and self.monotonic() - t0 < 1.0):
+            self.poll()
+            if self.info is None and self.monotonic() - t0 > timeout_s:
+                raise LinkError(f"no autopilot heartbeat within {timeout_s:g} s")
+            sleep(0.01)
+        return self.info
+
+    def close(self) -> None:
+        """Close the connection."""
+        self.conn.close()

@@ -1,0 +1,94 @@
+"""The landing state machine: failsafe policy first, then the current state's own step.
+
+Every change of state goes through :meth:`Machine.transition`, which calls leave/enter, logs,
+appends one JSON line to the record and tells the ground station by STATUSTEXT. The failure
+policy it applies is the table in docs/failsafes.md.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from typing import IO
+
+from slopelander.controller.states.base import Context, Inputs, State
+from slopelander.controller.states.checks import Checks
+from slopelander.controller.states.descend import Armed, Descend
+from slopelander.controller.states.ground import Landed, Ready, Reset, Takeoff
+from slopelander.controller.states.preset import LegsWait, Preset
+from slopelander.controller.states.safe import Aborted, Estop, LinkLost
+from slopelander.controller.states.touchdown import Cut, Reverse, Settled
+
+log = logging.getLogger("slopelander.controller")
+
+STATES: dict[str, type[State]] = {s.name: s for s in (
+    Preset, LegsWait, Checks, Descend, Armed, Cut, Reverse, Settled, Landed, Takeoff, Reset, Ready,
+    Aborted, Estop, LinkLost)}
+PRE_CONTACT = ("PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED")
+LINK_EXEMPT = ("LANDED", "ABORTED", "ESTOP", "LINK_LOST", "READY")
+
+
+def failsafe(state: State, inp: Inputs) -> tuple[str, str] | None:
+    """The policy of docs/failsafes.md: which failure moves the machine where, in this state."""
+    name = state.name
+    if inp.estop and name != "ESTOP":
+        return ("ESTOP", "emergency stop")
+    if not inp.link_ok and name not in LINK_EXEMPT:
+        return ("LINK_LOST", "link to the autopilot lost")
+    if name in PRE_CONTACT and inp.legs_fault:
+        return ("ABORTED", f"leg failure: {inp.legs_fault}")
+    if state.airborne_descent:
+        if inp.mode != "GUIDED":
+            return ("ABORTED", f"pilot changed mode to {inp.mode}")
+        if not inp.range_ok:
+            return ("ABORTED", "range invalid or missing")
+        if not inp.script_present:
+            return ("ABORTED", "on-board script silent")
+    return None
+
+
+class Machine:
+    """Runs the sequence; feed it :class:`Inputs` with :meth:`step`."""
+
+    def __init__(self, ctx: Context, record: IO[str] | None = None, start: str = "PRESET") -> None:
+        self.ctx = ctx
+        self.record = record
+        self.history: list[dict] = []
+        self.state: State = STATES[start]()
+        self._started = False
+        self._start = start
+
+    @property
+    def name(self) -> str:
+        return self.state.name
+
+    def transition(self, new: str, reason: str, inp: Inputs) -> None:
+        """Leave the current state, enter ``new``; a refused enter aborts (the reason recorded)."""
+        old = self.state.name if self._started else None
+        if self._started:
+            self.state.leave(self.ctx, inp)
+        self._started = True
+        self.state = STATES[new]()
+        self.ctx.entered_at = inp.t
+        entry = {"t": round(inp.t, 6), "from": old, "to": new, "reason": reason}
+        self.history.append(entry)
+        log.info("%s -> %s: %s", old, new, reason)
+        if self.record is not None:
+            self.record.write(json.dumps(entry) + "\n")
+            self.record.flush()
+        if inp.link_ok:
+            self.ctx.act.statustext(f"SL {new}: {reason}"[:50])
+        refused = self.state.enter(self.ctx, inp)
+        if refused is not None and new != "ABORTED":
+            self.transition("ABORTED", f"{new} refused: {refused}", inp)
+
+    def step(self, inp: Inputs) -> str:
+        """One control step; returns the state name after it."""
+        if not self._started:
+            self.transition(self._start, "landing requested", inp)
+        for _ in range(len(STATES)):  # a chain of immediate transitions settles within one step
+            move = failsafe(self.state, inp) or self.state.step(self.ctx, inp)
+            if move is None or move[0] == self.state.name:
+                break
+            self.transition(move[0], move[1], inp)
+        return self.state.name

@@ -1,0 +1,107 @@
+"""One landing: reads the link and the legs into :class:`Inputs`, steps the machine, until it ends.
+
+This is what ``slopelander land`` runs. The loop polls (never blocks) at about 1 kHz of local time
+and steps the machine whenever vehicle time advanced.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import IO
+
+from slopelander.controller.actions import MODES, MavActions
+from slopelander.controller.config import Config
+from slopelander.controller.impact import ImpactDetector, raw_imu_accel
+from slopelander.controller.link import Link, mavlink
+from slopelander.controller.machine import Machine
+from slopelander.controller.states.base import Context, Inputs
+
+MODE_NAMES = {v: k for k, v in MODES.items()}
+ENDINGS = ("LANDED", "ABORTED", "ESTOP", "READY")
+SCRIPT_ESTOP = 20
+
+
+class Lander:
+    """Wires a link, the legs and the settings to a :class:`Machine`."""
+
+    def __init__(self, link: Link, cfg: Config, preset: tuple[float, float], legs=None,
+                 record: IO[str] | None = None, next_preset: tuple[float, float] | None = None) -> None:
+        self.link = link
+        self.cfg = cfg
+        self.legs = legs
+        self.act = MavActions(link, cfg, legs)
+        self.ctx = Context(cfg=cfg, act=self.act, preset=preset, next_preset=next_preset)
+        self.machine = Machine(self.ctx, record)
+        self.detector = ImpactDetector(cfg["reflex.impact_threshold_mps2"])
+        self.takeoff_request = False
+        self._last_t = -1.0
+
+    def inputs(self) -> Inputs:
+        """The snapshot the machine steps on."""
+        ln, cfg = self.link, self.cfg
+        t = ln.clock.now()
+        hb = ln.last.get("HEARTBEAT")
+        mode = MODE_NAMES.get(hb.custom_mode, f"mode {hb.custom_mode}") if hb else "unknown"
+        armed = bool(hb and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+        ds = ln.last.get("DISTANCE_SENSOR")
+        range_m, range_ok = None, False
+        if ds is not None and ds.orientation == mavlink.MAV_SENSOR_ROTATION_PITCH_270:
+            range_m = ds.current_distance / 100.0
+            fresh = t - ds.time_boot_ms / 1000.0 <= cfg["range.max_age_s"]
+            inside = ds.min_distance <= ds.current_distance <= ds.max_distance
+            q = getattr(ds, "signal_quality", 0)  # a MAVLink 1 link has no quality: unknown
+            quality = q != 1 and (q == 0 or q >= cfg["range.min_quality"])
+            range_ok = fresh and inside and quality
+        imu = ln.last.get("RAW_IMU")
+        accel = math.dist((0, 0, 0), raw_imu_accel(imu)) if imu else 9.80665
+        op = self.act.leg_op
+        legs_fault = None if self.legs is not None else "no leg board connected"
+        legs_ready = False
+        if op is not None:
+            if op.error is not None:
+                legs_fault = str(op.error)
+            legs_ready = op.done and op.error is None
+        state = ln.script_state if ln.script_present else None
+        return Inputs(t=t, link_ok=not ln.lost, mode=mode, armed=armed, estop=state == SCRIPT_ESTOP,
+                      range_m=range_m, range_ok=range_ok, script_present=ln.script_present,
+                      script_state=state if state is not None else 0, legs_ready=legs_ready,
+                      legs_fault=legs_fault, accel_mps2=accel, impact=self.detector.impact is not None,
+                      takeoff_request=self.takeoff_request)
+
+    def poll(self) -> str:
+        """Read everything waiting, step the machine if vehicle time moved (or the link is lost)."""
+        self.link.poll()
+        imu = self.link.last.get("RAW_IMU")
+        if imu is not None:
+            self.detector.feed_msg(imu)
+        if self.legs is not None:
+            try:
+                self.legs.poll()
+            except Exception as exc:  # a board that vanished is a leg failure, not a crash
+                self.act.leg_op = None
+                self.legs = None
+                self.ctx.marks["legs_error"] = str(exc)
+        inp = self.inputs()
+        if inp.t > self._last_t or not inp.link_ok:
+            self._last_t = inp.t
+            before = self.machine.name
+            self.machine.step(inp)
+            if self.machine.name == "CUT" and before != "CUT":
+                self.detector.arm_after_cut(inp.t)
+        return self.machine.name
+
+    def run(self, timeout_s: float, sleep: Callable[[float], None] = time.sleep,
+            until: tuple[str, ...] = ENDINGS) -> str:
+        """Poll until an ending state (or ``timeout_s`` local seconds: then abort); returns the state."""
+        t0 = self.link.monotonic()
+        while True:
+            name = self.poll()
+            if self.machine._started and name in until:
+                return name
+            if self.link.monotonic() - t0 > timeout_s:
+                self.machine.transition("ABORTED", f"landing not finished within {timeout_s:g} s",
+                                        self.inputs())
+                return "ABORTED"
+            sleep(0.001)

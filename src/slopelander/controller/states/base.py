@@ -1,0 +1,74 @@
+"""What every state has: a name, enter (may refuse), step (may move on), leave."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+
+class Actions(Protocol):
+    """What the states may do to the vehicle and the legs (bound to MAVLink in actions.py)."""
+
+    def set_legs(self, tau_up: float, tau_down: float) -> None: ...
+    def loosen_legs(self) -> None: ...
+    def set_mode(self, mode: str) -> None: ...
+    def descend(self, rate_mps: float) -> None: ...
+    def reflex_arm(self) -> None: ...
+    def reflex_abort(self) -> None: ...
+    def release(self) -> None: ...
+    def reverse(self, pct: float, ms: int) -> None: ...
+    def disarm(self) -> None: ...
+    def takeoff(self, height_m: float) -> None: ...
+    def statustext(self, text: str) -> None: ...
+
+
+@dataclass
+class Inputs:
+    """One snapshot of everything the machine reads; ``t`` is vehicle time (s)."""
+
+    t: float
+    link_ok: bool = True
+    mode: str = "GUIDED"
+    armed: bool = True
+    estop: bool = False
+    range_m: float | None = None
+    range_ok: bool = False
+    script_present: bool = True
+    script_state: int = 0
+    legs_ready: bool = False
+    legs_fault: str | None = None
+    accel_mps2: float = 9.81
+    impact: bool = False
+    takeoff_request: bool = False
+
+
+@dataclass
+class Context:
+    """What the states share: settings, the vehicle's hands, the chosen preset, timers."""
+
+    cfg: Any
+    act: Actions
+    preset: tuple[float, float] = (0.0, 0.0)
+    next_preset: tuple[float, float] | None = None
+    entered_at: float = 0.0
+    marks: dict[str, float] = field(default_factory=dict)
+
+
+class State:
+    """A state; subclasses override what they need. ``enter`` returns None or a refusal reason."""
+
+    name = "STATE"
+    #: True while the vehicle is in the air under the companion's descent (failsafes act).
+    airborne_descent = False
+    #: True once the on-board reflex owns the motors (the companion must not interfere).
+    reflex_owns = False
+
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        return None
+
+    def step(self, ctx: Context, inp: Inputs) -> tuple[str, str] | None:
+        """(next state name, reason) or None to stay."""
+        return None
+
+    def leave(self, ctx: Context, inp: Inputs) -> None:
+        return None

@@ -1,0 +1,348 @@
+"""``slopelander demo``: a whole simulated flight and landing on a roof, no hardware.
+
+The simulated ArduCopter (``python -m sitl.vehicle``, running the real on-board Lua script) and
+the simulated leg board (``python -m sitl.legboard``, on a pseudo-terminal) run as their own
+processes; the companion's landing controller flies them through the same MAVLink endpoint and
+serial path a real vehicle would use. It takes off from a level pad, flies over a roof, lands on
+it with the lookup table's preset and reverse thrust, takes off again, loosens the legs so their
+springs reset them, and says how the landing went. Everything it saw is written out: the MAVLink
+telemetry log (``flight.tlog``, readable by pymavlink's ``mavlogdump.py``), the state transitions
+(``transitions.jsonl``) and a picture of the flight (``flight.png``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from slopelander.errors import SlopelanderError
+
+ROOF_X_M = 3.0  # world x of the roof's top edge
+ROOF_Z_M = 0.5  # its height above the pad
+CRUISE_HEIGHT_M = 3.0  # take-off height above the pad
+OVER_ROOF_X_M = 5.5  # where the vehicle hovers before the landing starts
+
+
+class DemoError(SlopelanderError):
+    """The demo could not start or did not finish its flight."""
+
+
+@dataclass
+class Telemetry:
+    """Time series the picture is drawn from (vehicle time, SI units)."""
+
+    t: list[float] = field(default_factory=list)
+    height: list[float] = field(default_factory=list)  # above the pad, from LOCAL_POSITION_NED
+    vz_up: list[float] = field(default_factory=list)
+    range_t: list[float] = field(default_factory=list)
+    range_m: list[float] = field(default_factory=list)
+    accel_t: list[float] = field(default_factory=list)
+    accel: list[float] = field(default_factory=list)
+    pitch_t: list[float] = field(default_factory=list)
+    pitch_deg: list[float] = field(default_factory=list)
+    servo_t: list[float] = field(default_factory=list)
+    servo: list[list[int]] = field(default_factory=list)
+    legs_t: list[float] = field(default_factory=list)
+    leg_torque: list[list[float]] = field(default_factory=list)
+    leg_angle: list[list[float]] = field(default_factory=list)
+    x_t: list[float] = field(default_factory=list)
+    x: list[float] = field(default_factory=list)
+    legs: object = None  # the leg-board driver whose reports are sampled with the position
+
+    def listen(self, msg: object) -> None:
+        kind = msg.get_type()  # type: ignore[attr-defined]
+        if kind == "LOCAL_POSITION_NED":
+            t = msg.time_boot_ms / 1000.0  # type: ignore[attr-defined]
+            status = getattr(self.legs, "status", None)
+            if status is not None:
+                self.legs_t.append(t)
+                self.leg_torque.append(
+                    [math.nan if s.torque_nm is None else s.torque_nm for s in status.legs]
+                )
+                self.leg_angle.append([s.angle_deg for s in status.legs])
+            self.t.append(t)
+            self.height.append(-msg.z)  # type: ignore[attr-defined]
+            self.vz_up.append(-msg.vz)  # type: ignore[attr-defined]
+            self.x_t.append(t)
+            self.x.append(msg.x)  # type: ignore[attr-defined]
+        elif kind == "DISTANCE_SENSOR":
+            self.range_t.append(msg.time_boot_ms / 1000.0)  # type: ignore[attr-defined]
+            self.range_m.append(msg.current_distance / 100.0)  # type: ignore[attr-defined]
+        elif kind == "RAW_IMU":
+            a = (msg.xacc, msg.yacc, msg.zacc)  # type: ignore[attr-defined]
+            self.accel_t.append(msg.time_usec / 1e6)  # type: ignore[attr-defined]
+            self.accel.append(math.sqrt(sum(v * v for v in a)) * 9.80665 / 1000.0)
+        elif kind == "ATTITUDE":
+            self.pitch_t.append(msg.time_boot_ms / 1000.0)  # type: ignore[attr-defined]
+            self.pitch_deg.append(math.degrees(msg.pitch))  # type: ignore[attr-defined]
+        elif kind == "SERVO_OUTPUT_RAW":
+            self.servo_t.append(msg.time_usec / 1e6)  # type: ignore[attr-defined]
+            self.servo.append([getattr(msg, f"servo{i}_raw") for i in range(1, 5)])
+
+
+@dataclass
+class DemoResult:
+    """What a person wants to know after the flight."""
+
+    outcome: str  # LANDED_AND_RESET, LANDED, or the state the companion stopped in
+    slope_deg: float
+    preset_nm: tuple[float, float]
+    preset_source: str
+    expected_impact_mps: float
+    impact_mps: float | None
+    slide_m: float | None
+    min_pitch_deg: float | None
+    reflex_states: list[int]
+    transitions: list[dict]
+    files: dict[str, str]
+    wall_s: float
+
+    def summary(self) -> str:
+        lines = [
+            f"demo: {self.slope_deg:g} deg roof, legs {self.preset_nm[0]:.2f}/{self.preset_nm[1]:.2f} N*m "
+            f"({self.preset_source}), expected impact {self.expected_impact_mps:.2f} m/s",
+        ]
+        for h in self.transitions:
+            lines.append(f"  {h['t']:8.2f} s  {h['from'] or '-':>9} -> {h['to']:<9} {h['reason']}")
+        if self.impact_mps is not None:
+            lines.append(
+                f"impact {self.impact_mps:.2f} m/s down; moved {self.slide_m:.2f} m downhill after it; "
+                f"lowest pitch {self.min_pitch_deg:.0f} deg"
+            )
+        lines.append(f"outcome: {self.outcome}  ({self.wall_s:.0f} s wall)")
+        lines += [f"{k}: {v}" for k, v in self.files.items()]
+        return "\n".join(lines)
+
+
+def check_out_dir(out: Path) -> None:
+    """Refuse an output folder that cannot be written before any process starts."""
+    if out.exists() and not out.is_dir():
+        raise DemoError(f"--out {out} is a file; give a folder")
+    parent = out if out.exists() else out.parent
+    if not parent.exists():
+        raise DemoError(f"--out {out}: folder {parent} does not exist (create it first)")
+    if not os.access(parent, os.W_OK):
+        raise DemoError(f"--out {out}: folder {parent} is not writable")
+
+
+def _wait(link, handle, seconds: float, what: str) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end and not handle.done:
+        link.poll()
+        time.sleep(0.002)
+    if not handle.ok:
+        raise DemoError(f"{what}: {handle.describe()}")
+
+
+def _fly_until(link, cond, seconds: float, what: str, send=None) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        link.poll()
+        if send is not None:
+            send()
+        if cond():
+            return
+        time.sleep(0.002)
+    raise DemoError(f"the vehicle did not {what} within {seconds:g} s")
+
+
+def run_demo(
+    out: Path = Path("slopelander-demo"),
+    slope_deg: float = 35.0,
+    speed: float = 2.0,
+    table: Path | None = None,
+    plot: bool = True,
+    echo=print,
+) -> DemoResult:
+    """Fly the whole demo; ``speed`` is simulated seconds per wall second."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    from sitl.vehicle.launch import start_legboard, start_vehicle
+    from slopelander.controller.config import load_config
+    from slopelander.controller.landing import choose_preset, expected_impact_speed, leg_geometry
+    from slopelander.controller.link import Link
+    from slopelander.controller.runner import Lander
+    from slopelander.controller.table import LookupTable
+    from slopelander.legs.calibration import load_calibration
+    from slopelander.legs.driver import LegBoard
+
+    if not (math.isfinite(slope_deg) and 0.0 <= slope_deg <= 60.0):
+        raise DemoError(f"--slope must lie within 0..60 deg, got {slope_deg:g}")
+    if not (math.isfinite(speed) and 0.1 <= speed <= 20.0):
+        raise DemoError(f"--speed must lie within 0.1..20, got {speed:g}")
+    check_out_dir(out)
+    out.mkdir(exist_ok=True)
+    from slopelander.controller.table import DEFAULT_TABLE
+
+    table_path = table or DEFAULT_TABLE
+    lookup = LookupTable.load(table_path)
+    cfg = load_config()
+    calibration = load_calibration()
+    expected = expected_impact_speed(
+        cfg["descent.rate_mps"], cfg["reflex.cut_height_m"], slope_deg, leg_geometry()
+    )
+    up, down, source = choose_preset(slope_deg, expected, lookup, None, calibration)
+    files = {"telemetry log": str(out / "flight.tlog"), "transitions": str(out / "transitions.jsonl")}
+    wall0 = time.monotonic()
+    scenario = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "start_on": "pad"}
+    echo(
+        f"starting the simulated leg board and vehicle ({speed:g}x real time; the first run after an "
+        "install compiles the model, about half a minute) ..."
+    )
+    board = start_legboard(speed=speed)
+    vehicle = None
+    link = None
+    legs = None
+    tele = Telemetry()
+    try:
+        vehicle = start_vehicle(scenario=scenario, speed=speed, lockstep=True, legboard_control=board.control)
+        link = Link(vehicle.mavlink_url, link_loss_s=cfg["link.link_loss_s"])
+        link.conn.setup_logfile(str(out / "flight.tlog"), mode="wb")
+        link.add_listener(tele.listen)
+        info = link.wait_autopilot(timeout_s=30.0)
+        echo(f"autopilot: {info.describe()}")
+        for msg_id, hz in (
+            (mavlink.MAVLINK_MSG_ID_RAW_IMU, cfg["link.imu_hz"]),
+            (mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR, cfg["link.range_hz"]),
+            (mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, 50),
+            (mavlink.MAVLINK_MSG_ID_ATTITUDE, 50),
+            (mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 50),
+        ):
+            _wait(link, link.request_stream(msg_id, hz), 5, f"stream {msg_id}")
+        legs = LegBoard.open(board.pty, calibration=calibration)
+        tele.legs = legs
+
+        echo(f"take-off from the pad to {CRUISE_HEIGHT_M:g} m, then over the {slope_deg:g} deg roof")
+        _wait(link, link.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4), 5, "GUIDED")
+        _wait(link, link.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1), 5, "arming")
+        _wait(
+            link, link.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, CRUISE_HEIGHT_M), 5, "take-off"
+        )
+        _fly_until(
+            link,
+            lambda: bool(tele.height) and tele.height[-1] > CRUISE_HEIGHT_M - 0.3,
+            60 / speed + 20,
+            "climb",
+        )
+
+        def goto() -> None:
+            link.conn.mav.set_position_target_local_ned_send(
+                0,
+                info.system,
+                info.component,
+                mavlink.MAV_FRAME_LOCAL_NED,
+                0x0DF8,
+                OVER_ROOF_X_M,
+                0,
+                -CRUISE_HEIGHT_M,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+            )
+
+        _fly_until(
+            link,
+            lambda: (
+                bool(tele.x)
+                and abs(tele.x[-1] - OVER_ROOF_X_M) < 0.15
+                and abs(tele.height[-1] - CRUISE_HEIGHT_M) < 0.3
+            ),
+            60 / speed + 30,
+            "reach the roof",
+            send=goto,
+        )
+
+        echo(
+            f"landing: legs {up:.2f}/{down:.2f} N*m from the {source}, descent "
+            f"{cfg['descent.rate_mps']:g} m/s, motors stopped at {cfg['reflex.cut_height_m']:g} m, "
+            f"reverse thrust {cfg['reflex.reverse_thrust_pct']:g} %"
+        )
+        with (out / "transitions.jsonl").open("w") as rec:
+            lander = Lander(link, cfg, (up, down), legs=legs, record=rec, next_preset=(up, down))
+            end = lander.run(120 / speed + 60)
+            if end == "LANDED":
+                t_landed = link.clock.now()
+                _fly_until(
+                    link,
+                    lambda: lander.poll() == "LANDED" and link.clock.now() - t_landed > 2.0,
+                    10 / speed + 10,
+                    "rest on the roof",
+                )
+                echo("take-off again; loosening the legs once clear of the roof")
+                lander.takeoff_request = True
+                end = lander.run(60 / speed + 30, until=("READY", "ABORTED", "ESTOP"))
+                if end == "READY":  # watch the legs spring back for a moment
+                    t_ready = link.clock.now()
+                    _fly_until(
+                        link,
+                        lambda: lander.poll() is not None and link.clock.now() - t_ready > 3.0,
+                        10 / speed + 10,
+                        "hover after the reset",
+                    )
+        result_state = {"READY": "LANDED_AND_RESET"}.get(end, end)
+        history = list(lander.machine.history)
+    finally:
+        if legs is not None:
+            legs.close()
+        if link is not None:
+            link.close()
+        if vehicle is not None:
+            vehicle.stop()
+        board.stop()
+
+    impact, slide, min_pitch = _landing_figures(tele, history)
+    if plot:
+        from slopelander.plots.flight import plot_flight
+
+        files["picture"] = str(
+            plot_flight(
+                tele,
+                history,
+                out / "flight.png",
+                title=(
+                    f"slopelander demo: {slope_deg:g} deg roof, legs {up:.2f}/{down:.2f} N*m, "
+                    f"reverse thrust {cfg['reflex.reverse_thrust_pct']:g} % - {result_state}"
+                ),
+            )
+        )
+    result = DemoResult(
+        result_state,
+        slope_deg,
+        (up, down),
+        source,
+        expected,
+        impact,
+        slide,
+        min_pitch,
+        [],
+        history,
+        files,
+        time.monotonic() - wall0,
+    )
+    (out / "result.json").write_text(json.dumps(asdict(result), indent=1))
+    files["result"] = str(out / "result.json")
+    return result
+
+
+def _landing_figures(tele: Telemetry, history: list[dict]) -> tuple[float | None, float | None, float | None]:
+    """Impact speed (fastest descent before the cut's state ends), slide along the roof after
+    contact, lowest pitch while on the roof: read from the vehicle's own telemetry."""
+    times = {h["to"]: h["t"] for h in history}
+    t_cut, t_landed = times.get("CUT"), times.get("LANDED")
+    if t_cut is None or t_landed is None:
+        return None, None, None
+    fall = [-v for t, v in zip(tele.t, tele.vz_up, strict=True) if t_cut <= t <= t_cut + 0.6]
+    impact = max(fall) if fall else None
+    xs = [x for t, x in zip(tele.x_t, tele.x, strict=True) if t_cut + 0.05 <= t <= t_landed]
+    slide = (max(xs) - min(xs)) if xs else None
+    pitches = [p for t, p in zip(tele.pitch_t, tele.pitch_deg, strict=True) if t_cut <= t <= t_landed]
+    return impact, slide, (min(pitches) if pitches else None)

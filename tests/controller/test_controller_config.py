@@ -1,0 +1,135 @@
+"""Controller settings, impact detector, expected impact speed and preset choice."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+import yaml
+
+from slopelander.controller.config import ConfigError, RcPreset, load_config
+from slopelander.controller.impact import G, ImpactDetector
+from slopelander.controller.landing import (
+    LegGeometry,
+    PresetError,
+    choose_preset,
+    expected_impact_speed,
+    leg_geometry,
+)
+from slopelander.legs.calibration import load_calibration
+
+
+def write(tmp_path, doc) -> Path:
+    p = tmp_path / "c.yaml"
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+def test_defaults_load_and_override(tmp_path):
+    cfg = load_config()
+    assert cfg["reflex.cut_height_m"] == 0.30 and cfg.descent["rate_mps"] == 0.5
+    cfg = load_config(write(tmp_path, {"reflex": {"cut_height_m": 0.4}}))
+    assert cfg["reflex.cut_height_m"] == 0.4 and cfg["reflex.reverse_thrust_pct"] == 100
+
+
+@pytest.mark.parametrize(("doc", "field"), [
+    ({"reflex": {"cut_height_m": 5.0}}, "reflex.cut_height_m"),
+    ({"reflex": {"cut_height_m": "low"}}, "reflex.cut_height_m"),
+    ({"reflex": {"cut_height_m": float("nan")}}, "reflex.cut_height_m"),
+    ({"reflex": {"cut_heigth_m": 0.3}}, "reflex.cut_heigth_m"),
+    ({"refelx": {}}, "refelx"),
+    ({"link": {"command_retries": 1.5}}, "link.command_retries"),
+    ({"reflex": {"arm_height_m": 0.25}}, "reflex.arm_height_m"),
+    ({"rc_presets": {"enabled": True}}, "rc_presets.presets"),
+    ({"rc_presets": {"presets": [{"min_us": 1000, "max_us": 1400, "tau_up_nm": 99, "tau_down_nm": 1}]}},
+     "rc_presets.presets[0].tau_up_nm"),
+    ({"rc_presets": {"presets": [{"min_us": 1000, "max_us": 1600, "tau_up_nm": 1, "tau_down_nm": 1},
+                                 {"min_us": 1500, "max_us": 2000, "tau_up_nm": 1, "tau_down_nm": 1}]}},
+     "rc_presets.presets"),
+])
+def test_bad_settings_name_the_field(tmp_path, doc, field):
+    with pytest.raises(ConfigError) as err:
+        load_config(write(tmp_path, doc))
+    assert err.value.field == field and field in str(err.value)
+
+
+def test_unreadable_and_not_yaml(tmp_path):
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_config(tmp_path / "missing.yaml")
+    p = tmp_path / "bad.yaml"
+    p.write_text("reflex: [unclosed")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_config(p)
+
+
+def test_impact_only_after_cut_first_large_sample_once():
+    d = ImpactDetector(20.0)
+    assert d.feed(1.0, 0, 0, -40.0) is None  # before the cut: hard manoeuvre, not an impact
+    d.arm_after_cut(1.0)
+    assert d.feed(1.005, 0, 0, -0.5) is None  # free fall
+    assert d.feed(1.005, 0, 0, -50.0) is None  # repeated timestamp is ignored
+    assert d.feed(1.010, float("nan"), 0, 0) is None
+    hit = d.feed(1.015, 12.0, 0, -17.0)
+    assert hit is not None and hit.t == 1.015 and hit.accel_mps2 == pytest.approx(math.hypot(12, 17))
+    assert d.feed(1.020, 0, 0, -90.0) is None and d.impact == hit
+    with pytest.raises(ValueError, match="positive"):
+        ImpactDetector(float("nan"))
+
+
+def test_impact_from_raw_imu_milli_g():
+    from pymavlink.dialects.v20 import ardupilotmega as m
+    d = ImpactDetector(20.0)
+    d.arm_after_cut(0.5)
+    assert d.feed_msg(m.MAVLink_raw_imu_message(600_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)) is None
+    hit = d.feed_msg(m.MAVLink_raw_imu_message(605_000, 0, 0, -3000, 0, 0, 0, 0, 0, 0))
+    assert hit is not None and hit.accel_mps2 == pytest.approx(3 * G)
+
+
+def test_expected_impact_speed():
+    geom = leg_geometry()
+    assert geom.leg_length_m == pytest.approx(0.201) and geom.leg_angle_deg == 37.5
+    flat = LegGeometry(0.2, 0.0, 0.0)
+    # cut 0.3 m above with a 0.2 m leg: 0.1 m free fall from 0.5 m/s
+    assert expected_impact_speed(0.5, 0.3, 0.0, flat) == pytest.approx(math.sqrt(0.25 + 2 * G * 0.1))
+    # cut below the foot: contact at the descent rate
+    assert expected_impact_speed(0.5, 0.15, 0.0, flat) == pytest.approx(0.5)
+    # a slope brings the uphill ground closer: slower contact
+    assert expected_impact_speed(0.5, 0.3, 35.0, geom) < expected_impact_speed(0.5, 0.3, 0.0, geom)
+    with pytest.raises(ValueError, match="slope"):
+        expected_impact_speed(0.5, 0.3, 95.0, geom)
+
+
+def test_preset_choice_checked_against_calibration():
+    cal = load_calibration()
+    up, down, src = choose_preset(20, 1.0, None, RcPreset(1000, 1400, 0.8, 1.5), cal)
+    assert (up, down) == (0.8, 1.5) and src == "pilot preset"
+    with pytest.raises(PresetError, match="calibrated range"):
+        choose_preset(20, 1.0, None, RcPreset(1000, 1400, 0.8, 9.0), cal)
+    with pytest.raises(PresetError, match="nothing to set"):
+        choose_preset(20, 1.0, None, None, cal)
+
+
+def test_controller_modules_import_without_scipy_numba_matplotlib_model():
+    src = Path(__file__).resolve().parents[2] / "src"
+    code = textwrap.dedent(f"""
+        import sys
+        BLOCKED = ("scipy", "matplotlib", "numba", "slopelander.model", "slopelander.envelope", "sitl")
+        class Block:
+            def find_spec(self, name, path=None, target=None):
+                if any(name == b or name.startswith(b + ".") for b in BLOCKED):
+                    raise ImportError("blocked on the companion: " + name)
+                return None
+        sys.meta_path.insert(0, Block())
+        sys.path.insert(0, {str(src)!r})
+        from slopelander.controller import config, link, clock, impact, landing
+        cfg = config.load_config()
+        g = landing.leg_geometry()
+        print(landing.expected_impact_speed(0.5, cfg["reflex.cut_height_m"], 35.0, g))
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert float(out.stdout) > 0.5

@@ -1,0 +1,45 @@
+"""``slopelander land`` as a user runs it: bad input gives one clear line, never a traceback."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def land(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=f"{ROOT / 'src'}:{ROOT}")
+    return subprocess.run([sys.executable, "-m", "slopelander.cli", "land", *args], capture_output=True,
+                          text=True, timeout=timeout, env=env)
+
+
+def port() -> int:
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    p = s.getsockname()[1]
+    s.close()
+    return p
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--slope", "95"], "--slope must be within 0..89"),
+    (["--slope", "20", "--table", "/nonexistent/table.yaml"], "table.yaml"),
+    (["--slope", "20", "--config", "/nonexistent/c.yaml"], "cannot read"),
+])
+def test_bad_input_is_one_clear_line(args, message):
+    out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs", "/nonexistent/tty", *args)
+    assert out.returncode == 1, out.stderr
+    assert message in out.stderr and "Traceback" not in out.stderr
+
+
+def test_no_autopilot_is_reported():
+    out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs", "/nonexistent/tty", "--slope", "20",
+               timeout=30)
+    assert out.returncode == 1 and "no autopilot heartbeat within 10 s" in out.stderr
+    assert "Traceback" not in out.stderr

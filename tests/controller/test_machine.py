@@ -1,0 +1,188 @@
+"""The landing state machine on an injected clock: the nominal sequence and docs/failsafes.md row by row."""
+
+from __future__ import annotations
+
+import io
+import json
+from dataclasses import replace
+
+import pytest
+
+from slopelander.controller.config import load_config
+from slopelander.controller.machine import Machine
+from slopelander.controller.states.base import Context, Inputs
+
+
+class Recorder:
+    """Actions that record what the machine asked for (the MAVLink binding is tested in test_link)."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple] = []
+
+    def __getattr__(self, name):
+        def call(*args):
+            self.calls.append((name, *args))
+        return call
+
+    def names(self) -> list[str]:
+        return [c[0] for c in self.calls]
+
+
+def make(start="PRESET"):
+    act = Recorder()
+    ctx = Context(cfg=load_config(), act=act, preset=(0.8, 1.5), next_preset=(0.6, 1.2))
+    rec = io.StringIO()
+    return Machine(ctx, rec, start), act, rec
+
+
+OK = Inputs(t=0.0, range_m=5.0, range_ok=True, legs_ready=True)
+
+
+def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
+    """Step the nominal flight until ``state``; returns the time."""
+    t = t0
+    rng = base.range_m
+    script = 0
+    for _ in range(2000):
+        t += 0.02
+        if m.name in ("DESCEND", "ARMED"):
+            rng -= 0.5 * 0.02
+        if m.name == "ARMED" and rng <= 0.3:
+            script = 11
+        if m.name == "CUT" and t - m.ctx.entered_at > 0.1:
+            script = 12
+        if m.name == "REVERSE" and t - m.ctx.entered_at > 0.3:
+            script = 13
+        inp = replace(base, t=t, range_m=rng, script_state=script)
+        if m.name == "LANDED" and t - m.ctx.entered_at > 0.5:
+            inp = replace(inp, armed=False, takeoff_request=True)
+        if m.name in ("TAKEOFF",):
+            rng += 0.02
+            inp = replace(inp, range_m=rng)
+        if m.step(inp) == state:
+            return t
+    raise AssertionError(f"never reached {state}; at {m.name}")
+
+
+def test_nominal_sequence_records_every_transition():
+    m, act, rec = make()
+    run_to(m, "LANDED")
+    run_to(m, "READY", t0=100.0)
+    seq = [h["to"] for h in m.history]
+    assert seq == ["PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED", "CUT", "REVERSE", "SETTLED",
+                   "LANDED", "TAKEOFF", "RESET", "READY"]
+    lines = [json.loads(x) for x in rec.getvalue().splitlines()]
+    assert lines == m.history
+    names = act.names()
+    assert next(c for c in act.calls if c[0] != "statustext") == ("set_legs", 0.8, 1.5)
+    assert "descend" in names and names.count("reflex_arm") >= 2  # armed and refreshed
+    assert names.index("disarm") > names.index("reflex_arm")
+    assert ("set_legs", 0.6, 1.2) in act.calls and names.index("loosen_legs") < len(names) - 1
+    assert ("set_legs", 0.6, 1.2) in act.calls[names.index("loosen_legs"):]  # next preset after loosening
+    assert any(c[0] == "statustext" and c[1].startswith("SL ARMED") for c in act.calls)
+
+
+def test_legs_not_ready_in_time_aborts_before_descent():
+    m, act, _ = make()
+    limit = m.ctx.cfg["legs.ready_timeout_s"]
+    for i in range(int(limit / 0.02) + 10):
+        m.step(replace(OK, t=i * 0.02, legs_ready=False))
+    assert m.name == "ABORTED" and "descend" not in act.names()
+
+
+@pytest.mark.parametrize(("change", "why"), [
+    ({"script_present": False}, "script"),
+    ({"range_ok": False}, "rangefinder"),
+    ({"mode": "LOITER"}, "GUIDED"),
+    ({"armed": False}, "armed"),
+])
+def test_checks_refuse(change, why):
+    m, act, _ = make()
+    base = replace(OK, **change)
+    m.step(replace(base, t=0.0))
+    m.step(replace(base, t=0.02))
+    assert m.name == "ABORTED" and why in m.history[-1]["reason"]
+    assert "descend" not in act.names()
+
+
+# failsafes.md, one row at a time: (state, failure) -> (next state, what must have been sent)
+ROWS = [
+    ("DESCEND", {"link_ok": False}, "LINK_LOST", []),
+    ("ARMED", {"link_ok": False}, "LINK_LOST", []),
+    ("CUT", {"link_ok": False}, "LINK_LOST", []),
+    ("DESCEND", {"range_ok": False}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
+    ("ARMED", {"range_ok": False}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
+    ("CUT", {"range_ok": False}, "CUT", []),
+    ("ARMED", {"legs_fault": "board silent"}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
+    ("CUT", {"legs_fault": "board silent"}, "CUT", []),
+    ("DESCEND", {"script_present": False}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
+    ("ARMED", {"mode": "LOITER"}, "ABORTED", ["reflex_abort", "release"]),
+    ("DESCEND", {"estop": True}, "ESTOP", ["reflex_abort"]),
+    ("REVERSE", {"estop": True}, "ESTOP", ["reflex_abort"]),
+    ("LANDED", {"link_ok": False}, "LANDED", []),
+]
+
+
+@pytest.mark.parametrize(("state", "failure", "expect", "sent"), ROWS)
+def test_failsafe_row(state, failure, expect, sent):
+    m, act, _ = make()
+    t = run_to(m, state)
+    before = len(act.calls)
+    inp = replace(OK, t=t + 0.02, range_m=0.2 if state != "DESCEND" else 3.0,
+                  script_state={"CUT": 11, "REVERSE": 12}.get(state, 0), **failure)
+    m.step(inp)
+    assert m.name == expect
+    new = [c[0] for c in act.calls[before:] if c[0] not in ("statustext", "descend")]
+    assert new == sent
+    if expect == "ABORTED" and "set_mode" in sent:
+        assert ("set_mode", "LOITER") in act.calls
+
+
+def test_link_back_after_loss_aborts_to_loiter():
+    m, act, _ = make()
+    t = run_to(m, "DESCEND")
+    m.step(replace(OK, t=t + 0.1, link_ok=False))
+    assert m.name == "LINK_LOST"
+    assert not any(c[0] == "statustext" for c in act.calls if c[1:] and "LINK_LOST" in str(c[1]))
+    m.step(replace(OK, t=t + 2.0, range_m=2.0))
+    assert m.name == "ABORTED" and ("set_mode", "LOITER") in act.calls
+
+
+def test_false_cut_and_no_impact():
+    m, _, _ = make()
+    t = run_to(m, "CUT")
+    m.step(replace(OK, t=t + 0.05, range_m=0.2, script_state=0))
+    assert m.name == "ABORTED" and "false cut" in m.history[-1]["reason"]
+    m, _, _ = make()
+    t = run_to(m, "CUT")
+    m.step(replace(OK, t=t + 2.0, range_m=0.2, script_state=11))
+    assert m.name == "ABORTED" and "no impact" in m.history[-1]["reason"]
+
+
+def test_reset_waits_for_the_legs_to_loosen_before_the_next_preset():
+    m, act, _ = make()
+    run_to(m, "LANDED")
+    run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
+    t = 200.0
+    for _ in range(50):
+        t += 0.02
+        m.step(replace(OK, t=t, legs_ready=False))
+    assert m.name == "RESET" and ("set_legs", 0.6, 1.2) not in act.calls
+    m.step(replace(OK, t=t + 0.02, legs_ready=True))
+    assert m.name == "READY" and m.history[-1]["reason"].startswith("legs loosened")
+    assert ("set_legs", 0.6, 1.2) in act.calls
+
+
+def test_reset_reports_legs_that_do_not_loosen():
+    m, _, _ = make()
+    run_to(m, "LANDED")
+    run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
+    m.step(replace(OK, t=300.0, legs_ready=False, legs_fault="leg 2: motor stalled"))
+    assert m.name == "READY" and "did not loosen: leg 2: motor stalled" in m.history[-1]["reason"]
+
+
+def test_reset_does_not_take_the_previous_presets_readiness_for_the_loosening():
+    m, _, _ = make()
+    run_to(m, "LANDED")
+    run_to(m, "RESET", t0=100.0)  # legs_ready stays True in these inputs, as the preset's op was
+    assert m.name == "RESET"
