@@ -39,7 +39,7 @@ def test_round_trip(tmp_path):
 @pytest.mark.parametrize(
     "edit, field, words",
     [
-        (lambda d: d["parameters"].pop("leg_mass"), "leg_mass", "missing"),
+        (lambda d: d["parameters"]["leg_mass"].pop("value"), "leg_mass", "missing 'value'"),
         (lambda d: d["parameters"]["body_mass"].update(unit="g"), "body_mass", "unit must be 'kg'"),
         (lambda d: d["parameters"]["body_mass"].update(value=-1.5), "body_mass", "outside"),
         (lambda d: d["parameters"]["gravity"].update(value="heavy"), "gravity", "not a number"),

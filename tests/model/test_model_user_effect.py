@@ -4,7 +4,7 @@ import textwrap
 
 import pytest
 
-from slopelander.model import EffectError, LandingConditions, load_effects, simulate
+from slopelander.model import EffectError, LandingConditions, ParameterError, load_effects, simulate
 
 EFFECT_FILE = textwrap.dedent(
     """
@@ -49,3 +49,67 @@ def test_bad_effect_files(tmp_path):
     empty.write_text("x = 1\n")
     with pytest.raises(EffectError, match="defines no UserEffect"):
         load_effects(empty)
+
+
+SEAM_MISTAKES = textwrap.dedent(
+    """
+    import numba
+    from slopelander.model.effects import EffectParameter, UserEffect
+
+
+    @numba.njit
+    def law(t, st, ctx, up, point, depth, rate):
+        return depth * up[0]
+
+
+    @numba.njit
+    def other_law(t, st, ctx, up, point, depth, rate):
+        return depth, 1.0, 0.0
+
+
+    WRONG = UserEffect("wrong_return", "returns one number", normal_force=law,
+                       parameters={"k_wrong": EffectParameter(1.0, "N/m", 0.0, 10.0)})
+    A = UserEffect("law_a", "a law", normal_force=other_law)
+    B = UserEffect("law_b", "another law", normal_force=other_law)
+    EFFECTS = [WRONG, A, B]
+    """
+)
+
+
+def test_seam_mistakes_are_named(tmp_path, model, monkeypatch):
+    monkeypatch.setenv("SLOPELANDER_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "seams.py"
+    path.write_text(SEAM_MISTAKES)
+    wrong, a, b = load_effects(path)
+    with pytest.raises(EffectError) as info:
+        simulate(LandingConditions(), model.with_user_effect(wrong))
+    msg = str(info.value)
+    assert "'wrong_return'" in msg and "normal_force it must return a tuple (force N" in msg
+    assert "\n" not in msg
+    with pytest.raises(EffectError, match="'law_a', 'law_b' each set the normal-force law"):
+        model.with_user_effect(a).with_user_effect(b)
+
+
+def test_declarations_are_checked():
+    import numba
+
+    from slopelander.model.effects import EffectParameter, UserEffect
+
+    @numba.njit
+    def f(t, st, ctx, up, out):
+        return
+
+    with pytest.raises(EffectError, match="plugs into no seam"):
+        UserEffect("nothing", "no function")
+    with pytest.raises(EffectError, match="has the name of a built-in parameter"):
+        UserEffect("clash", "", force=f, parameters={"ground_damping": (1.0, "N*s/m")})
+    with pytest.raises(ParameterError, match=r"'gain'.*outside 0\.0\.\.1\.0"):
+        UserEffect("bad", "", force=f, parameters={"gain": EffectParameter(2.0, "1", 0.0, 1.0)})
+    with pytest.raises(ParameterError, match="provenance must be one of"):
+        UserEffect("bad", "", force=f, parameters={"gain": EffectParameter(0.5, "1", 0.0, 1.0, "guessed")})
+    with pytest.raises(EffectError, match=r"must be compiled with numba\.njit"):
+        UserEffect("plain", "", joint_torque=lambda *a: 0.0)
+    e = UserEffect("ok", "", force=f, parameters={"gain": (0.5, "1", 0.0, 1.0)})
+    assert e.parameters["gain"] == EffectParameter(0.5, "1", 0.0, 1.0)
+    with pytest.raises(ParameterError, match="outside"):
+        e.with_values(gain=-1.0)

@@ -43,6 +43,6 @@ def test_bad_input_is_one_clear_line(tmp_path):
     assert r.returncode == 1
     assert "slope_deg" in r.stderr and "Traceback" not in r.stderr
     bad = tmp_path / "bad.yaml"
-    bad.write_text("schema: slopelander.model-parameters/1\nparameters: {}\n")
+    bad.write_text("schema: slopelander.model-parameters/1\nparameters: {body_mass: {unit: kg}}\n")
     r = _run("--params", str(bad))
-    assert r.returncode == 1 and "missing" in r.stderr and "Traceback" not in r.stderr
+    assert r.returncode == 1 and "missing 'value'" in r.stderr and "Traceback" not in r.stderr

@@ -1,113 +1,50 @@
 """Physical effects: named, switchable pieces a model is built from.
 
 A model is the base physics (three rigid bodies, gravity, feet on a spring-damper ground)
-plus a list of effects. Built-in effects are switches of the compiled integrator; a user's
-own effect is a :class:`UserEffect` in a Python file of theirs, whose ``force`` function
-(compiled with ``numba.njit``) adds generalised forces every step::
+plus a list of effects. Built-in effects are switches of the compiled integrator. A user's
+own effect is a :class:`UserEffect` in a Python file of theirs: one or more ``numba.njit``
+functions plugged into the integrator's seams (the joint's torque law, the foot's friction
+law, the contact's normal law, forces at named points, generalised forces) and the
+parameters they read, each declared with unit, bounds and provenance::
 
     # my_effects.py
     import numba
-    from slopelander.model.effects import UserEffect
-    from slopelander.model import kernel as k
+    from slopelander.model import state
+    from slopelander.model.effects import EffectParameter, UserEffect
 
     @numba.njit
     def pitch_drag(t, st, ctx, up, out):
-        out[2] -= up[0] * st[k.S_V + 2]          # torque on the body's pitch
+        out[2] -= up[0] * state.pitch_rate(st)          # torque on the body's pitch
 
-    EFFECTS = [UserEffect("pitch_drag", "air damping of pitch", pitch_drag,
-                          {"pitch_drag_coefficient": (0.01, "N*m*s/rad")})]
+    EFFECTS = [UserEffect("pitch_drag", "air damping of pitch", force=pitch_drag,
+                          parameters={"pitch_drag_coefficient":
+                                      EffectParameter(0.01, "N*m*s/rad", 0.0, 1.0)})]
 
-``out`` holds generalised forces on (x, z, pitch, q_C, q_D); ``st`` is the state vector
-laid out as in :mod:`slopelander.model.kernel`; ``up`` holds the effect's parameters in the
-order declared.
+``up`` holds the effect's parameters in the order declared. docs/effects.md describes every
+seam's arguments and has a tested example file per seam.
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib.util
+import math
 import sys
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from slopelander.errors import SlopelanderError
-from slopelander.model import kernel as k
+from slopelander.model import layout as k
+from slopelander.model.layout import BUILTIN_EFFECTS, Effect  # noqa: F401 - part of this API
+from slopelander.model.parameters import PARAMETER_NAMES, PROVENANCES, ParameterError
 
 
 class EffectError(SlopelanderError, ValueError):
     """An unknown effect, a conflicting combination, or a user effect file that cannot load."""
 
-
-@dataclass(frozen=True)
-class Effect:
-    name: str
-    description: str
-    parameters: tuple[str, ...]
-    flag: int
-
-
-BUILTIN_EFFECTS: dict[str, Effect] = {
-    e.name: e
-    for e in (
-        Effect(
-            "leg_flex",
-            "legs bend on a torsional spring-damper in series with the friction joint (eq. 2)",
-            ("flex_stiffness", "flex_damping"),
-            k.F_FLEX,
-        ),
-        Effect(
-            "end_of_travel",
-            "spring-damper stop within eot_zone_deg of the joint limit",
-            ("eot_zone_deg", "eot_stiffness", "eot_damping"),
-            k.F_EOT,
-        ),
-        Effect(
-            "downhill_torque_growth",
-            "downhill joint torque grows with its foot's friction force (eq. 3)",
-            ("factor_tau",),
-            k.F_TAU_GROWTH,
-        ),
-        Effect(
-            "downhill_friction_growth",
-            "downhill foot friction grows with its joint's downhill speed (eq. 4)",
-            ("factor_mu",),
-            k.F_MU_GROWTH,
-        ),
-        Effect(
-            "foot_stiction",
-            "feet stick (tangential spring-damper) until |F_t| > mu_s N, then slide with mu_k",
-            ("friction_static", "stiction_stiffness", "stiction_damping"),
-            k.F_STICTION,
-        ),
-        Effect(
-            "regularised_friction",
-            "feet follow mu_k N tanh(v / v_s): smooth, but creeps on slopes (comparison only)",
-            ("friction_smoothing_speed",),
-            k.F_REGULARISED,
-        ),
-        Effect(
-            "rotors",
-            "rotor thrust with first-order speed dynamics, weaker in reverse",
-            ("rotor_thrust_max", "rotor_reverse_ratio", "rotor_time_constant"),
-            k.F_ROTORS,
-        ),
-        Effect(
-            "rotor_reversal_delay",
-            "a rotor changing direction stops and restarts: no thrust for the delay",
-            ("rotor_reversal_delay",),
-            k.F_REV_DELAY,
-        ),
-        Effect(
-            "rigid_gear",
-            "stock rigid landing gear: joints locked at their set angle, same geometry",
-            (),
-            k.F_RIGID,
-        ),
-    )
-}
 
 _EXCLUSIVE = (("foot_stiction", "regularised_friction"),)
 _RIGID_EXCLUDES = ("leg_flex", "end_of_travel", "downhill_torque_growth")
@@ -144,42 +81,145 @@ def flags_for(names: Sequence[str]) -> np.ndarray:
     return fl
 
 
+SEAM_NAMES: tuple[str, ...] = tuple(k.SEAMS)
+
+
+@dataclass(frozen=True)
+class EffectParameter:
+    """A user effect's parameter, declared like a built-in one: value, unit, bounds (the
+    default search bounds of a fit), provenance, and optionally the value at which the effect
+    does nothing (a fit of a candidate effect starts there)."""
+
+    value: float
+    unit: str
+    low: float = -math.inf
+    high: float = math.inf
+    provenance: str = "assumed"
+    note: str = ""
+    neutral: float | None = None
+
+    @property
+    def bounded(self) -> bool:
+        return math.isfinite(self.low) and math.isfinite(self.high)
+
+
+def _as_parameter(effect: str, name: str, spec: object) -> EffectParameter:
+    if isinstance(spec, EffectParameter):
+        p = spec
+    elif isinstance(spec, tuple) and 2 <= len(spec) <= 6:
+        try:
+            p = EffectParameter(float(spec[0]), *spec[1:])  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            p = None  # type: ignore[assignment]
+        if p is None:
+            raise EffectError(f"user effect {effect!r}: parameter {name!r}: {spec[0]!r} is not a number")
+    else:
+        raise EffectError(
+            f"user effect {effect!r}: parameter {name!r} must be EffectParameter(value, unit, low, "
+            "high, ...) or a tuple (value, unit[, low, high[, provenance[, note]]])"
+        )
+    where = f"user effect {effect!r}"
+    if not name.isidentifier():
+        raise EffectError(f"{where}: parameter name {name!r} must be an identifier")
+    if name in PARAMETER_NAMES:
+        raise EffectError(f"{where}: parameter {name!r} has the name of a built-in parameter")
+    try:
+        value, low, high = float(p.value), float(p.low), float(p.high)
+    except (TypeError, ValueError):
+        raise EffectError(f"{where}: parameter {name!r}: value and bounds must be numbers") from None
+    if not isinstance(p.unit, str):
+        raise EffectError(f"{where}: parameter {name!r}: unit must be a string")
+    if p.provenance not in PROVENANCES:
+        raise ParameterError(
+            name, f"provenance must be one of {', '.join(PROVENANCES)}, got '{p.provenance}'", where
+        )
+    if math.isnan(low) or math.isnan(high) or low > high:
+        raise ParameterError(name, f"bounds {low}..{high} must have low <= high", where)
+    if not math.isfinite(value):
+        raise ParameterError(name, "must be finite", where)
+    if not low <= value <= high:
+        raise ParameterError(name, f"{value} {p.unit} is outside {low}..{high}", where)
+    if p.neutral is not None and not low <= float(p.neutral) <= high:
+        raise ParameterError(name, f"neutral value {p.neutral} is outside {low}..{high}", where)
+    return EffectParameter(
+        value, p.unit, low, high, p.provenance, str(p.note), None if p.neutral is None else float(p.neutral)
+    )
+
+
 @dataclass(frozen=True)
 class UserEffect:
-    """An effect written by a user: a compiled generalised-force function and its parameters.
+    """An effect written by a user: compiled functions at one or more seams, and parameters.
 
-    ``parameters`` maps each parameter name to ``(value, unit)``.
+    ``parameters`` maps each parameter name to an :class:`EffectParameter` (a tuple
+    ``(value, unit[, low, high[, provenance[, note]]])`` is accepted too).
     """
 
     name: str
     description: str
-    force: Callable
-    parameters: dict[str, tuple[float, str]] = field(default_factory=dict)
+    force: Callable | None = None
+    parameters: dict[str, EffectParameter] = field(default_factory=dict)
+    point_force: Callable | None = None
+    joint_torque: Callable | None = None
+    foot_friction: Callable | None = None
+    normal_force: Callable | None = None
 
     def __post_init__(self) -> None:
-        if not self.name.isidentifier():
+        if not isinstance(self.name, str) or not self.name.isidentifier():
             raise EffectError(f"user effect name {self.name!r} must be an identifier")
         if self.name in BUILTIN_EFFECTS:
             raise EffectError(f"user effect {self.name!r} has the name of a built-in effect")
-        if not hasattr(self.force, "py_func"):
+        if not self.seams():
             raise EffectError(
-                f"user effect {self.name!r}: force must be compiled with numba.njit "
-                "(it runs inside the integrator)"
+                f"user effect {self.name!r} plugs into no seam: give one of {', '.join(SEAM_NAMES)}"
             )
-        for pname, spec in self.parameters.items():
-            if not (isinstance(spec, tuple) and len(spec) == 2):
-                raise EffectError(f"user effect {self.name!r}: parameter {pname!r} must be (value, unit)")
+        for seam, fn in self.seams().items():
+            if not hasattr(fn, "py_func"):
+                raise EffectError(
+                    f"user effect {self.name!r}: {seam} must be compiled with numba.njit "
+                    "(it runs inside the integrator)"
+                )
+        if not isinstance(self.parameters, dict):
+            raise EffectError(f"user effect {self.name!r}: parameters must be a dict name -> EffectParameter")
+        params = {str(n): _as_parameter(self.name, str(n), spec) for n, spec in self.parameters.items()}
+        object.__setattr__(self, "parameters", params)
+
+    def seams(self) -> dict[str, Callable]:
+        """The seams this effect plugs into, and its function at each."""
+        return {s: getattr(self, s) for s in SEAM_NAMES if getattr(self, s) is not None}
 
     def values(self) -> np.ndarray:
-        return np.array([float(v) for v, _ in self.parameters.values()], dtype=np.float64)
+        return np.array([p.value for p in self.parameters.values()], dtype=np.float64)
 
-    def with_values(self, **changes: float) -> UserEffect:
+    def with_values(self, provenance: str = "identified", **changes: float) -> UserEffect:
+        """A copy with some parameter values replaced (checked against their bounds)."""
         params = dict(self.parameters)
         for n, v in changes.items():
             if n not in params:
                 raise EffectError(f"user effect {self.name!r} has no parameter {n!r}")
-            params[n] = (float(v), params[n][1])
-        return UserEffect(self.name, self.description, self.force, params)
+            params[n] = replace(params[n], value=float(v), provenance=provenance)
+        return replace(self, parameters=params)
+
+    def record(self) -> dict[str, object]:
+        """What a map or table writes about this effect (its parameters like the built-ins')."""
+        seams = self.seams()
+        fn = next(iter(seams.values())).py_func
+        file = getattr(sys.modules.get(fn.__module__), "__file__", None)
+        return {
+            "description": self.description,
+            "seams": list(seams),
+            **({"file": str(file)} if file else {}),
+            "parameters": {
+                n: {
+                    "value": p.value,
+                    "unit": p.unit,
+                    "low": p.low,
+                    "high": p.high,
+                    "provenance": p.provenance,
+                    **({"note": p.note} if p.note else {}),
+                }
+                for n, p in self.parameters.items()
+            },
+        }
 
 
 def load_effects(path: str | Path) -> list[UserEffect]:
@@ -191,17 +231,22 @@ def load_effects(path: str | Path) -> list[UserEffect]:
     # named by content: the compiled integrator that calls it is cached under this name
     digest = hashlib.sha256(path.read_bytes()).hexdigest()[:16]
     mod_name = f"slopelander_user_effects_{digest}"
-    spec = importlib.util.spec_from_file_location(mod_name, path)
-    if spec is None or spec.loader is None:
-        raise EffectError(f"{path}: not a Python file")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[mod_name] = module
-    try:
-        spec.loader.exec_module(module)
-    except SlopelanderError:
-        raise
-    except Exception as exc:  # the user's file: report, do not crash
-        raise EffectError(f"{path}: failed to load: {type(exc).__name__}: {exc}") from exc
+    if mod_name in sys.modules:  # the same file loaded twice: the same functions
+        module = sys.modules[mod_name]
+    else:
+        spec = importlib.util.spec_from_file_location(mod_name, path)
+        if spec is None or spec.loader is None:
+            raise EffectError(f"{path}: not a Python file")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[mod_name] = module
+        try:
+            spec.loader.exec_module(module)
+        except SlopelanderError as exc:
+            del sys.modules[mod_name]
+            raise EffectError(f"{path}: {exc}") from None
+        except Exception as exc:  # the user's file: report, do not crash
+            del sys.modules[mod_name]
+            raise EffectError(f"{path}: failed to load: {type(exc).__name__}: {exc}") from exc
     found = getattr(module, "EFFECTS", None)
     if found is None:
         found = [v for v in vars(module).values() if isinstance(v, UserEffect)]
@@ -210,6 +255,23 @@ def load_effects(path: str | Path) -> list[UserEffect]:
     return list(found)
 
 
+def check_user_effects(effects: Sequence[UserEffect]) -> None:
+    """Names and parameters unique across a model's user effects; one normal-force law."""
+    names = [e.name for e in effects]
+    if len(set(names)) != len(names):
+        raise EffectError("a user effect is listed twice")
+    seen: dict[str, str] = {}
+    for e in effects:
+        for n in e.parameters:
+            if n in seen:
+                raise EffectError(f"user effects {seen[n]!r} and {e.name!r} both declare parameter {n!r}")
+            seen[n] = e.name
+    laws = [e.name for e in effects if e.normal_force is not None]
+    if len(laws) > 1:
+        names = ", ".join(map(repr, laws))
+        raise EffectError(f"user effects {names} each set the normal-force law; keep one")
+
+
 def user_parameter_values(effects: Sequence[UserEffect]) -> np.ndarray:
-    """The user effects' parameters in one array, in the order their forces read them."""
+    """The user effects' parameters in one array, in the order their functions read them."""
     return np.concatenate([e.values() for e in effects] + [np.zeros(1)])

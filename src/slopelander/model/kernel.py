@@ -29,111 +29,157 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from slopelander.model.parameters import PARAMETER_NAMES
+from slopelander.model import layout
+from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's names
+    C_COS,
+    C_DOWN,
+    C_FEXT,
+    C_QINIT,
+    C_SIN,
+    C_TAU,
+    D_EOT,
+    D_FLEX,
+    D_FOOT,
+    D_GROUND,
+    D_JOINT,
+    D_ROTOR,
+    DEG,
+    F_EOT,
+    F_FLEX,
+    F_IMPLICIT_K,
+    F_MU_GROWTH,
+    F_REGULARISED,
+    F_REV_DELAY,
+    F_RIGID,
+    F_ROTORS,
+    F_STICTION,
+    F_TAU_GROWTH,
+    IMPACT_SPEED,
+    MAX_ACTIVE_SET_ITERATIONS,
+    N_CTX,
+    N_FLAGS,
+    N_FORCE_POINTS,
+    N_POINTS,
+    N_STATE,
+    P_BE,
+    P_BG,
+    P_BQ,
+    P_BT,
+    P_DELAY,
+    P_EZ,
+    P_FMU,
+    P_FTAU,
+    P_G,
+    P_IB,
+    P_IL,
+    P_JX,
+    P_JZ,
+    P_KE,
+    P_KG,
+    P_KQ,
+    P_KT,
+    P_LL,
+    P_MB,
+    P_ML,
+    P_MUK,
+    P_MUS,
+    P_NJ,
+    P_QMAX,
+    P_REV,
+    P_ROT,
+    P_TAUM,
+    P_TMAX,
+    P_TRAVEL,
+    P_VS,
+    PT_CENTRE,
+    PT_FOOT,
+    PT_JOINT,
+    PT_ROTOR,
+    REFINE,
+    REFINE_WINDOW,
+    S_ANC,
+    S_CM,
+    S_DIR,
+    S_DISS,
+    S_DUSER,
+    S_FF,
+    S_FT,
+    S_JM,
+    S_NF,
+    S_PMAX,
+    S_PMIN,
+    S_Q,
+    S_QE,
+    S_QED,
+    S_QEMIN,
+    S_REFINE,
+    S_REST,
+    S_SLIP,
+    S_T,
+    S_THR,
+    S_TIMP,
+    S_TOUCH,
+    S_V,
+    S_W,
+    S_WAIT,
+    S_X0,
+    STICK_SPEED,
+)
 
-# --- parameter indices (PARAMETER_NAMES order) -------------------------------------------
-_P = {n: i for i, n in enumerate(PARAMETER_NAMES)}
-P_G = _P["gravity"]
-P_MB = _P["body_mass"]
-P_IB = _P["body_inertia"]
-P_ROT = _P["rotor_arm"]
-P_JX = _P["joint_x"]
-P_JZ = _P["joint_z"]
-P_ML = _P["leg_mass"]
-P_IL = _P["leg_inertia"]
-P_LL = _P["leg_length"]
-P_QMAX = _P["leg_angle_max_deg"]
-P_TRAVEL = _P["leg_travel_deg"]
-P_NJ = _P["joints_per_planar_leg"]
-P_KQ = _P["flex_stiffness"]
-P_BQ = _P["flex_damping"]
-P_EZ = _P["eot_zone_deg"]
-P_KE = _P["eot_stiffness"]
-P_BE = _P["eot_damping"]
-P_FTAU = _P["factor_tau"]
-P_FMU = _P["factor_mu"]
-P_KG = _P["ground_stiffness"]
-P_BG = _P["ground_damping"]
-P_MUK = _P["friction_kinetic"]
-P_MUS = _P["friction_static"]
-P_KT = _P["stiction_stiffness"]
-P_BT = _P["stiction_damping"]
-P_VS = _P["friction_smoothing_speed"]
-P_TMAX = _P["rotor_thrust_max"]
-P_REV = _P["rotor_reverse_ratio"]
-P_TAUM = _P["rotor_time_constant"]
-P_DELAY = _P["rotor_reversal_delay"]
+layout.drop_stale_cache(__file__)
 
-# --- effect switches ---------------------------------------------------------------------
-F_FLEX = 0
-F_EOT = 1
-F_TAU_GROWTH = 2
-F_MU_GROWTH = 3
-F_STICTION = 4
-F_REGULARISED = 5
-F_ROTORS = 6
-F_REV_DELAY = 7
-F_RIGID = 8
-F_IMPLICIT_K = 9  # solver setting, not an effect: springs implicit (stable) or explicit (symplectic)
-N_FLAGS = 10
 
-# --- context: the surface and the leg settings (may change between steps) ----------------
-C_SIN = 0  # sin(slope)
-C_COS = 1  # cos(slope)
-C_DOWN = 2  # index of the downhill leg: 0 = C (left), 1 = D (right)
-C_TAU = 3  # 3, 4: planar friction torque of leg C, D (N*m, already x joints_per_planar_leg)
-C_QINIT = 5  # 5, 6: leg angle the compression is measured from (rad)
-N_CTX = 7
-
-# --- state vector layout ------------------------------------------------------------------
-S_Q = 0  # 0..4 generalised coordinates
-S_V = 5  # 5..9 generalised velocities
-S_QE = 10  # 10, 11 friction-joint angle of leg C, D (massless frames E, F)
-S_JM = 12  # 12, 13 joint mode: 0 stuck, -1 slipping toward compression, +1 toward extension
-S_CM = 14  # 14..19 contact mode per point: 0 off, 1 stuck, 2 slipping +t, 3 slipping -t
-S_ANC = 20  # 20..25 stiction anchor (tangential coordinate) per point
-S_W = 26  # 26, 27 rotor speed (fraction of full, signed)
-S_DIR = 28  # 28, 29 rotor direction the ESC is set to (+1 / -1)
-S_WAIT = 30  # 30, 31 remaining reversal dead time (s)
-S_T = 32  # simulated time (s)
-S_FF = 33  # 33, 34 foot friction force magnitude of leg C, D last step (N)
-S_TIMP = 35  # time of first contact (s), -1 before
-S_QEMIN = 36  # 36, 37 smallest friction-joint angle reached per leg
-S_TOUCH = 38  # a joint or rotor has touched the surface (0/1)
-S_PMIN = 39  # most negative pitch (rad)
-S_PMAX = 40  # most positive pitch (rad)
-S_X0 = 41  # 41, 42 centre-of-mass position at first contact
-S_REST = 43  # time the rest condition has held continuously (s)
-S_DISS = 44  # 44..49 energy dissipated: joint friction, flex damper, EOT damper,
-#             ground damper, foot friction + stiction damper, and work done by the rotors
-S_NF = 50  # 50..55 normal force per contact point (N), last step
-S_FT = 56  # 56..61 tangential force per contact point (N), last step
-S_THR = 62  # 62, 63 rotor thrust (N), last step
-S_REFINE = 64  # macro-steps still to be taken as fine sub-steps after a touchdown
-N_STATE = 65
-
-D_JOINT, D_FLEX, D_EOT, D_GROUND, D_FOOT, D_ROTOR = range(6)
-N_POINTS = 6  # feet C, D; joints C, D; rotors 1, 2
-MAX_ACTIVE_SET_ITERATIONS = 6
-REFINE = 16  # a step in which a contact begins is redone as this many sub-steps...
-REFINE_WINDOW = 4  # ...and so are the next few: impacts settle within ~1 ms
-IMPACT_SPEED = 0.1  # m/s: a contact beginning faster than this is an impact (grazing is not)
-STICK_SPEED = 1e-3  # m/s: a contact arriving slower than this along the surface starts stuck
-
-DEG = math.pi / 180.0
+# --- user-effect seams ------------------------------------------------------------------
+# The defaults below change nothing. A model with user effects runs a generated copy of this
+# module (see usercode.py) in which the block between the HOOKS markers binds the users'
+# functions and sets the HAS_* switches. The hooks are module globals, never arguments:
+# numba's cache keys a function passed as an argument by that function object's identity,
+# new in every process, so each run compiled and saved new variants. The switches are
+# compile-time constants, so a seam no effect uses is compiled out (costs nothing).
 
 
 @njit(cache=True)
 def no_extra_force(t, st, ctx, up, out):  # pragma: no cover - compiled
-    """Default user-effect hook: adds nothing."""
+    """Default generalised-force hook: adds nothing."""
     return
 
 
-# The user-effect hook is a module global, never an argument: numba's cache keys a function
-# passed as an argument by that function object's identity, new in every process, so each run
-# compiled and saved new variants. A model with user effects runs a generated copy of this
-# module in which the next line imports the user's combined force instead (see usercode.py).
-_extra_force = no_extra_force  # USER-EFFECT-HOOK
+@njit(cache=True)
+def no_point_force(t, st, ctx, up, out):  # pragma: no cover - compiled
+    """Default named-point force hook: adds nothing."""
+    return
+
+
+@njit(cache=True)
+def same_joint_torque(t, st, ctx, up, leg, angle, rate, tau):  # pragma: no cover - compiled
+    """Default joint-torque law: the built-in torque."""
+    return tau
+
+
+@njit(cache=True)
+def same_foot_friction(t, st, ctx, up, leg, slip_speed, normal_force, mu):  # pragma: no cover
+    """Default foot-friction law: the built-in coefficient."""
+    return mu
+
+
+@njit(cache=True)
+def no_normal_force(t, st, ctx, up, point, depth, rate):  # pragma: no cover - compiled
+    """Placeholder normal-force law (never called: the built-in spring-damper is used)."""
+    return 0.0, 0.0, 0.0
+
+
+# USER-EFFECT-HOOKS-BEGIN
+_extra_force = no_extra_force
+_point_force = no_point_force
+_joint_torque = same_joint_torque
+_foot_friction = same_foot_friction
+_normal_force = no_normal_force
+HAS_FORCE = False
+HAS_POINT_FORCE = False
+HAS_JOINT_TORQUE = False
+HAS_FOOT_FRICTION = False
+HAS_NORMAL_FORCE = False
+# USER-EFFECT-HOOKS-END
 
 
 @njit(cache=True)
@@ -323,10 +369,13 @@ def make_workspace():
         np.zeros(5),  # extra force
         np.zeros((N_POINTS, 2, 5)),  # jn/jt rows per point
         np.zeros(N_STATE),  # state before the step (to redo a touchdown finely)
-        np.zeros((5, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu
+        np.zeros((9, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu,
+        #                          a user normal law's force, stiffness, damping at the start, and
+        #                          the energy in the stiction spring at the start
         np.zeros(N_POINTS, dtype=np.bool_),  # contact active this step
         np.zeros(5, dtype=np.bool_),  # generalised coordinate locked this step
         np.zeros((3, 2)),  # per joint: friction torque, in EOT zone, constraint torque
+        np.zeros((N_FORCE_POINTS, 2)),  # user forces at the named points (world x, z)
     )
 
 
@@ -361,6 +410,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
     M, f, pts, vel, J, A0, r0, A, r, vn, fx, JNT = ws[:12]
     cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
     d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
+    nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
     tau, zone, lam = js[0], js[1], js[2]
     began = 0
     kinematics(p, st, M, f, pts, vel, J)
@@ -392,11 +442,27 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
 
     # Implicit terms go straight into A0 = M - h D - h^2 K; f keeps only the explicit part,
     # so that r0 = M v + h f.
-    for a in range(5):
-        fx[a] = 0.0
-    _extra_force(t, st, ctx, up, fx)
-    for a in range(5):
-        f[a] += fx[a]
+    user_forces = HAS_FORCE or HAS_POINT_FORCE
+    if user_forces:
+        for a in range(5):
+            fx[a] = 0.0
+        if HAS_FORCE:
+            _extra_force(t, st, ctx, up, fx)
+        if HAS_POINT_FORCE:
+            pf = ws[17]
+            for i in range(N_FORCE_POINTS):
+                pf[i, 0] = 0.0
+                pf[i, 1] = 0.0
+            _point_force(t, st, ctx, up, pf)
+            for i in range(N_POINTS):
+                for b in range(5):
+                    fx[b] += J[i, 0, b] * pf[i, 0] + J[i, 1, b] * pf[i, 1]
+            fx[0] += pf[PT_CENTRE, 0]
+            fx[1] += pf[PT_CENTRE, 1]
+        for a in range(5):
+            f[a] += fx[a]
+    for a in range(3):
+        f[a] += ctx[C_FEXT + a]
 
     # rotors: thrust along body z at the hubs, from the speed at the start of the step
     bzx = -math.sin(st[S_Q + 2])
@@ -418,6 +484,10 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         tj = ctx[C_TAU + j]
         if j == dleg and fl[F_TAU_GROWTH] != 0:
             tj *= 1.0 + p[P_FTAU] * st[S_FF + j]
+        if HAS_JOINT_TORQUE:
+            # the leg's rate (a smooth state): the joint's own rate from the last step would
+            # feed a speed-dependent law back into the joint's stick-slip switching
+            tj = max(0.0, _joint_torque(t, st, ctx, up, j, st[S_QE + j], V[3 + j], tj))
         tau[j] = tj
         qi = 3 + j
         if rigid:
@@ -471,7 +541,22 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         dd0[i] = nx * vel[i, 0] + nz * vel[i, 1]
         s0[i] = tx * pts[i, 0] + tz * pts[i, 1]
         sd0[i] = tx * vel[i, 0] + tz * vel[i, 1]
-        N0 = -kg * d0[i] - bg * dd0[i]
+        pad[i] = 0.0
+        if stiction and st[S_CM + i] == 1.0:
+            pad[i] = 0.5 * kt * (s0[i] - st[S_ANC + i]) ** 2
+        if HAS_NORMAL_FORCE:
+            N0 = 0.0
+            nN[i] = 0.0
+            nk[i] = 0.0
+            nb[i] = 0.0
+            if d0[i] < 0.0:
+                # the user's law in penetration (into the ground) and its rate
+                N0, kk, bb = _normal_force(t, st, ctx, up, i, -d0[i], -dd0[i])
+                nN[i] = N0
+                nk[i] = kk
+                nb[i] = bb
+        else:
+            N0 = -kg * d0[i] - bg * dd0[i]
         active[i] = False
         if d0[i] < 0.0 and N0 > 0.0:
             active[i] = True
@@ -494,7 +579,9 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         mu[i] = p[P_MUK]
         if i == dleg and fl[F_MU_GROWTH] != 0:
             vj = dhx * vel[2 + down, 0] + dhz * vel[2 + down, 1]
-            mu[i] *= max(0.0, 1.0 + p[P_FMU] * vj)
+            mu[i] *= max(1.0, 1.0 + p[P_FMU] * vj)  # eq. 4 only raises friction
+        if HAS_FOOT_FRICTION and i < 2 and active[i]:
+            mu[i] = max(0.0, _foot_friction(t, st, ctx, up, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
 
     for a in range(5):
         locked[a] = False
@@ -510,11 +597,17 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         for i in range(N_POINTS):
             if not active[i]:
                 continue
-            cn = h * h * kg * ik + h * bg
+            if HAS_NORMAL_FORCE:
+                # N(v') ~ N0 + b (rate' - rate0) + k h rate' (rate = -normal speed)
+                nc0 = nN[i] + nb[i] * dd0[i]
+                cn = h * h * nk[i] * ik + h * nb[i]
+            else:
+                nc0 = -kg * d0[i]
+                cn = h * h * kg * ik + h * bg
             for a in range(5):
                 jna = JNT[i, 0, a]
                 if jna != 0.0:
-                    r[a] += h * jna * (-kg * d0[i])
+                    r[a] += h * jna * nc0
                     for b in range(5):
                         A[a, b] += cn * jna * JNT[i, 0, b]
             mode = st[S_CM + i]
@@ -533,11 +626,14 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                     for a in range(5):
                         jta = JNT[i, 1, a]
                         if jta != 0.0:
-                            r[a] += h * jta * (sg * mu[i] * kg * d0[i])
+                            if HAS_NORMAL_FORCE:
+                                r[a] += h * jta * (-sg * mu[i] * nc0)
+                            else:
+                                r[a] += h * jta * (sg * mu[i] * kg * d0[i])
                             for b in range(5):
                                 A[a, b] += -sg * mu[i] * cn * jta * JNT[i, 0, b]
             elif regular:
-                N0 = -kg * d0[i] - bg * dd0[i]
+                N0 = nN[i] if HAS_NORMAL_FORCE else -kg * d0[i] - bg * dd0[i]
                 xx = sd0[i] / p[P_VS]
                 th_ = math.tanh(xx)
                 gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
@@ -562,8 +658,11 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
             if not active[i]:
                 continue
             ddn, sdn = _contact_rates(JNT, i, vn)
-            dn = d0[i] + h * ddn
-            Nn = -kg * dn - bg * ddn
+            if HAS_NORMAL_FORCE:
+                Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
+            else:
+                dn = d0[i] + h * ddn
+                Nn = -kg * dn - bg * ddn
             if Nn < 0.0:
                 active[i] = False
                 st[S_CM + i] = 0.0
@@ -591,16 +690,25 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         st[S_NF + i] = 0.0
         st[S_FT + i] = 0.0
         if not active[i]:
+            st[S_DISS + D_FOOT] += pad[i]  # lifted off stuck: the pad's spring lets go
             continue
         ddn, sdn = _contact_rates(JNT, i, vn)
-        Nn = -kg * (d0[i] + h * ddn) - bg * ddn
-        st[S_DISS + D_GROUND] += bg * ddn * ddn * h
+        if HAS_NORMAL_FORCE:
+            Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
+            # no potential is known for a user's law: its net work (stored + lost) is booked,
+            # at the step's mean speed (what the kinetic energy's change sees)
+            st[S_DISS + D_GROUND] -= Nn * 0.5 * (ddn + dd0[i]) * h
+        else:
+            Nn = -kg * (d0[i] + h * ddn) - bg * ddn
+            st[S_DISS + D_GROUND] += bg * ddn * ddn * h
         if stiction:
             mode = st[S_CM + i]
             if mode == 1.0:
                 ft = -kt * (s0[i] + h * sdn - st[S_ANC + i]) - bt * sdn
                 st[S_DISS + D_FOOT] += bt * sdn * sdn * h
             else:
+                # a stuck foot breaking away: what its pad spring held is lost with it
+                st[S_DISS + D_FOOT] += pad[i]
                 sg = 1.0 if mode == 2.0 else -1.0
                 ft = -sg * mu[i] * Nn
                 st[S_DISS + D_FOOT] += mu[i] * Nn * abs(sdn) * h
@@ -613,6 +721,15 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         st[S_FT + i] = ft
     for j in range(2):
         st[S_FF + j] = abs(st[S_FT + j])
+    # every point's speed along the surface (downhill-positive), for user laws next step
+    for i in range(N_POINTS):
+        acc = 0.0
+        for b in range(5):
+            acc += (tx * J[i, 0, b] + tz * J[i, 1, b]) * vn[b]
+        st[S_SLIP + i] = dsg * acc
+    if user_forces:
+        for a in range(5):
+            st[S_DUSER] -= fx[a] * vn[a] * h
     for i in range(2, N_POINTS):
         if active[i]:
             st[S_TOUCH] = 1.0
@@ -645,6 +762,8 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         st[S_Q + a] += h * vn[a]
 
     # --- friction joints: exact update of the massless frames, then mode changes -----------
+    qe_old0 = st[S_QE]
+    qe_old1 = st[S_QE + 1]
     for j in range(2):
         qi = 3 + j
         qc0 = qc_old0 if j == 0 else qc_old1
@@ -714,6 +833,9 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                 qE = q_max
                 st[S_JM + j] = 0.0
             st[S_QE + j] = qE
+
+    st[S_QED] = (st[S_QE] - qe_old0) / h
+    st[S_QED + 1] = (st[S_QE + 1] - qe_old1) / h
 
     # --- rotors: direction changes wait out the reversal delay, speed is first order -------
     for rr in range(2):
@@ -987,7 +1109,7 @@ def mechanical_energy(p, fl, ctx, st, ws, out):
     es = 0.0
     for i in range(N_POINTS):
         d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
-        if d < 0.0:
+        if d < 0.0 and not HAS_NORMAL_FORCE:  # a user's law: booked as dissipated (ground)
             eg += 0.5 * p[P_KG] * d * d
         if st[S_CM + i] == 1.0 and fl[F_STICTION] != 0:
             sx = ctx[C_COS] * pts[i, 0] - ctx[C_SIN] * pts[i, 1]

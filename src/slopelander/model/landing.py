@@ -13,8 +13,10 @@ from slopelander.model.conditions import LandingConditions, conditions_array
 from slopelander.model.effects import (
     BUILTIN_EFFECTS,
     EffectError,
+    EffectParameter,
     UserEffect,
     check_effect_names,
+    check_user_effects,
     flags_for,
     user_parameter_values,
 )
@@ -43,9 +45,7 @@ class Model:
 
     def __post_init__(self) -> None:
         check_effect_names(self.effects)
-        names = [e.name for e in self.user_effects]
-        if len(set(names)) != len(names):
-            raise EffectError("a user effect is listed twice")
+        check_user_effects(self.user_effects)
         if not (1e-6 <= self.dt <= 5e-3):
             raise EffectError(f"dt = {self.dt} s is outside 1e-6..5e-3 s")
 
@@ -84,8 +84,30 @@ class Model:
     def with_user_effect(self, effect: UserEffect) -> Model:
         return replace(self, user_effects=(*self.user_effects, effect))
 
-    def with_params(self, **values: float) -> Model:
-        return replace(self, params=self.params.with_values(**values))
+    def with_params(self, provenance: str = "identified", **values: float) -> Model:
+        """A copy with parameters set by name: built-in ones and the user effects' alike."""
+        users = list(self.user_effects)
+        builtin = {}
+        for name, v in values.items():
+            for i, e in enumerate(users):
+                if name in e.parameters:
+                    users[i] = e.with_values(provenance, **{name: v})
+                    break
+            else:
+                builtin[name] = v
+        params = self.params.with_values(provenance, **builtin) if builtin else self.params
+        return replace(self, params=params, user_effects=tuple(users))
+
+    def parameter(self, name: str) -> float:
+        """The value of a parameter by name, built-in or of a user effect."""
+        for e in self.user_effects:
+            if name in e.parameters:
+                return e.parameters[name].value
+        return self.params[name]
+
+    def user_parameters(self) -> dict[str, EffectParameter]:
+        """Every user effect's declared parameters, by name."""
+        return {n: p for e in self.user_effects for n, p in e.parameters.items()}
 
     # -- what the integrator sees ---------------------------------------------------------
     def flags(self) -> np.ndarray:
@@ -136,16 +158,32 @@ class LandingResult:
         vals["outcome"] = Outcome(int(vals["outcome"]))
         return cls(**vals)
 
-    def summary(self) -> str:
+    def pitch_margin_deg(self, flip_pitch_deg: float = 80.0, max_abs_pitch_deg: float = 0.0) -> float:
+        """Degrees left between the pitch furthest from level and the flip criterion (<= 0: flipped).
+
+        ``min_pitch_deg`` is exact (tracked every step); the nose-up side needs
+        ``max_abs_pitch_deg`` from a trajectory (:attr:`Trajectory.pitch_margin_deg` passes it).
+        """
+        return flip_pitch_deg - max(-self.min_pitch_deg, max_abs_pitch_deg)
+
+    def summary(self, flip_pitch_deg: float = 80.0, max_abs_pitch_deg: float = 0.0) -> str:
         settle = "never" if math.isnan(self.settle_time) else f"{self.settle_time:.2f} s"
         return (
-            f"outcome: {self.outcome.label}\n"
+            f"outcome: {self.outcome.label}, "
+            f"{pitch_margin_text(self.pitch_margin_deg(flip_pitch_deg, max_abs_pitch_deg), flip_pitch_deg)}\n"
             f"  peak compression: uphill {100 * self.compression_up:.0f} %, "
             f"downhill {100 * self.compression_down:.0f} %\n"
             f"  slide along the slope: {self.slide:+.3f} m\n"
             f"  pitch: final {self.final_pitch_deg:+.1f} deg, most negative {self.min_pitch_deg:+.1f} deg\n"
             f"  at rest after: {settle}"
         )
+
+
+def pitch_margin_text(margin_deg: float, flip_pitch_deg: float) -> str:
+    """How close a landing came to flipping, in words a pilot reads."""
+    if margin_deg <= 0:
+        return f"pitch passed the {flip_pitch_deg:g} deg flip criterion"
+    return f"closest to flipping: {margin_deg:.0f} deg margin (flip at {flip_pitch_deg:g} deg)"
 
 
 @dataclass(frozen=True)
@@ -186,6 +224,19 @@ class Trajectory:
     @property
     def slope_deg(self) -> float:
         return self.conditions.slope_deg
+
+    @property
+    def pitch_margin_deg(self) -> float:
+        """Degrees between the largest pitch reached (either way) and the flip criterion."""
+        return self.result.pitch_margin_deg(self.model.criteria.flip_pitch_deg, self._max_abs_pitch_deg)
+
+    @property
+    def _max_abs_pitch_deg(self) -> float:
+        return float(np.degrees(np.abs(self.raw[:, k.S_Q + 2]).max())) if len(self.raw) else 0.0
+
+    def summary(self) -> str:
+        """The result's summary, with the margin to this model's flip criterion."""
+        return self.result.summary(self.model.criteria.flip_pitch_deg, self._max_abs_pitch_deg)
 
     def outline(self, i: int) -> dict[str, np.ndarray]:
         """World positions (x, z) of the vehicle's points in sample ``i``: the centre of
@@ -235,7 +286,7 @@ def simulate(
     rec = np.zeros((n_max, k.N_STATE))
     res = np.zeros(k.N_RESULT)
     km, up = model.kernel()
-    with compiling_notice():
+    with compiling_notice(dispatcher=km.run_landing):
         n = km.run_landing(
             model.params.as_array(),
             model.flags(),
@@ -275,18 +326,15 @@ def simulate_batch(
     out = np.zeros((len(arr), k.N_RESULT))
     km, up = model.kernel()
     if len(arr):
+        args = (model.params.as_array(), model.flags(), conds, h, model.criteria_array(), stop_at_rest, up)
+        if not km.run_batch.signatures:
+            # compile (or load from the cache) on an empty batch, so that the notice times the
+            # compiling alone, never a long batch of landings
+            with compiling_notice(dispatcher=km.run_batch):
+                km.run_batch(*args[:2], conds[:0], *args[3:], out[:0])
         # landings last from 0.1 to 2 s: hand them out a few at a time, not in two halves
-        with numba.parallel_chunksize(4), compiling_notice():
-            km.run_batch(
-                model.params.as_array(),
-                model.flags(),
-                conds,
-                h,
-                model.criteria_array(),
-                stop_at_rest,
-                up,
-                out,
-            )
+        with numba.parallel_chunksize(4):
+            km.run_batch(*args, out)
     result = np.zeros(len(arr), dtype=RESULT_DTYPE)
     for i, n in enumerate(RESULT_FIELDS):
         result[n] = out[:, i]

@@ -24,6 +24,13 @@ class Outcome(IntEnum):
     FLIP = 5
     """Pitch passed 80 deg: the vehicle tipped over."""
 
+    def __str__(self) -> str:
+        """The name a person reads (``ideal``, ``end_of_travel``); ``int()`` gives the code."""
+        return self.name.lower()
+
+    def __format__(self, spec: str) -> str:
+        return format(str(self), spec)
+
     @property
     def success(self) -> bool:
         return self in (Outcome.IDEAL, Outcome.UNDER_USED, Outcome.END_OF_TRAVEL)
@@ -42,12 +49,13 @@ OUTCOME_LABELS = {
     Outcome.FLIP: "flipped",
 }
 
-# The paper's colour code (Fig. 8): green, blue, orange, white, light grey, dark grey.
+# The paper's colour code (Fig. 8): green, blue, orange, white, light grey, dark grey -- except
+# that "slid" is light purple here, not white: a white cell reads as missing data.
 OUTCOME_COLORS = {
     Outcome.IDEAL: "#2ca02c",
     Outcome.UNDER_USED: "#1f77b4",
     Outcome.END_OF_TRAVEL: "#ff7f0e",
-    Outcome.SLID: "#ffffff",
+    Outcome.SLID: "#c5b0d5",
     Outcome.JOINT_TOUCH: "#c7c7c7",
     Outcome.FLIP: "#555555",
 }
@@ -85,4 +93,14 @@ uphill and downhill joints, slide distance along the slope (m, + downhill), fina
 the pitch furthest toward downhill (deg, negative = nose toward downhill, whatever the sign
 of the slope), time from impact to rest (s, NaN if it never settled), simulated time."""
 
-RESULT_DTYPE = np.dtype([(n, np.float64) for n in RESULT_FIELDS])
+RESULT_DTYPE = np.dtype([(n, np.int64 if n == "outcome" else np.float64) for n in RESULT_FIELDS])
+"""The batch result: ``outcome`` is the integer code (:class:`Outcome`), for machines; people read
+:func:`outcome_names` of it."""
+
+OUTCOME_NAMES: tuple[str, ...] = tuple(str(o) for o in Outcome)
+
+
+def outcome_names(codes: np.ndarray) -> np.ndarray:
+    """The outcome names (``"ideal"``, ``"flip"``, ...) of an array of outcome codes, same shape."""
+    codes = np.asarray(codes)
+    return np.asarray(OUTCOME_NAMES)[codes.astype(int)]

@@ -7,6 +7,11 @@ A parameter file is YAML (``default_parameters.yaml`` is the shipped one)::
       body_mass: {value: 1.502, unit: kg, provenance: paper, note: Table II}
     effects: [leg_flex, end_of_travel, ...]
 
+An override file holds only what it changes: every parameter it leaves out, and the effects
+if it has no ``effects`` list, come from the shipped defaults. An entry needs a ``value``
+(or is a bare number); ``unit`` is checked when given; ``provenance`` defaults to ``assumed``.
+``slopelander params --dump FILE`` writes the defaults, commented, to start from.
+
 Parameters are addressable by name (``params.with_values(ground_damping=400)``) because the
 identification tools fit them by name; the integrator sees them as one float array in
 :data:`PARAMETER_NAMES` order.
@@ -199,20 +204,31 @@ class ModelParams:
         for name, entry in raw.items():
             if name not in SPEC_BY_NAME:
                 raise ParameterError(str(name), "unknown parameter", source)
+            if isinstance(entry, (int, float)) and not isinstance(entry, bool):
+                entry = {"value": entry}
             if not isinstance(entry, dict):
-                raise ParameterError(name, "must be a mapping with value, unit, provenance", source)
-            for key in ("value", "unit", "provenance"):
-                if key not in entry:
-                    raise ParameterError(name, f"missing '{key}'", source)
+                raise ParameterError(name, "must be a number or a mapping with a value", source)
+            if "value" not in entry:
+                raise ParameterError(name, "missing 'value'", source)
+            extra = sorted(str(k) for k in entry if k not in ("value", "unit", "provenance", "note"))
+            if extra:
+                raise ParameterError(name, f"unknown key(s) {extra}: value, unit, provenance, note", source)
             try:
                 value = float(entry["value"])
             except (TypeError, ValueError):
                 raise ParameterError(name, f"value {entry['value']!r} is not a number", source) from None
             values[name] = Parameter(
-                value, str(entry["unit"]), str(entry["provenance"]), str(entry.get("note", ""))
+                value,
+                str(entry.get("unit", SPEC_BY_NAME[name].unit)),
+                str(entry.get("provenance", "assumed")),
+                str(entry.get("note", "")),
             )
-        effects = doc.get("effects", [])
-        if not isinstance(effects, list):
+        missing = [n for n in PARAMETER_NAMES if n not in values]
+        defaults = cls.default() if missing or "effects" not in doc else None
+        for name in missing:
+            values[name] = defaults.values[name]  # type: ignore[union-attr]
+        effects = doc["effects"] if "effects" in doc else list(defaults.effects)  # type: ignore[union-attr]
+        if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
             raise ParameterError("effects", "must be a list of effect names", source)
         check_effect_names(effects, source)
         return cls(values, tuple(effects), source)
@@ -234,6 +250,36 @@ class ModelParams:
 
     def save(self, path: str | Path) -> None:
         Path(path).write_text(yaml.safe_dump(self.to_dict(), sort_keys=False, allow_unicode=True))
+
+
+def _flow(v: Any) -> str:
+    text = yaml.safe_dump(v, default_flow_style=True, width=10_000, allow_unicode=True, sort_keys=False)
+    return text.strip()
+
+
+def commented_yaml(params: ModelParams | None = None) -> str:
+    """A parameter file with a comment per parameter (meaning, unit, allowed range): the file
+    ``slopelander params --dump`` writes to start an override from."""
+    params = params or ModelParams.default()
+    lines = [
+        "# slopelander model parameters (schema slopelander.model-parameters/1).",
+        f"# Written from: {params.source or 'a parameter set in memory'}.",
+        "# To override: keep only the parameters you change (and 'effects' if you change them);",
+        "# everything left out comes from the shipped defaults. Then pass the file with --params.",
+        "# provenance: paper = Bass, Tunney, Lussier Desbiens (RA-L 2022), Table II / Sec. III-V;",
+        "#             derived = computed from paper values (the note says how);",
+        "#             assumed = a choice where the paper is silent; identified = fitted to drops.",
+        f"schema: {SCHEMA}",
+        "parameters:",
+    ]
+    d = params.to_dict()
+    for spec in SPECS:
+        lines.append(f"  # {spec.description}; {spec.unit}, allowed {spec.low:g}..{spec.high:g}")
+        lines.append(f"  {spec.name}: {_flow(d['parameters'][spec.name])}")
+    lines.append("# effects switched on (slopelander simulate --without NAME switches one off for a run)")
+    lines.append("effects:")
+    lines += [f"  - {e}" for e in params.effects]
+    return "\n".join(lines) + "\n"
 
 
 def _check_value(name: str, p: Parameter, source: str | None) -> None:

@@ -135,7 +135,7 @@ class ReferenceLanding:
         mu = np.full(k.N_POINTS, p[k.P_MUK])
         if self.dleg >= 0 and self.fl[k.F_MU_GROWTH]:
             vj = vel[2 + self.dleg] @ self.downhill
-            mu[self.dleg] *= max(0.0, 1.0 + p[k.P_FMU] * vj)
+            mu[self.dleg] *= max(1.0, 1.0 + p[k.P_FMU] * vj)
         for i in range(k.N_POINTS):
             m = self.modes.contact[i]
             if m == 0:

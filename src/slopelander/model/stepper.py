@@ -25,6 +25,7 @@ DISSIPATION_TERMS = (
     "ground_damper",
     "foot_friction",
     "rotor_work",
+    "user_effects",
 )
 
 
@@ -97,6 +98,16 @@ class Stepper:
             self.st[k.S_JM + j] = 0.0
             self.st[k.S_QEMIN + j] = q
             self.ctx[k.C_QINIT + j] = q
+
+    def set_external_force(self, fx: float = 0.0, fz: float = 0.0, torque: float = 0.0) -> None:
+        """A force on the body at its centre of mass (world x, z in N) and a pitch torque
+        (N*m), held until changed: how a simulated vehicle feels wind gusts."""
+        for name, v in (("fx", fx), ("fz", fz), ("torque", torque)):
+            if not math.isfinite(v) or abs(v) > 100.0:
+                raise ConditionError(name, v, "must be finite and within +-100")
+        self.ctx[k.C_FEXT] = fx
+        self.ctx[k.C_FEXT + 1] = fz
+        self.ctx[k.C_FEXT + 2] = torque
 
     def place(
         self,
@@ -213,12 +224,12 @@ class Stepper:
 
     def energy(self) -> dict[str, float]:
         out = np.zeros(len(ENERGY_TERMS))
-        k.mechanical_energy(self._p, self._fl, self.ctx, self.st, self._ws, out)
+        self._k.mechanical_energy(self._p, self._fl, self.ctx, self.st, self._ws, out)
         return dict(zip(ENERGY_TERMS, out.tolist(), strict=True))
 
     def dissipated(self) -> dict[str, float]:
-        d = self.st[k.S_DISS : k.S_DISS + len(DISSIPATION_TERMS)]
-        return dict(zip(DISSIPATION_TERMS, d.tolist(), strict=True))
+        d = [*self.st[k.S_DISS : k.S_DISS + len(DISSIPATION_TERMS) - 1].tolist(), float(self.st[k.S_DUSER])]
+        return dict(zip(DISSIPATION_TERMS, d, strict=True))
 
     def _clearances(self) -> np.ndarray:
         M, f, pts, vel, J = self._ws[:5]

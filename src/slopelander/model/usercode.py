@@ -23,9 +23,11 @@ from pathlib import Path
 from types import ModuleType
 
 from slopelander.model import kernel as k
-from slopelander.model.effects import EffectError, UserEffect
+from slopelander.model.effects import EffectError, UserEffect, check_user_effects
+from slopelander.model.layout import layout_digest
 
-_HOOK = "_extra_force = no_extra_force  # USER-EFFECT-HOOK"
+_BEGIN = "# USER-EFFECT-HOOKS-BEGIN\n"
+_END = "# USER-EFFECT-HOOKS-END\n"
 _loaded: dict[str, ModuleType] = {}
 
 
@@ -35,30 +37,32 @@ def cache_dir() -> Path:
     return Path(root) / "effects"
 
 
-def _source_of(effect: UserEffect) -> tuple[str, str, str]:
-    """(module name, function name, digest of the module's file) of an effect's force."""
-    fn = effect.force.py_func
-    mod = sys.modules.get(fn.__module__)
+def _source_of(effect: UserEffect, fn) -> tuple[str, str, str]:
+    """(module name, function name, digest of the module's file) of one of an effect's functions."""
+    py = fn.py_func
+    mod = sys.modules.get(py.__module__)
     file = getattr(mod, "__file__", None)
-    if mod is None or file is None or fn.__name__ != fn.__qualname__:
+    if mod is None or file is None or py.__name__ != py.__qualname__:
         raise EffectError(
-            f"user effect {effect.name!r}: its force must be a module-level function of a "
+            f"user effect {effect.name!r}: its functions must be module-level functions of a "
             "Python file (load the file with load_effects)"
         )
-    if getattr(mod, fn.__name__, None) is not effect.force:
-        raise EffectError(f"user effect {effect.name!r}: {fn.__name__} is not a name in its file")
+    if getattr(mod, py.__name__, None) is not fn:
+        raise EffectError(f"user effect {effect.name!r}: {py.__name__} is not a name in its file")
     digest = hashlib.sha256(Path(file).read_bytes()).hexdigest()
-    return fn.__module__, fn.__name__, digest
+    return py.__module__, py.__name__, digest
 
 
 def kernel_for(effects: Sequence[UserEffect]) -> ModuleType:
     """The integrator module to run for these user effects (the shipped one for none)."""
     if not effects:
         return k
-    sources = [_source_of(e) for e in effects]
+    check_user_effects(effects)
+    sources = [{seam: _source_of(e, fn) for seam, fn in e.seams().items()} for e in effects]
     h = hashlib.sha256(Path(k.__file__).read_bytes())
+    h.update(layout_digest().encode())
     for e, s in zip(effects, sources, strict=True):
-        h.update(repr((s, len(e.parameters))).encode())
+        h.update(repr((sorted(s.items()), len(e.parameters))).encode())
     key = h.hexdigest()[:20]
     mod = _loaded.get(key)
     if mod is not None:
@@ -81,55 +85,146 @@ def kernel_for(effects: Sequence[UserEffect]) -> ModuleType:
     return mod
 
 
-def _generate(effects: Sequence[UserEffect], sources: Sequence[tuple[str, str, str]]) -> str:
+# seam -> (hook name, its arguments, one effect's call, the hook's return line)
+_CALLS = {
+    "force": ("_extra_force", "t, st, ctx, up, out", "    {f}(t, st, ctx, {up}, out)", ""),
+    "point_force": ("_point_force", "t, st, ctx, up, out", "    {f}(t, st, ctx, {up}, out)", ""),
+    "joint_torque": (
+        "_joint_torque",
+        "t, st, ctx, up, leg, angle, rate, tau",
+        "    tau = {f}(t, st, ctx, {up}, leg, angle, rate, tau)",
+        "    return tau",
+    ),
+    "foot_friction": (
+        "_foot_friction",
+        "t, st, ctx, up, leg, slip_speed, normal_force, mu",
+        "    mu = {f}(t, st, ctx, {up}, leg, slip_speed, normal_force, mu)",
+        "    return mu",
+    ),
+    "normal_force": (
+        "_normal_force",
+        "t, st, ctx, up, point, depth, rate",
+        "    n, kk, bb = {f}(t, st, ctx, {up}, point, depth, rate)",
+        "    return float(n), float(kk), float(bb)",
+    ),
+}
+
+
+def _generate(effects: Sequence[UserEffect], sources: Sequence[dict[str, tuple[str, str, str]]]) -> str:
+    """The kernel's source with its hook block binding the users' functions: per seam one
+    compiled function calling every effect's function in turn (each on its parameter slice)."""
     text = Path(k.__file__).read_text()
-    if _HOOK not in text:  # pragma: no cover - guards the kernel's own layout
-        raise RuntimeError("kernel.py lost its user-effect hook line")
+    if _BEGIN not in text or _END not in text:  # pragma: no cover - guards the kernel's own layout
+        raise RuntimeError("kernel.py lost its user-effect hook block")
+    head, rest = text.split(_BEGIN, 1)
+    block, tail = rest.split(_END, 1)
     lines = [f"# user effects: {', '.join(e.name for e in effects)}"]
-    calls = []
+    bodies: dict[str, list[str]] = {seam: [] for seam in _CALLS}
     offset = 0
-    for i, (e, (module, fname, _)) in enumerate(zip(effects, sources, strict=True)):
+    for i, (e, srcs) in enumerate(zip(effects, sources, strict=True)):
         n = len(e.parameters)
-        lines.append(f"from {module} import {fname} as _user{i}")
-        calls.append(f"    _user{i}(t, st, ctx, up[{offset}:{offset + n}], out)")
+        for seam, (module, fname, _) in srcs.items():
+            alias = f"_user{i}_{seam}"
+            lines.append(f"from {module} import {fname} as {alias}")
+            bodies[seam].append(_CALLS[seam][2].format(f=alias, up=f"up[{offset}:{offset + n}]"))
         offset += n
-    lines += ["", "", "@njit(cache=True)", "def _extra_force(t, st, ctx, up, out):", *calls, ""]
+    for seam, (hook, args, _, ret) in _CALLS.items():
+        flag = f"HAS_{seam.upper()}"
+        if bodies[seam]:
+            lines += ["", "", "@njit(cache=True)", f"def {hook}({args}):", *bodies[seam]]
+            if ret:
+                lines.append(ret)
+            lines += ["", "", f"{flag} = True"]
+        else:
+            default = next(ln for ln in block.splitlines() if ln.startswith(f"{hook} = "))
+            lines += [default, f"{flag} = False"]
     header = "# Generated: the integrator with user effects. Do not edit; delete to rebuild.\n"
-    return header + text.replace(_HOOK, "\n".join(lines))
+    return header + head + "\n".join(lines) + "\n" + tail
 
 
 _FILE_LINE = re.compile(r'File "([^"]+)", line (\d+)')
 
 
-def check_types(effect: UserEffect) -> None:
-    """Compile an effect's force for the integrator's argument types; a typing error becomes
-    one :class:`EffectError` naming the effect and the line of the user's file."""
+def _signatures():
     from numba import types
-    from numba.core.errors import NumbaError
 
     arr = types.Array(types.float64, 1, "C")
-    fn = effect.force.py_func
-    user_file = os.path.abspath(fn.__code__.co_filename)
-    try:
-        effect.force.compile((types.float64, arr, arr, arr, arr))
-    except NumbaError as exc:
-        msg = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))
-        base = os.path.basename(user_file)
-        where = [ln for f, ln in _FILE_LINE.findall(msg) if os.path.basename(f) == base]
-        line = where[0] if where else str(fn.__code__.co_firstlineno)
-        skip = ("Failed in", "File ", "During", "^", "def ")
-        texts = [t.strip() for t in msg.splitlines()]
-        first = next((t for t in texts if t and not t.startswith(skip)), type(exc).__name__)
-        raise EffectError(
-            f"{user_file}:{line}: user effect {effect.name!r} ({fn.__name__}) does not compile: {first}"
-        ) from None
+    arr2 = types.Array(types.float64, 2, "C")
+    f, i = types.float64, types.int64
+    return {
+        "force": (f, arr, arr, arr, arr),
+        "point_force": (f, arr, arr, arr, arr2),
+        "joint_torque": (f, arr, arr, arr, i, f, f, f),
+        "foot_friction": (f, arr, arr, arr, i, f, f, f),
+        "normal_force": (f, arr, arr, arr, i, f, f),
+    }
+
+
+def _returns_ok(seam: str, ret) -> bool:
+    from numba import types
+
+    if seam in ("force", "point_force"):
+        return True
+    if seam == "normal_force":
+        return (
+            isinstance(ret, types.BaseTuple)
+            and len(ret) == 3
+            and all(isinstance(r, types.Number) for r in ret)
+        )
+    return isinstance(ret, types.Number)
+
+
+_RETURNS = {
+    "joint_torque": "a number (the slip torque, N*m)",
+    "foot_friction": "a number (the friction coefficient)",
+    "normal_force": "a tuple (force N, stiffness N/m, damping N*s/m)",
+}
+
+
+def check_types(effect: UserEffect) -> None:
+    """Compile each of an effect's functions for its seam's argument types; a typing error or
+    a wrong return becomes one :class:`EffectError` naming the effect and the line of the
+    user's file."""
+    from numba.core.errors import NumbaError
+
+    sigs = _signatures()
+    for seam, compiled in effect.seams().items():
+        fn = compiled.py_func
+        user_file = os.path.abspath(fn.__code__.co_filename)
+        where = f"{user_file}:{fn.__code__.co_firstlineno}: user effect {effect.name!r} ({fn.__name__})"
+        try:
+            compiled.compile(sigs[seam])
+        except NumbaError as exc:
+            msg = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))
+            base = os.path.basename(user_file)
+            lines = [ln for f, ln in _FILE_LINE.findall(msg) if os.path.basename(f) == base]
+            line = lines[0] if lines else str(fn.__code__.co_firstlineno)
+            skip = ("Failed in", "File ", "During", "^", "def ")
+            texts = [t.strip() for t in msg.splitlines()]
+            first = next((t for t in texts if t and not t.startswith(skip)), type(exc).__name__)
+            raise EffectError(
+                f"{user_file}:{line}: user effect {effect.name!r} ({fn.__name__}) does not compile: {first}"
+            ) from None
+        ret = next(sg.return_type for sg in compiled.nopython_signatures if tuple(sg.args) == sigs[seam])
+        if not _returns_ok(seam, ret):
+            raise EffectError(f"{where}: as its {seam} it must return {_RETURNS[seam]}, not {ret}")
 
 
 @contextmanager
-def compiling_notice(what: str = "the model") -> Iterator[None]:
-    """Say on stderr that compiling is under way if a first call takes more than a second."""
+def compiling_notice(
+    what: str = "the model", dispatcher: object = None, after: float = 3.0
+) -> Iterator[None]:
+    """Say on stderr that compiling is under way if a first call takes more than ``after`` s.
+
+    Loading the compiled code from the cache takes up to about 2 s on a busy machine, compiling
+    about half a minute. With ``dispatcher`` (a numba function), say nothing once it holds
+    compiled code: a long batch of landings is work, not compiling.
+    """
+    if getattr(dispatcher, "signatures", None):
+        yield
+        return
     timer = threading.Timer(
-        1.0,
+        after,
         lambda: print(
             f"slopelander: compiling {what} (first run after an install or an effect change, "
             "about half a minute; later runs use the cache)...",

@@ -1,0 +1,67 @@
+"""Find a user effect hidden in synthetic drops: the setting of tests/ident/test_diagnose_user_effects.py.
+
+Prints diagnose's ranking table and verdict for a hidden joint-torque law (docs/examples/
+effect_joint_torque.py) or foot-friction law (tests/ident/effects/slip_weakening.py), with the
+base model fitting k_g's damping and the leg's flex, and with --fit-mu-k also mu_k.
+
+Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction} [--seed 1] [--fit-mu-k]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from slopelander.ident.diagnose import diagnose
+from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+from slopelander.model import Model, load_effects
+
+ROOT = Path(__file__).resolve().parents[1]
+FILES = {
+    "viscous_joint": ROOT / "docs" / "examples" / "effect_joint_torque.py",
+    "stribeck_feet": ROOT / "docs" / "examples" / "effect_foot_friction.py",
+    "slip_weakening": ROOT / "tests" / "ident" / "effects" / "slip_weakening.py",
+}
+HIDDEN = {
+    "joint_torque": ("viscous_joint", "joint_viscous_gain", 0.05),
+    "foot_friction": ("slip_weakening", "slip_weakening", 1.0),
+}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("seam", choices=sorted(HIDDEN))
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--fit-mu-k", action="store_true", help="fit friction_kinetic with the base parameters")
+    args = ap.parse_args()
+    effects = {n: load_effects(p)[0] for n, p in FILES.items()}
+    base = Model.default().without("downhill_torque_growth", "downhill_friction_growth")
+    name, param, value = HIDDEN[args.seam]
+    truth = base.with_user_effect(effects[name]).with_params(**{param: value})
+    conds = [c for c in paper_drops(16, seed=0) if c.slope_deg >= 22.5]
+    drops = synthesize(truth, conds, NoiseModel(), seed=args.seed, duration=0.6)
+    names = ["ground_damping", "flex_stiffness", "flex_damping"]
+    if args.fit_mu_k:
+        names.append("friction_kinetic")
+    t0 = time.perf_counter()
+    d = diagnose(
+        base,
+        drops,
+        user_effects=list(effects.values()),
+        names=names,
+        seed=args.seed,
+        cma_evals=150,
+        refit_evals=100,
+        ls_evals=10,
+    )
+    print(
+        f"hidden: {name} {param} = {value}; seed {args.seed}; base fits {', '.join(names)}; "
+        f"{len(drops)} drops; {time.perf_counter() - t0:.0f} s"
+    )
+    print(d.table())
+    print(d.verdict())
+
+
+if __name__ == "__main__":
+    main()
