@@ -134,7 +134,7 @@ local function handle(msg, chan, t)
   local p1, p2, p3, p4, p5, p6, p7, command, tsys, tcomp = string.unpack("<fffffffHBB", msg, 13)
   if command ~= CMD_ACTUATOR and command ~= CMD_REFLEX then return end
   local result, why
-  local mysys = param:get("MAV_SYSID") or param:get("SYSID_THISMAV") or 1
+  local mysys = param:get("MAV_SYSID") or 1
   if tsys ~= mysys or (tcomp ~= 0 and tcomp ~= 1) then
     result, why = DENIED, "command for another vehicle"
   elseif command == CMD_ACTUATOR then

@@ -17,15 +17,21 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--link", help="symlink the pty's slave device here")
     parser.add_argument("--control", help="control socket path (default: LINK.ctl)")
-    parser.add_argument("--speed", type=float, default=1.0,
-                        help="board seconds per wall second (default 1)")
+    parser.add_argument("--speed", type=float, default=1.0, help="board seconds per wall second (default 1)")
     parser.add_argument("--seed", type=int, default=0, help="noise seed")
-    parser.add_argument("--status-ms", type=int, default=100,
-                        help="status period in board ms when HELLO asks for 0")
-    parser.add_argument("--no-angle-stop", action="store_true",
-                        help="behave like the paper's prototype: no SET_ANGLE")
-    parser.add_argument("--fault", action="append", default=[], metavar="KIND[:ARG][@T]",
-                        help=f"inject a fault ({', '.join(FAULT_KINDS)}); @T = at board time T s")
+    parser.add_argument(
+        "--status-ms", type=int, default=100, help="status period in board ms when HELLO asks for 0"
+    )
+    parser.add_argument(
+        "--no-angle-stop", action="store_true", help="behave like the paper's prototype: no SET_ANGLE"
+    )
+    parser.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="KIND[:ARG][@T]",
+        help=f"inject a fault ({', '.join(FAULT_KINDS)}); @T = at board time T s",
+    )
     args = parser.parse_args(argv)
     try:
         faults = tuple(FaultSpec.parse(f) for f in args.fault)

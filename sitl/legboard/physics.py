@@ -71,8 +71,7 @@ class BoardParams:
     def amps_per_newton(self) -> float:
         """Forward motor current per newton of nut force (gear, screw, motor constant)."""
         return self.screw_pitch / (
-            2 * math.pi * self.screw_efficiency * self.gear_ratio
-            * self.gear_efficiency * self.k_motor
+            2 * math.pi * self.screw_efficiency * self.gear_ratio * self.gear_efficiency * self.k_motor
         )
 
     @property
@@ -293,9 +292,7 @@ class LegBoardPhysics:
             lg.settled_s = lg.settled_s + dt if on_target else 0.0
             if st is LegState.TIGHTENING and lg.settled_s >= p.settle_s:
                 lg.state = LegState.HOLDING
-        elif (st is LegState.LOOSENING or st is LegState.POSITIONING) and (
-            lg.current < -p.endstop_a
-        ):
+        elif (st is LegState.LOOSENING or st is LegState.POSITIONING) and (lg.current < -p.endstop_a):
             if lg.phase_s < p.min_travel_s:
                 self._fail(lg, FaultCode.STUCK)
                 return

@@ -69,9 +69,7 @@ class BoardServer:
     ) -> None:
         self.physics = physics or LegBoardPhysics(seed=seed)
         self.link = Path(link) if link else None
-        self.control_path = Path(control) if control else (
-            Path(f"{self.link}.ctl") if self.link else None
-        )
+        self.control_path = Path(control) if control else (Path(f"{self.link}.ctl") if self.link else None)
         self.speed = speed
         self.dt = dt
         self.default_period_s = status_period_ms / 1000.0
@@ -254,9 +252,7 @@ class BoardServer:
 
     def _apply(self, msg: messages.Message) -> NakCode | None:
         ph = self.physics
-        if isinstance(msg, messages.SetAngle) and not (
-            self.capabilities & Capability.ANGLE_STOP
-        ):
+        if isinstance(msg, messages.SetAngle) and not (self.capabilities & Capability.ANGLE_STOP):
             return NakCode.UNSUPPORTED
         legs = legs_in(msg.mask)
         faulted = any(ph.legs[i].state is messages.LegState.FAULT for i in legs)

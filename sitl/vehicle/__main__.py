@@ -68,6 +68,9 @@ def main(argv: list[str] | None = None) -> int:
         scenario = load_scenario(a.scenario)
     except (ParamError, ScenarioError) as exc:
         return fail(str(exc))
+    sysid = params["MAV_SYSID"]
+    if sysid != int(sysid) or not 1 <= sysid <= 255:
+        return fail(f"{params_path}: MAV_SYSID {sysid:g} must be an integer 1..255")
     legs = None
     if a.legboard_control is not None:
         from sitl.legboard.control import ControlError
@@ -78,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
         except ControlError as exc:
             return fail(f"leg board: {exc}")
     try:
-        links = Endpoints(a.endpoint or ["tcpin:127.0.0.1:5760"], tlog=a.tlog)
+        links = Endpoints(a.endpoint or ["tcpin:127.0.0.1:5760"], sysid=int(sysid), tlog=a.tlog)
     except EndpointError as exc:
         return fail(str(exc))
 

@@ -29,7 +29,7 @@ def handle(v: Vehicle, chan: int, m) -> None:
     if fn is None:
         return
     target = getattr(m, "target_system", None)
-    if target not in (None, 0, 1) and kind != "TIMESYNC":
+    if target not in (None, 0, v.links.sysid) and kind != "TIMESYNC":
         return
     fn(v, chan, m)
 

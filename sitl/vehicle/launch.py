@@ -33,6 +33,20 @@ def child_env() -> dict[str, str]:
     return env
 
 
+def stop_process(proc: subprocess.Popen, tmp: tempfile.TemporaryDirectory, timeout: float = 5.0) -> int:
+    """Terminate a child (killed if it does not end within ``timeout``), remove its temporary
+    directory, and return its exit status."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    tmp.cleanup()
+    return proc.returncode
+
+
 class VehicleProcess:
     def __init__(
         self, proc: subprocess.Popen, port: int, ready: str, tmp: tempfile.TemporaryDirectory
@@ -41,15 +55,7 @@ class VehicleProcess:
         self.mavlink_url = f"tcp:127.0.0.1:{port}"
 
     def stop(self, timeout: float = 5.0) -> int:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._tmp.cleanup()
-        return self.proc.returncode
+        return stop_process(self.proc, self._tmp, timeout)
 
     def __enter__(self) -> VehicleProcess:
         return self
@@ -127,15 +133,7 @@ class LegboardProcess:
         self.proc, self.pty, self.control, self._tmp = proc, pty, control, tmp
 
     def stop(self, timeout: float = 5.0) -> int:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._tmp.cleanup()
-        return self.proc.returncode
+        return stop_process(self.proc, self._tmp, timeout)
 
 
 def start_legboard(speed: float = 1.0, timeout: float = 30.0) -> LegboardProcess:

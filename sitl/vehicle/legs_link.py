@@ -2,21 +2,33 @@
 
 At about 50 Hz vehicle time: read the board's friction torque per real joint (legs 0, 1 uphill
 pair; 2, 3 downhill pair) and set the Stepper's planar pair torques (the mean of each pair);
-while airborne the board's joint angles become the legs' angles (the springs reset them);
-while in contact the Stepper's joint angles are written back to the board.
+while well clear of the surface (5 cm) the board's joint angles become the legs' angles (the
+springs reset them); while in contact the Stepper's joint angles are written back to the board.
+Between the two (a foot bouncing off during a landing) neither: resetting the legs then would
+cut into the landing the physics is computing.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from sitl.legboard.control import BoardControl, ControlError
-
-if TYPE_CHECKING:
-    from sitl.vehicle.vehicle import Vehicle
+from slopelander.model.stepper import Stepper
 
 PERIOD_S = 0.02
+CLEAR_M = 0.05  # the board's angles reach the physics only this far clear of the surface
+
+
+class LegsHost(Protocol):
+    """What the link needs from a simulator: its clock, its model and a way to report."""
+
+    stepper: Stepper
+
+    @property
+    def t(self) -> float: ...
+
+    def statustext(self, text: str, severity: int = 6) -> None: ...
 
 
 class LegsLink:
@@ -25,7 +37,7 @@ class LegsLink:
         self.next_t = 0.0
         self.error: str | None = None
 
-    def update(self, v: Vehicle) -> None:
+    def update(self, v: LegsHost) -> None:
         if v.t < self.next_t or self.error is not None:
             return
         self.next_t = v.t + PERIOD_S
@@ -39,7 +51,7 @@ class LegsLink:
             if st.in_contact():
                 a_up, a_down = st.joint_angles_deg()
                 self.ctl.set_joint_angles([a_up, a_up, a_down, a_down])
-            else:
+            elif st.clearance() > CLEAR_M:
                 ang = [float(lg["angle_deg"]) for lg in legs]
                 lo, hi = st.model.params.angle_min_deg, st.model.params.angle_max_deg
                 a_up = min(hi, max(lo, 0.5 * (ang[0] + ang[1])))

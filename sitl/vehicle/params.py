@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-# Parameters the simulated vehicle uses, with ArduCopter's defaults (units as ArduPilot's).
+# Parameters the simulated vehicle uses, with ArduCopter's names, units and (except the
+# rangefinder limits, kept wide so the default vehicle reads its range on the pad) defaults.
 VEHICLE_DEFAULTS: dict[str, float] = {
-    "SYSID_THISMAV": 1,
+    "MAV_SYSID": 1,
     "SCHED_LOOP_RATE": 400,
     "MOT_PWM_MIN": 1525,
     "MOT_PWM_MAX": 2000,
@@ -26,8 +27,8 @@ VEHICLE_DEFAULTS: dict[str, float] = {
     "INS_GYRO_FILTER": 20,  # Hz
     "RNGFND1_TYPE": 0,
     "RNGFND1_ORIENT": 25,
-    "RNGFND1_MIN_CM": 5,
-    "RNGFND1_MAX_CM": 1400,
+    "RNGFND1_MIN": 0.05,  # m
+    "RNGFND1_MAX": 14.0,  # m
     "DISARM_DELAY": 10,
     "FS_CRASH_CHECK": 1,
     "RTL_ALT": 1500,  # cm

@@ -1,4 +1,4 @@
-"""Scenario file (YAML): the world, the pilot's RC inputs over time and sensor faults, all
+"""Scenario file (YAML): the world, wind, the pilot's RC inputs over time and sensor faults, all
 deterministic from the seed. See docs/simulated-vehicle.md for the format."""
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ import numpy as np
 import yaml
 
 from sitl.vehicle.sensors import Range
+from sitl.vehicle.wind import Wind, wind_from_dict
 from slopelander.model.landing import Model
 
 RANGE_FAULTS = ("rangefinder_dropout", "rangefinder_spike", "rangefinder_stuck", "rangefinder_noise")
@@ -26,6 +27,7 @@ TOP_KEYS = {
     "rc",
     "faults",
     "model_params",
+    "wind",
 }
 DEFAULT_RC = {1: 1500, 2: 1500, 3: 1000, 4: 1500}
 
@@ -56,6 +58,7 @@ class Scenario:
     rc: list[tuple[float, dict[int, int]]] = field(default_factory=list)
     faults: list[Fault] = field(default_factory=list)
     model_params: dict[str, float] = field(default_factory=dict)
+    wind: Wind = field(default_factory=Wind)
     _stuck: float | None = None
 
     def model(self) -> Model:
@@ -186,6 +189,13 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
         end = _num(src, f"{where}.end", f["end"], start, 1e6)
         value = _num(src, f"{where}.value", f.get("value", 0.0), -1e4, 1e4)
         s.faults.append(Fault(f["kind"], start, end, value))
+    if "wind" in data:
+        s.wind = wind_from_dict(
+            data["wind"],
+            s.seed,
+            lambda name, v, lo, hi: _num(src, name, v, lo, hi),
+            lambda msg: ScenarioError(f"{src}: {msg}"),
+        )
     mp = data.get("model_params", {})
     if not isinstance(mp, dict):
         raise ScenarioError(f"{src}: model_params must be a mapping of model parameter names to values")

@@ -98,8 +98,8 @@ def _distance(v: Vehicle):
     q = 0 if r.quality_pct < 0 else (1 if r.quality_pct == 0 else max(2, r.quality_pct))
     return M.MAVLink_distance_sensor_message(
         int(v.t * 1000),
-        int(v.params["RNGFND1_MIN_CM"]),
-        int(v.params["RNGFND1_MAX_CM"]),
+        round(v.range_min * 100),
+        round(v.range_max * 100),
         cm,
         M.MAV_DISTANCE_SENSOR_LASER,
         1,

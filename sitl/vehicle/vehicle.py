@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sitl.vehicle import esc, modes
+from sitl.vehicle import esc, landing_record, modes
+from sitl.vehicle.events import Events
 from sitl.vehicle.flight_control import FlightControl, Target
 from sitl.vehicle.land_detector import LandDetector
 from sitl.vehicle.mavlink_endpoints import Endpoints, mavlink
@@ -17,8 +18,8 @@ from sitl.vehicle.params import Params
 from sitl.vehicle.scenario import Scenario
 from sitl.vehicle.sensors import Imu, Range, range_reading
 from sitl.vehicle.streams import Streams
-from sitl.vehicle.world import World, beam_range
-from slopelander.model.stepper import Stepper
+from sitl.vehicle.world import beam_range, start_on_ground
+from slopelander.model.judge import LandingJudge
 
 PHYSICS_HZ = 1200
 CONTROL_HZ = 400
@@ -26,7 +27,6 @@ SUBSTEPS = PHYSICS_HZ // CONTROL_HZ
 FORCE_MAGIC = 21196
 LOCKSTEP_LEAD_S = 0.05
 LOCKSTEP_GIVE_UP_S = 1.0  # wall seconds without a new echo before the vehicle stops waiting
-FRONT, REAR = (0, 2), (1, 3)  # ArduPilot quad X: motors 1, 3 front; 2, 4 rear (0-based channels)
 
 
 class Vehicle:
@@ -43,13 +43,8 @@ class Vehicle:
         self.links, self.params, self.scn = links, params, scenario
         self.speed, self.lockstep, self.legs = speed, lockstep, legs_link
         self.rng = np.random.default_rng(scenario.seed)
-        self.stepper = Stepper(scenario.model())
-        self.world = World(scenario.slope_deg, scenario.roof_x, scenario.roof_z)
-        if scenario.start_on == "roof":
-            self.stepper.set_slope(scenario.slope_deg, scenario.roof_x, scenario.roof_z)
-            self.world.ox, self.world.oz, self.world.on_roof = scenario.roof_x, scenario.roof_z, True
-        self.stepper.place(height=0.0, x=scenario.start_x - self.world.ox)
-        self.stepper.step(0.5, 0.0, 0.0)  # settle on the pad
+        self.stepper, self.world = start_on_ground(scenario)
+        self.judge = LandingJudge(self.stepper)  # each landing's record, as the model judges it
         b = self.stepper.body()
         self.home = self.world.to_world(b.x, b.z)  # world frame: it stays put when the surface switches
         p = self.stepper.model.params
@@ -73,6 +68,7 @@ class Vehicle:
         self.echo_t: float | None = None
         self.echo_wall = 0.0
         self.running = True
+        self.events = Events()  # measurement hooks (docs/simulated-vehicle.md)
         self.host = None
         if script is not None:
             from sitl.vehicle.script_io import ScriptIO
@@ -88,11 +84,11 @@ class Vehicle:
 
     @property
     def range_min(self) -> float:
-        return self.params["RNGFND1_MIN_CM"] / 100.0
+        return self.params["RNGFND1_MIN"]
 
     @property
     def range_max(self) -> float:
-        return self.params["RNGFND1_MAX_CM"] / 100.0
+        return self.params["RNGFND1_MAX"]
 
     def rc(self, chan: int) -> int:
         ov = self.rc_override.get(chan)
@@ -136,7 +132,7 @@ class Vehicle:
     def set_mode(self, mode: int, source: str = "GCS") -> bool:
         if mode not in modes.NAMES:
             return False
-        b = self.stepper.body()
+        b = self._world_body()  # targets are world coordinates (over the roof the model frame is shifted)
         self.mode = mode
         self.target = Target(x=b.x, z=b.z) if not self.land.landed else Target(x=b.x, vz=-0.5)
         self.target_is_velocity = False
@@ -179,16 +175,22 @@ class Vehicle:
                 if o is not None:
                     out[ch] = int(o)
         self.out_pwm = out
-        u_front = 0.5 * (esc.pwm_to_command(out[0]) + esc.pwm_to_command(out[2]))
-        u_rear = 0.5 * (esc.pwm_to_command(out[1]) + esc.pwm_to_command(out[3]))
+        self.events.after_outputs(self, out)
+        u_rear, u_front = esc.planar_rotor_commands(out)
         self.imu.accel_noise = self.scn.accel_noise + self.scn.imu_extra_noise(self.t)
         ca, cg = self.params["INS_ACCEL_FILTER"], self.params["INS_GYRO_FILTER"]
+        wind = None if self.scn.wind.calm else self.scn.wind
         for _ in range(SUBSTEPS):
+            if wind is not None:
+                self.stepper.set_external_force(*wind.force_at(self.t))
             self.stepper.step(1.0 / PHYSICS_HZ, u_rear, u_front)
+            if self.judge.update(1.0 / PHYSICS_HZ, u_rear, u_front):
+                landing_record.send(self, self.judge)
             fx, fz = self.stepper.specific_force_body()
             self.imu.update(
                 1.0 / PHYSICS_HZ, fx, fz, self.stepper.body().pitch_rate, ca, cg, self.scn.imu_spike(self.t)
             )
+            self.events.after_physics_step(self)
         self._update_range()
         b = self._world_body()
         acc = self.stepper._accel

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from sitl.vehicle.scenario import Scenario
 from slopelander.model.stepper import Stepper
 
 
@@ -63,3 +64,16 @@ def beam_range(stepper: Stepper) -> float:
         return math.inf
     h = b.x * math.sin(a) + b.z * math.cos(a)
     return h / c if h > 0 else 0.0
+
+
+def start_on_ground(scenario: Scenario) -> tuple[Stepper, World]:
+    """The model and its world with the vehicle settled where the scenario starts it (pad or
+    roof); shared by every simulator that runs the model so they start alike."""
+    stepper = Stepper(scenario.model())
+    world = World(scenario.slope_deg, scenario.roof_x, scenario.roof_z)
+    if scenario.start_on == "roof":
+        stepper.set_slope(scenario.slope_deg, scenario.roof_x, scenario.roof_z)
+        world.ox, world.oz, world.on_roof = scenario.roof_x, scenario.roof_z, True
+    stepper.place(height=0.0, x=scenario.start_x - world.ox)
+    stepper.step(0.5, 0.0, 0.0)  # settle on the ground
+    return stepper, world

@@ -68,7 +68,7 @@ def problems(path: Path, ref: dict[str, dict]) -> list[str]:
 
 
 def test_there_are_the_vehicle_and_the_sitl_files() -> None:
-    assert {p.name for p in PARM_FILES} >= {"f450-fsa.parm", "sitl.parm"}
+    assert {p.name for p in PARM_FILES} >= {"f450-fsa.parm", "sitl.parm", "sitl-json.parm"}
 
 
 @pytest.mark.parametrize("path", PARM_FILES, ids=lambda p: p.name)
@@ -93,9 +93,31 @@ def test_the_check_catches_bad_lines(tmp_path: Path, reference: Path) -> None:
 
 def test_route_a_output_range_is_the_same_on_vehicle_and_sitl() -> None:
     vals = {p.name: {name: v for _, name, v, _ in parse_parm(p)} for p in PARM_FILES}
-    for name in ("FRAME_CLASS", "MOT_PWM_TYPE", "MOT_PWM_MIN", "MOT_PWM_MAX", "SCR_ENABLE", "RNGFND1_ORIENT"):
-        assert vals["f450-fsa.parm"][name] == vals["sitl.parm"][name], name
-    assert vals["sitl.parm"]["MOT_PWM_MIN"] > 1500 + 20  # the mixer never reaches the ESC's neutral
+    for sim in ("sitl.parm", "sitl-json.parm"):
+        for name in (
+            "FRAME_CLASS",
+            "MOT_PWM_TYPE",
+            "MOT_PWM_MIN",
+            "MOT_PWM_MAX",
+            "SCR_ENABLE",
+            "RNGFND1_ORIENT",
+        ):
+            assert vals["f450-fsa.parm"][name] == vals[sim][name], (sim, name)
+        assert vals[sim]["MOT_PWM_MIN"] > 1500 + 20  # the mixer never reaches the ESC's neutral
+        assert vals[sim]["RNGFND1_TYPE"] == 100  # the simulator supplies the range
+
+
+def test_json_sitl_outputs_mean_to_the_physics_what_the_route_says() -> None:
+    """Through the physics server's ESC mapping: the mixer's minimum is stopped, its in-flight
+    minimum spins forward, and the whole mixer range never reverses."""
+    from sitl.vehicle.esc import pwm_to_command
+
+    v = {name: val for _, name, val, _ in parse_parm(FIRMWARE / "sitl-json.parm")}
+    lo, hi = v["MOT_PWM_MIN"], v["MOT_PWM_MAX"]
+    assert pwm_to_command(lo) == 0.0
+    assert pwm_to_command(lo + v["MOT_SPIN_MIN"] * (hi - lo)) > 0.0
+    assert min(pwm_to_command(p) for p in range(int(lo), int(hi) + 1)) >= 0.0
+    assert pwm_to_command(hi) == 1.0
 
 
 def test_suggestions_and_cut_lists_are_not_false_alarms(tmp_path: Path, reference: Path) -> None:
@@ -108,3 +130,26 @@ def test_suggestions_and_cut_lists_are_not_false_alarms(tmp_path: Path, referenc
     bad = tmp_path / "bad.parm"
     bad.write_text("RNGFND1_TYPE 101  # sorts before the cut and is not listed\n")
     assert problems(bad, load_reference(reference)) != []
+
+
+def test_the_simulated_vehicle_and_the_script_use_real_parameter_names(
+    tmp_path: Path, reference: Path
+) -> None:
+    """The names the simulated vehicle serves and the script reads are ArduCopter's own, with
+    values it accepts, so a .parm file written for one is understood by the other."""
+    from sitl.vehicle.params import VEHICLE_DEFAULTS
+
+    ref = load_reference(reference)
+    script = (FIRMWARE / "scripts" / "slopelander.lua").read_text()
+    read_by_script = set(re.findall(r'param:get\("([A-Z0-9_]+)"\)', script))
+    assert "MAV_SYSID" in read_by_script
+    assert sorted(n for n in read_by_script if n not in ref) == []
+    defaults = tmp_path / "vehicle-defaults.parm"
+    defaults.write_text("".join(f"{n} {v:g}  # vehicle default\n" for n, v in VEHICLE_DEFAULTS.items()))
+    assert problems(defaults, ref) == []
+    units = {
+        r.split("\t")[0]: r.split("\t")[1]
+        for r in (reference / "ardupilot-copter-params.tsv").read_text().splitlines()[2:]
+    }
+    assert units["RNGFND1_MIN"] == units["RNGFND1_MAX"] == "m"
+    assert VEHICLE_DEFAULTS["RNGFND1_MIN"] < 1.0 < VEHICLE_DEFAULTS["RNGFND1_MAX"] < 100.0  # metres, not cm

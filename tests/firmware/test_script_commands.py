@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from conftest import Bench
+from script_bench import Bench
 
 ACTUATOR, REFLEX = 31010, 31011
 ACCEPTED, TEMP_REJECTED, DENIED = 0, 1, 2

@@ -5,9 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import Bench, TestVehicle
 from pymavlink.dialects.v10 import ardupilotmega as mavlink1
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+from script_bench import Bench, TestVehicle
 
 from sitl.vehicle.scripting import ScriptError, ScriptHost
 
@@ -24,7 +24,10 @@ def texts(io: TestVehicle) -> list[str]:
 
 def test_scheduling_by_returned_delay_and_end(tmp_path: Path) -> None:
     io = TestVehicle()
-    host = ScriptHost(script(tmp_path, """
+    host = ScriptHost(
+        script(
+            tmp_path,
+            """
 local n = 0
 local function tick()
   n = n + 1
@@ -32,7 +35,10 @@ local function tick()
   if n < 3 then return tick, 50 end
 end
 return tick, 10
-"""), io)
+""",
+        ),
+        io,
+    )
     for _ in range(200):
         io.now_ms += 1
         host.run_due(io.now_ms)
@@ -42,14 +48,20 @@ return tick, 10
 
 def test_lua_error_stops_the_script_and_is_reported(tmp_path: Path) -> None:
     io = TestVehicle()
-    host = ScriptHost(script(tmp_path, """
+    host = ScriptHost(
+        script(
+            tmp_path,
+            """
 local function tick()
   SRV_Channels:set_output_pwm_chan_timeout(0, 1500, 30)
   if millis():toint() >= 20 then error("sensor table missing") end
   return tick, 5
 end
 return tick, 5
-"""), io)
+""",
+        ),
+        io,
+    )
     for _ in range(100):
         io.now_ms += 1
         host.run_due(io.now_ms)
@@ -77,13 +89,19 @@ def test_a_binding_given_a_bad_argument_stops_the_script(tmp_path: Path) -> None
 
 def test_no_way_out_to_python(tmp_path: Path) -> None:
     io = TestVehicle()
-    ScriptHost(script(tmp_path, """
+    ScriptHost(
+        script(
+            tmp_path,
+            """
 local names = {"python", "require", "load", "loadfile", "dofile", "io", "os", "debug", "package"}
 for _, n in ipairs(names) do
   if _G[n] ~= nil then gcs:send_text(0, "reachable " .. n) end
 end
 gcs:send_text(6, "done")
-"""), io)
+""",
+        ),
+        io,
+    )
     assert texts(io) == ["done"]
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import random
 
 import pytest
-from conftest import Bench
+from script_bench import Bench
 
 from sitl.vehicle.scripting import RangeReading
 

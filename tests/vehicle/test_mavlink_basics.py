@@ -71,3 +71,18 @@ def test_autopilot_version_and_timesync(vehicle):
     conn.mav.timesync_send(0, 12345)
     ts = wait_msg(conn, "TIMESYNC", lambda m: m.ts1 == 12345)
     assert ts.tc1 > 0
+
+
+def test_rangefinder_limits_and_system_id_use_ardupilot_names(vehicle):
+    _, conn = vehicle
+    conn.mav.param_request_read_send(1, 1, b"MAV_SYSID", -1)
+    assert wait_msg(conn, "PARAM_VALUE", lambda m: m.param_id == "MAV_SYSID").param_value == 1
+    set_interval(conn, M.MAVLINK_MSG_ID_DISTANCE_SENSOR, 20)
+    try:
+        conn.mav.param_set_send(1, 1, b"RNGFND1_MAX", 3.0, M.MAV_PARAM_TYPE_REAL32)
+        assert wait_msg(conn, "PARAM_VALUE", lambda m: m.param_id == "RNGFND1_MAX").param_value == 3.0
+        ds = wait_msg(conn, "DISTANCE_SENSOR", lambda m: m.max_distance == 300)  # metres -> cm
+        assert ds.min_distance == 5
+    finally:
+        conn.mav.param_set_send(1, 1, b"RNGFND1_MAX", 14.0, M.MAV_PARAM_TYPE_REAL32)
+        wait_msg(conn, "PARAM_VALUE", lambda m: m.param_id == "RNGFND1_MAX")

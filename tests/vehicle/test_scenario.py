@@ -23,6 +23,22 @@ from sitl.vehicle.sensors import Range
         ({"faults": [{"kind": "gremlin", "start": 0, "end": 1}]}, "faults[0].kind"),
         ({"faults": [{"kind": "imu_spike", "start": 2, "end": 1}]}, "faults[0].end"),
         ({"model_params": {"no_such_parameter": 1.0}}, "model_params"),
+        ({"wind": 3}, "wind must be a mapping"),
+        ({"wind": {"gust": []}}, "wind: unknown field"),
+        ({"wind": {"steady": {"fx_n": "strong"}}}, "wind.steady.fx_n"),
+        ({"wind": {"steady": {"fx_n": 500}}}, "wind.steady.fx_n"),
+        ({"wind": {"gusts": [{"t_s": 1, "duration_s": 2, "fx_n": 3, "fy_n": 1}]}}, "wind.gusts[0]"),
+        (
+            {"wind": {"gusts": [{"t_s": 1, "duration_s": 2}, {"t_s": 1, "duration_s": 0}]}},
+            "wind.gusts[1].duration_s",
+        ),
+        ({"wind": {"gusts": [{"t_s": -1, "duration_s": 2}]}}, "wind.gusts[0].t_s"),
+        ({"wind": {"random_gusts": {"count": 2.5, "max_n": 3}}}, "wind.random_gusts.count"),
+        ({"wind": {"random_gusts": {"count": 2, "max_n": -3}}}, "wind.random_gusts.max_n"),
+        (
+            {"wind": {"random_gusts": {"count": 2, "max_n": 3, "from_s": 5, "to_s": 1}}},
+            "wind.random_gusts.to_s",
+        ),
     ],
 )
 def test_bad_scenarios_name_the_field(data, field):
@@ -81,3 +97,26 @@ def test_parm_file_errors_name_file_and_line(tmp_path):
         load_parm(p)
     p.write_text("# comment\nFRAME_CLASS,1\n\nMOT_PWM_MIN 1525 # route A\n")
     assert load_parm(p) == {"FRAME_CLASS": 1.0, "MOT_PWM_MIN": 1525.0}
+
+
+def test_wind_gusts_have_a_1_minus_cos_shape_and_add_to_the_steady_force():
+    s = scenario_from_dict(
+        {"wind": {"steady": {"fx_n": 0.5}, "gusts": [{"t_s": 10, "duration_s": 2, "fx_n": 3, "fz_n": -1}]}}
+    )
+    w = s.wind
+    assert w.force_at(9.99) == (0.5, 0.0)
+    assert w.force_at(10.5) == pytest.approx((0.5 + 1.5, -0.5))  # a quarter in: half the peak
+    assert w.force_at(11.0) == pytest.approx((3.5, -1.0))  # peak at mid-time
+    assert w.force_at(12.0) == (0.5, 0.0)
+    assert scenario_from_dict({}).wind.calm
+
+
+def test_random_gusts_are_deterministic_from_the_seed_and_within_bounds():
+    wind = {"random_gusts": {"count": 20, "max_n": 4.0, "from_s": 5, "to_s": 50, "duration_s": 1.5}}
+    a = scenario_from_dict({"seed": 3, "wind": wind}).wind.gusts
+    b = scenario_from_dict({"seed": 3, "wind": wind}).wind.gusts
+    c = scenario_from_dict({"seed": 4, "wind": wind}).wind.gusts
+    assert a == b and a != c and len(a) == 20
+    assert all(5 <= g.t_s < 50 and abs(g.fx_n) <= 4.0 and g.fz_n == 0 and g.duration_s == 1.5 for g in a)
+    assert max(abs(g.fx_n) for g in a) > 2.0  # drawn over the range, not all near zero
+    assert [g.t_s for g in a] == sorted(g.t_s for g in a)

@@ -1,0 +1,1 @@
+"""slopelander's landing physics behind ArduPilot SITL's external-physics ("JSON") interface."""

@@ -1,0 +1,90 @@
+"""``python -m sitl.json_physics``: serve slopelander's physics to ArduPilot SITL
+(``arducopter --model JSON:127.0.0.1``) until SIGTERM or SIGINT."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(prog="python -m sitl.json_physics", description=__doc__)
+    ap.add_argument(
+        "--port", type=int, default=9002, help="UDP port ArduPilot sends to (9002 + 10 x instance)"
+    )
+    ap.add_argument("--host", default="127.0.0.1", help="address to listen on (default loopback only)")
+    ap.add_argument("--scenario", type=Path, default=None, help="scenario YAML (docs/simulated-vehicle.md)")
+    ap.add_argument(
+        "--legs",
+        type=Path,
+        default=None,
+        metavar="CONTROL_SOCKET",
+        help="the simulated leg board's control socket (python -m sitl.legboard --control ...)",
+    )
+    return ap.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    a = parse_args(argv)
+
+    def fail(msg: str) -> int:
+        print(f"sitl.json_physics: error: {msg}", file=sys.stderr)
+        return 2
+
+    if not 0 <= a.port <= 65535:
+        return fail(f"--port {a.port} must lie within 0..65535")
+
+    from sitl.json_physics.physics import JsonPhysics
+    from sitl.json_physics.server import JsonServer, ServerError
+    from sitl.vehicle.scenario import ScenarioError, load_scenario
+
+    try:
+        scenario = load_scenario(a.scenario)
+    except ScenarioError as exc:
+        return fail(str(exc))
+    legs = None
+    if a.legs is not None:
+        from sitl.legboard.control import ControlError
+        from sitl.vehicle.legs_link import LegsLink
+
+        try:
+            legs = LegsLink(a.legs)
+        except ControlError as exc:
+            return fail(f"leg board: {exc}")
+    try:
+        physics = JsonPhysics(scenario, legs)
+        server = JsonServer(physics, a.port, a.host)
+    except ServerError as exc:
+        if legs is not None:
+            legs.close()
+        return fail(str(exc))
+
+    def stop(signum: int, frame: object) -> None:
+        server.running = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    print(
+        f"json_physics ready udp={a.host}:{server.port} slope_deg={scenario.slope_deg} "
+        f"start_on={scenario.start_on} legs={a.legs or 'none'}",
+        flush=True,
+    )
+    try:
+        server.serve_forever()
+    finally:
+        server.close()
+        if legs is not None:
+            legs.close()
+        c = server.count
+        print(
+            f"json_physics stopped frames={c.frames} repeats={c.repeats} missed={c.missed} "
+            f"resets={c.resets} rejected={c.rejected}",
+            flush=True,
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

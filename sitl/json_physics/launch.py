@@ -1,0 +1,93 @@
+"""Start the JSON physics server as a subprocess on a free UDP port (tests, benchmarks).
+
+with start_json_physics(scenario={"slope_deg": 30, "start_on": "roof"}) as srv:
+    ap = ArduPilotSide(srv.port)
+"""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+from sitl.vehicle.launch import REPO, child_env
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class PhysicsProcess:
+    def __init__(
+        self, proc: subprocess.Popen, port: int, ready: str, tmp: tempfile.TemporaryDirectory
+    ) -> None:
+        self.proc, self.port, self.ready_line, self._tmp = proc, port, ready, tmp
+        self.stderr_path = Path(tmp.name) / "stderr.txt"
+        self.summary = ""  # the "json_physics stopped ..." line, after stop()
+        self._stderr_kept = ""
+
+    def stderr(self) -> str:
+        """What it wrote to stderr so far (kept after stop)."""
+        return self.stderr_path.read_text() if self.stderr_path.exists() else self._stderr_kept
+
+    def stop(self, timeout: float = 5.0) -> int:
+        """SIGTERM, wait, and keep the summary line it prints on the way out."""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                out, _ = self.proc.communicate(timeout=timeout)
+                self.summary = next(
+                    (ln for ln in out.splitlines() if ln.startswith("json_physics stopped")), ""
+                )
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        if self.stderr_path.exists():
+            self._stderr_kept = self.stderr_path.read_text()
+        self._tmp.cleanup()
+        return self.proc.returncode
+
+    def __enter__(self) -> PhysicsProcess:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+def start_json_physics(
+    scenario: dict | None = None, legs: Path | None = None, port: int | None = None, timeout: float = 90.0
+) -> PhysicsProcess:
+    """Start ``python -m sitl.json_physics``; returns once it is ready. Raises RuntimeError with
+    its stderr if it fails."""
+    tmp = tempfile.TemporaryDirectory(prefix="sl-json-")
+    port = port or free_udp_port()
+    cmd = [sys.executable, "-m", "sitl.json_physics", "--port", str(port)]
+    if scenario is not None:
+        sp = Path(tmp.name) / "scenario.yaml"
+        sp.write_text(yaml.safe_dump(scenario))
+        cmd += ["--scenario", str(sp)]
+    if legs is not None:
+        cmd += ["--legs", str(legs)]
+    err = open(Path(tmp.name) / "stderr.txt", "w")  # noqa: SIM115 - the process writes it
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True, env=child_env(), cwd=REPO)
+    err.close()
+    deadline = time.monotonic() + timeout
+    line = ""
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if line.startswith("json_physics ready") or (not line and proc.poll() is not None):
+            break
+    if not line.startswith("json_physics ready"):
+        proc.kill()
+        proc.wait()
+        msg = (Path(tmp.name) / "stderr.txt").read_text()
+        tmp.cleanup()
+        raise RuntimeError(f"json physics did not start: {msg.strip()[-2000:]}")
+    return PhysicsProcess(proc, port, line.strip(), tmp)

@@ -1,0 +1,425 @@
+"""A flight rig for tests and benchmarks: the simulated vehicle and leg board as real processes,
+the companion's landing controller (:class:`slopelander.controller.runner.Lander`) flying them
+through the real MAVLink endpoint and the real pseudo-terminal, in lock-step.
+
+    with Rig(slope_deg=35) as rig:
+        rig.take_off()
+        rig.go_over_roof(height_m=2.0)
+        flight = rig.land((1.7, 2.3))
+        print(flight.end, flight.contact, flight.classify())
+
+One vehicle can fly many landings: after a landing, :meth:`Rig.take_off_again` runs the
+controller's TAKEOFF → RESET → READY sequence, and :meth:`Rig.go_over_roof` brings it back to a
+start height for the next one. The vehicle's measurement events (``sitl/vehicle/events.py``:
+contact, outputs stopped, outputs reversed) are collected in :attr:`Rig.track`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from sitl.linkfault import Relay
+from sitl.vehicle.launch import start_legboard, start_vehicle
+from slopelander.controller.config import Config, load_config, merge
+from slopelander.controller.link import Link
+from slopelander.controller.runner import Lander
+from slopelander.legs.calibration import load_calibration
+from slopelander.legs.driver import LegBoard
+
+ROOF_X_M = 3.0
+ROOF_Z_M = 0.5
+OVER_ROOF_X_M = 5.5
+# A lock-stepped vehicle may run slower than real time on a loaded machine, while the companion
+# counts link silence in local time: heartbeats at 5 Hz of vehicle time keep a slow simulation
+# from reading as a lost link (ArduPilot honours SET_MESSAGE_INTERVAL for HEARTBEAT as well).
+STREAMS = (
+    (mavlink.MAVLINK_MSG_ID_HEARTBEAT, 5),
+    (mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, 50),
+    (mavlink.MAVLINK_MSG_ID_ATTITUDE, 50),
+    (mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 50),
+    (mavlink.MAVLINK_MSG_ID_RC_CHANNELS, 10),
+)
+
+
+class RigError(RuntimeError):
+    """The rig could not fly what was asked (the vehicle did not get there in time)."""
+
+
+def config(**sections: dict[str, Any]) -> Config:
+    """The shipped controller settings with ``sections`` overriding them, e.g.
+    ``config(reflex={"cut_height_m": 0.5})``."""
+    base = load_config()
+    return Config(merge(base.doc, sections, "rig"), "rig")
+
+
+@dataclass
+class Track:
+    """What the companion saw, in vehicle time (s)."""
+
+    pos: list[tuple[float, float, float, float, float]] = field(default_factory=list)  # t, x, z up, vx, vz up
+    pitch: list[tuple[float, float]] = field(default_factory=list)  # t, deg
+    servo: list[tuple[float, tuple[int, ...]]] = field(default_factory=list)
+    events: list[tuple[str, float, float]] = field(default_factory=list)  # name, t, value
+    script: list[tuple[float, int]] = field(default_factory=list)  # SL_STATE changes
+    ranges: list[tuple[float, float]] = field(default_factory=list)  # t, downward range (m)
+    statustext: list[str] = field(default_factory=list)
+
+    def listen(self, msg: Any) -> None:
+        kind = msg.get_type()
+        if kind == "LOCAL_POSITION_NED":
+            self.pos.append((msg.time_boot_ms / 1000.0, msg.x, -msg.z, msg.vx, -msg.vz))
+        elif kind == "ATTITUDE":
+            self.pitch.append((msg.time_boot_ms / 1000.0, math.degrees(msg.pitch)))
+        elif kind == "SERVO_OUTPUT_RAW":
+            self.servo.append(
+                (msg.time_usec / 1e6, tuple(getattr(msg, f"servo{i}_raw") for i in range(1, 5)))
+            )
+        elif kind == "STATUSTEXT":
+            self.statustext.append(msg.text)
+        elif kind == "DISTANCE_SENSOR":
+            self.ranges.append((msg.time_boot_ms / 1000.0, msg.current_distance / 100.0))
+        elif kind == "NAMED_VALUE_FLOAT":
+            name = msg.name.rstrip("\x00")
+            if name == "SL_STATE":
+                if not self.script or self.script[-1][1] != int(msg.value):
+                    self.script.append((msg.time_boot_ms / 1000.0, int(msg.value)))
+            elif name.startswith(("EV_", "CT_")):
+                self.events.append((name, msg.time_boot_ms / 1000.0, float(msg.value)))
+
+    def event_times(self, name: str, after: float = -math.inf) -> list[float]:
+        """Times (s, sub-ms) of the events called ``name`` later than ``after``."""
+        return [v for n, t, v in self.events if n == name and v > after]
+
+    def contact(self, after: float) -> dict[str, float] | None:
+        """The first contact after vehicle time ``after``: its time and the body state then."""
+        for name, ms, value in self.events:
+            if name == "EV_CONTACT" and value > after:
+                out = {"t": value}
+                for n, tt, v in self.events:
+                    if n.startswith("CT_") and tt == ms and n[3:].lower() not in out:
+                        out[n[3:].lower()] = v
+                return out
+        return None
+
+
+@dataclass
+class Flight:
+    """One landing as the companion flew it and the vehicle reported it."""
+
+    end: str
+    history: list[dict]
+    preset: tuple[float, float]
+    cfg: Config
+    t_start: float
+    contact: dict[str, float] | None
+    track: Track
+    lander: Lander
+    leg_angles_deg: tuple[float, float] = (37.5, 37.5)
+
+    def model_conditions(self):
+        """The model's :class:`LandingConditions` for what the vehicle reported at contact: its
+        slope, vertical and horizontal speed, pitch and rate, the preset, the leg angles, and the
+        reverse thrust with the delay the vehicle measured from contact to reversed outputs."""
+        from slopelander.model.conditions import LandingConditions
+
+        c = self.contact
+        if c is None:
+            raise RigError("no contact reported: nothing to compare")
+        pct = float(self.cfg["reflex.reverse_thrust_pct"])
+        rvt = self.track.event_times("EV_RVT", c["t"] - 0.001)
+        delay = min(5.0, rvt[0] - c["t"]) if (pct > 0 and rvt) else 0.0
+        return LandingConditions(
+            slope_deg=c["slope"],
+            speed=max(0.0, c["vz"]),
+            horizontal_speed=c["vx"],
+            pitch_deg=c["pitch"],
+            pitch_rate_dps=c["rate"],
+            tau_up=self.preset[0],
+            tau_down=self.preset[1],
+            angle_up_deg=self.leg_angles_deg[0],
+            angle_down_deg=self.leg_angles_deg[1],
+            reverse_percent=pct if rvt else 0.0,
+            reverse_delay=max(0.0, delay),
+        )
+
+    @property
+    def states(self) -> list[str]:
+        return [h["to"] for h in self.history]
+
+    def time_of(self, state: str) -> float | None:
+        for h in self.history:
+            if h["to"] == state:
+                return h["t"]
+        return None
+
+    def classify(self, slope_deg: float, until: float | None = None) -> tuple[str, dict[str, float]]:
+        """'landed', 'slid' or 'flipped' from the telemetry after contact (the model's criteria:
+        more than 1 m along the slope or still moving = slid; pitch past -80 deg = flipped), and
+        the figures behind it."""
+        if self.contact is None:
+            return "no contact", {}
+        t0 = self.contact["t"]
+        pos = [p for p in self.track.pos if p[0] >= t0 and (until is None or p[0] <= until)]
+        pitch = [p for t, p in self.track.pitch if t >= t0 and (until is None or t <= until)]
+        if not pos:
+            return "no contact", {}
+        c = math.cos(math.radians(slope_deg))
+        x0 = pos[0][1]
+        slide = max(abs(p[1] - x0) for p in pos) / c
+        moving = math.hypot(pos[-1][3], pos[-1][4])
+        figures = {
+            "slide_m": slide,
+            "min_pitch_deg": min(pitch),
+            "final_pitch_deg": pitch[-1],
+            "speed_end": moving,
+        }
+        if min(pitch) < -80.0 or max(pitch) > 80.0:
+            return "flipped", figures
+        if slide > 1.0 or moving > 0.05:
+            return "slid", figures
+        return "landed", figures
+
+
+class Rig:
+    """Leg board, vehicle and companion link, started together; ``close()`` stops them."""
+
+    def __init__(
+        self,
+        slope_deg: float = 35.0,
+        *,
+        seed: int = 0,
+        scenario: dict | None = None,
+        speed: float = 8.0,
+        imu_hz: float = 200.0,
+        imu_message: int = mavlink.MAVLINK_MSG_ID_RAW_IMU,
+        relay: bool = False,
+        range_hz: float = 50.0,
+        telemetry: bool = True,
+    ) -> None:
+        self.slope_deg = slope_deg
+        scn = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "seed": seed}
+        scn.update(scenario or {})
+        self.scenario = scn
+        self.board = start_legboard(speed=speed)
+        self.vehicle = None
+        self.link: Link | None = None
+        self.legs: LegBoard | None = None
+        self.relay: Relay | None = None
+        self.track = Track()
+        self.last_flight: Flight | None = None  # for callers that fly a sequence of landings
+        try:
+            self.vehicle = start_vehicle(
+                scenario=scn, speed=speed, lockstep=True, legboard_control=self.board.control
+            )
+            url = self.vehicle.mavlink_url
+            if relay:
+                self.relay = Relay("tcp:127.0.0.1:0", f"tcp:127.0.0.1:{self.vehicle.port}").start()
+                url = f"tcp:127.0.0.1:{self.relay.port}"
+            self.link = Link(url, link_loss_s=load_config()["link.link_loss_s"])
+            self.link.add_listener(self.track.listen)
+            self.info = self.link.wait_autopilot(timeout_s=30.0)
+            streams = (
+                (imu_message, imu_hz),
+                (mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR, range_hz),
+                *(STREAMS if telemetry else STREAMS[:2]),
+            )
+            for msg_id, hz in streams:
+                self.wait_command(self.link.request_stream(msg_id, hz), f"stream {msg_id}")
+            self.calibration = load_calibration()
+            self.legs = LegBoard.open(self.board.pty, calibration=self.calibration)
+        except BaseException:
+            self.close()
+            raise
+
+    # ------------------------------------------------------------------ plumbing
+    def close(self) -> None:
+        if self.legs is not None:
+            self.legs.close()
+            self.legs = None
+        if self.link is not None:
+            self.link.close()
+            self.link = None
+        if self.relay is not None:
+            self.relay.stop()
+            self.relay = None
+        if self.vehicle is not None:
+            self.vehicle.stop()
+            self.vehicle = None
+        self.board.stop()
+
+    def __enter__(self) -> Rig:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def now(self) -> float:
+        """Vehicle time (s) as the companion's clock follows it."""
+        return self.link.clock.now()
+
+    def poll(self) -> None:
+        self.link.poll()
+        if self.legs is not None:
+            self.legs.poll()
+
+    def wait_command(self, handle, what: str, wall_s: float = 10.0) -> None:
+        end = time.monotonic() + wall_s
+        while time.monotonic() < end and not handle.done:
+            self.poll()
+            time.sleep(0.002)
+        if not handle.ok:
+            raise RigError(f"{what}: {handle.state} (result {handle.result})")
+
+    def fly_until(self, cond, vehicle_s: float, what: str, send=None, wall_s: float = 120.0) -> None:
+        """Poll (and call ``send`` each loop) until ``cond()``; RigError after ``vehicle_s`` of
+        vehicle time or ``wall_s`` of wall time."""
+        t0 = self.now
+        end = time.monotonic() + wall_s
+        while not cond():
+            if self.now - t0 > vehicle_s or time.monotonic() > end:
+                raise RigError(f"the vehicle did not {what} within {vehicle_s:g} s")
+            self.poll()
+            if send is not None:
+                send()
+            time.sleep(0.001)
+
+    def wait(self, vehicle_s: float, tick=None) -> None:
+        """Let ``vehicle_s`` of vehicle time pass, polling (and calling ``tick``)."""
+        t0 = self.now
+        end = time.monotonic() + 60 + vehicle_s * 5
+        while self.now - t0 < vehicle_s and time.monotonic() < end:
+            if tick is not None:
+                tick()
+            else:
+                self.poll()
+            time.sleep(0.001)
+
+    def armed(self) -> bool:
+        hb = self.link.last.get("HEARTBEAT")
+        return bool(hb and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+
+    def mode(self) -> int | None:
+        hb = self.link.last.get("HEARTBEAT")
+        return None if hb is None else hb.custom_mode
+
+    def height(self) -> float:
+        return self.track.pos[-1][2] if self.track.pos else 0.0
+
+    def surface_z(self, x: float) -> float:
+        if x < ROOF_X_M:
+            return 0.0
+        return ROOF_Z_M - (x - ROOF_X_M) * math.tan(math.radians(self.slope_deg))
+
+    # ------------------------------------------------------------------- flying
+    def set_legs(self, up: float, down: float, vehicle_s: float = 30.0) -> None:
+        op = self.legs.start_presets(up, down, tolerance_nm=0.15, timeout=vehicle_s)
+        self.fly_until(lambda: op.done, vehicle_s, "set the legs")
+        if op.error is not None:
+            raise RigError(f"legs: {op.error}")
+
+    def take_off(self, height_m: float = 3.0, force: bool = False) -> None:
+        """GUIDED, arm (``force``: past the pre-arm lean check, e.g. on a roof) and climb to
+        ``height_m`` above the pad."""
+        L = self.link
+        self.wait_command(L.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4), "GUIDED")
+        self.wait_command(L.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196 if force else 0), "arm")
+        self.wait_command(L.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, height_m), "take-off")
+        self.fly_until(lambda: self.height() > height_m - 0.3, 30.0, "climb")
+
+    def goto(self, x: float, z: float, vehicle_s: float = 30.0, tol: float = 0.15) -> None:
+        """Fly to world (x, z up) in GUIDED and stop there."""
+
+        def send() -> None:
+            self.link.conn.mav.set_position_target_local_ned_send(
+                0,
+                self.info.system,
+                self.info.component,
+                mavlink.MAV_FRAME_LOCAL_NED,
+                0x0DF8,
+                x,
+                0,
+                -z,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+            )
+
+        last = [-1.0]
+
+        def throttled() -> None:
+            if time.monotonic() - last[0] > 0.05:
+                last[0] = time.monotonic()
+                send()
+
+        def there() -> bool:
+            if not self.track.pos:
+                return False
+            _, px, pz, vx, vz = self.track.pos[-1]
+            return abs(px - x) < tol and abs(pz - z) < tol and abs(vx) < 0.1 and abs(vz) < 0.1
+
+        self.fly_until(there, vehicle_s, f"reach x={x:.2f} z={z:.2f}", send=throttled)
+
+    def go_over_roof(self, height_m: float = 2.0, x: float = OVER_ROOF_X_M, vehicle_s: float = 60.0) -> None:
+        """Hover ``height_m`` above the roof surface at world ``x`` (over the pad first if needed)."""
+        z = self.surface_z(x) + height_m
+        if self.track.pos and self.track.pos[-1][1] < ROOF_X_M:
+            self.goto(self.track.pos[-1][1], max(z, self.height()), vehicle_s)
+        self.goto(x, z, vehicle_s)
+
+    def land(
+        self,
+        preset: tuple[float, float],
+        cfg: Config | None = None,
+        *,
+        next_preset: tuple[float, float] | None = None,
+        timeout_s: float = 120.0,
+        rest_s: float = 2.0,
+        lander: Lander | None = None,
+        until: tuple[str, ...] = ("LANDED", "ABORTED", "ESTOP", "READY"),
+    ) -> Flight:
+        """One landing by the companion's controller (until it reaches a state in ``until``); then
+        ``rest_s`` of vehicle time with the controller still running."""
+        cfg = cfg or load_config()
+        t0 = self.now
+        angles = self.leg_angles()
+        lander = lander or Lander(self.link, cfg, preset, legs=self.legs, next_preset=next_preset)
+        end = lander.run(timeout_s, until=until)
+        if end not in ("ABORTED", "ESTOP"):
+            self.wait(rest_s, tick=lander.poll)
+        return Flight(
+            end,
+            list(lander.machine.history),
+            preset,
+            cfg,
+            t0,
+            self.track.contact(t0),
+            self.track,
+            lander,
+            angles,
+        )
+
+    def leg_angles(self) -> tuple[float, float]:
+        """(uphill, downhill) pair means of the board's reported leg angles (deg)."""
+        st = self.legs.status if self.legs is not None else None
+        if st is None:
+            return (37.5, 37.5)
+        a = [lg.angle_deg for lg in st.legs]
+        return (0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
+
+    def take_off_again(self, flight: Flight, timeout_s: float = 60.0) -> str:
+        """The controller's own take-off and leg reset after a landing; returns its end state."""
+        flight.lander.takeoff_request = True
+        end = flight.lander.run(timeout_s, until=("READY", "ABORTED", "ESTOP"))
+        flight.history[:] = list(flight.lander.machine.history)
+        return end

@@ -1,0 +1,173 @@
+"""Shared pieces for the firmware tests: the ArduPilot reference data, a time-driven vehicle that
+the real on-board script runs against, and MAVLink encoding/decoding with pymavlink."""
+
+from __future__ import annotations
+
+import os
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+from pymavlink.mavutil import x25crc
+
+from sitl.vehicle.scripting import RangeReading, ScriptHost
+
+REPO = Path(__file__).resolve().parents[2]
+SCRIPT = REPO / "firmware_params" / "scripts" / "slopelander.lua"
+PARM_FILES = [REPO / "firmware_params" / "f450-fsa.parm", REPO / "firmware_params" / "sitl.parm"]
+
+
+def reference_dir() -> Path | None:
+    """ArduPilot reference data: $SLOPELANDER_ARDUPILOT_REFERENCE, else ../shared/reference."""
+    env = os.environ.get("SLOPELANDER_ARDUPILOT_REFERENCE")
+    path = Path(env) if env else REPO.parent / "shared" / "reference"
+    return path if path.is_dir() else None
+
+
+@pytest.fixture
+def reference() -> Path:
+    path = reference_dir()
+    if path is None:
+        reason = "ArduPilot reference data not found (set SLOPELANDER_ARDUPILOT_REFERENCE)"
+        print(reason)
+        pytest.skip(reason)
+    return path
+
+
+@dataclass
+class TestVehicle:
+    """A vehicle driven by the test's clock: what the script reads is set by the test, what it
+    sends is recorded."""
+
+    __test__ = False
+
+    now_ms: int = 0
+    armed: bool = True
+    estop: bool = False
+    accel_body: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    range: RangeReading | None = None
+    params: dict[str, float] = field(default_factory=lambda: {"MAV_SYSID": 1.0})
+    texts: list[tuple[int, int, str]] = field(default_factory=list)
+    named: list[tuple[int, str, float]] = field(default_factory=list)
+    sent: list[tuple[int, int, int, bytes]] = field(default_factory=list)
+
+    def time_ms(self) -> int:
+        return self.now_ms
+
+    def time_us(self) -> int:
+        return self.now_ms * 1000
+
+    def is_armed(self) -> bool:
+        return self.armed
+
+    def arm(self) -> bool:
+        self.armed = True
+        return True
+
+    def disarm(self) -> bool:
+        self.armed = False
+        return True
+
+    def mode(self) -> int:
+        return 4
+
+    def set_mode(self, mode: int) -> bool:
+        return False
+
+    def emergency_stop(self) -> bool:
+        return self.estop
+
+    def accel(self) -> tuple[float, float, float]:
+        return self.accel_body
+
+    def gyro(self) -> tuple[float, float, float]:
+        return (0.0, 0.0, 0.0)
+
+    def rangefinder(self, orientation: int) -> RangeReading | None:
+        return self.range if orientation == 25 else None
+
+    def rc_pwm(self, chan: int) -> int | None:
+        return None
+
+    def param(self, name: str) -> float | None:
+        return self.params.get(name)
+
+    def set_param(self, name: str, value: float) -> bool:
+        return False
+
+    def send_text(self, severity: int, text: str) -> None:
+        self.texts.append((self.now_ms, severity, text))
+
+    def send_named_float(self, name: str, value: float) -> None:
+        self.named.append((self.now_ms, name, value))
+
+    def send_mavlink(self, chan: int, msgid: int, payload: bytes) -> bool:
+        self.sent.append((self.now_ms, chan, msgid, payload))
+        return True
+
+    def mixer_pwm(self, chan0: int) -> int:
+        return 1600
+
+    # -- test conveniences -------------------------------------------------------------------
+    def states(self) -> list[float]:
+        return [v for _, n, v in self.named if n == "SL_STATE"]
+
+    def state(self) -> float:
+        return self.states()[-1]
+
+    def sl_texts(self) -> list[str]:
+        return [t for _, _, t in self.texts if t.startswith("SL: ")]
+
+
+class Bench:
+    """The real script in the real Lua host, with the clock advanced by the test."""
+
+    def __init__(self, script: Path = SCRIPT, vehicle: TestVehicle | None = None) -> None:
+        self.io = vehicle or TestVehicle()
+        self.host = ScriptHost(script, self.io)
+        self.gcs = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
+
+    def run(self, ms: int, each=None) -> None:
+        """Advance the vehicle clock by `ms`, 1 ms per tick, the host scheduled every tick;
+        `each(t_ms)` may change the vehicle's inputs before each tick."""
+        for _ in range(ms):
+            self.io.now_ms += 1
+            if each is not None:
+                each(self.io.now_ms)
+            self.host.run_due(self.io.now_ms)
+
+    def outputs(self) -> list[int | None]:
+        return [self.host.output_override(ch, self.io.now_ms) for ch in range(4)]
+
+    def command(self, command: int, *params: float, target=(1, 1), chan: int = 0, wait_ms: int = 20):
+        """Send a COMMAND_LONG to the script and return its decoded COMMAND_ACK."""
+        p = [*params, *[0.0] * (7 - len(params))]
+        msg = mavlink2.MAVLink_command_long_message(target[0], target[1], command, 0, *p)
+        msg.pack(self.gcs)
+        before = len(self.io.sent)
+        assert self.host.deliver(msg, chan)
+        self.run(wait_ms)
+        acks = [s for s in self.io.sent[before:] if s[2] == 77]
+        assert len(acks) == 1, f"expected one COMMAND_ACK, got {len(acks)}"
+        _, ack_chan, msgid, payload = acks[0]
+        assert ack_chan == chan
+        return decode(msgid, payload)
+
+
+def decode(msgid: int, payload: bytes):
+    """Frame a payload the script sent as MAVLink 2 (sysid 1, compid 1) and parse it with pymavlink."""
+    cls = mavlink2.mavlink_map[msgid]
+    header = struct.pack("<BBBBBBBHB", 0xFD, len(payload), 0, 0, 0, 1, 1, msgid & 0xFFFF, msgid >> 16)
+    crc = x25crc(header[1:] + payload)
+    crc.accumulate([cls.crc_extra])
+    frame = header + payload + struct.pack("<H", crc.crc)
+    return mavlink2.MAVLink(None).decode(bytearray(frame))
+
+
+@pytest.fixture
+def bench() -> Bench:
+    b = Bench()
+    b.run(50)
+    return b
