@@ -14,9 +14,11 @@ import yaml
 from slopelander.controller.config import ConfigError, RcPreset, load_config
 from slopelander.controller.impact import G, ImpactDetector
 from slopelander.controller.landing import (
+    CutDynamics,
     LegGeometry,
     PresetError,
     choose_preset,
+    contact_range,
     expected_impact_speed,
     leg_geometry,
 )
@@ -36,21 +38,38 @@ def test_defaults_load_and_override(tmp_path):
     assert cfg["reflex.cut_height_m"] == 0.4 and cfg["reflex.reverse_thrust_pct"] == 100
 
 
-@pytest.mark.parametrize(("doc", "field"), [
-    ({"reflex": {"cut_height_m": 5.0}}, "reflex.cut_height_m"),
-    ({"reflex": {"cut_height_m": "low"}}, "reflex.cut_height_m"),
-    ({"reflex": {"cut_height_m": float("nan")}}, "reflex.cut_height_m"),
-    ({"reflex": {"cut_heigth_m": 0.3}}, "reflex.cut_heigth_m"),
-    ({"refelx": {}}, "refelx"),
-    ({"link": {"command_retries": 1.5}}, "link.command_retries"),
-    ({"reflex": {"arm_height_m": 0.25}}, "reflex.arm_height_m"),
-    ({"rc_presets": {"enabled": True}}, "rc_presets.presets"),
-    ({"rc_presets": {"presets": [{"min_us": 1000, "max_us": 1400, "tau_up_nm": 99, "tau_down_nm": 1}]}},
-     "rc_presets.presets[0].tau_up_nm"),
-    ({"rc_presets": {"presets": [{"min_us": 1000, "max_us": 1600, "tau_up_nm": 1, "tau_down_nm": 1},
-                                 {"min_us": 1500, "max_us": 2000, "tau_up_nm": 1, "tau_down_nm": 1}]}},
-     "rc_presets.presets"),
-])
+@pytest.mark.parametrize(
+    ("doc", "field"),
+    [
+        ({"reflex": {"cut_height_m": 5.0}}, "reflex.cut_height_m"),
+        ({"reflex": {"cut_height_m": "low"}}, "reflex.cut_height_m"),
+        ({"reflex": {"cut_height_m": float("nan")}}, "reflex.cut_height_m"),
+        ({"reflex": {"cut_heigth_m": 0.3}}, "reflex.cut_heigth_m"),
+        ({"refelx": {}}, "refelx"),
+        ({"link": {"command_retries": 1.5}}, "link.command_retries"),
+        ({"reflex": {"arm_height_m": 0.25}}, "reflex.arm_height_m"),
+        ({"rc_presets": {"enabled": True}}, "rc_presets.presets"),
+        (
+            {
+                "rc_presets": {
+                    "presets": [{"min_us": 1000, "max_us": 1400, "tau_up_nm": 99, "tau_down_nm": 1}]
+                }
+            },
+            "rc_presets.presets[0].tau_up_nm",
+        ),
+        (
+            {
+                "rc_presets": {
+                    "presets": [
+                        {"min_us": 1000, "max_us": 1600, "tau_up_nm": 1, "tau_down_nm": 1},
+                        {"min_us": 1500, "max_us": 2000, "tau_up_nm": 1, "tau_down_nm": 1},
+                    ]
+                }
+            },
+            "rc_presets.presets",
+        ),
+    ],
+)
 def test_bad_settings_name_the_field(tmp_path, doc, field):
     with pytest.raises(ConfigError) as err:
         load_config(write(tmp_path, doc))
@@ -82,6 +101,7 @@ def test_impact_only_after_cut_first_large_sample_once():
 
 def test_impact_from_raw_imu_milli_g():
     from pymavlink.dialects.v20 import ardupilotmega as m
+
     d = ImpactDetector(20.0)
     d.arm_after_cut(0.5)
     assert d.feed_msg(m.MAVLink_raw_imu_message(600_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)) is None
@@ -92,11 +112,24 @@ def test_impact_from_raw_imu_milli_g():
 def test_expected_impact_speed():
     geom = leg_geometry()
     assert geom.leg_length_m == pytest.approx(0.201) and geom.leg_angle_deg == 37.5
-    flat = LegGeometry(0.2, 0.0, 0.0)
+    down = LegGeometry(0.2, 0.0, 90.0)  # a leg straight down (angle below the horizontal)
     # cut 0.3 m above with a 0.2 m leg: 0.1 m free fall from 0.5 m/s
-    assert expected_impact_speed(0.5, 0.3, 0.0, flat) == pytest.approx(math.sqrt(0.25 + 2 * G * 0.1))
+    assert expected_impact_speed(0.5, 0.3, 0.0, down) == pytest.approx(math.sqrt(0.25 + 2 * G * 0.1))
     # cut below the foot: contact at the descent rate
-    assert expected_impact_speed(0.5, 0.15, 0.0, flat) == pytest.approx(0.5)
+    assert expected_impact_speed(0.5, 0.15, 0.0, down) == pytest.approx(0.5)
+    # the joints below the centre of mass and the legs' angle: the model's 37.5 deg legs reach
+    # 0.03 + 0.201 sin 37.5 = 0.152 m down on level ground, 0.299 m of range on a 35 deg slope
+    assert contact_range(0.0, geom) == pytest.approx(0.03 + 0.201 * math.sin(math.radians(37.5)))
+    assert contact_range(35.0, geom) == pytest.approx(0.299, abs=0.001)
+    # the motors' stopping costs speed: a latency at the descent rate, then a decaying thrust
+    slow = CutDynamics(latency_s=0.02, thrust_tau_s=0.025)
+    free = expected_impact_speed(0.5, 0.3, 0.0, down)
+    late = expected_impact_speed(0.5, 0.3, 0.0, down, cut=slow)
+    assert 0.5 < late < free
+    # a long fall: a free fall over d less what was covered at v_d for t_l + tau_T (and g tau_T^2 / 2)
+    far = expected_impact_speed(0.5, 2.0, 0.0, down, cut=slow)
+    lost = 0.5 * 0.045 + 0.5 * G * 0.025**2
+    assert far == pytest.approx(math.sqrt(0.25 + 2 * G * (1.8 - lost)), rel=1e-6)
     # a slope brings the uphill ground closer: slower contact
     assert expected_impact_speed(0.5, 0.3, 35.0, geom) < expected_impact_speed(0.5, 0.3, 0.0, geom)
     with pytest.raises(ValueError, match="slope"):
@@ -128,8 +161,33 @@ def test_controller_modules_import_without_scipy_numba_matplotlib_model():
         from slopelander.controller import config, link, clock, impact, landing
         cfg = config.load_config()
         g = landing.leg_geometry()
-        print(landing.expected_impact_speed(0.5, cfg["reflex.cut_height_m"], 35.0, g))
+        cut = landing.cut_dynamics(cfg["reflex.cut_latency_s"])
+        print(landing.expected_impact_speed(0.5, cfg["reflex.cut_height_m"], 35.0, g, None, cut))
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
-    assert float(out.stdout) > 0.5
+    # at 35 deg the uphill foot touches 1 mm below the 0.30 m cut, before the motors stop
+    assert float(out.stdout) == 0.5
+
+
+def test_the_landing_plan_uses_the_tables_uphill_angle_and_tells_the_pilot_when_needed():
+    from slopelander.controller.landing import angle_instruction, cut_dynamics, plan_landing
+    from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+
+    cal = load_calibration()
+    table = LookupTable.load(DEFAULT_TABLE)
+    geom = leg_geometry()
+    cut = cut_dynamics(0.02)
+    preset, speed = plan_landing(0.5, 0.3, 35.0, geom, table, None, cal, cut)
+    assert preset.angle_up_deg == pytest.approx(table.lookup(35.0, speed).angle_up_deg)
+    # the speed is the one for the table's angle, not for legs left at 37.5 deg
+    assert speed == pytest.approx(expected_impact_speed(0.5, 0.3, 35.0, geom, preset.angle_up_deg, cut))
+    assert speed != pytest.approx(expected_impact_speed(0.5, 0.3, 35.0, geom, None, cut))
+    todo = angle_instruction(preset.angle_up_deg, board_can_set=False)
+    assert todo is not None and f"set the uphill legs to {preset.angle_up_deg:.1f} deg" in todo
+    assert angle_instruction(preset.angle_up_deg, board_can_set=True) is None
+    pilot, _ = plan_landing(0.5, 0.3, 35.0, geom, table, RcPreset(1000, 1400, 0.8, 1.5), cal, cut)
+    assert pilot.angle_up_deg is None and angle_instruction(None, board_can_set=False) is None
+    with pytest.raises(PresetError, match="outside the range"):
+        cal_narrow = type(cal)(cal.legs, cal.provenance, "narrow.yaml", (30.0, 37.5))
+        plan_landing(0.5, 0.3, 35.0, geom, table, None, cal_narrow, cut)

@@ -8,6 +8,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from hypothesis import given, settings
@@ -43,11 +44,21 @@ def make_doc() -> dict:
     return {
         "schema": SCHEMA,
         "axes": {"slope_deg": SLOPES, "speed": SPEEDS},
-        "cells": {"tau_up": tau_up, "tau_down": tau_down, "angle_up_deg": angle_up,
-                  "angle_down_deg": angle_down, "outcome": outcome, "margin": margin},
-        "model": {"effects": ["leg_flex"],
-                  "parameters": {"leg_angle_max_deg": {"value": 37.5, "unit": "deg"},
-                                 "leg_travel_deg": {"value": 37.0, "unit": "deg"}}},
+        "cells": {
+            "tau_up": tau_up,
+            "tau_down": tau_down,
+            "angle_up_deg": angle_up,
+            "angle_down_deg": angle_down,
+            "outcome": outcome,
+            "margin": margin,
+        },
+        "model": {
+            "effects": ["leg_flex"],
+            "parameters": {
+                "leg_angle_max_deg": {"value": 37.5, "unit": "deg"},
+                "leg_travel_deg": {"value": 37.0, "unit": "deg"},
+            },
+        },
     }
 
 
@@ -102,9 +113,13 @@ def test_a_broken_file_is_refused_naming_file_and_field(tmp_path, path, value, f
 
 @pytest.mark.parametrize(
     ("field", "value", "words"),
-    [("tau_down", -0.5, "outside 0..10"), ("angle_up_deg", 40.0, "outside 0.5..37.5"),
-     ("margin", 1.5, "outside 0..1"), ("outcome", "crashed", "unknown outcome"),
-     ("tau_up", float("nan"), "non-finite")],
+    [
+        ("tau_down", -0.5, "outside 0..10"),
+        ("angle_up_deg", 40.0, "outside 0.5..37.5"),
+        ("margin", 1.5, "outside 0..1"),
+        ("outcome", "crashed", "unknown outcome"),
+        ("tau_up", float("nan"), "non-finite"),
+    ],
 )
 def test_out_of_range_cell_values_are_refused(tmp_path, field, value, words):
     doc = make_doc()
@@ -112,6 +127,25 @@ def test_out_of_range_cell_values_are_refused(tmp_path, field, value, words):
     with pytest.raises(TableError) as err:
         LookupTable.load(write(tmp_path, doc))
     assert err.value.field == f"cells.{field}" and words in str(err.value)
+
+
+@pytest.mark.parametrize("field", ["tau_up", "margin", "outcome"])
+def test_a_ragged_row_is_named(tmp_path, field):
+    doc = make_doc()
+    doc["cells"][field][2] = doc["cells"][field][2][:2]  # row 3 (slope 20 deg) lost a value
+    p = write(tmp_path, doc)
+    with pytest.raises(TableError) as err:
+        LookupTable.load(p)
+    assert err.value.field == f"cells.{field}" and str(p) in str(err.value)
+    assert "row 3 has 2 values where row 1 has 3" in str(err.value)
+
+
+def test_a_word_among_the_numbers_is_named_by_row_and_position(tmp_path):
+    doc = make_doc()
+    doc["cells"]["tau_down"][1][2] = "soft"
+    with pytest.raises(TableError) as err:
+        LookupTable.load(write(tmp_path, doc))
+    assert "row 2, value 3 is 'soft', not a number" in str(err.value)
 
 
 def test_unreadable_and_non_yaml_files_are_refused(tmp_path):
@@ -131,7 +165,7 @@ def test_a_grid_point_returns_its_own_cell(table):
 
 
 def test_between_acceptable_cells_presets_are_interpolated(table):
-    p = table.lookup(15.0, 1.0)   # halfway in slope and speed, all four corners ideal
+    p = table.lookup(15.0, 1.0)  # halfway in slope and speed, all four corners ideal
     assert p.interpolated
     assert p.tau_up == pytest.approx(0.56 + 0.1 * 1.5 + 0.2 * 0.5)
     assert p.angle_up_deg == pytest.approx(37.5 - 3.0 * 1.5)
@@ -145,9 +179,16 @@ def test_near_a_failing_cell_the_safe_neighbour_is_taken_whole(table):
     assert p == table.cell(2, 1)
 
 
-@pytest.mark.parametrize(("slope", "speed", "axis"),
-                         [(-0.1, 1.0, "slope_deg"), (30.01, 1.0, "slope_deg"), (10.0, 0.49, "speed"),
-                          (10.0, 2.6, "speed"), (float("nan"), 1.0, "slope_deg")])
+@pytest.mark.parametrize(
+    ("slope", "speed", "axis"),
+    [
+        (-0.1, 1.0, "slope_deg"),
+        (30.01, 1.0, "slope_deg"),
+        (10.0, 0.49, "speed"),
+        (10.0, 2.6, "speed"),
+        (float("nan"), 1.0, "slope_deg"),
+    ],
+)
 def test_outside_the_table_is_a_clear_refusal(table, slope, speed, axis):
     with pytest.raises(OutOfTableRange) as err:
         table.lookup(slope, speed)
@@ -159,28 +200,47 @@ def test_outside_the_table_is_a_clear_refusal(table, slope, speed, axis):
 def test_inside_lookups_never_fail_and_stay_within_the_table(tmp_path_factory, slope, speed):
     table = _shared_table(tmp_path_factory)
     p = table.lookup(slope, speed)
+    # the grid points around the request (one point where it lies on a grid line)
+    rows = _around(SLOPES, slope)
+    cols = _around(SPEEDS, speed)
     for name in ("tau_up", "tau_down", "angle_up_deg", "angle_down_deg", "margin"):
-        a = table.cells[name]
-        assert a.min() <= getattr(p, name) <= a.max()
+        around = table.cells[name][np.ix_(rows, cols)]
+        assert around.min() <= getattr(p, name) <= around.max(), name
+    if not p.interpolated:
+        assert p.cell[0] in rows and p.cell[1] in cols
     assert p.outcome in OUTCOMES
     assert p.landed  # every bracket of this table holds a landed cell, and the best one wins
 
 
 @settings(max_examples=200, deadline=None)
-@given(slope=st.one_of(st.floats(max_value=-1e-9), st.floats(min_value=30.000001),
-                       st.just(float("inf")), st.just(float("nan"))),
-       speed=st.floats(0.5, 2.5))
+@given(
+    slope=st.one_of(
+        st.floats(max_value=-1e-9),
+        st.floats(min_value=30.000001),
+        st.just(float("inf")),
+        st.just(float("nan")),
+    ),
+    speed=st.floats(0.5, 2.5),
+)
 def test_outside_slopes_always_refuse(tmp_path_factory, slope, speed):
     with pytest.raises(OutOfTableRange):
         _shared_table(tmp_path_factory).lookup(slope, speed)
 
 
 @settings(max_examples=200, deadline=None)
-@given(slope=st.floats(0.0, 30.0),
-       speed=st.one_of(st.floats(max_value=0.4999999), st.floats(min_value=2.5000001)))
+@given(
+    slope=st.floats(0.0, 30.0),
+    speed=st.one_of(st.floats(max_value=0.4999999), st.floats(min_value=2.5000001)),
+)
 def test_outside_speeds_always_refuse(tmp_path_factory, slope, speed):
     with pytest.raises(OutOfTableRange):
         _shared_table(tmp_path_factory).lookup(slope, speed)
+
+
+def _around(grid: list[float], v: float) -> list[int]:
+    below = max(i for i, g in enumerate(grid) if g <= v)
+    above = min(i for i, g in enumerate(grid) if g >= v)
+    return sorted({below, above})
 
 
 _TABLE: list[LookupTable] = []

@@ -15,8 +15,13 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def land(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=f"{ROOT / 'src'}:{ROOT}")
-    return subprocess.run([sys.executable, "-m", "slopelander.cli", "land", *args], capture_output=True,
-                          text=True, timeout=timeout, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "slopelander.cli", "land", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
+    )
 
 
 def port() -> int:
@@ -27,11 +32,14 @@ def port() -> int:
     return p
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--slope", "95"], "--slope must be within 0..89"),
-    (["--slope", "20", "--table", "/nonexistent/table.yaml"], "table.yaml"),
-    (["--slope", "20", "--config", "/nonexistent/c.yaml"], "cannot read"),
-])
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--slope", "95"], "--slope must be within 0..89"),
+        (["--slope", "20", "--table", "/nonexistent/table.yaml"], "table.yaml"),
+        (["--slope", "20", "--config", "/nonexistent/c.yaml"], "cannot read"),
+    ],
+)
 def test_bad_input_is_one_clear_line(args, message):
     out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs", "/nonexistent/tty", *args)
     assert out.returncode == 1, out.stderr
@@ -39,7 +47,8 @@ def test_bad_input_is_one_clear_line(args, message):
 
 
 def test_no_autopilot_is_reported():
-    out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs", "/nonexistent/tty", "--slope", "20",
-               timeout=30)
+    out = land(
+        "--connect", f"udpin:127.0.0.1:{port()}", "--legs", "/nonexistent/tty", "--slope", "20", timeout=30
+    )
     assert out.returncode == 1 and "no autopilot heartbeat within 10 s" in out.stderr
     assert "Traceback" not in out.stderr

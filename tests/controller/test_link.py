@@ -26,13 +26,15 @@ class Peer:
     """An autopilot stand-in speaking real MAVLink: heartbeats, ACKs on demand, timestamps."""
 
     def __init__(self, port: int, system: int = 7) -> None:
-        self.conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=system,
-                                               source_component=1, dialect="ardupilotmega")
+        self.conn = mavutil.mavlink_connection(
+            f"udpout:127.0.0.1:{port}", source_system=system, source_component=1, dialect="ardupilotmega"
+        )
         self.received: list = []
 
     def heartbeat(self) -> None:
-        self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
-                                     0, 0, mavlink.MAV_STATE_STANDBY)
+        self.conn.mav.heartbeat_send(
+            mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, mavlink.MAV_STATE_STANDBY
+        )
 
     def drain(self, wait: float = 0.05) -> list:
         end = time.monotonic() + wait
@@ -144,8 +146,11 @@ def test_stream_rate_measured(pair):
     link, peer, _ = pair
     found(link, peer)
     h = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 100)
-    req = [m for m in settle(link, peer) if m.get_type() == "COMMAND_LONG"
-           and m.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL]
+    req = [
+        m
+        for m in settle(link, peer)
+        if m.get_type() == "COMMAND_LONG" and m.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+    ]
     assert req and req[-1].param1 == mavlink.MAVLINK_MSG_ID_RAW_IMU and req[-1].param2 == 10000
     assert not h.done
     for i in range(40):
@@ -173,6 +178,7 @@ def test_bad_input_errors():
 def test_actions_send_the_contracts_commands(pair):
     from slopelander.controller.actions import MavActions
     from slopelander.controller.config import load_config
+
     link, peer, clk = pair
     found(link, peer)
     act = MavActions(link, load_config())
@@ -197,12 +203,18 @@ def test_lander_over_the_link_aborts_without_a_leg_board(pair, tmp_path):
     """Everything else healthy (GUIDED, armed, script, range): no leg board means no descent."""
     from slopelander.controller.config import load_config
     from slopelander.controller.runner import Lander
+
     link, peer, _ = pair
     rec = (tmp_path / "t.jsonl").open("w")
     lander = Lander(link, load_config(), (0.8, 1.5), legs=None, record=rec)
     for i in range(5):
-        peer.conn.mav.heartbeat_send(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
-                                     mavlink.MAV_MODE_FLAG_SAFETY_ARMED | 1, 4, mavlink.MAV_STATE_ACTIVE)
+        peer.conn.mav.heartbeat_send(
+            mavlink.MAV_TYPE_QUADROTOR,
+            mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            mavlink.MAV_MODE_FLAG_SAFETY_ARMED | 1,
+            4,
+            mavlink.MAV_STATE_ACTIVE,
+        )
         peer.conn.mav.named_value_float_send(1000 + i * 20, b"SL_STATE", 0)
         peer.conn.mav.distance_sensor_send(1000 + i * 20, 20, 1000, 500, 10, 1, 25, 100)
         time.sleep(0.01)

@@ -22,6 +22,7 @@ class Recorder:
     def __getattr__(self, name):
         def call(*args):
             self.calls.append((name, *args))
+
         return call
 
     def names(self) -> list[str]:
@@ -64,21 +65,78 @@ def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
     raise AssertionError(f"never reached {state}; at {m.name}")
 
 
+def test_a_preset_the_legs_cannot_take_is_refused_before_the_descent():
+    m, act, _ = make()
+
+    def check_preset(up, down):
+        act.calls.append(("check_preset", up, down))
+        return "leg 2: 1.5 N·m is outside the calibrated range 0–1.2 N·m"
+
+    act.check_preset = check_preset
+    assert m.step(OK) == "ABORTED"
+    assert m.history[-1]["reason"].startswith("PRESET refused: leg 2: 1.5 N·m is outside")
+    assert "set_legs" not in act.names() and "descend" not in act.names()
+
+
+def test_without_an_angle_actuator_the_pilot_is_told_and_a_wrong_angle_refused():
+    m, act, _ = make()
+    m.ctx.uphill_angle_deg = 25.7
+    act.can_set_angle = lambda: False
+    at_stop = replace(OK, uphill_angles_deg=(37.5, 37.5))
+    assert m.step(at_stop) == "ABORTED"
+    assert ("statustext", "SL set uphill legs to 25.7 deg by hand") in act.calls
+    assert ("set_legs", 0.8, 1.5) in act.calls  # the torques still go to the board
+    assert m.history[-1]["reason"] == "check failed: uphill legs at 37.5 deg, preset needs 25.7 deg"
+    m2, act2, _ = make()
+    m2.ctx.uphill_angle_deg = 25.7
+    act2.can_set_angle = lambda: False
+    set_by_hand = replace(OK, uphill_angles_deg=(26.5, 24.9))  # within legs.angle_tolerance_deg
+    assert m2.step(set_by_hand) == "DESCEND"
+    m3, _, _ = make()
+    m3.ctx.uphill_angle_deg = 25.7
+    assert m3.step(OK) == "ABORTED"  # no report of the angles: refused, not assumed
+    assert m3.history[-1]["reason"] == "check failed: uphill leg angles not reported"
+
+
+def test_with_an_angle_actuator_the_preset_sets_the_angle():
+    m, act, _ = make()
+    m.ctx.uphill_angle_deg = 25.7
+    act.can_set_angle = lambda: True
+    assert m.step(replace(OK, uphill_angles_deg=(25.6, 25.8))) == "DESCEND"
+    assert ("set_legs", 0.8, 1.5, 25.7) in act.calls
+    assert not any(c[0] == "statustext" and "by hand" in c[1] for c in act.calls)
+
+
 def test_nominal_sequence_records_every_transition():
     m, act, rec = make()
     run_to(m, "LANDED")
     run_to(m, "READY", t0=100.0)
     seq = [h["to"] for h in m.history]
-    assert seq == ["PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED", "CUT", "REVERSE", "SETTLED",
-                   "LANDED", "TAKEOFF", "RESET", "READY"]
+    assert seq == [
+        "PRESET",
+        "LEGS_WAIT",
+        "CHECKS",
+        "DESCEND",
+        "ARMED",
+        "CUT",
+        "REVERSE",
+        "SETTLED",
+        "LANDED",
+        "TAKEOFF",
+        "RESET",
+        "READY",
+    ]
     lines = [json.loads(x) for x in rec.getvalue().splitlines()]
     assert lines == m.history
     names = act.names()
-    assert next(c for c in act.calls if c[0] != "statustext") == ("set_legs", 0.8, 1.5)
+    assert [c for c in act.calls if c[0] != "statustext"][:2] == [
+        ("check_preset", 0.8, 1.5),
+        ("set_legs", 0.8, 1.5),
+    ]
     assert "descend" in names and names.count("reflex_arm") >= 2  # armed and refreshed
     assert names.index("disarm") > names.index("reflex_arm")
     assert ("set_legs", 0.6, 1.2) in act.calls and names.index("loosen_legs") < len(names) - 1
-    assert ("set_legs", 0.6, 1.2) in act.calls[names.index("loosen_legs"):]  # next preset after loosening
+    assert ("set_legs", 0.6, 1.2) in act.calls[names.index("loosen_legs") :]  # next preset after loosening
     assert any(c[0] == "statustext" and c[1].startswith("SL ARMED") for c in act.calls)
 
 
@@ -90,12 +148,15 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     assert m.name == "ABORTED" and "descend" not in act.names()
 
 
-@pytest.mark.parametrize(("change", "why"), [
-    ({"script_present": False}, "script"),
-    ({"range_ok": False}, "rangefinder"),
-    ({"mode": "LOITER"}, "GUIDED"),
-    ({"armed": False}, "armed"),
-])
+@pytest.mark.parametrize(
+    ("change", "why"),
+    [
+        ({"script_present": False}, "script"),
+        ({"range_ok": False}, "rangefinder"),
+        ({"mode": "LOITER"}, "GUIDED"),
+        ({"armed": False}, "armed"),
+    ],
+)
 def test_checks_refuse(change, why):
     m, act, _ = make()
     base = replace(OK, **change)
@@ -128,8 +189,13 @@ def test_failsafe_row(state, failure, expect, sent):
     m, act, _ = make()
     t = run_to(m, state)
     before = len(act.calls)
-    inp = replace(OK, t=t + 0.02, range_m=0.2 if state != "DESCEND" else 3.0,
-                  script_state={"CUT": 11, "REVERSE": 12}.get(state, 0), **failure)
+    inp = replace(
+        OK,
+        t=t + 0.02,
+        range_m=0.2 if state != "DESCEND" else 3.0,
+        script_state={"CUT": 11, "REVERSE": 12}.get(state, 0),
+        **failure,
+    )
     m.step(inp)
     assert m.name == expect
     new = [c[0] for c in act.calls[before:] if c[0] not in ("statustext", "descend")]
@@ -162,8 +228,7 @@ def test_false_cut_and_no_impact():
 def test_reset_waits_for_the_legs_to_loosen_before_the_next_preset():
     m, act, _ = make()
     run_to(m, "LANDED")
-    run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
-    t = 200.0
+    t = run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
     for _ in range(50):
         t += 0.02
         m.step(replace(OK, t=t, legs_ready=False))
@@ -171,6 +236,54 @@ def test_reset_waits_for_the_legs_to_loosen_before_the_next_preset():
     m.step(replace(OK, t=t + 0.02, legs_ready=True))
     assert m.name == "READY" and m.history[-1]["reason"].startswith("legs loosened")
     assert ("set_legs", 0.6, 1.2) in act.calls
+
+
+def test_reset_gives_up_on_legs_that_never_report_loose():
+    m, _, _ = make()
+    run_to(m, "LANDED")
+    t = run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
+    timeout = m.ctx.cfg["legs.ready_timeout_s"]
+    m.step(replace(OK, t=t + timeout - 0.1, legs_ready=False))
+    assert m.name == "RESET"
+    m.step(replace(OK, t=t + timeout + 0.1, legs_ready=False))
+    assert m.name == "READY" and "in time" in m.history[-1]["reason"]
+
+
+def test_a_script_stuck_in_reverse_thrust_is_released():
+    m, act, _ = make()
+    t = run_to(m, "REVERSE")
+    limit = m.ctx.cfg["reflex.reverse_thrust_ms"] / 1000.0 + 1.0
+    m.step(replace(OK, t=t + limit - 0.1, range_m=0.2, script_state=12))
+    assert m.name == "REVERSE"
+    n = len(act.calls)
+    m.step(replace(OK, t=t + limit + 0.1, range_m=0.2, script_state=12))
+    assert m.name == "SETTLED" and "released" in m.history[-1]["reason"]
+    assert ("release",) in act.calls[n:]
+
+
+def test_a_vehicle_that_never_comes_still_is_disarmed_after_the_settle_timeout():
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    timeout = m.ctx.cfg["settle.timeout_s"]
+    m.step(replace(OK, t=t + timeout - 0.1, range_m=0.2, script_state=13, accel_mps2=30.0))
+    assert m.name == "SETTLED"
+    m.step(replace(OK, t=t + timeout + 0.1, range_m=0.2, script_state=13, accel_mps2=30.0))
+    assert m.name == "LANDED" and "timeout" in m.history[-1]["reason"]
+    assert "disarm" in [c[0] for c in act.calls]
+
+
+@pytest.mark.parametrize("bad", [None, -1.0, float("nan"), float("inf")])
+def test_a_number_in_an_invalid_range_never_loosens_the_legs(bad):
+    m, act, _ = make()
+    run_to(m, "LANDED")
+    t = 300.0
+    m.step(replace(OK, t=t, range_m=0.1, armed=False))
+    m.step(replace(OK, t=t + 0.1, range_m=5.0, range_ok=False, armed=False, takeoff_request=True))
+    assert m.name == "TAKEOFF" and "loosen_legs" not in [c[0] for c in act.calls]
+    m.step(replace(OK, t=t + 0.2, range_m=bad, range_ok=True, takeoff_request=True))
+    assert m.name == "TAKEOFF" and "loosen_legs" not in [c[0] for c in act.calls]
+    m.step(replace(OK, t=t + 0.3, range_m=1.0, range_ok=True, takeoff_request=True))
+    assert m.name == "RESET"
 
 
 def test_reset_reports_legs_that_do_not_loosen():

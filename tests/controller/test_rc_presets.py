@@ -17,9 +17,20 @@ def rc(ch8: int, count: int = 8):
 
 def test_bands_select_presets(tmp_path):
     p = tmp_path / "c.yaml"
-    p.write_text(yaml.safe_dump({"rc_presets": {"enabled": True, "channel": 8, "presets": [
-        {"min_us": 900, "max_us": 1300, "tau_up_nm": 0.5, "tau_down_nm": 1.0},
-        {"min_us": 1700, "max_us": 2100, "tau_up_nm": 1.2, "tau_down_nm": 2.0}]}}))
+    p.write_text(
+        yaml.safe_dump(
+            {
+                "rc_presets": {
+                    "enabled": True,
+                    "channel": 8,
+                    "presets": [
+                        {"min_us": 900, "max_us": 1300, "tau_up_nm": 0.5, "tau_down_nm": 1.0},
+                        {"min_us": 1700, "max_us": 2100, "tau_up_nm": 1.2, "tau_down_nm": 2.0},
+                    ],
+                }
+            }
+        )
+    )
     cfg = load_config(p)
     assert preset_for(cfg, rc(1100)).tau_up_nm == 0.5
     assert preset_for(cfg, rc(1900)).tau_down_nm == 2.0

@@ -108,3 +108,24 @@ def test_unreadable_and_malformed_files(tmp_path):
     path.write_text("legs: [\n")
     with pytest.raises(CalibrationError, match="not valid YAML"):
         load_calibration(path)
+
+
+def test_an_angle_range_narrows_the_angles_a_preset_may_ask_for(tmp_path):
+    import yaml
+
+    from slopelander.legs import AngleOutOfRange
+
+    doc = yaml.safe_load(default_calibration_path().read_text())
+    assert load_calibration().angle_range_deg == (0.0, 37.5)  # the protocol's range by default
+    doc["angle_range_deg"] = [20, 37.5]
+    path = tmp_path / "cal.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    cal = load_calibration(path)
+    cal.check_preset(1.1, 1.7, 25.0)
+    with pytest.raises(AngleOutOfRange, match=r"leg 0: angle 18 deg is outside the range 20–37\.5 deg"):
+        cal.check_preset(1.1, 1.7, 18)
+    for bad in ([20], [30, 20], [0, 40], "20-30"):
+        doc["angle_range_deg"] = bad
+        path.write_text(yaml.safe_dump(doc))
+        with pytest.raises(CalibrationError, match="angle_range_deg"):
+            load_calibration(path)

@@ -58,8 +58,17 @@ def test_set_from_the_lookup_table(board, run):
 
     p = LookupTable.load(DEFAULT_TABLE).lookup(35, 1.5)
     code, out, err = run(
-        "legs", "set", "--port", str(board.link), "--table", "--slope", "35", "--speed", "1.5",
-        "--timeout", str(board.wall(20)),
+        "legs",
+        "set",
+        "--port",
+        str(board.link),
+        "--table",
+        "--slope",
+        "35",
+        "--speed",
+        "1.5",
+        "--timeout",
+        str(board.wall(20)),
     )
     assert code == 0, err
     assert f"uphill {p.tau_up:.2f} N·m, downhill {p.tau_down:.2f} N·m" in out

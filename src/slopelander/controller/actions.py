@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from slopelander.controller.config import Config
 from slopelander.controller.link import CommandHandle, Link, mavlink
+from slopelander.legs.errors import LegBoardError
 
 MODES = {"GUIDED": 4, "LAND": 9, "LOITER": 5, "BRAKE": 17, "RTL": 6}
 DESCENT_TYPE_MASK = 0x0DC7  # velocity only
@@ -23,24 +24,81 @@ class MavActions:
         self.cfg = cfg
         self.legs = legs
         self.leg_op = None
+        #: why the last leg command could not even start (out of range, queue full), else None
+        self.leg_error: str | None = None
+        self._then: tuple[float, float] | None = None  # torques to set once the angle is set
         self.pending: dict[str, CommandHandle] = {}
         self._last_descent = -1.0
 
     def _cmd(self, key: str, command: int, *params: float) -> CommandHandle:
-        h = self.link.command(command, *params, retries=int(self.cfg["link.command_retries"]),
-                              timeout_s=self.cfg["link.command_timeout_s"])
+        h = self.link.command(
+            command,
+            *params,
+            retries=int(self.cfg["link.command_retries"]),
+            timeout_s=self.cfg["link.command_timeout_s"],
+        )
         self.pending[key] = h
         return h
 
-    def set_legs(self, tau_up: float, tau_down: float) -> None:
-        if self.legs is not None:
-            self.leg_op = self.legs.start_presets(
-                tau_up, tau_down, tolerance_nm=self.cfg["legs.tolerance_nm"],
-                timeout=self.cfg["legs.ready_timeout_s"])
+    def check_preset(self, tau_up: float, tau_down: float) -> str | None:
+        """Why the legs cannot take this preset (outside their calibration), or None."""
+        if self.legs is None:
+            return None
+        try:
+            self.legs.check_preset(tau_up, tau_down)
+        except LegBoardError as exc:
+            return str(exc)
+        return None
+
+    def can_set_angle(self) -> bool:
+        """Whether the board reports an angle actuator (the ANGLE_STOP capability)."""
+        info = getattr(self.legs, "info", None)
+        return bool(info is not None and info.angle_stop)
+
+    def set_legs(self, tau_up: float, tau_down: float, angle_up_deg: float | None = None) -> None:
+        """Set the torques; with an angle (and a board that can), first the uphill rest angle."""
+        self._then = None
+        if self.legs is not None and angle_up_deg is not None and self.can_set_angle():
+            uphill = dict.fromkeys(self.legs.pairs.uphill, angle_up_deg)
+            timeout = self.cfg["legs.ready_timeout_s"]
+            self._leg_command(lambda: self.legs.start_angles(uphill, timeout=timeout))
+            if self.leg_op is not None:
+                self._then = (tau_up, tau_down)
+        elif self.legs is not None:
+            self._leg_command(
+                lambda: self.legs.start_presets(
+                    tau_up,
+                    tau_down,
+                    tolerance_nm=self.cfg["legs.tolerance_nm"],
+                    timeout=self.cfg["legs.ready_timeout_s"],
+                )
+            )
+
+    @property
+    def legs_busy(self) -> bool:
+        """A multi-step leg preset (angle, then torques) is still on its first step."""
+        return self._then is not None
+
+    def advance(self) -> None:
+        """Start the torques once the angle is set; called every poll."""
+        op = self.leg_op
+        if self._then is not None and op is not None and op.done:
+            up, down = self._then
+            self._then = None
+            if op.error is None:
+                self.set_legs(up, down)
 
     def loosen_legs(self) -> None:
+        self._then = None
         if self.legs is not None:
-            self.leg_op = self.legs.start_loosen()
+            self._leg_command(lambda: self.legs.start_loosen(timeout=self.cfg["legs.ready_timeout_s"]))
+
+    def _leg_command(self, start) -> None:
+        """Start a leg operation; one that cannot start is a leg failure the machine reads."""
+        try:
+            self.leg_op, self.leg_error = start(), None
+        except LegBoardError as exc:
+            self.leg_op, self.leg_error = None, str(exc)
 
     def set_mode(self, mode: str) -> None:
         self._cmd("mode", mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES[mode])
@@ -55,13 +113,36 @@ class MavActions:
         if info is None:
             return
         self.link.conn.mav.set_position_target_local_ned_send(
-            int(self.link.clock.now() * 1000) & 0xFFFFFFFF, info.system, info.component,
-            mavlink.MAV_FRAME_LOCAL_NED, DESCENT_TYPE_MASK, 0, 0, 0, 0, 0, float(rate_mps), 0, 0, 0, 0, 0)
+            int(self.link.clock.now() * 1000) & 0xFFFFFFFF,
+            info.system,
+            info.component,
+            mavlink.MAV_FRAME_LOCAL_NED,
+            DESCENT_TYPE_MASK,
+            0,
+            0,
+            0,
+            0,
+            0,
+            float(rate_mps),
+            0,
+            0,
+            0,
+            0,
+            0,
+        )
 
     def reflex_arm(self) -> None:
         c = self.cfg.reflex
-        self._cmd("reflex", USER_2, 1, c["cut_height_m"], c["impact_threshold_mps2"],
-                  c["reverse_thrust_pct"], c["reverse_thrust_ms"], c["validity_ms"])
+        self._cmd(
+            "reflex",
+            USER_2,
+            1,
+            c["cut_height_m"],
+            c["impact_threshold_mps2"],
+            c["reverse_thrust_pct"],
+            c["reverse_thrust_ms"],
+            c["validity_ms"],
+        )
 
     def reflex_abort(self) -> None:
         self._cmd("reflex", USER_2, 0)

@@ -30,6 +30,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "descent.rate_mps": (0.1, 3.0, False),
     "descent.resend_hz": (5, 50, False),
     "reflex.cut_height_m": (0.10, 2.00, False),
+    "reflex.cut_latency_s": (0.0, 0.5, False),
     "reflex.arm_height_m": (0.2, 20.0, False),
     "reflex.impact_threshold_mps2": (5, 200, False),
     "reflex.reverse_thrust_pct": (0, 100, False),
@@ -41,13 +42,19 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "legs.tolerance_nm": (0.0, 2.0, False),
     "legs.ready_timeout_s": (0.1, 60.0, False),
     "legs.board_silent_s": (0.05, 10.0, False),
+    "legs.angle_tolerance_deg": (0.1, 20.0, False),
     "settle.still_s": (0.1, 10.0, False),
     "settle.still_mps2": (0.1, 10.0, False),
+    "settle.timeout_s": (0.5, 60.0, False),
     "takeoff.clear_height_m": (0.2, 10.0, False),
     "rc_presets.channel": (1, 18, True),
 }
-RC_PRESET_LIMITS = {"min_us": (800, 2200), "max_us": (800, 2200), "tau_up_nm": (0.0, 10.0),
-                    "tau_down_nm": (0.0, 10.0)}
+RC_PRESET_LIMITS = {
+    "min_us": (800, 2200),
+    "max_us": (800, 2200),
+    "tau_up_nm": (0.0, 10.0),
+    "tau_down_nm": (0.0, 10.0),
+}
 
 
 class ConfigError(SlopelanderError, ValueError):

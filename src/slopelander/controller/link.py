@@ -10,6 +10,7 @@ not acknowledged and expires the ones that ran out of tries. Commands return a
 from __future__ import annotations
 
 import math
+import select
 import time
 from collections import deque
 from collections.abc import Callable
@@ -27,10 +28,17 @@ HEARTBEAT_PERIOD_S = 1.0
 TIMESYNC_PERIOD_S = 0.02
 SCRIPT_SILENT_S = 1.0
 # Messages that carry the autopilot's time, and the field holding it.
-_USEC_FIELDS = {"SYSTEM_TIME": "time_boot_ms", "RAW_IMU": "time_usec", "HIGHRES_IMU": "time_usec",
-                "ATTITUDE": "time_boot_ms", "LOCAL_POSITION_NED": "time_boot_ms",
-                "SERVO_OUTPUT_RAW": "time_usec", "DISTANCE_SENSOR": "time_boot_ms",
-                "NAMED_VALUE_FLOAT": "time_boot_ms", "RC_CHANNELS": "time_boot_ms"}
+_USEC_FIELDS = {
+    "SYSTEM_TIME": "time_boot_ms",
+    "RAW_IMU": "time_usec",
+    "HIGHRES_IMU": "time_usec",
+    "ATTITUDE": "time_boot_ms",
+    "LOCAL_POSITION_NED": "time_boot_ms",
+    "SERVO_OUTPUT_RAW": "time_usec",
+    "DISTANCE_SENSOR": "time_boot_ms",
+    "NAMED_VALUE_FLOAT": "time_boot_ms",
+    "RC_CHANNELS": "time_boot_ms",
+}
 
 
 class LinkError(SlopelanderError):
@@ -77,9 +85,11 @@ class AutopilotInfo:
         vt = mavlink.enums["MAV_TYPE"].get(self.vehicle_type)
         ap = mavlink.enums["MAV_AUTOPILOT"].get(self.autopilot)
         script = "absent" if self.script_version is None else f"v{self.script_version:g}"
-        return (f"system {self.system} component {self.component}: "
-                f"{vt.name if vt else self.vehicle_type}, {ap.name if ap else self.autopilot}, "
-                f"firmware {self.firmware}, on-board script {script}")
+        return (
+            f"system {self.system} component {self.component}: "
+            f"{vt.name if vt else self.vehicle_type}, {ap.name if ap else self.autopilot}, "
+            f"firmware {self.firmware}, on-board script {script}"
+        )
 
 
 @dataclass
@@ -104,16 +114,21 @@ class Link:
     :attr:`lost` becomes true.
     """
 
-    def __init__(self, url: str, *, link_loss_s: float = 1.5,
-                 monotonic: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self, url: str, *, link_loss_s: float = 1.5, monotonic: Callable[[], float] = time.monotonic
+    ) -> None:
         if not isinstance(url, str) or not url.strip():
             raise LinkError("connection string is empty (expected e.g. udpin:0.0.0.0:14550)")
         if not (link_loss_s > 0 and math.isfinite(link_loss_s)):
             raise LinkError(f"link_loss_s must be a positive number of seconds, got {link_loss_s!r}")
         try:
-            self.conn = mavutil.mavlink_connection(url, source_system=1,
-                                                   source_component=COMPANION_COMPONENT,
-                                                   dialect="ardupilotmega", autoreconnect=True)
+            self.conn = mavutil.mavlink_connection(
+                url,
+                source_system=1,
+                source_component=COMPANION_COMPONENT,
+                dialect="ardupilotmega",
+                autoreconnect=True,
+            )
         except Exception as exc:  # pymavlink raises many types for a bad string or device
             raise LinkError(f"cannot open MAVLink connection {url!r}: {exc}") from exc
         self.monotonic = monotonic
@@ -135,6 +150,19 @@ class Link:
     def add_listener(self, fn: Callable[[object], None]) -> None:
         """Call ``fn(msg)`` for every message from the autopilot (e.g. the impact detector)."""
         self._listeners.append(fn)
+
+    def wait_readable(self, timeout_s: float, extra_fds: tuple[int, ...] = ()) -> None:
+        """Sleep until the autopilot's link (or one of ``extra_fds``) has bytes to read, at most
+        ``timeout_s``: a control loop that waits on its sockets instead of spinning costs the
+        companion's CPU only when something arrives."""
+        fd = getattr(self.conn, "fd", None)
+        if not isinstance(fd, int) or fd < 0:
+            time.sleep(timeout_s)
+            return
+        try:
+            select.select([fd, *extra_fds], [], [], timeout_s)
+        except (OSError, ValueError):  # a descriptor closed under us: the next poll reports it
+            time.sleep(timeout_s)
 
     def poll(self) -> int:
         """Handle every waiting message, send what is due; return the number of messages read."""
@@ -158,9 +186,12 @@ class Link:
         if mtype == "BAD_DATA":
             return
         now = self.monotonic()
-        if mtype == "HEARTBEAT" and self.info is None and msg.type not in (
-                mavlink.MAV_TYPE_GCS, mavlink.MAV_TYPE_ONBOARD_CONTROLLER) and \
-                msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID:
+        if (
+            mtype == "HEARTBEAT"
+            and self.info is None
+            and msg.type not in (mavlink.MAV_TYPE_GCS, mavlink.MAV_TYPE_ONBOARD_CONTROLLER)
+            and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID
+        ):
             self.info = AutopilotInfo(msg.get_srcSystem(), msg.get_srcComponent(), msg.type, msg.autopilot)
             self.conn.mav.srcSystem = msg.get_srcSystem()
             self.conn.target_system = msg.get_srcSystem()
@@ -208,8 +239,13 @@ class Link:
         now = self.monotonic()
         if now - self._last_heartbeat_tx >= HEARTBEAT_PERIOD_S:
             self._last_heartbeat_tx = now
-            self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID,
-                                         0, 0, mavlink.MAV_STATE_ACTIVE)
+            self.conn.mav.heartbeat_send(
+                mavlink.MAV_TYPE_ONBOARD_CONTROLLER,
+                mavlink.MAV_AUTOPILOT_INVALID,
+                0,
+                0,
+                mavlink.MAV_STATE_ACTIVE,
+            )
         if self.clock.known and self.clock.usec - self._last_timesync_usec >= TIMESYNC_PERIOD_S * 1e6:
             self._last_timesync_usec = self.clock.usec
             self.conn.mav.timesync_send(0, self.clock.usec * 1000)
@@ -226,13 +262,15 @@ class Link:
         if self.info is None:
             return
         p = list(h.params) + [0.0] * (7 - len(h.params))
-        self.conn.mav.command_long_send(self.info.system, self.info.component, h.command,
-                                        min(h.tries, 255), *p)
+        self.conn.mav.command_long_send(
+            self.info.system, self.info.component, h.command, min(h.tries, 255), *p
+        )
         h.tries += 1
         h.sent_at = self.monotonic()
 
-    def command(self, command: int, *params: float, retries: int = 2,
-                timeout_s: float = 0.5) -> CommandHandle:
+    def command(
+        self, command: int, *params: float, retries: int = 2, timeout_s: float = 0.5
+    ) -> CommandHandle:
         """Send COMMAND_LONG now; re-sent up to ``retries`` times ``timeout_s`` apart until answered."""
         if self.info is None:
             raise LinkError("no autopilot found yet: wait_autopilot() before sending commands")
@@ -251,8 +289,19 @@ class Link:
     def request_message(self, msg_id: int) -> None:
         """Ask once for one message (MAV_CMD_REQUEST_MESSAGE), fire and forget."""
         if self.info is not None:
-            self.conn.mav.command_long_send(self.info.system, self.info.component,
-                                            mavlink.MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0)
+            self.conn.mav.command_long_send(
+                self.info.system,
+                self.info.component,
+                mavlink.MAV_CMD_REQUEST_MESSAGE,
+                0,
+                msg_id,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+            )
 
     def request_stream(self, msg_id: int, hz: float) -> CommandHandle:
         """Ask for ``msg_id`` at ``hz`` (MAV_CMD_SET_MESSAGE_INTERVAL; 0 < hz <= 200)."""
@@ -282,8 +331,9 @@ class Link:
         """The on-board script announced its state within the last second."""
         return self._script_seen_at is not None and self.monotonic() - self._script_seen_at <= SCRIPT_SILENT_S
 
-    def wait_autopilot(self, timeout_s: float = 10.0,
-                       sleep: Callable[[float], None] = time.sleep) -> AutopilotInfo:
+    def wait_autopilot(
+        self, timeout_s: float = 10.0, sleep: Callable[[float], None] = time.sleep
+    ) -> AutopilotInfo:
         """Poll until an autopilot heartbeat (and its version, briefly) arrives; raise if none."""
         t0 = self.monotonic()
         while self.info is None or (self.info.firmware == "unknown" and self.monotonic() - t0 < 1.0):

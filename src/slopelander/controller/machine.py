@@ -11,19 +11,45 @@ import json
 import logging
 from typing import IO
 
+from slopelander.controller.states.aborted import Aborted
+from slopelander.controller.states.armed import Armed
 from slopelander.controller.states.base import Context, Inputs, State
 from slopelander.controller.states.checks import Checks
-from slopelander.controller.states.descend import Armed, Descend
-from slopelander.controller.states.ground import Landed, Ready, Reset, Takeoff
-from slopelander.controller.states.preset import LegsWait, Preset
-from slopelander.controller.states.safe import Aborted, Estop, LinkLost
-from slopelander.controller.states.touchdown import Cut, Reverse, Settled
+from slopelander.controller.states.cut import Cut
+from slopelander.controller.states.descend import Descend
+from slopelander.controller.states.estop import Estop
+from slopelander.controller.states.landed import Landed
+from slopelander.controller.states.legs_wait import LegsWait
+from slopelander.controller.states.link_lost import LinkLost
+from slopelander.controller.states.preset import Preset
+from slopelander.controller.states.ready import Ready
+from slopelander.controller.states.reset import Reset
+from slopelander.controller.states.reverse import Reverse
+from slopelander.controller.states.settled import Settled
+from slopelander.controller.states.takeoff import Takeoff
 
 log = logging.getLogger("slopelander.controller")
 
-STATES: dict[str, type[State]] = {s.name: s for s in (
-    Preset, LegsWait, Checks, Descend, Armed, Cut, Reverse, Settled, Landed, Takeoff, Reset, Ready,
-    Aborted, Estop, LinkLost)}
+STATES: dict[str, type[State]] = {
+    s.name: s
+    for s in (
+        Preset,
+        LegsWait,
+        Checks,
+        Descend,
+        Armed,
+        Cut,
+        Reverse,
+        Settled,
+        Landed,
+        Takeoff,
+        Reset,
+        Ready,
+        Aborted,
+        Estop,
+        LinkLost,
+    )
+}
 PRE_CONTACT = ("PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED")
 LINK_EXEMPT = ("LANDED", "ABORTED", "ESTOP", "LINK_LOST", "READY")
 
@@ -40,7 +66,7 @@ def failsafe(state: State, inp: Inputs) -> tuple[str, str] | None:
     if state.airborne_descent:
         if inp.mode != "GUIDED":
             return ("ABORTED", f"pilot changed mode to {inp.mode}")
-        if not inp.range_ok:
+        if not inp.range_valid:
             return ("ABORTED", "range invalid or missing")
         if not inp.script_present:
             return ("ABORTED", "on-board script silent")

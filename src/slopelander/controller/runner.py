@@ -7,7 +7,6 @@ and steps the machine whenever vehicle time advanced.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from typing import IO
 
@@ -16,6 +15,7 @@ from slopelander.controller.config import Config
 from slopelander.controller.impact import ImpactDetector, raw_imu_accel
 from slopelander.controller.link import Link, mavlink
 from slopelander.controller.machine import Machine
+from slopelander.controller.pilot_switch import APPLY_IN, WAIT_AGAIN, PresetSwitch
 from slopelander.controller.states.base import Context, Inputs
 
 MODE_NAMES = {v: k for k, v in MODES.items()}
@@ -23,20 +23,41 @@ ENDINGS = ("LANDED", "ABORTED", "ESTOP", "READY")
 SCRIPT_ESTOP = 20
 
 
+#: the longest the landing loop waits for input between polls: the leg board's queued writes and
+#: the descent setpoint's re-sends still go out at 200 Hz or more
+POLL_WAIT_S = 0.005
+
+
 class Lander:
     """Wires a link, the legs and the settings to a :class:`Machine`."""
 
-    def __init__(self, link: Link, cfg: Config, preset: tuple[float, float], legs=None,
-                 record: IO[str] | None = None, next_preset: tuple[float, float] | None = None) -> None:
+    def __init__(
+        self,
+        link: Link,
+        cfg: Config,
+        preset: tuple[float, float],
+        legs=None,
+        record: IO[str] | None = None,
+        next_preset: tuple[float, float] | None = None,
+        uphill_angle_deg: float | None = None,
+    ) -> None:
         self.link = link
         self.cfg = cfg
         self.legs = legs
         self.act = MavActions(link, cfg, legs)
-        self.ctx = Context(cfg=cfg, act=self.act, preset=preset, next_preset=next_preset)
+        self.ctx = Context(
+            cfg=cfg, act=self.act, preset=preset, next_preset=next_preset, uphill_angle_deg=uphill_angle_deg
+        )
         self.machine = Machine(self.ctx, record)
         self.detector = ImpactDetector(cfg["reflex.impact_threshold_mps2"])
         self.takeoff_request = False
         self._last_t = -1.0
+        if legs is not None:  # the legs' timeouts run on vehicle time, like the machine's
+            legs.set_clock(link.clock.now)
+            legs.silence_timeout = cfg["legs.board_silent_s"]
+        self.start_preset = preset
+        self.switch = PresetSwitch(cfg, link.last.get("RC_CHANNELS"))
+        self._legs_t: float | None = None
 
     def inputs(self) -> Inputs:
         """The snapshot the machine steps on."""
@@ -58,17 +79,35 @@ class Lander:
         accel = math.dist((0, 0, 0), raw_imu_accel(imu)) if imu else 9.80665
         op = self.act.leg_op
         legs_fault = None if self.legs is not None else "no leg board connected"
+        legs_fault = self.ctx.marks.get("legs_error") or legs_fault
+        legs_fault = self.act.leg_error or legs_fault
         legs_ready = False
         if op is not None:
             if op.error is not None:
                 legs_fault = str(op.error)
-            legs_ready = op.done and op.error is None
+            legs_ready = op.done and op.error is None and not self.act.legs_busy
+        status = getattr(self.legs, "status", None)
+        uphill = ()
+        if status is not None:
+            uphill = tuple(status.legs[i].angle_deg for i in self.legs.pairs.uphill)
         state = ln.script_state if ln.script_present else None
-        return Inputs(t=t, link_ok=not ln.lost, mode=mode, armed=armed, estop=state == SCRIPT_ESTOP,
-                      range_m=range_m, range_ok=range_ok, script_present=ln.script_present,
-                      script_state=state if state is not None else 0, legs_ready=legs_ready,
-                      legs_fault=legs_fault, accel_mps2=accel, impact=self.detector.impact is not None,
-                      takeoff_request=self.takeoff_request)
+        return Inputs(
+            t=t,
+            link_ok=not ln.lost,
+            mode=mode,
+            armed=armed,
+            estop=state == SCRIPT_ESTOP,
+            range_m=range_m,
+            range_ok=range_ok,
+            script_present=ln.script_present,
+            script_state=state if state is not None else 0,
+            legs_ready=legs_ready,
+            legs_fault=legs_fault,
+            uphill_angles_deg=uphill,
+            accel_mps2=accel,
+            impact=self.detector.impact is not None,
+            takeoff_request=self.takeoff_request,
+        )
 
     def poll(self) -> str:
         """Read everything waiting, step the machine if vehicle time moved (or the link is lost)."""
@@ -77,13 +116,21 @@ class Lander:
         if imu is not None:
             self.detector.feed_msg(imu)
         if self.legs is not None:
+            t = self.link.clock.now()
+            if self._legs_t is not None and t - self._legs_t > self.cfg["legs.board_silent_s"]:
+                # the autopilot's clock jumped (it stood still while the link was lost): the
+                # board was not watched in between, which says nothing about the board
+                self.legs.unobserved(t - self._legs_t)
+            self._legs_t = t
             try:
                 self.legs.poll()
             except Exception as exc:  # a board that vanished is a leg failure, not a crash
                 self.act.leg_op = None
                 self.legs = None
                 self.ctx.marks["legs_error"] = str(exc)
+            self.act.advance()
         inp = self.inputs()
+        self._pilot_switch(inp)
         if inp.t > self._last_t or not inp.link_ok:
             self._last_t = inp.t
             before = self.machine.name
@@ -92,16 +139,46 @@ class Lander:
                 self.detector.arm_after_cut(inp.t)
         return self.machine.name
 
-    def run(self, timeout_s: float, sleep: Callable[[float], None] = time.sleep,
-            until: tuple[str, ...] = ENDINGS) -> str:
-        """Poll until an ending state (or ``timeout_s`` local seconds: then abort); returns the state."""
+    def _pilot_switch(self, inp: Inputs) -> None:
+        """Apply a change of the pilot's preset switch (see :mod:`pilot_switch`)."""
+        changed, sel = self.switch.update(self.link.last.get("RC_CHANNELS"))
+        if not changed:
+            return
+        preset = self.start_preset if sel is None else (sel.tau_up_nm, sel.tau_down_nm)
+        name = self.machine.name if self.machine._started else "PRESET"
+        what = f"pilot preset {preset[0]:.2f}/{preset[1]:.2f} N*m"
+        if name not in APPLY_IN:
+            self.act.statustext(f"SL {what} ignored in {name}"[:50])
+            return
+        self.ctx.preset = preset
+        if name == "READY":
+            self.ctx.next_preset = preset
+        self.act.set_legs(*preset)
+        self.act.statustext(f"SL {what}"[:50])
+        if self.machine._started and name in WAIT_AGAIN:
+            if name == "DESCEND":  # stop the descent now, not after GUID_TIMEOUT
+                self.act._last_descent = -1.0
+                self.act.descend(0.0)
+            self.machine.transition("LEGS_WAIT", what, inp)
+
+    def run(
+        self, timeout_s: float, sleep: Callable[[float], None] | None = None, until: tuple[str, ...] = ENDINGS
+    ) -> str:
+        """Poll until an ending state (or ``timeout_s`` local seconds: then abort); returns the state.
+        Between polls it waits for the link or the leg board to have bytes (at most
+        ``POLL_WAIT_S``), or calls ``sleep`` when one is given (tests)."""
         t0 = self.link.monotonic()
         while True:
             name = self.poll()
             if self.machine._started and name in until:
                 return name
             if self.link.monotonic() - t0 > timeout_s:
-                self.machine.transition("ABORTED", f"landing not finished within {timeout_s:g} s",
-                                        self.inputs())
+                self.machine.transition(
+                    "ABORTED", f"landing not finished within {timeout_s:g} s", self.inputs()
+                )
                 return "ABORTED"
-            sleep(0.001)
+            if sleep is not None:
+                sleep(0.001)
+            else:
+                legs = self.legs.fileno() if self.legs is not None else None
+                self.link.wait_readable(POLL_WAIT_S, () if legs is None else (legs,))

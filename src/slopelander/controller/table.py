@@ -138,9 +138,16 @@ class LookupTable:
 
     def cell(self, i: int, j: int) -> Preset:
         c = self.cells
-        return Preset(float(c["tau_up"][i, j]), float(c["tau_down"][i, j]),
-                      float(c["angle_up_deg"][i, j]), float(c["angle_down_deg"][i, j]),
-                      str(c["outcome"][i, j]), float(c["margin"][i, j]), (int(i), int(j)), False)
+        return Preset(
+            float(c["tau_up"][i, j]),
+            float(c["tau_down"][i, j]),
+            float(c["angle_up_deg"][i, j]),
+            float(c["angle_down_deg"][i, j]),
+            str(c["outcome"][i, j]),
+            float(c["margin"][i, j]),
+            (int(i), int(j)),
+            False,
+        )
 
     # -- lookup -------------------------------------------------------------------------------
     def lookup(self, slope_deg: float, speed: float) -> Preset:
@@ -150,24 +157,38 @@ class LookupTable:
         corners = sorted({(i0, j0), (i0, j1), (i1, j0), (i1, j1)})
         nearest = (i1 if fi >= 0.5 else i0, j1 if fj >= 0.5 else j0)
         if all(self.cells["outcome"][c] in ACCEPTABLE for c in corners):
-            w = {(i0, j0): (1 - fi) * (1 - fj), (i0, j1): (1 - fi) * fj,
-                 (i1, j0): fi * (1 - fj), (i1, j1): fi * fj}
+            w = {
+                (i0, j0): (1 - fi) * (1 - fj),
+                (i0, j1): (1 - fi) * fj,
+                (i1, j0): fi * (1 - fj),
+                (i1, j1): fi * fj,
+            }
             vals = {}
             for name in PRESET_FIELDS:
                 a = self.cells[name]
-                v = (w[(i0, j0)] * a[i0, j0] + w[(i0, j1)] * a[i0, j1]
-                     + w[(i1, j0)] * a[i1, j0] + w[(i1, j1)] * a[i1, j1])
+                v = (
+                    w[(i0, j0)] * a[i0, j0]
+                    + w[(i0, j1)] * a[i0, j1]
+                    + w[(i1, j0)] * a[i1, j0]
+                    + w[(i1, j1)] * a[i1, j1]
+                )
                 lo = min(a[c] for c in corners)
                 hi = max(a[c] for c in corners)
                 vals[name] = float(min(max(v, lo), hi))  # rounding must not leave the cells' span
             worst = max(corners, key=lambda c: self._rank[c])
-            return Preset(**vals, outcome=str(self.cells["outcome"][worst]),
-                          margin=float(min(self.cells["margin"][c] for c in corners)),
-                          cell=nearest, interpolated=len(corners) > 1)
+            return Preset(
+                **vals,
+                outcome=str(self.cells["outcome"][worst]),
+                margin=float(min(self.cells["margin"][c] for c in corners)),
+                cell=nearest,
+                interpolated=len(corners) > 1,
+            )
+
         def key(c: tuple[int, int]) -> tuple[float, int, float]:
             di = (c[0] - i0 - fi) if i1 != i0 else 0.0
             dj = (c[1] - j0 - fj) if j1 != j0 else 0.0
             return (-float(self.cells["margin"][c]), int(self._rank[c] > 2), di * di + dj * dj)
+
         return self.cell(*min(corners, key=key))
 
 
@@ -216,8 +237,7 @@ def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[
             raise fail(f"axes.{ax}", "must be a list of at least two numbers")
         if not np.all(np.diff(g) > 0):
             k = int(np.flatnonzero(np.diff(g) <= 0)[0])
-            raise fail(f"axes.{ax}", f"must increase strictly (entry {k + 1} = {g[k + 1]:g} "
-                                     f"after {g[k]:g})")
+            raise fail(f"axes.{ax}", f"must increase strictly (entry {k + 1} = {g[k + 1]:g} after {g[k]:g})")
         grids.append(g)
     slopes, speeds = grids
     shape = (slopes.size, speeds.size)
@@ -229,31 +249,44 @@ def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[
         if f not in cells_doc:
             raise fail(f"cells.{f}", "missing")
         if f == "outcome":
+            if isinstance(cells_doc[f], list) and cells_doc[f]:
+                _check_rows(cells_doc[f], f"cells.{f}", fail, numbers=False)
             a = np.asarray(cells_doc[f], dtype=object)
         else:
             a = _float_array(cells_doc[f], f"cells.{f}", fail)
         if a.shape != shape:
-            raise fail(f"cells.{f}", f"must be {shape[0]} rows (slopes) of {shape[1]} values "
-                                    f"(speeds), got shape {a.shape}")
+            raise fail(
+                f"cells.{f}",
+                f"must be {shape[0]} rows (slopes) of {shape[1]} values (speeds), got shape {a.shape}",
+            )
         cells[f] = a
     bad = [v for v in cells["outcome"].ravel() if v not in OUTCOMES]
     if bad:
         raise fail("cells.outcome", f"unknown outcome {bad[0]!r}; known: {', '.join(OUTCOMES)}")
     cells["outcome"] = cells["outcome"].astype(str)
     angle_limits = _angle_limits(model["parameters"])
-    limits = {"tau_up": TORQUE_LIMITS, "tau_down": TORQUE_LIMITS, "angle_up_deg": angle_limits,
-              "angle_down_deg": angle_limits, "margin": (0.0, 1.0)}
+    limits = {
+        "tau_up": TORQUE_LIMITS,
+        "tau_down": TORQUE_LIMITS,
+        "angle_up_deg": angle_limits,
+        "angle_down_deg": angle_limits,
+        "margin": (0.0, 1.0),
+    }
     for f, (lo, hi) in limits.items():
         a = cells[f]
         out = (a < lo) | (a > hi)
         if out.any():
             i, j = np.argwhere(out)[0]
-            raise fail(f"cells.{f}", f"{a[i, j]:g} at slope {slopes[i]:g} deg, speed {speeds[j]:g} "
-                                     f"m/s is outside {lo:g}..{hi:g}")
+            raise fail(
+                f"cells.{f}",
+                f"{a[i, j]:g} at slope {slopes[i]:g} deg, speed {speeds[j]:g} m/s is outside {lo:g}..{hi:g}",
+            )
     return slopes, speeds, cells
 
 
 def _float_array(v: Any, field: str, fail) -> np.ndarray:
+    if isinstance(v, list) and v and any(isinstance(row, list) for row in v):
+        _check_rows(v, field, fail)
     try:
         a = np.asarray(v, dtype=np.float64)
     except (TypeError, ValueError):
@@ -263,6 +296,24 @@ def _float_array(v: Any, field: str, fail) -> np.ndarray:
     if not np.isfinite(a).all():
         raise fail(field, "holds a non-finite number")
     return a
+
+
+def _check_rows(rows: list, field: str, fail, *, numbers: bool = True) -> None:
+    """Name the first row (counting from 1, one per slope) that is ragged or holds a non-number."""
+    for n, row in enumerate(rows, 1):
+        if not isinstance(row, list):
+            raise fail(field, f"row {n} is {row!r}, not a list of numbers")
+        for k, x in enumerate(row if numbers else (), 1):
+            if isinstance(x, bool) or not isinstance(x, (int, float)):
+                raise fail(field, f"row {n}, value {k} is {x!r}, not a number")
+    width = len(rows[0])
+    for n, row in enumerate(rows, 1):
+        if len(row) != width:
+            raise fail(
+                field,
+                f"row {n} has {len(row)} values where row 1 has {width} "
+                "(every row holds one value per speed)",
+            )
 
 
 def _angle_limits(parameters: dict[str, Any]) -> tuple[float, float]:

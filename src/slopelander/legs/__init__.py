@@ -15,20 +15,28 @@ from slopelander.legs.driver import (
     PairMap,
 )
 from slopelander.legs.errors import (
+    AngleOutOfRange,
     BoardDisconnected,
+    BoardReconnected,
     CalibrationError,
     CommandRejected,
     LegBoardError,
     LegFault,
     LegNotConverged,
     LegTimeout,
+    OperationCancelled,
+    OperationPending,
+    OperationSuperseded,
     ProtocolError,
     TorqueOutOfRange,
+    WriteQueueFull,
 )
 
 __all__ = [
+    "AngleOutOfRange",
     "BoardDisconnected",
     "BoardInfo",
+    "BoardReconnected",
     "BoardStatus",
     "Calibration",
     "CalibrationError",
@@ -42,8 +50,12 @@ __all__ = [
     "LegStatus",
     "LegTimeout",
     "Operation",
+    "OperationCancelled",
+    "OperationPending",
+    "OperationSuperseded",
     "PairMap",
     "ProtocolError",
     "TorqueOutOfRange",
+    "WriteQueueFull",
     "load_calibration",
 ]

@@ -16,12 +16,13 @@ from pathlib import Path
 
 import yaml
 
-from slopelander.legs.errors import CalibrationError, TorqueOutOfRange
-from slopelander.legs.messages import N_LEGS
+from slopelander.legs.errors import AngleOutOfRange, CalibrationError, TorqueOutOfRange
+from slopelander.legs.messages import MAX_ANGLE_CDEG, N_LEGS
 
 PROVENANCES = ("measured", "derived", "assumed")
 TORQUE_UNITS = ("N*m", "N·m", "Nm", "N m")
 DEFAULT_FILE = "default_calibration.yaml"
+PROTOCOL_ANGLE_RANGE_DEG = (0.0, MAX_ANGLE_CDEG / 100.0)
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,8 @@ class Calibration:
     legs: tuple[LegCurve, ...]
     provenance: str
     source: str
+    #: the leg angles (deg below the horizontal, fully extended at 37.5) the legs can be set to and held at
+    angle_range_deg: tuple[float, float] = PROTOCOL_ANGLE_RANGE_DEG
 
     def current_for(self, leg: int, torque_nm: float) -> int:
         """Current target (mA) for a torque (N·m) on one leg; refuses out-of-range torques."""
@@ -87,6 +90,29 @@ class Calibration:
 
     def torque(self, leg: int, current_ma: float) -> float:
         return self.legs[leg].torque(current_ma)
+
+    def check_angle(self, leg: int, angle_deg: float) -> None:
+        """Refuse a leg angle outside :attr:`angle_range_deg` (:class:`AngleOutOfRange`)."""
+        lo, hi = self.angle_range_deg
+        if not (math.isfinite(angle_deg) and lo <= angle_deg <= hi):
+            raise AngleOutOfRange(
+                f"leg {leg}: angle {angle_deg} deg is outside the range {lo:g}–{hi:g} deg of {self.source}"
+            )
+
+    def check_preset(
+        self, tau_up_nm: float, tau_down_nm: float, uphill_angle_deg: float | None = None
+    ) -> None:
+        """Refuse a landing preset any leg could not take, before anything flies.
+
+        Either pair may be any legs (the heading decides), so every leg must reach both
+        torques; the uphill angle, when given, must lie in the legs' angle range. Raises
+        :class:`TorqueOutOfRange` or :class:`AngleOutOfRange` naming the leg and the range.
+        """
+        for leg in range(len(self.legs)):
+            for tau in (tau_up_nm, tau_down_nm):
+                self.current_for(leg, tau)
+            if uphill_angle_deg is not None:
+                self.check_angle(leg, uphill_angle_deg)
 
     @property
     def assumed(self) -> bool:
@@ -149,7 +175,16 @@ def parse_calibration(doc: object, name: str) -> Calibration:
         if torque[-1] <= torque[0]:
             raise CalibrationError(name, f"{where}.torque_nm", "must rise somewhere")
         curves[leg] = LegCurve(current, torque)
-    return Calibration(tuple(curves[i] for i in range(N_LEGS)), provenance, name)
+    angles = PROTOCOL_ANGLE_RANGE_DEG
+    if "angle_range_deg" in doc:
+        pair = _numbers(doc["angle_range_deg"], name, "angle_range_deg")
+        lo, hi = pair[0], pair[-1]
+        if len(pair) != 2 or not (PROTOCOL_ANGLE_RANGE_DEG[0] <= lo < hi <= PROTOCOL_ANGLE_RANGE_DEG[1]):
+            raise CalibrationError(
+                name, "angle_range_deg", "must be [low, high] with 0 <= low < high <= 37.5 (deg)"
+            )
+        angles = (lo, hi)
+    return Calibration(tuple(curves[i] for i in range(N_LEGS)), provenance, name, angles)
 
 
 def _numbers(value: object, name: str, field: str) -> tuple[float, ...]:

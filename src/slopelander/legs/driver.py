@@ -12,18 +12,27 @@ A script calls the blocking forms, which do the same with a deadline::
     with LegBoard.open("/dev/ttyACM0", 115200) as board:
         board.set_torques(uphill=1.7, downhill=2.3, timeout=20.0)
 
-Timeouts are wall-clock seconds. Nothing here waits without a deadline.
+Nothing on the polling path blocks: outgoing frames go to a bounded queue that ``poll()``
+hands to the port as fast as the port takes them (a full queue is :class:`WriteQueueFull`).
+Every timeout is measured on the injected ``clock`` (a callable returning seconds,
+``time.monotonic`` by default): the landing controller passes its autopilot-following clock,
+tests a simulated one. The blocking forms wait on the port with ``select`` but their deadlines
+too are on that clock, so give them a clock that advances on its own. Nothing here waits
+without a deadline.
 """
 
 from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
+import os
 import select
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 
 import serial
 
@@ -31,12 +40,17 @@ from slopelander.legs import codec, messages
 from slopelander.legs.calibration import Calibration, load_calibration
 from slopelander.legs.errors import (
     BoardDisconnected,
+    BoardReconnected,
     CommandRejected,
     LegBoardError,
     LegFault,
     LegNotConverged,
     LegTimeout,
+    OperationCancelled,
+    OperationPending,
+    OperationSuperseded,
     ProtocolError,
+    WriteQueueFull,
 )
 from slopelander.legs.messages import (
     FAULT_TEXT,
@@ -53,6 +67,7 @@ from slopelander.legs.messages import (
 MAX_ANGLE_DEG = MAX_ANGLE_CDEG / 100.0
 STEADY_STATES = (LegState.LOOSE, LegState.HOLDING, LegState.STOPPED)
 SETTLE_SAMPLES = 3
+MAX_QUEUE_BYTES = 4096  # about 200 commands: far more than a landing sends between two polls
 
 
 @dataclass(frozen=True)
@@ -111,7 +126,7 @@ class LegStatus:
 
 @dataclass(frozen=True)
 class BoardStatus:
-    """The latest STATUS, in engineering units, with the wall time it arrived."""
+    """The latest STATUS, in engineering units, with the driver-clock time it arrived."""
 
     board_time_s: float
     legs: tuple[LegStatus, ...]
@@ -145,54 +160,155 @@ class LegResult:
     board_seconds: float | None
 
 
-@dataclass
 class Operation:
-    """A command in flight and the per-leg convergence of its effect."""
+    """A command in flight and the per-leg convergence of its effect.
 
-    kind: str
-    legs: tuple[int, ...]
-    targets: dict[int, float]
-    target_ma: dict[int, int]
-    deadline: float
-    tolerance: float
-    start_board_s: float
-    acked: bool = False
-    error: LegBoardError | None = None
-    results: dict[int, LegResult] = field(default_factory=dict)
-    _samples: dict[int, collections.deque] = field(default_factory=dict)
-    _settled_at: dict[int, float] = field(default_factory=dict)
+    A handle the caller reads and never writes: :attr:`done`, :meth:`result`, :meth:`exception`,
+    :meth:`cancel` (and :meth:`check`, None while running). Only the driver advances it, from
+    the board's reports, so a state machine cannot corrupt it by accident.
+    """
 
-    def acknowledge(self, status: BoardStatus | None) -> None:
-        """The board took the command: board time counts from its latest status."""
-        self.acked = True
-        if status is not None:
-            self.start_board_s = status.board_time_s
+    __slots__ = (
+        "_acked",
+        "_deadline",
+        "_error",
+        "_kind",
+        "_legs",
+        "_results",
+        "_samples",
+        "_settled_at",
+        "_start_board_s",
+        "_target_ma",
+        "_targets",
+        "_tolerance",
+    )
+
+    def __init__(
+        self,
+        kind: str,
+        legs: tuple[int, ...],
+        targets: dict[int, float],
+        target_ma: dict[int, int],
+        deadline: float,
+        tolerance: float,
+        start_board_s: float,
+    ) -> None:
+        self._kind = kind
+        self._legs = tuple(legs)
+        self._targets = dict(targets)
+        self._target_ma = dict(target_ma)
+        self._deadline = deadline
+        self._tolerance = tolerance
+        self._start_board_s = start_board_s
+        self._acked = False
+        self._error: LegBoardError | None = None
+        self._results: dict[int, LegResult] = {}
+        self._samples: dict[int, collections.deque] = {}
+        self._settled_at: dict[int, float] = {}
+
+    def __repr__(self) -> str:
+        state = "failed" if self._error else "done" if self.done else "running"
+        return f"<Operation {self._kind} legs={list(self._legs)} {state}>"
+
+    # ---- what the caller reads ----------------------------------------------------------
+    @property
+    def kind(self) -> str:
+        """friction, angle, loosen or stop."""
+        return self._kind
+
+    @property
+    def legs(self) -> tuple[int, ...]:
+        return self._legs
+
+    @property
+    def targets(self) -> Mapping[int, float]:
+        return MappingProxyType(self._targets)
+
+    @property
+    def target_ma(self) -> Mapping[int, int]:
+        return MappingProxyType(self._target_ma)
+
+    @property
+    def deadline(self) -> float:
+        """When it fails if not finished, in the driver's clock (s)."""
+        return self._deadline
+
+    @property
+    def acked(self) -> bool:
+        """Whether the board has acknowledged the command."""
+        return self._acked
+
+    @property
+    def results(self) -> Mapping[int, LegResult]:
+        """The legs that converged so far."""
+        return MappingProxyType(self._results)
 
     @property
     def done(self) -> bool:
-        return self.error is not None or len(self.results) == len(self.legs)
+        return self._error is not None or len(self._results) == len(self._legs)
+
+    @property
+    def cancelled(self) -> bool:
+        return isinstance(self._error, OperationCancelled)
+
+    @property
+    def error(self) -> LegBoardError | None:
+        """Same as :meth:`exception`."""
+        return self._error
+
+    def exception(self) -> LegBoardError | None:
+        """The typed error it failed with, or None (running or succeeded)."""
+        return self._error
+
+    def result(self) -> dict[int, LegResult]:
+        """Per-leg results; raises its error if it failed, :class:`OperationPending` if running."""
+        results = self.check()
+        if results is None:
+            raise OperationPending(f"{self._kind} on legs {list(self._legs)} is still running")
+        return results
 
     def check(self) -> dict[int, LegResult] | None:
         """Per-leg results once every leg converged; None while running; raises on failure."""
-        if self.error is not None:
-            raise self.error
-        if len(self.results) == len(self.legs):
-            return dict(sorted(self.results.items()))
+        if self._error is not None:
+            raise self._error
+        if len(self._results) == len(self._legs):
+            return dict(sorted(self._results.items()))
         return None
 
-    def fail(self, error: LegBoardError) -> None:
-        if not self.done:
-            self.error = error
+    def cancel(self) -> bool:
+        """Stop following it (no more re-sends; it fails with :class:`OperationCancelled`).
 
-    def update(self, status: BoardStatus, calibration: Calibration) -> None:
-        if self.done or not self.acked:
+        Returns False if it had already finished. A command the board already took is not
+        undone: to stop the motors, start a stop; to free the legs, a loosen.
+        """
+        if self.done:
+            return False
+        self._fail(OperationCancelled(f"{self._kind} on legs {list(self._legs)} cancelled"))
+        return True
+
+    # ---- the driver's side --------------------------------------------------------------
+    def _acknowledge(self, status: BoardStatus | None) -> None:
+        """The board took the command: board time counts from its latest status."""
+        self._acked = True
+        if status is not None:
+            self._start_board_s = status.board_time_s
+
+    def _fail(self, error: LegBoardError) -> None:
+        if not self.done:
+            self._error = error
+
+    def _shift(self, offset: float) -> None:
+        self._deadline += offset
+
+    def _update(self, status: BoardStatus, calibration: Calibration) -> None:
+        if self.done or not self._acked:
             return
-        for leg in self.legs:
-            if leg in self.results:
+        for leg in self._legs:
+            if leg in self._results:
                 continue
             s = status.legs[leg]
             if s.state is LegState.FAULT:
-                self.fail(LegFault(leg, int(s.fault), FAULT_TEXT[s.fault]))
+                self._fail(LegFault(leg, int(s.fault), FAULT_TEXT[s.fault]))
                 return
             samples = self._samples.setdefault(leg, collections.deque(maxlen=SETTLE_SAMPLES))
             if self._counts(s):
@@ -204,32 +320,32 @@ class Operation:
             if len(samples) == SETTLE_SAMPLES:
                 result = self._result(leg, status, calibration, final=False)
                 if result.converged:
-                    self.results[leg] = result
+                    self._results[leg] = result
 
-    def expire(self, status: BoardStatus | None, calibration: Calibration) -> None:
+    def _expire(self, status: BoardStatus | None, calibration: Calibration) -> None:
         """Past the deadline: fail with the first leg that has not converged."""
         if self.done:
             return
-        if not self.acked:
-            self.fail(LegTimeout(f"{self.kind}: the board never acknowledged the command"))
+        if not self._acked:
+            self._fail(LegTimeout(f"{self._kind}: the board never acknowledged the command"))
             return
-        partial = dict(self.results)
-        for leg in self.legs:
+        partial = dict(self._results)
+        for leg in self._legs:
             if leg not in partial and status is not None:
                 partial[leg] = self._result(leg, status, calibration, final=True)
-        for leg in self.legs:
-            if leg not in self.results:
+        for leg in self._legs:
+            if leg not in self._results:
                 r = partial.get(leg)
-                unit = "N·m" if self.kind == "friction" else "°"
+                unit = "N·m" if self._kind == "friction" else "°"
                 state = status.legs[leg].state.name if status else "unknown"
-                self.fail(
+                self._fail(
                     LegNotConverged(
                         leg,
-                        self.targets.get(leg, float("nan")),
+                        self._targets.get(leg, float("nan")),
                         r.achieved if r else float("nan"),
                         unit=unit,
                         detail=f"state {state}, current {r.current_ma:.0f} mA of "
-                        f"{self.target_ma.get(leg, 0)} mA"
+                        f"{self._target_ma.get(leg, 0)} mA"
                         if r
                         else "no status",
                         results=partial,
@@ -239,11 +355,11 @@ class Operation:
 
     def _counts(self, s: LegStatus) -> bool:
         """Whether this status is one of the settled samples the leg needs."""
-        if self.kind == "friction":
-            if self.target_ma[s.leg] == 0:
+        if self._kind == "friction":
+            if self._target_ma[s.leg] == 0:
                 return s.state is LegState.LOOSE
-            return s.state is LegState.HOLDING and s.target_ma == self.target_ma[s.leg]
-        if self.kind == "stop":
+            return s.state is LegState.HOLDING and s.target_ma == self._target_ma[s.leg]
+        if self._kind == "stop":
             return s.state is LegState.STOPPED
         return s.state is LegState.LOOSE  # loosen, angle
 
@@ -253,25 +369,25 @@ class Operation:
         current = sum(c for c, _ in samples) / len(samples) if samples and not final else float(s.current_ma)
         angles = [a for _, a in samples] or [s.angle_deg]
         angle = angles[-1]
-        target = self.targets.get(leg)
-        if self.kind == "friction":
-            achieved = cal.torque(leg, current) if self.target_ma[leg] else 0.0
-            ok = target is not None and abs(achieved - target) <= self.tolerance
-        elif self.kind == "angle":
+        target = self._targets.get(leg)
+        if self._kind == "friction":
+            achieved = cal.torque(leg, current) if self._target_ma[leg] else 0.0
+            ok = target is not None and abs(achieved - target) <= self._tolerance
+        elif self._kind == "angle":
             achieved = angle
-            ok = target is not None and abs(angle - target) <= self.tolerance
+            ok = target is not None and abs(angle - target) <= self._tolerance
         else:  # loosen, stop: settled when the angle stops moving
             achieved = angle
-            ok = max(angles) - min(angles) <= self.tolerance
+            ok = max(angles) - min(angles) <= self._tolerance
         return LegResult(
             leg,
             ok and not final,
             target,
             achieved,
             current,
-            self.target_ma.get(leg),
+            self._target_ma.get(leg),
             angle,
-            self._settled_at.get(leg, status.board_time_s) - self.start_board_s,
+            self._settled_at.get(leg, status.board_time_s) - self._start_board_s,
         )
 
 
@@ -299,6 +415,8 @@ class LegBoard:
         ack_timeout: float = 0.25,
         ack_retries: int = 4,
         serial_factory: Callable[..., serial.Serial] = serial.Serial,
+        clock: Callable[[], float] = time.monotonic,
+        max_queue_bytes: int = MAX_QUEUE_BYTES,
     ) -> None:
         self.port = port
         self.baud = baud
@@ -314,6 +432,10 @@ class LegBoard:
         self.status: BoardStatus | None = None
         self.decoder = codec.Decoder()
         self._serial_factory = serial_factory
+        self.clock = clock
+        self.max_queue_bytes = max_queue_bytes
+        self._outq = bytearray()
+        self._statuses = 0  # reports received (a clock that stands still cannot order them)
         self._ser: serial.Serial | None = None
         self._seq = 0
         self._pending: dict[int, _Pending] = {}
@@ -334,19 +456,20 @@ class LegBoard:
         return board
 
     def connect(self, timeout: float = 2.0) -> BoardInfo:
+        """Open the port (non-blocking) and handshake within ``timeout`` s of the clock."""
         try:
-            self._ser = self._serial_factory(
-                self.port, self.baud, timeout=0, write_timeout=0.5, exclusive=True
-            )
+            self._ser = self._serial_factory(self.port, self.baud, timeout=0, write_timeout=0, exclusive=True)
             self._ser.reset_input_buffer()
+            with contextlib.suppress(AttributeError, OSError, ValueError):
+                os.set_blocking(self._ser.fileno(), False)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise BoardDisconnected(f"cannot open leg board port {self.port}: {exc}") from None
-        deadline = time.monotonic() + timeout
+        deadline = self.clock() + timeout
         hello = messages.Hello(messages.PROTOCOL_VERSION, self.status_period_ms)
         self._write(b"\x00")
-        next_try = 0.0
+        next_try = -float("inf")
         while True:
-            now = time.monotonic()
+            now = self.clock()
             if now >= next_try:
                 seq = self._send(hello)
                 next_try = now + self.ack_timeout
@@ -365,16 +488,80 @@ class LegBoard:
                         msg.max_payload,
                         msg.board_time_ms / 1000.0,
                     )
-                    self._last_good = time.monotonic()
+                    self._last_good = self.clock()
                     self._rejects_at_good = self.decoder.rejects.total()
                     return self.info
                 if isinstance(msg, messages.Nak) and msg.cmd_seq == seq:
                     raise ProtocolError(
                         f"leg board on {self.port} refused HELLO: {NAK_TEXT.get(msg.code, msg.code)}"
                     )
-            if time.monotonic() >= deadline:
+            if self.clock() >= deadline:
                 raise self._silence_error(f"no HELLO_REPLY within {timeout:g} s")
-            self._wait_readable(min(next_try, deadline) - time.monotonic())
+            self._flush()
+            self._wait_readable(min(next_try, deadline, self.clock() + 0.05) - self.clock())
+
+    def reconnect(self, timeout: float = 2.0) -> BoardInfo:
+        """Start afresh with a board that came back (or was reset): close the port, fail every
+        running operation with :class:`BoardReconnected`, drop unsent and unacknowledged
+        commands, reset the decoder and the sequence numbers, forget the last status, then
+        open and handshake again."""
+        error = BoardReconnected(f"leg board on {self.port} reconnected: the operation was dropped")
+        for op in self._ops:
+            op._fail(error)
+        self._ops.clear()
+        for p in self._pending.values():
+            if p.op is not None:
+                p.op._fail(error)
+        self._pending.clear()
+        self._outq.clear()
+        self.decoder = codec.Decoder()
+        self._seq = 0
+        self.status = None
+        self.info = None
+        self.close()
+        return self.connect(timeout)
+
+    def set_clock(self, clock: Callable[[], float]) -> None:
+        """Measure every timeout on ``clock`` from now on; running deadlines keep their length."""
+        offset = clock() - self.clock()
+        self.clock = clock
+        self._shift(offset)
+
+    def fileno(self) -> int | None:
+        """The port's file descriptor while open (for a caller that waits on it), else None."""
+        try:
+            return self._ser.fileno() if self._ser is not None else None
+        except (AttributeError, OSError, ValueError):  # a port object without a descriptor
+            return None
+
+    def unobserved(self, seconds: float) -> None:
+        """Tell the driver that ``seconds`` of its clock went by while nobody could watch the
+        board on it (an autopilot clock that stood still during a MAVLink outage, then jumped):
+        running deadlines and the silence reference move on with it, so the jump is not taken
+        for a silent board or a leg that failed to converge."""
+        if seconds > 0:
+            self._shift(seconds)
+
+    def _shift(self, offset: float) -> None:
+        """Move every running deadline and reference time by ``offset`` seconds."""
+        self._last_good += offset
+        for p in self._pending.values():
+            p.sent_at += offset
+        for op in self._ops:
+            op._shift(offset)
+        if self.status is not None:
+            self.status = dataclasses.replace(self.status, received_at=self.status.received_at + offset)
+
+    @property
+    def queued_bytes(self) -> int:
+        """Bytes waiting for the port to take them."""
+        return len(self._outq)
+
+    def check_preset(
+        self, uphill_nm: float, downhill_nm: float, uphill_angle_deg: float | None = None
+    ) -> None:
+        """Refuse a landing preset the legs' calibration cannot produce, before it is needed."""
+        self.calibration.check_preset(uphill_nm, downhill_nm, uphill_angle_deg)
 
     def close(self) -> None:
         if self._ser is not None:
@@ -397,19 +584,20 @@ class LegBoard:
         running operations fail with the same error.
         """
         try:
+            self._flush()
             self._read()
-            now = time.monotonic()
+            now = self.clock()
             self._resend(now)
             if now - self._last_good > self.silence_timeout:
                 raise self._silence_error(f"nothing for {self.silence_timeout:g} s")
         except LegBoardError as exc:
             for op in self._ops:
-                op.fail(exc)
+                op._fail(exc)
             self._ops.clear()
             raise
         for op in self._ops:
             if now > op.deadline:
-                op.expire(self.status, self.calibration)
+                op._expire(self.status, self.calibration)
         self._ops = [op for op in self._ops if not op.done]
         return self.status
 
@@ -519,28 +707,28 @@ class LegBoard:
 
     def wait_ready(self, timeout: float) -> BoardStatus:
         """Wait until every leg is steady (loose, holding or stopped); a fault raises."""
-        deadline = time.monotonic() + timeout
+        deadline = self.clock() + timeout
         while True:
             status = self.poll()
             if status is not None:
                 self.raise_for_faults()
                 if status.ready and not self._ops:
                     return status
-            if time.monotonic() >= deadline:
+            if self.clock() >= deadline:
                 states = ", ".join(s.state.name for s in status.legs) if status else "no status"
                 raise LegTimeout(f"legs not ready within {timeout:g} s ({states})")
             self._wait_readable(0.02)
 
     def query(self, timeout: float = 1.0) -> BoardStatus:
         """Ask for a fresh status and wait for it."""
-        before = self.status.received_at if self.status else 0.0
+        before = self._statuses
         self._send(messages.Query())
-        deadline = time.monotonic() + timeout
+        deadline = self.clock() + timeout
         while True:
             status = self.poll()
-            if status is not None and status.received_at > before:
+            if status is not None and self._statuses > before:
                 return status
-            if time.monotonic() >= deadline:
+            if self.clock() >= deadline:
                 raise LegTimeout(f"no status within {timeout:g} s of QUERY")
             self._wait_readable(0.02)
 
@@ -573,38 +761,61 @@ class LegBoard:
             start = self.status.board_time_s
         else:
             start = self.info.board_time_s if self.info else 0.0
+        now = self.clock()
         op = Operation(
             kind,
             legs,
             {k: targets[k] for k in legs if k in targets},
             target_ma,
-            time.monotonic() + timeout,
+            now + timeout,
             tolerance,
             start,
         )
+        seq = self._send(msg)  # a full queue raises here, before anything else changed
         for other in self._ops:
             if set(other.legs) & set(legs):
-                other.fail(LegBoardError(f"{other.kind} on legs {other.legs} superseded by {kind}"))
+                other._fail(OperationSuperseded(other.kind, other.legs, f"{kind} on legs {list(legs)}"))
         self._ops = [o for o in self._ops if not o.done] + [op]
-        seq = self._send(msg)
-        self._pending[seq] = _Pending(codec.encode(msg, seq), messages.type_of(msg), op, time.monotonic())
+        self._pending[seq] = _Pending(codec.encode(msg, seq), messages.type_of(msg), op, now)
         return op
 
     def _send(self, msg: messages.Message) -> int:
         seq = self._seq
-        self._seq = (self._seq + 1) & 0xFF
         self._write(codec.encode(msg, seq))
+        self._seq = (self._seq + 1) & 0xFF
         return seq
 
     def _write(self, data: bytes) -> None:
+        """Queue ``data`` whole (or raise :class:`WriteQueueFull`), then flush what the port takes."""
         if self._ser is None:
             raise BoardDisconnected(f"leg board port {self.port} is not open")
+        if len(self._outq) + len(data) > self.max_queue_bytes:
+            self._flush()
+            if len(self._outq) + len(data) > self.max_queue_bytes:
+                raise WriteQueueFull(
+                    f"leg board port {self.port}: {len(self._outq)} bytes not taken by the port "
+                    f"(queue limit {self.max_queue_bytes}); the board is not reading"
+                )
+        self._outq += data
+        self._flush()
+
+    def _flush(self) -> None:
+        """Hand the port as much of the queue as it takes now; never waits."""
+        if self._ser is None or not self._outq:
+            return
         try:
-            self._ser.write(data)
-        except serial.SerialTimeoutException:
-            raise LegTimeout(f"leg board port {self.port}: write timed out") from None
+            try:
+                fd = self._ser.fileno()
+            except (AttributeError, NotImplementedError, serial.SerialException):
+                n = self._ser.write(bytes(self._outq)) or 0  # write_timeout=0: non-blocking
+            else:
+                try:
+                    n = os.write(fd, self._outq)
+                except BlockingIOError:
+                    n = 0
         except (serial.SerialException, OSError) as exc:
             raise BoardDisconnected(f"leg board port {self.port}: {exc}") from None
+        del self._outq[:n]
 
     def _read(self) -> list[codec.Frame]:
         if self._ser is None:
@@ -615,7 +826,7 @@ class LegBoard:
             raise BoardDisconnected(f"leg board port {self.port}: {exc}") from None
         frames = self.decoder.feed(data) if data else []
         for frame in frames:
-            self._last_good = time.monotonic()
+            self._last_good = self.clock()
             self._rejects_at_good = self.decoder.rejects.total()
             self._handle(frame)
         return frames
@@ -624,8 +835,9 @@ class LegBoard:
         msg = frame.message
         if isinstance(msg, messages.Status):
             self.status = self._convert(msg)
+            self._statuses += 1
             for op in self._ops:
-                op.update(self.status, self.calibration)
+                op._update(self.status, self.calibration)
         elif isinstance(msg, messages.Ack | messages.Nak):
             pending = self._pending.get(msg.cmd_seq)
             if pending is None or pending.msg_type != msg.cmd_type:
@@ -634,10 +846,10 @@ class LegBoard:
             if pending.op is None:
                 return
             if isinstance(msg, messages.Ack):
-                pending.op.acknowledge(self.status)
+                pending.op._acknowledge(self.status)
             else:
                 name = MsgType(msg.cmd_type).name
-                pending.op.fail(CommandRejected(name, msg.code, NAK_TEXT.get(msg.code, "?")))
+                pending.op._fail(CommandRejected(name, msg.code, NAK_TEXT.get(msg.code, "?")))
 
     def _resend(self, now: float) -> None:
         for seq, p in list(self._pending.items()):
@@ -647,12 +859,14 @@ class LegBoard:
                 if p.tries > self.ack_retries:
                     del self._pending[seq]
                     if p.op is not None:
-                        p.op.fail(
+                        p.op._fail(
                             LegTimeout(
                                 f"no acknowledgement of {MsgType(p.msg_type).name} after {p.tries} tries"
                             )
                         )
                     continue
+                if len(self._outq) + len(p.data) > self.max_queue_bytes:
+                    continue  # the port is not taking bytes: re-send once it does
                 self._write(p.data)
                 p.sent_at = now
                 p.tries += 1
@@ -669,7 +883,7 @@ class LegBoard:
             legs.append(
                 LegStatus(i, r.state, r.fault, r.current_ma, r.target_ma, r.angle_cdeg / 100.0, torque)
             )
-        return BoardStatus(msg.board_time_ms / 1000.0, tuple(legs), time.monotonic(), msg.last_cmd_seq)
+        return BoardStatus(msg.board_time_ms / 1000.0, tuple(legs), self.clock(), msg.last_cmd_seq)
 
     def _silence_error(self, what: str) -> LegBoardError:
         rejected = self.decoder.rejects.total() - self._rejects_at_good

@@ -74,6 +74,39 @@ class LegNotConverged(LegBoardError):  # noqa: N818 (names the landing controlle
         )
 
 
+class WriteQueueFull(LegBoardError):  # noqa: N818 (names the landing controller reads)
+    """The port has not taken the queued bytes and the driver's outgoing queue is full.
+
+    The board is not reading (stalled or wedged); nothing was queued by the call that raised.
+    """
+
+
+class OperationSuperseded(LegBoardError):  # noqa: N818 (names the landing controller reads)
+    """A newer operation on some of the same legs replaced this one before it finished."""
+
+    def __init__(self, kind: str, legs: tuple[int, ...], by: str) -> None:
+        self.kind = kind
+        self.legs = legs
+        self.by = by
+        super().__init__(f"{kind} on legs {list(legs)} superseded by {by}")
+
+
+class OperationCancelled(LegBoardError):  # noqa: N818 (names the landing controller reads)
+    """The caller cancelled the operation; the driver no longer follows it."""
+
+
+class BoardReconnected(LegBoardError):  # noqa: N818 (names the landing controller reads)
+    """The connection was reset (reconnect): operations started before it cannot be followed."""
+
+
+class OperationPending(LegBoardError):  # noqa: N818 (names the landing controller reads)
+    """``result()`` asked of an operation that has not finished yet."""
+
+
+class AngleOutOfRange(LegBoardError):  # noqa: N818 (names the landing controller reads)
+    """A leg angle outside what the legs (and the protocol) can hold."""
+
+
 class TorqueOutOfRange(LegBoardError):  # noqa: N818 (names the landing controller reads)
     """A friction torque the leg's calibration does not cover."""
 

@@ -1,1 +1,1 @@
-"""The landing sequence, one phase per module; :mod:`slopelander.controller.machine` runs them."""
+"""The landing sequence, one state per module named for it; run by the controller's machine."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -9,7 +10,9 @@ from typing import Any, Protocol
 class Actions(Protocol):
     """What the states may do to the vehicle and the legs (bound to MAVLink in actions.py)."""
 
-    def set_legs(self, tau_up: float, tau_down: float) -> None: ...
+    def check_preset(self, tau_up: float, tau_down: float) -> str | None: ...
+    def can_set_angle(self) -> bool: ...
+    def set_legs(self, tau_up: float, tau_down: float, angle_up_deg: float | None = None) -> None: ...
     def loosen_legs(self) -> None: ...
     def set_mode(self, mode: str) -> None: ...
     def descend(self, rate_mps: float) -> None: ...
@@ -37,9 +40,18 @@ class Inputs:
     script_state: int = 0
     legs_ready: bool = False
     legs_fault: str | None = None
+    #: the uphill legs' angles as the board reports them (deg below the horizontal; empty: unknown)
+    uphill_angles_deg: tuple[float, ...] = ()
     accel_mps2: float = 9.81
     impact: bool = False
     takeoff_request: bool = False
+
+    @property
+    def range_valid(self) -> bool:
+        """A reading the landing may act on: flagged valid and a finite distance, not a stale
+        number left in ``range_m`` by a sensor that has since failed."""
+        r = self.range_m
+        return self.range_ok and r is not None and math.isfinite(r) and r >= 0.0
 
 
 @dataclass
@@ -49,6 +61,8 @@ class Context:
     cfg: Any
     act: Actions
     preset: tuple[float, float] = (0.0, 0.0)
+    #: the uphill legs' angle the landing needs (deg), None when any angle will do
+    uphill_angle_deg: float | None = None
     next_preset: tuple[float, float] | None = None
     entered_at: float = 0.0
     marks: dict[str, float] = field(default_factory=dict)

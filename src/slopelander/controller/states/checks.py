@@ -9,7 +9,7 @@ def refusal(inp: Inputs) -> str | None:
     """The first failed pre-descent check, or None."""
     if not inp.script_present:
         return "on-board script not present"
-    if not inp.range_ok:
+    if not inp.range_valid:
         return "rangefinder not healthy"
     if not inp.legs_ready:
         return "legs not ready"
@@ -20,11 +20,24 @@ def refusal(inp: Inputs) -> str | None:
     return None
 
 
+def angle_refusal(ctx: Context, inp: Inputs) -> str | None:
+    """Why the uphill legs' reported angle does not fit the preset's, or None."""
+    want = ctx.uphill_angle_deg
+    if want is None:
+        return None
+    if not inp.uphill_angles_deg:
+        return "uphill leg angles not reported"
+    worst = max(inp.uphill_angles_deg, key=lambda a: abs(a - want))
+    if abs(worst - want) > ctx.cfg["legs.angle_tolerance_deg"]:
+        return f"uphill legs at {worst:.1f} deg, preset needs {want:.1f} deg"
+    return None
+
+
 class Checks(State):
     name = "CHECKS"
 
     def step(self, ctx: Context, inp: Inputs):
-        why = refusal(inp)
+        why = refusal(inp) or angle_refusal(ctx, inp)
         if why is not None:
             return ("ABORTED", f"check failed: {why}")
         return ("DESCEND", "checks passed")

@@ -1,4 +1,4 @@
-"""PRESET and LEGS_WAIT: set the landing torques and wait until every leg reports them."""
+"""PRESET: command the landing torques on the legs (and the uphill angle where the board can set it)."""
 
 from __future__ import annotations
 
@@ -6,22 +6,23 @@ from slopelander.controller.states.base import Context, Inputs, State
 
 
 class Preset(State):
+    """Starts the leg operation; the board takes seconds, so waiting is the next state's job."""
+
     name = "PRESET"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
-        ctx.act.set_legs(*ctx.preset)
+        why = ctx.act.check_preset(*ctx.preset)  # refused on the ground, not found out in flight
+        if why is not None:
+            return why
+        angle = ctx.uphill_angle_deg
+        if angle is None:
+            ctx.act.set_legs(*ctx.preset)
+        elif ctx.act.can_set_angle():
+            ctx.act.set_legs(*ctx.preset, angle)
+        else:  # legs without an angle actuator (the paper's): the pilot sets it; CHECKS verifies
+            ctx.act.statustext(f"SL set uphill legs to {angle:.1f} deg by hand")
+            ctx.act.set_legs(*ctx.preset)
         return None
 
     def step(self, ctx: Context, inp: Inputs):
         return ("LEGS_WAIT", f"legs commanded to {ctx.preset[0]:.2f}/{ctx.preset[1]:.2f} N*m")
-
-
-class LegsWait(State):
-    name = "LEGS_WAIT"
-
-    def step(self, ctx: Context, inp: Inputs):
-        if inp.legs_ready:
-            return ("CHECKS", "legs within tolerance")
-        if inp.t - ctx.entered_at > ctx.cfg["legs.ready_timeout_s"]:
-            return ("ABORTED", "legs not within tolerance in time")
-        return None

@@ -1,0 +1,89 @@
+"""The companion's CPU use while it descends: CPU time of the controller's process per second of
+vehicle time, with HIGHRES_IMU and RAW_IMU streamed at 200 Hz (the full IMU rate) and the
+rangefinder at 50 Hz. Goal: under 5 % of one core.
+
+    python3 benchmarks/controller_cpu.py [--descents 3] [--speed 1]
+
+Real processes: the simulated vehicle (real time by default, lock-step) and leg board; this
+process is the companion: the MAVLink link, the leg driver and the landing state machine
+(slopelander.controller.runner.Lander, polled as `slopelander land` polls it). Measured from
+DESCEND to the cut (the descent from 2.8 m above a 20 deg roof, about 5 s each) with
+``time.process_time()`` (user + system CPU of this process, all threads), against the vehicle
+time that passed. At --speed 1 the vehicle runs in real time, so the per-second costs of the
+controller's 1 kHz poll loop count as they would on the vehicle; faster speeds give less.
+Streams: the two IMU messages, DISTANCE_SENSOR, HEARTBEAT at 5 Hz and LOCAL_POSITION_NED at
+50 Hz (the rig flies the vehicle over the roof with it); ``--telemetry`` adds what the flight
+tests record. Most of the CPU is pymavlink decoding messages in Python (about 700 a second).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("MAVLINK20", "1")
+REPO = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(REPO / "src"), str(REPO)]
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+
+from sitl.rig import Rig, config  # noqa: E402
+from slopelander.controller.runner import Lander  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--descents", type=int, default=3)
+    ap.add_argument("--speed", type=float, default=1.0)
+    ap.add_argument(
+        "--telemetry",
+        action="store_true",
+        help="also stream what the test rig records (position, attitude, outputs at 50 Hz, RC)",
+    )
+    a = ap.parse_args()
+    cfg = config(reflex={"arm_height_m": 0.5})
+    with Rig(
+        slope_deg=20.0,
+        seed=5,
+        speed=a.speed,
+        imu_message=mavlink.MAVLINK_MSG_ID_HIGHRES_IMU,
+        telemetry=a.telemetry,
+    ) as rig:
+        rig.wait_command(rig.link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200), "RAW_IMU")
+        rig.take_off(3.0)
+        total_cpu = total_t = 0.0
+        counts: dict[str, int] = {}
+        for i in range(a.descents):
+            rig.go_over_roof(2.8)
+            rig.set_legs(1.7, 2.3)
+            lander = Lander(rig.link, cfg, (1.7, 2.3), legs=rig.legs)
+            assert lander.run(60.0, until=("DESCEND", "ABORTED")) == "DESCEND", lander.machine.history
+            n0 = {k: len(v.stamps) for k, v in rig.link._rates.items()}
+            c0, t0, w0 = time.process_time(), rig.now, time.monotonic()
+            lander.run(60.0, until=("CUT", "ABORTED", "LANDED"))
+            cpu, vt, wall = time.process_time() - c0, rig.now - t0, time.monotonic() - w0
+            hz = {k: round(rig.link.rate_hz(k)) for k in ("HIGHRES_IMU", "RAW_IMU", "DISTANCE_SENSOR")}
+            print(
+                f"descent {i + 1}: {vt:.2f} s vehicle time ({wall:.2f} s wall), CPU {cpu:.3f} s = "
+                f"{100 * cpu / vt:.2f} % of one core; arrival rates now {hz} Hz",
+                flush=True,
+            )
+            total_cpu += cpu
+            total_t += vt
+            for k, v in rig.link._rates.items():
+                counts[k] = counts.get(k, 0) + len(v.stamps) - n0.get(k, 0)
+            lander.run(60.0)
+            rig.wait(0.5)
+            rig.take_off(rig.height() + 1.5, force=True)
+    print(
+        f"controller CPU while descending with HIGHRES_IMU + RAW_IMU at 200 Hz: "
+        f"{100 * total_cpu / total_t:.2f} % of one core over {total_t:.1f} s of vehicle time "
+        f"(--speed {a.speed:g}{', rig telemetry too' if a.telemetry else ''}; goal < 5 %)"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,29 @@
+"""ARMED: near the ground the on-board reflex, not the companion, must cut the motors in time."""
+
+from __future__ import annotations
+
+from slopelander.controller.states.base import Context, Inputs, State
+
+
+class Armed(State):
+    """Keeps descending and re-sends the reflex arm before its validity lapses; the script's
+    state tells when it has cut the motors or felt the impact."""
+
+    name = "ARMED"
+    airborne_descent = True
+
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        ctx.act.reflex_arm()
+        ctx.marks["reflex_sent"] = inp.t
+        return None
+
+    def step(self, ctx: Context, inp: Inputs):
+        ctx.act.descend(ctx.cfg["descent.rate_mps"])
+        if inp.t - ctx.marks["reflex_sent"] >= ctx.cfg["reflex.refresh_s"]:
+            ctx.act.reflex_arm()
+            ctx.marks["reflex_sent"] = inp.t
+        if inp.script_state == 11:
+            return ("CUT", "on-board script cut the motors")
+        if inp.script_state in (12, 13):  # cut and impact both fell between two steps
+            return ("CUT", "on-board script cut the motors and reports impact")
+        return None

@@ -1,0 +1,155 @@
+"""Landings flown end to end by the companion's controller against the simulated vehicle and leg
+board (real processes, TCP MAVLink, pseudo-terminal, lock-step), compared with the model.
+
+On each roof (20, 35, 45 deg) the vehicle takes off once and lands several times: the legs set
+to the lookup table's preset for the slope and the expected impact speed, the cut height chosen
+for a free fall of 0.1 m or 0.3 m after the cut (impact ≈ 1.5 or 2.5 m/s). The vehicle reports
+the state at first contact (sitl/vehicle/events.py); the model, run alone for that contact state,
+the preset, the leg angles and the reverse thrust the vehicle gave, must predict the outcome class
+the flight had (landed / slid / flipped).
+
+Known difference, checked here instead of hidden: the model (and so the map and the table) keeps
+the reverse thrust on until the end of its 2 s horizon; the flight stops it after
+``reflex.reverse_thrust_ms`` (500 ms). Above atan(mu_k) = 38.7 deg the feet cannot hold the vehicle
+once the thrust stops (docs/reproduction.md), so a slow 45 deg landing the model calls landed
+rests under the thrust and slides away after it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from sitl.rig import Flight, Rig, config
+from slopelander.controller.landing import expected_impact_speed, leg_geometry
+from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+from slopelander.model.landing import simulate
+from slopelander.model.outcome import Outcome
+
+SEQUENCE = ["PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED", "CUT", "REVERSE", "SETTLED", "LANDED"]
+
+
+def contact_range(slope_deg: float) -> float:
+    """Range (m) at which the uphill foot of a level vehicle touches (controller/landing.py geometry)."""
+    g = leg_geometry()
+    a = math.radians(g.leg_angle_deg)
+    return g.leg_length_m * math.cos(a) + (g.joint_x_m + g.leg_length_m * math.sin(a)) * math.tan(
+        math.radians(slope_deg)
+    )
+
+
+def model_class(outcome: Outcome) -> str:
+    if outcome.success:
+        return "landed"
+    return {Outcome.SLID: "slid", Outcome.FLIP: "flipped"}.get(outcome, outcome.name.lower())
+
+
+@pytest.fixture(scope="class")
+def rig(request):
+    """One vehicle per roof (class), taken off once; the landings of the class share it."""
+    slope = request.cls.SLOPE
+    with Rig(slope_deg=slope, seed=int(slope)) as r:
+        r.take_off(3.0)
+        r.last_flight = None
+        yield r
+
+
+def ensure_airborne(rig: Rig) -> None:
+    """After a landing, the controller's own take-off and leg reset; then over the roof."""
+    f = rig.last_flight
+    if f is not None and f.end == "LANDED":
+        assert rig.take_off_again(f) == "READY", f.history[-3:]
+    rig.go_over_roof(2.5)
+
+
+def fly(rig: Rig, fall_m: float, **reflex) -> tuple[Flight, str]:
+    """One landing with the table's preset for this slope and fall, and where the preset came from."""
+    ensure_airborne(rig)
+    cut = round(contact_range(rig.slope_deg) + fall_m, 2)
+    cfg = config(reflex={"cut_height_m": cut, **reflex})
+    speed = expected_impact_speed(cfg["descent.rate_mps"], cut, rig.slope_deg, leg_geometry())
+    p = LookupTable.load(DEFAULT_TABLE).lookup(rig.slope_deg, speed)
+    flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=90.0)
+    rig.last_flight = flight
+    return flight, f"table {p.cell} {p.outcome} for {speed:.2f} m/s"
+
+
+def check_against_the_model(rig: Rig, fall_m: float) -> None:
+    """Fly one landing; its outcome class must be the model's for the contact state the vehicle reported."""
+    flight, source = fly(rig, fall_m)
+    assert flight.states == SEQUENCE, (flight.history, source)
+    c = flight.contact
+    assert c is not None
+    assert abs(c["slope"] - rig.slope_deg) < 1e-6
+    # the cut came first: a free fall, then contact clearly faster than the 0.5 m/s descent (the
+    # foot meets the roof a few cm above the range the geometry of controller/landing.py gives, so
+    # the fall is shorter than fall_m: about 1.1 m/s for 0.1 m, 2.1 m/s for 0.3 m)
+    stops = rig.track.event_times("EV_STOP", flight.t_start)
+    assert stops and stops[0] < c["t"]
+    assert c["vz"] > 0.5 + 3.0 * fall_m, c
+    cond = flight.model_conditions()
+    assert cond.reverse_percent == 100.0 and cond.reverse_delay < 0.02  # the reflex reversed at once
+    predicted = simulate(cond).result
+    flown, figures = flight.classify(rig.slope_deg)
+    assert flown == model_class(predicted.outcome), (source, cond, figures, predicted.summary())
+    if flown == "landed":
+        assert abs(figures["slide_m"] - predicted.slide) < 0.15, (figures, predicted.summary())
+
+
+class TestRoof20:
+    SLOPE = 20.0
+
+    @pytest.mark.parametrize("fall_m", [0.1, 0.3])
+    def test_a_landing_ends_as_the_model_predicts_for_the_preset_flown(self, rig, fall_m):
+        check_against_the_model(rig, fall_m)
+
+    def test_after_a_landing_the_controller_takes_off_and_the_legs_reset(self, rig):
+        if rig.last_flight is None or rig.last_flight.end != "LANDED":
+            fly(rig, 0.3)
+        flight = rig.last_flight
+        assert flight.end == "LANDED"
+        assert not rig.armed()
+        on_ground = rig.leg_angles()
+        st = rig.legs.status
+        assert all(lg.torque_nm > 1.0 for lg in st.legs)  # the preset still clamps the legs
+        assert min(on_ground) < 36.0, on_ground  # the landing folded the legs in
+        assert rig.take_off_again(flight) == "READY"
+        assert flight.states[-3:] == ["TAKEOFF", "RESET", "READY"]
+        assert rig.armed() and rig.height() > rig.surface_z(rig.track.pos[-1][1]) + 0.8
+        st = rig.legs.status
+        assert all(lg.state.name == "LOOSE" and abs(lg.torque_nm) < 0.05 for lg in st.legs), st
+        assert all(abs(lg.angle_deg - 37.5) < 0.5 for lg in st.legs), st  # the springs reset them
+        rig.last_flight = None
+
+
+class TestRoof35:
+    SLOPE = 35.0
+
+    @pytest.mark.parametrize("fall_m", [0.1, 0.3])
+    def test_a_landing_ends_as_the_model_predicts_for_the_preset_flown(self, rig, fall_m):
+        check_against_the_model(rig, fall_m)
+
+
+class TestRoof45:
+    SLOPE = 45.0
+
+    def test_a_slow_landing_rests_under_reverse_thrust_and_slides_once_it_stops(self, rig):
+        flight, source = fly(rig, 0.1)
+        c = flight.contact
+        assert c is not None and flight.end == "LANDED", (flight.history, source)
+        predicted = simulate(flight.model_conditions()).result
+        assert model_class(predicted.outcome) == "landed", (
+            predicted.summary()
+        )  # the model: held by the thrust
+        stop = rig.track.event_times("EV_STOP", c["t"])  # the reflex's HOLD after the reverse thrust
+        assert stop and 0.4 < stop[0] - c["t"] < 0.6
+        pos = rig.track.pos
+        under_thrust = [p for p in pos if stop[0] - 0.05 <= p[0] <= stop[0]]
+        after = [p for p in pos if stop[0] + 1.0 <= p[0] <= stop[0] + 1.5]
+        assert under_thrust and max(math.hypot(p[3], p[4]) for p in under_thrust) < 0.05  # at rest
+        assert after and min(math.hypot(p[3], p[4]) for p in after) > 0.2  # sliding down the roof
+        assert flight.classify(rig.slope_deg)[0] == "slid"
+
+    def test_a_fast_landing_ends_as_the_model_predicts_for_the_preset_flown(self, rig):
+        check_against_the_model(rig, 0.3)

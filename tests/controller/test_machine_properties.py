@@ -1,0 +1,127 @@
+"""The landing state machine under random event sequences (hypothesis stateful testing, on an
+injected clock): whatever the vehicle, the link, the legs and the pilot do, and in whatever order,
+the machine never raises, never commands reverse thrust or a disarm before an impact, never arms
+the motor cut without a valid range, never loosens the legs on the ground, obeys the emergency
+stop at once, and never stays in a waiting state for ever."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
+from test_machine import Recorder  # the same recording stand-in for the actions
+
+from slopelander.controller.config import load_config
+from slopelander.controller.machine import STATES, Machine
+from slopelander.controller.states.base import Context, Inputs
+
+CFG = load_config()
+# states the machine may stay in while nothing changes: the autopilot flies, or it is over
+MAY_PERSIST = {"DESCEND", "ARMED", "TAKEOFF", "LANDED", "READY", "ABORTED", "ESTOP", "LINK_LOST"}
+MOTOR_STOPPERS = {"disarm", "reverse"}
+# readings at the thresholds that matter, and the ones a broken sensor gives
+RANGES = [None, -1.0, 0.0, 0.29, 0.3, 0.31, 0.79, 0.8, 1.5, 1.51, 5.0, 50.0, float("nan"), float("inf")]
+
+
+class LandingUnderRandomEvents(RuleBasedStateMachine):
+    @initialize(start=st.sampled_from(["PRESET", "PRESET", "DESCEND", "ARMED", "LANDED", "TAKEOFF"]))
+    def start(self, start: str) -> None:
+        self.act = Recorder()
+        ctx = Context(cfg=CFG, act=self.act, preset=(0.8, 1.5), next_preset=(0.6, 1.2))
+        self.m = Machine(ctx, None, start)
+        self.inp = Inputs(t=0.0, range_m=3.0, range_ok=True, legs_ready=False, script_state=0)
+        self.impact_seen = start in ("LANDED", "TAKEOFF")  # it has landed before
+        self.estop_seen = False
+        self._step(0.02)
+
+    def _step(self, dt: float, **changes) -> None:
+        self.inp = replace(self.inp, t=self.inp.t + dt, **changes)
+        if self.inp.impact or self.inp.script_state in (12, 13):
+            self.impact_seen = True
+        n = len(self.act.calls)
+        self.m.step(self.inp)  # must never raise
+        new = self.act.calls[n:]
+        names = [c[0] for c in new]
+        if not self.impact_seen:
+            assert not MOTOR_STOPPERS & set(names), f"{names} before any impact, in {self.m.name}"
+        if "reflex_arm" in names:
+            assert self.inp.range_ok and self.inp.range_m is not None, "cut armed without a valid range"
+            assert self.inp.link_ok and self.inp.mode == "GUIDED"
+        if "loosen_legs" in names:
+            assert self.inp.range_ok and self.inp.range_m is not None, "legs loosened without a valid range"
+            assert self.inp.range_m >= CFG["takeoff.clear_height_m"], "legs loosened on the ground"
+        if self.inp.estop:
+            assert self.m.name == "ESTOP"
+            if self.estop_seen:
+                assert set(names) <= {"statustext"}, f"commands {names} after the emergency stop"
+            self.estop_seen = True
+
+    # -- the world moves -------------------------------------------------------------------
+    @rule(dt=st.floats(0.005, 0.5))
+    def time_passes(self, dt: float) -> None:
+        self._step(dt)
+
+    @rule(
+        dt=st.floats(0.005, 0.2),
+        r=st.one_of(st.sampled_from(RANGES), st.floats(-1.0, 50.0)),
+        ok=st.booleans(),
+    )
+    def range_reading(self, dt: float, r: float | None, ok: bool) -> None:
+        self._step(dt, range_m=r, range_ok=ok)
+
+    @rule(dt=st.floats(0.005, 0.2), s=st.sampled_from([0, 10, 11, 12, 13, 14, 99]))
+    def script_reports(self, dt: float, s: int) -> None:
+        self._step(dt, script_state=s)
+
+    @rule(dt=st.floats(0.005, 0.2), present=st.booleans())
+    def script_presence(self, dt: float, present: bool) -> None:
+        self._step(dt, script_present=present)
+
+    @rule(dt=st.floats(0.005, 0.2), a=st.floats(-50.0, 200.0), impact=st.booleans())
+    def imu(self, dt: float, a: float, impact: bool) -> None:
+        self._step(dt, accel_mps2=a, impact=impact)
+
+    @rule(dt=st.floats(0.005, 0.2), ok=st.booleans())
+    def link(self, dt: float, ok: bool) -> None:
+        self._step(dt, link_ok=ok)
+
+    @rule(dt=st.floats(0.005, 0.2), mode=st.sampled_from(["GUIDED", "LOITER", "LAND", "STABILIZE"]))
+    def pilot_mode(self, dt: float, mode: str) -> None:
+        self._step(dt, mode=mode)
+
+    @rule(dt=st.floats(0.005, 0.2), armed=st.booleans())
+    def arming(self, dt: float, armed: bool) -> None:
+        self._step(dt, armed=armed)
+
+    @rule(dt=st.floats(0.005, 0.2), ready=st.booleans(), fault=st.sampled_from([None, None, "board silent"]))
+    def legs(self, dt: float, ready: bool, fault: str | None) -> None:
+        self._step(dt, legs_ready=ready, legs_fault=fault)
+
+    @rule(dt=st.floats(0.005, 0.2), req=st.booleans())
+    def takeoff_request(self, dt: float, req: bool) -> None:
+        self._step(dt, takeoff_request=req)
+
+    @rule(dt=st.floats(0.005, 0.2), press=st.integers(0, 4))
+    def emergency_stop(self, dt: float, press: int) -> None:
+        self._step(dt, estop=press == 0)  # rarer than the rest: it ends the story
+
+    # -- always ------------------------------------------------------------------------------
+    @invariant()
+    def a_known_state(self) -> None:
+        assert self.m.name in STATES
+
+    def teardown(self) -> None:
+        """With nothing changing any more, no waiting state lasts for ever."""
+        if not hasattr(self, "m"):
+            return
+        for _ in range(300):  # 30 s at 10 Hz
+            self._step(0.1)
+        assert self.m.name in MAY_PERSIST, f"still in {self.m.name} after 30 s of unchanging inputs"
+
+
+LandingUnderRandomEvents.TestCase.settings = settings(
+    max_examples=400, stateful_step_count=40, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+test_landing_under_random_events = LandingUnderRandomEvents.TestCase

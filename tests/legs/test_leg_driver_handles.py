@@ -1,0 +1,192 @@
+"""The driver as a landing state machine drives it: the real simulated board over a real pty,
+timeouts on an injected clock the test advances, writes that never block, reconnection, and the
+operation handle."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import time
+from pathlib import Path
+
+import pytest
+
+from slopelander.controller.clock import ManualClock
+from slopelander.legs import (
+    AngleOutOfRange,
+    BoardDisconnected,
+    BoardReconnected,
+    LegBoard,
+    LegNotConverged,
+    LegTimeout,
+    OperationCancelled,
+    OperationPending,
+    OperationSuperseded,
+    TorqueOutOfRange,
+    WriteQueueFull,
+    load_calibration,
+)
+from slopelander.legs.messages import LegState
+from tests.legs.conftest import _start, _stop
+
+# Only a bound against a hung test: no driver timeout below depends on the wall clock.
+HANG_S = 30.0
+
+
+def open_on(sim, clock, **kw) -> LegBoard:
+    return LegBoard.open(str(sim.link), 115200, timeout=3.0, clock=clock, **kw)
+
+
+def poll_until(drv: LegBoard, cond, what: str) -> None:
+    end = time.monotonic() + HANG_S
+    while not cond():
+        drv.poll()
+        if time.monotonic() > end:
+            pytest.fail(f"never happened: {what}")
+        time.sleep(0.005)
+
+
+@contextlib.contextmanager
+def stopped(proc):
+    """The board process frozen (SIGSTOP): it reads nothing, so the pty fills up."""
+    os.kill(proc.pid, signal.SIGSTOP)
+    try:
+        yield
+    finally:
+        os.kill(proc.pid, signal.SIGCONT)
+
+
+def test_writes_never_block_and_a_full_queue_is_a_typed_error(board):
+    clk = ManualClock(100.0)
+    with open_on(board, clk, max_queue_bytes=2048) as drv:
+        with stopped(board.proc):
+            longest, sent, full = 0.0, 0, None
+            for _ in range(20000):
+                t0 = time.monotonic()
+                try:
+                    drv.start_loosen()  # loose legs stay loose: only the bytes matter
+                    drv.poll()
+                except WriteQueueFull as exc:
+                    full = exc
+                    longest = max(longest, time.monotonic() - t0)
+                    break
+                longest = max(longest, time.monotonic() - t0)
+                sent += 1
+            assert full is not None, f"{sent} commands taken without the queue filling"
+            assert "not reading" in str(full)
+            assert drv.queued_bytes > 0
+            assert longest < 0.05  # the old write_timeout stalled a call for 0.5 s here
+            t0 = time.monotonic()
+            for _ in range(50):  # polling while the port takes nothing does not block either
+                drv.poll()
+            assert time.monotonic() - t0 < 0.5
+        # the board reads again: the queue drains and a new command takes effect
+        poll_until(drv, lambda: drv.queued_bytes == 0, "queue drained")
+        op = drv.start_presets(uphill_nm=1.1, downhill_nm=0.56, timeout=60.0)
+        poll_until(drv, lambda: op.done, "legs set")
+        assert [round(r.target, 2) for r in op.result().values()] == [1.1, 1.1, 0.56, 0.56]
+
+
+def test_timeouts_run_on_the_injected_clock(board):
+    clk = ManualClock(5.0)
+    with open_on(board, clk, silence_timeout=5.0) as drv, board.ctl() as ctl:
+        op = drv.start_presets(uphill_nm=2.3, timeout=4.0)
+        poll_until(drv, lambda: op.acked, "acknowledged")
+        clk.advance(4.01)  # the lead screws need ~10 board seconds: the deadline passes first
+        drv.poll()
+        assert isinstance(op.exception(), LegNotConverged)
+        ctl.inject("silent")
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end:  # wall time passes, the driver's clock does not
+            drv.poll()
+            time.sleep(0.01)
+        drv.poll()
+        clk.advance(5.01)
+        with pytest.raises(LegTimeout, match=r"silent: nothing for 5 s"):
+            drv.poll()
+
+
+def test_a_board_that_comes_back_is_reconnected(sim_board):
+    sim = sim_board()
+    clk = ManualClock()
+    directory = Path(sim.link).parent
+    with open_on(sim, clk) as drv:
+        first = drv.start_presets(uphill_nm=1.1, timeout=60.0)
+        poll_until(drv, lambda: first.acked, "acknowledged")
+        with sim.ctl() as ctl:
+            ctl.inject("unplug")
+        with pytest.raises(BoardDisconnected):
+            poll_until(drv, lambda: False, "disconnected")
+        assert isinstance(first.exception(), BoardDisconnected)
+        _stop(sim.proc)  # the board is power-cycled: a new process on the same port name
+        again = _start(directory, (), sim.speed)
+        try:
+            info = drv.reconnect(timeout=3.0)
+            assert info.legs == 4
+            assert drv.decoder.rejects.total() == 0
+            op = drv.start_presets(uphill_nm=0.56, timeout=60.0)
+            poll_until(drv, lambda: op.done, "preset on the new board")
+            assert op.exception() is None
+            # sequence numbers restarted: HELLO is 0, this preset 1, and the board saw it last
+            assert drv.status.last_cmd_seq == 1
+        finally:
+            _stop(again.proc)
+
+
+def test_reconnect_drops_running_operations_with_a_typed_error(board):
+    clk = ManualClock()
+    with open_on(board, clk) as drv:
+        op = drv.start_presets(downhill_nm=2.3, timeout=60.0)
+        poll_until(drv, lambda: op.acked, "acknowledged")
+        drv.reconnect(timeout=3.0)
+        assert op.done and isinstance(op.exception(), BoardReconnected)
+        with pytest.raises(BoardReconnected):
+            op.result()
+        assert drv.queued_bytes == 0
+        drv.query()  # numbering restarted: HELLO 0, this QUERY 1
+        poll_until(drv, lambda: drv.status.last_cmd_seq == 1, "the board saw the QUERY as seq 1")
+        assert isinstance(op.exception(), BoardReconnected)  # polling did not revive it
+
+
+def test_the_operation_handle_is_read_only_superseded_and_cancellable(board):
+    clk = ManualClock()
+    with open_on(board, clk) as drv:
+        old = drv.start_presets(uphill_nm=1.1, timeout=60.0)
+        with pytest.raises(OperationPending):
+            old.result()
+        assert old.exception() is None and not old.done
+        for name in ("done", "error", "results", "legs", "deadline"):
+            with pytest.raises(AttributeError):
+                setattr(old, name, None)
+        with pytest.raises(TypeError):
+            old.targets[0] = 3.0  # type: ignore[index]
+        new = drv.start_presets(uphill_nm=1.7, timeout=60.0)
+        assert old.done and isinstance(old.exception(), OperationSuperseded)
+        assert "superseded by friction on legs [0, 1]" in str(old.exception())
+        other = drv.start_presets(downhill_nm=0.56, timeout=60.0)  # other legs: both run
+        assert not new.done and not other.done
+        assert other.cancel() is True and other.cancel() is False
+        assert other.cancelled and isinstance(other.exception(), OperationCancelled)
+        poll_until(drv, lambda: new.done, "the newer preset")
+        results = new.result()
+        assert sorted(results) == [0, 1]
+        assert all(r.achieved == pytest.approx(1.7, abs=0.1) for r in results.values())
+        assert new.cancel() is False  # a finished operation stays finished
+        assert drv.status.legs[2].state is not LegState.FAULT
+
+
+def test_a_preset_outside_the_calibration_is_refused_before_anything_is_sent(board):
+    cal = load_calibration()
+    with pytest.raises(TorqueOutOfRange, match=r"leg 0: 3\.5 N·m is outside"):
+        cal.check_preset(1.7, 3.5)
+    with pytest.raises(AngleOutOfRange, match=r"leg 0: angle 40 deg is outside the range 0–37\.5"):
+        cal.check_preset(1.7, 2.3, uphill_angle_deg=40)
+    cal.check_preset(1.7, 2.3, uphill_angle_deg=24.0)
+    with open_on(board, ManualClock()) as drv:
+        with pytest.raises(TorqueOutOfRange):
+            drv.check_preset(3.3, 1.0)
+        seen = drv._statuses  # a few reports later the board has still seen only the HELLO (seq 0)
+        poll_until(drv, lambda: drv._statuses >= seen + 3, "three reports")
+        assert drv.queued_bytes == 0 and drv.status.last_cmd_seq == 0
+        assert all(leg.target_ma == 0 for leg in drv.status.legs)

@@ -1,0 +1,182 @@
+"""The fault-injecting MAVLink relay: each fault does what it says on a real link.
+
+A pymavlink client talks to the simulated vehicle (a real process) through the relay (another
+real process, steered through its control port)."""
+
+from __future__ import annotations
+
+import os
+import random
+import subprocess
+import sys
+import time
+
+os.environ.setdefault("MAVLINK20", "1")
+
+import pytest
+from pymavlink import mavutil
+
+from sitl.linkfault import LinkFaults, RelayControl
+from sitl.linkfault.faults import FaultConfigError, decide
+from sitl.vehicle.launch import REPO, child_env, free_port, start_vehicle
+
+ROUTE_A = {"FRAME_CLASS": 1, "MOT_PWM_TYPE": 0, "MOT_PWM_MIN": 1525, "MOT_PWM_MAX": 2000}
+
+
+# -- the decisions, no sockets ---------------------------------------------------------------
+def test_drop_rate_matches_its_probability_and_a_seed_repeats_a_run() -> None:
+    frame = bytes(range(40))
+    f = LinkFaults(drop=0.3)
+    a = [decide(frame, f, r).copies for r in [random.Random(7)] for _ in range(4000)]
+    rng = random.Random(7)
+    b = [decide(frame, f, rng).copies for _ in range(4000)]
+    assert a == b
+    assert 0.27 < a.count(0) / len(a) < 0.33
+
+
+def test_a_corrupted_frame_keeps_its_header_and_differs_in_one_byte() -> None:
+    rng = random.Random(1)
+    for frame, header in ((b"\xfd" + bytes(range(39)), 10), (b"\xfe" + bytes(range(39)), 6)):
+        for _ in range(200):
+            d = decide(frame, LinkFaults(corrupt=1.0), rng)
+            diff = [i for i in range(len(frame)) if d.data[i] != frame[i]]
+            assert len(diff) == 1 and diff[0] >= header
+
+
+@pytest.mark.parametrize(
+    "bad", [{"drop": 1.5}, {"delay_s": -1.0}, {"jitter_s": float("nan")}, {"corrupt": "x"}]
+)
+def test_impossible_fault_settings_are_refused(bad: dict) -> None:
+    with pytest.raises(FaultConfigError):
+        LinkFaults().updated(bad)
+
+
+def test_an_unknown_fault_setting_is_named() -> None:
+    with pytest.raises(FaultConfigError, match="lose"):
+        LinkFaults().updated({"lose": 0.1})
+
+
+# -- the relay between a client and the vehicle ------------------------------------------------
+@pytest.fixture(scope="module")
+def link():
+    v = start_vehicle(params=ROUTE_A, no_script=True, speed=1.0)
+    port = free_port()
+    relay = subprocess.Popen(
+        [sys.executable, "-m", "sitl.linkfault", "--listen", f"tcp:127.0.0.1:{port}",
+         "--to", f"tcp:127.0.0.1:{v.port}", "--seed", "3"],
+        stdout=subprocess.PIPE, text=True, env=child_env(), cwd=REPO,
+    )  # fmt: skip
+    ready = relay.stdout.readline().split()
+    assert ready[:2] == ["linkfault", "ready"], ready
+    ctl = RelayControl(int(ready[3].split("=")[1]))
+    conn = mavutil.mavlink_connection(f"tcp:127.0.0.1:{port}", source_system=255, source_component=190)
+    try:
+        assert conn.wait_heartbeat(timeout=15) is not None
+        yield conn, ctl
+    finally:
+        conn.close()
+        relay.terminate()
+        relay.wait(5)
+        v.stop()
+
+
+@pytest.fixture
+def clean(link):
+    conn, ctl = link
+    ctl.restore()
+    ctl.set(drop=0.0, duplicate=0.0, reorder=0.0, corrupt=0.0, delay_s=0.0, jitter_s=0.0)
+    drain(conn, 0.3)
+    return conn, ctl
+
+
+def drain(conn, seconds: float) -> list:
+    """Every message (and bad frame) that arrives within ``seconds``."""
+    out, end = [], time.monotonic() + seconds
+    while time.monotonic() < end:
+        m = conn.recv_match(blocking=True, timeout=max(0.01, end - time.monotonic()))
+        if m is not None:
+            out.append(m)
+    return out
+
+
+def heartbeats(msgs: list) -> list:
+    return [m for m in msgs if m.get_type() == "HEARTBEAT"]
+
+
+def test_a_clean_relay_passes_every_frame(clean) -> None:
+    conn, ctl = clean
+    before = ctl.stats()["down"]
+    msgs = drain(conn, 2.0)
+    after = ctl.stats()["down"]
+    assert len(heartbeats(msgs)) >= 1
+    assert after["frames"] - before["frames"] >= len(msgs) > 20
+    assert after["dropped"] == before["dropped"] and after["corrupted"] == before["corrupted"]
+
+
+def test_dropping_half_the_frames_halves_what_arrives(clean) -> None:
+    conn, ctl = clean
+    n_clean = len(drain(conn, 2.0))
+    ctl.set(drop=0.5)
+    drain(conn, 0.2)
+    n_lossy = len(drain(conn, 2.0))
+    assert 0.35 * n_clean < n_lossy < 0.65 * n_clean
+
+
+def test_a_cut_silences_the_link_and_it_comes_back(clean) -> None:
+    conn, ctl = clean
+    ctl.cut(1.5)
+    drain(conn, 0.2)  # frames already on their way
+    assert drain(conn, 1.0) == []
+    time.sleep(0.4)
+    assert heartbeats(drain(conn, 2.0))
+
+
+def test_a_cut_for_good_lasts_until_restored(clean) -> None:
+    conn, ctl = clean
+    ctl.cut(None)
+    drain(conn, 0.2)
+    assert drain(conn, 2.5) == []
+    assert ctl.stats()["cut"] is True
+    ctl.restore()
+    assert heartbeats(drain(conn, 2.0))
+
+
+def test_corrupted_frames_fail_the_receivers_crc(clean) -> None:
+    conn, ctl = clean
+    ctl.set(corrupt=1.0)
+    drain(conn, 0.2)
+    msgs = drain(conn, 1.5)
+    good = [m for m in msgs if m.get_type() != "BAD_DATA"]
+    assert good == [] and len(msgs) > 10
+
+
+def test_duplicated_frames_arrive_twice_with_the_same_sequence_number(clean) -> None:
+    conn, ctl = clean
+    ctl.set(duplicate=1.0)
+    drain(conn, 0.2)
+    hb = heartbeats(drain(conn, 2.5))
+    seqs = [m.get_seq() for m in hb]
+    assert len(hb) >= 2 and all(seqs.count(s) == 2 for s in seqs)
+
+
+def test_a_delay_shows_in_the_round_trip(clean) -> None:
+    conn, ctl = clean
+
+    def round_trip() -> float:
+        drain(conn, 0.05)
+        t0 = time.monotonic()
+        conn.mav.param_request_read_send(1, 1, b"ANGLE_MAX", -1)
+        m = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=5)
+        assert m is not None
+        return time.monotonic() - t0
+
+    fast = round_trip()
+    ctl.set(delay_s=0.4)
+    slow = round_trip()
+    assert slow - fast > 0.7  # 0.4 s each way
+
+
+def test_the_control_port_refuses_a_bad_setting_with_its_reason(clean) -> None:
+    _, ctl = clean
+    with pytest.raises(FaultConfigError, match="drop"):
+        ctl.set(drop=2.0)
