@@ -29,15 +29,19 @@ def main() -> None:
     t = time.perf_counter()
     simulate_batch(condition_grid(slope_deg=0.0, speed=1.0), model)
     print(f"compile/warm-up: {time.perf_counter() - t:.1f} s")
-    print(f"{datetime.datetime.now():%Y-%m-%d %H:%M}, {os.cpu_count()} cores, "
-          f"load average {os.getloadavg()[0]:.2f} before the run")
+    print(
+        f"{datetime.datetime.now():%Y-%m-%d %H:%M}, {os.cpu_count()} cores, "
+        f"load average {os.getloadavg()[0]:.2f} before the run"
+    )
 
     t = time.perf_counter()
     m = choose_presets(model, axes, "asymmetric", progress=False)
     dt = time.perf_counter() - t
     n = m.meta["landings_simulated"]
-    print(f"asymmetric map {axes.shape[0]} x {axes.shape[1]} x 16 pairs = {n} landings: "
-          f"{dt:.1f} s ({n / dt:.0f} landings/s)")
+    print(
+        f"asymmetric map {axes.shape[0]} x {axes.shape[1]} x 16 pairs = {n} landings: "
+        f"{dt:.1f} s ({n / dt:.0f} landings/s)"
+    )
 
     t = time.perf_counter()
     _, presets = build_table(model, axes, "rvt", progress=False)
@@ -45,8 +49,10 @@ def main() -> None:
     s, v = axes.shape
     margins = 2 * s * (v - 1) + 2 * (s - 1) * v + 4 * (s - 1) * (v - 1)  # one per neighbour pair
     n = presets.meta["landings_simulated"] + margins
-    print(f"lookup table (rvt presets + {margins} margin landings), {axes.size} cells: {dt:.1f} s "
-          f"({n / dt:.0f} landings/s)")
+    print(
+        f"lookup table (rvt presets + {margins} margin landings), {axes.size} cells: {dt:.1f} s "
+        f"({n / dt:.0f} landings/s)"
+    )
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

@@ -26,8 +26,15 @@ def run(label: str, noise: NoiseModel, seed: int, args: argparse.Namespace) -> N
     drops = synthesize(truth, paper_drops(6, seed=0), noise, seed=seed)
     params = resolve_params(truth)
     t0 = time.perf_counter()
-    r = fit(truth, drops, params, cma_evals=args.cma_evals, ls_evals=args.ls_evals, seed=seed,
-            restarts=args.restarts)
+    r = fit(
+        truth,
+        drops,
+        params,
+        cma_evals=args.cma_evals,
+        ls_evals=args.ls_evals,
+        seed=seed,
+        restarts=args.restarts,
+    )
     dt = time.perf_counter() - t0
     print(f"\n{label}: {dt:.1f} s, {r.nfev} simulations of 6 drops, training NRMSE {r.train_nrmse:.4f}")
     print(f"{'parameter':18s} {'truth':>10s} {'fitted':>10s} {'error':>8s} {'95 % CI':>10s}  within CI")
@@ -38,8 +45,10 @@ def run(label: str, noise: NoiseModel, seed: int, args: argparse.Namespace) -> N
         worst = max(worst, abs(err))
         inside = abs(fv - tv) <= r.ci95[p.name]
         print(f"{p.name:18s} {tv:10.4g} {fv:10.4g} {100 * err:+7.2f}% {r.ci95[p.name]:10.2g}  {inside}")
-    print(f"worst error {100 * worst:.2f} %; goal < 2 min and < 2 %: "
-          f"{'met' if dt < 120 and worst < 0.02 else 'NOT met'}")
+    print(
+        f"worst error {100 * worst:.2f} %; goal < 2 min and < 2 %: "
+        f"{'met' if dt < 120 and worst < 0.02 else 'NOT met'}"
+    )
     for w in r.warnings:
         print(f"warning: {w}")
 

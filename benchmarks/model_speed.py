@@ -9,7 +9,7 @@ impact speeds 0.5-3 m/s, the paper's torque levels, with and without reverse thr
   with how well the two agree;
 * the stepper's speed at ArduPilot's 1200 Hz physics rate, as a multiple of real time.
 
-Usage: python benchmarks/model_speed.py [--landings 4000] [--reference 24]
+Usage: python benchmarks/model_speed.py [--landings 4000] [--reference 24] [--effects-file FILE]
 """
 
 from __future__ import annotations
@@ -22,7 +22,15 @@ from dataclasses import asdict
 
 import numpy as np
 
-from slopelander.model import LandingConditions, Model, Outcome, condition_grid, simulate, simulate_batch
+from slopelander.model import (
+    LandingConditions,
+    Model,
+    Outcome,
+    condition_grid,
+    load_effects,
+    simulate,
+    simulate_batch,
+)
 from slopelander.model.reference import ReferenceLanding
 from slopelander.model.stepper import Stepper
 
@@ -45,8 +53,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--landings", type=int, default=4000)
     ap.add_argument("--reference", type=int, default=24, help="landings through solve_ivp")
+    ap.add_argument("--effects-file", help="add the user effects of this file (docs/effects.md)")
     args = ap.parse_args()
     model = Model.default()
+    if args.effects_file:
+        for effect in load_effects(args.effects_file):
+            model = model.with_user_effect(effect)
+        print(f"user effects: {', '.join(e.name for e in model.user_effects)}")
     conds = landing_set(args.landings)
     print(
         f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; "
@@ -71,47 +84,49 @@ def main() -> None:
         f"({len(conds)} in {t_full:.2f} s); same outcome as stopping at rest: {100 * same:.1f} %"
     )
 
-    # the reference, on a sample, over the same time span as the kernel's run
-    idx = np.linspace(0, len(conds) - 1, args.reference).astype(int)
-    agree = 0
-    diffs = []
-    t_ref = 0.0
-    for i in idx:
-        c = LandingConditions(**{n: float(conds[i][n]) for n in conds.dtype.names})
-        kr = simulate(c, model, full_horizon=False).result
+    if args.reference > 0 and not model.user_effects:  # the reference knows built-ins only
+        # the reference, on a sample, over the same time span as the kernel's run
+        idx = np.linspace(0, len(conds) - 1, args.reference).astype(int)
+        agree = 0
+        diffs = []
+        t_ref = 0.0
+        for i in idx:
+            c = LandingConditions(**{n: float(conds[i][n]) for n in conds.dtype.names})
+            kr = simulate(c, model, full_horizon=False).result
+            t0 = time.perf_counter()
+            ref = ReferenceLanding(model, c)
+            # a flip ends the kernel's run at -80 deg; let the reference reach its own flip
+            ts, ys, _ = ref.run(kr.t_end + (0.1 if kr.outcome == Outcome.FLIP else 0.0))
+            rr = ref.result(ts, ys, settled=kr.outcome.value < Outcome.SLID.value)
+            t_ref += time.perf_counter() - t0
+            agree += rr.outcome == kr.outcome
+            diffs.append(
+                [
+                    abs(kr.compression_up - rr.compression_up),
+                    abs(kr.compression_down - rr.compression_down),
+                    abs(kr.slide - rr.slide),
+                    abs(kr.min_pitch_deg - rr.min_pitch_deg),
+                ]
+            )
+        d = np.array(diffs)
+        # the kernel's time for exactly these landings, single-threaded would be unfair to neither:
+        # both are quoted per landing of the sample, the kernel on all cores as it runs in sweeps
         t0 = time.perf_counter()
-        ref = ReferenceLanding(model, c)
-        # a flip ends the kernel's run at -80 deg; let the reference reach its own flip
-        ts, ys, _ = ref.run(kr.t_end + (0.1 if kr.outcome == Outcome.FLIP else 0.0))
-        rr = ref.result(ts, ys, settled=kr.outcome.value < Outcome.SLID.value)
-        t_ref += time.perf_counter() - t0
-        agree += rr.outcome == kr.outcome
-        diffs.append(
-            [
-                abs(kr.compression_up - rr.compression_up),
-                abs(kr.compression_down - rr.compression_down),
-                abs(kr.slide - rr.slide),
-                abs(kr.min_pitch_deg - rr.min_pitch_deg),
-            ]
+        simulate_batch(conds[idx], model)
+        t_k = time.perf_counter() - t0
+        print(f"solve_ivp (Radau+events): {len(idx) / t_ref:6.2f} landings/s  ({len(idx)} in {t_ref:.1f} s)")
+        print(
+            f"speed-up of the compiled batch over solve_ivp on the same landings: "
+            f"{(t_ref / len(idx)) / (t_k / len(idx)):.0f}x  (over the full set's rate: "
+            f"{(len(conds) / t_rest) / (len(idx) / t_ref):.0f}x)"
         )
-    d = np.array(diffs)
-    # the kernel's time for exactly these landings, single-threaded would be unfair to neither:
-    # both are quoted per landing of the sample, the kernel on all cores as it runs in sweeps
-    t0 = time.perf_counter()
-    simulate_batch(conds[idx], model)
-    t_k = time.perf_counter() - t0
-    print(f"solve_ivp (Radau+events): {len(idx) / t_ref:6.2f} landings/s  ({len(idx)} in {t_ref:.1f} s)")
-    print(
-        f"speed-up of the compiled batch over solve_ivp on the same landings: "
-        f"{(t_ref / len(idx)) / (t_k / len(idx)):.0f}x  (over the full set's rate: "
-        f"{(len(conds) / t_rest) / (len(idx) / t_ref):.0f}x)"
-    )
-    print(
-        f"agreement on {len(idx)} landings: same outcome class {agree}/{len(idx)}; "
-        f"median |difference| compression {np.median(d[:, :2]):.3f}, "
-        f"slide {np.median(d[:, 2]) * 1e3:.1f} mm, "
-        f"pitch {np.median(d[:, 3]):.2f} deg; 90th percentile compression {np.percentile(d[:, :2], 90):.3f}"
-    )
+        print(
+            f"agreement on {len(idx)} landings: same outcome class {agree}/{len(idx)}; "
+            f"median |difference| compression {np.median(d[:, :2]):.3f}, "
+            f"slide {np.median(d[:, 2]) * 1e3:.1f} mm, "
+            f"pitch {np.median(d[:, 3]):.2f} deg; "
+            f"90th percentile compression {np.percentile(d[:, :2], 90):.3f}"
+        )
 
     s = Stepper(model, slope_deg=20.0)
     u = s.hover_command()

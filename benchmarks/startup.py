@@ -79,8 +79,10 @@ def main() -> None:
         for i in range(a.runs):
             wall, note = run(sim, env)
             n, b = cache_size(dirs)
-            print(f"simulate run {i + 1}: {wall:5.2f} s whole process; cache {n} files {b / 1e6:.1f} MB"
-                  + (" (compiled: said so on stderr)" if note else ""))
+            print(
+                f"simulate run {i + 1}: {wall:5.2f} s whole process; cache {n} files {b / 1e6:.1f} MB"
+                + (" (compiled: said so on stderr)" if note else "")
+            )
         probe = (
             "import time; t0 = time.perf_counter(); "
             "from slopelander.model import LandingConditions, simulate; t1 = time.perf_counter(); "
@@ -95,14 +97,18 @@ def main() -> None:
         for i in range(a.runs):
             wall, note = run([*sim, "--effects-file", str(eff)], env)
             n, b = cache_size(dirs)
-            print(f"simulate --effects-file run {i + 1}: {wall:5.2f} s; cache {n} files {b / 1e6:.1f} MB"
-                  + (" (compiled)" if note else ""))
+            print(
+                f"simulate --effects-file run {i + 1}: {wall:5.2f} s; cache {n} files {b / 1e6:.1f} MB"
+                + (" (compiled)" if note else "")
+            )
         eff.write_text(EFFECT.format(extra="\n    out[1] += 0.0"))
         for i in range(2):
             wall, note = run([*sim, "--effects-file", str(eff)], env)
             n, b = cache_size(dirs)
-            print(f"edited effect file run {i + 1}: {wall:5.2f} s; cache {n} files {b / 1e6:.1f} MB"
-                  + (" (compiled)" if note else ""))
+            print(
+                f"edited effect file run {i + 1}: {wall:5.2f} s; cache {n} files {b / 1e6:.1f} MB"
+                + (" (compiled)" if note else "")
+            )
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 

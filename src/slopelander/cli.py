@@ -21,17 +21,29 @@ SUBCOMMAND_MODULES = {
     "slopelander.land_cli": ("land",),
     "slopelander.legs.cli": ("legs",),
     "slopelander.simulate_cli": ("simulate",),
+    "slopelander.params_cli": ("params",),
     "slopelander.envelope.cli": ("map", "table"),
     "slopelander.lookup_cli": ("lookup",),
     "slopelander.ident.cli": ("synth", "compare", "fit", "diagnose", "steps"),
 }
 
 
+class _DefaultsFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Add "(default: X)" once: not where the help already names its default, and not for
+    options without one (None) or for on/off flags."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if "default" in text.lower() or any(action.default is x for x in (None, False, argparse.SUPPRESS)):
+            return text
+        return super()._get_help_string(action)
+
+
 class _Parser(argparse.ArgumentParser):
     """Every subcommand's ``--help`` shows the defaults."""
 
     def __init__(self, *args: object, **kwargs: object) -> None:
-        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        kwargs.setdefault("formatter_class", _DefaultsFormatter)
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
 
 
@@ -76,6 +88,10 @@ def main(argv: list[str] | None = None) -> int:
     except SlopelanderError as exc:
         print(f"slopelander {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        # Commands that write files as they go (map) say what they wrote themselves.
+        print(f"slopelander {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

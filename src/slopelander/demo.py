@@ -21,10 +21,12 @@ from pathlib import Path
 
 from slopelander.errors import SlopelanderError
 
+G_MPS2 = 9.80665
 ROOF_X_M = 3.0  # world x of the roof's top edge
 ROOF_Z_M = 0.5  # its height above the pad
 CRUISE_HEIGHT_M = 3.0  # take-off height above the pad
 OVER_ROOF_X_M = 5.5  # where the vehicle hovers before the landing starts
+APPROACH_RANGE_M = 2.0  # the height above the roof the landing starts from (within the 3 m range)
 
 
 class DemoError(SlopelanderError):
@@ -92,6 +94,8 @@ class DemoResult:
     slope_deg: float
     preset_nm: tuple[float, float]
     preset_source: str
+    uphill_angle_deg: float | None  # the preset's (the table's), set on the board before the descent
+    uphill_angle_measured_deg: float | None  # as the board reported it just before the cut
     expected_impact_mps: float
     impact_mps: float | None
     slide_m: float | None
@@ -106,6 +110,13 @@ class DemoResult:
             f"demo: {self.slope_deg:g} deg roof, legs {self.preset_nm[0]:.2f}/{self.preset_nm[1]:.2f} N*m "
             f"({self.preset_source}), expected impact {self.expected_impact_mps:.2f} m/s",
         ]
+        if self.uphill_angle_deg is not None:
+            measured = self.uphill_angle_measured_deg
+            lines.append(
+                f"uphill legs: preset {self.uphill_angle_deg:.1f} deg, board reported "
+                + ("nothing" if measured is None else f"{measured:.1f} deg")
+                + " before the cut"
+            )
         for h in self.transitions:
             lines.append(f"  {h['t']:8.2f} s  {h['from'] or '-':>9} -> {h['to']:<9} {h['reason']}")
         if self.impact_mps is not None:
@@ -163,7 +174,7 @@ def run_demo(
 
     from sitl.vehicle.launch import start_legboard, start_vehicle
     from slopelander.controller.config import load_config
-    from slopelander.controller.landing import choose_preset, expected_impact_speed, leg_geometry
+    from slopelander.controller.landing import cut_dynamics, leg_geometry, plan_landing
     from slopelander.controller.link import Link
     from slopelander.controller.runner import Lander
     from slopelander.controller.table import LookupTable
@@ -182,10 +193,17 @@ def run_demo(
     lookup = LookupTable.load(table_path)
     cfg = load_config()
     calibration = load_calibration()
-    expected = expected_impact_speed(
-        cfg["descent.rate_mps"], cfg["reflex.cut_height_m"], slope_deg, leg_geometry()
+    preset, expected = plan_landing(
+        cfg["descent.rate_mps"],
+        cfg["reflex.cut_height_m"],
+        slope_deg,
+        leg_geometry(),
+        lookup,
+        None,
+        calibration,
+        cut_dynamics(cfg["reflex.cut_latency_s"]),
     )
-    up, down, source = choose_preset(slope_deg, expected, lookup, None, calibration)
+    up, down, source = preset.tau_up, preset.tau_down, preset.source
     files = {"telemetry log": str(out / "flight.tlog"), "transitions": str(out / "transitions.jsonl")}
     wall0 = time.monotonic()
     scenario = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "start_on": "pad"}
@@ -197,6 +215,7 @@ def run_demo(
     vehicle = None
     link = None
     legs = None
+    legs_uphill: tuple[int, ...] = (0, 1)
     tele = Telemetry()
     try:
         vehicle = start_vehicle(scenario=scenario, speed=speed, lockstep=True, legboard_control=board.control)
@@ -214,6 +233,7 @@ def run_demo(
         ):
             _wait(link, link.request_stream(msg_id, hz), 5, f"stream {msg_id}")
         legs = LegBoard.open(board.pty, calibration=calibration)
+        legs_uphill = legs.pairs.uphill
         tele.legs = legs
 
         echo(f"take-off from the pad to {CRUISE_HEIGHT_M:g} m, then over the {slope_deg:g} deg roof")
@@ -229,36 +249,52 @@ def run_demo(
             "climb",
         )
 
-        def goto() -> None:
-            link.conn.mav.set_position_target_local_ned_send(
-                0,
-                info.system,
-                info.component,
-                mavlink.MAV_FRAME_LOCAL_NED,
-                0x0DF8,
-                OVER_ROOF_X_M,
-                0,
-                -CRUISE_HEIGHT_M,
-                0,
-                0,
-                0,
-                0,
-                0,
-                0,
-                0,
-                0,
+        def goto(height: float):
+            def send() -> None:
+                link.conn.mav.set_position_target_local_ned_send(
+                    0,
+                    info.system,
+                    info.component,
+                    mavlink.MAV_FRAME_LOCAL_NED,
+                    0x0DF8,
+                    OVER_ROOF_X_M,
+                    0,
+                    -height,
+                    0,
+                    0,
+                    0,
+                    0,
+                    0,
+                    0,
+                    0,
+                    0,
+                )
+
+            return send
+
+        def over_roof_at(height: float) -> bool:
+            return (
+                bool(tele.x)
+                and abs(tele.x[-1] - OVER_ROOF_X_M) < 0.15
+                and abs(tele.height[-1] - height) < 0.3
             )
 
         _fly_until(
             link,
-            lambda: (
-                bool(tele.x)
-                and abs(tele.x[-1] - OVER_ROOF_X_M) < 0.15
-                and abs(tele.height[-1] - CRUISE_HEIGHT_M) < 0.3
-            ),
+            lambda: over_roof_at(CRUISE_HEIGHT_M),
             60 / speed + 30,
             "reach the roof",
-            send=goto,
+            send=goto(CRUISE_HEIGHT_M),
+        )
+        # then straight down until the rangefinder (3 m at most, like the real one) sees the roof
+        roof_below = ROOF_Z_M - (OVER_ROOF_X_M - ROOF_X_M) * math.tan(math.radians(slope_deg))
+        approach = min(CRUISE_HEIGHT_M, roof_below + APPROACH_RANGE_M)
+        _fly_until(
+            link,
+            lambda: over_roof_at(approach),
+            60 / speed + 30,
+            f"come down to {APPROACH_RANGE_M:g} m above the roof",
+            send=goto(approach),
         )
 
         echo(
@@ -267,7 +303,15 @@ def run_demo(
             f"reverse thrust {cfg['reflex.reverse_thrust_pct']:g} %"
         )
         with (out / "transitions.jsonl").open("w") as rec:
-            lander = Lander(link, cfg, (up, down), legs=legs, record=rec, next_preset=(up, down))
+            lander = Lander(
+                link,
+                cfg,
+                (up, down),
+                legs=legs,
+                record=rec,
+                next_preset=(up, down),
+                uphill_angle_deg=preset.angle_up_deg,
+            )
             end = lander.run(120 / speed + 60)
             if end == "LANDED":
                 t_landed = link.clock.now()
@@ -299,7 +343,8 @@ def run_demo(
             vehicle.stop()
         board.stop()
 
-    impact, slide, min_pitch = _landing_figures(tele, history)
+    impact, slide, min_pitch = _landing_figures(tele, history, cfg["reflex.impact_threshold_mps2"])
+    angle_measured = _uphill_angle_before_cut(tele, history, legs_uphill)
     if plot:
         from slopelander.plots.flight import plot_flight
 
@@ -319,6 +364,8 @@ def run_demo(
         slope_deg,
         (up, down),
         source,
+        preset.angle_up_deg,
+        angle_measured,
         expected,
         impact,
         slide,
@@ -333,15 +380,55 @@ def run_demo(
     return result
 
 
-def _landing_figures(tele: Telemetry, history: list[dict]) -> tuple[float | None, float | None, float | None]:
-    """Impact speed (fastest descent before the cut's state ends), slide along the roof after
-    contact, lowest pitch while on the roof: read from the vehicle's own telemetry."""
+def _uphill_angle_before_cut(tele: Telemetry, history: list[dict], uphill: tuple[int, ...]) -> float | None:
+    """The uphill legs' mean angle in the board's last report before the cut."""
+    t_cut = next((h["t"] for h in history if h["to"] == "CUT"), None)
+    if t_cut is None:
+        return None
+    before = [a for t, a in zip(tele.legs_t, tele.leg_angle, strict=True) if t < t_cut]
+    if not before:
+        return None
+    return sum(before[-1][i] for i in uphill) / len(uphill)
+
+
+def first_contact_speed(tele: Telemetry, t_from: float, t_to: float, spike_mps2: float) -> float | None:
+    """Vertical speed (m/s, down) at the first foot contact, the first accelerometer spike above
+    ``spike_mps2`` between ``t_from`` and ``t_to`` (vehicle time).
+
+    The velocity is reported at 50 Hz, too seldom for a fall: from the last report before the
+    contact the speed is carried on with the accelerometer, ``g - |a|`` per sample (free fall reads
+    0 g), up to where the reading first rose above 1 g, the start of the contact. This is the
+    speed the model and the table call the impact speed; a faster descent after it (the vehicle
+    pivoting onto its downhill foot) belongs to the landing, not to its start."""
+    acc = list(zip(tele.accel_t, tele.accel, strict=True))
+    spike = next((k for k, (t, a) in enumerate(acc) if t_from <= t <= t_to and a > spike_mps2), None)
+    if spike is None:
+        return None
+    onset = spike
+    while onset > 0 and acc[onset - 1][1] > G_MPS2 and acc[onset - 1][0] >= t_from:
+        onset -= 1
+    t_onset = acc[onset][0]
+    before = [(t, -v) for t, v in zip(tele.t, tele.vz_up, strict=True) if t <= t_onset]
+    if not before:
+        return None
+    t_prev, speed = before[-1]
+    for t, a in acc[:onset]:
+        if t > t_prev:
+            speed += (G_MPS2 - a) * (t - t_prev)
+            t_prev = t
+    return speed
+
+
+def _landing_figures(
+    tele: Telemetry, history: list[dict], spike_mps2: float
+) -> tuple[float | None, float | None, float | None]:
+    """Impact speed (at the first contact), slide along the roof after the cut, lowest pitch
+    while on the roof: read from the vehicle's own telemetry."""
     times = {h["to"]: h["t"] for h in history}
-    t_cut, t_landed = times.get("CUT"), times.get("LANDED")
-    if t_cut is None or t_landed is None:
+    t_cut, t_landed, t_armed = times.get("CUT"), times.get("LANDED"), times.get("ARMED")
+    if t_cut is None or t_landed is None or t_armed is None:
         return None, None, None
-    fall = [-v for t, v in zip(tele.t, tele.vz_up, strict=True) if t_cut <= t <= t_cut + 0.6]
-    impact = max(fall) if fall else None
+    impact = first_contact_speed(tele, t_armed, t_landed, spike_mps2)
     xs = [x for t, x in zip(tele.x_t, tele.x, strict=True) if t_cut + 0.05 <= t <= t_landed]
     slide = (max(xs) - min(xs)) if xs else None
     pitches = [p for t, p in zip(tele.pitch_t, tele.pitch_deg, strict=True) if t_cut <= t <= t_landed]

@@ -16,16 +16,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--slope", required=True, type=float, help="slope of the landing site, deg (0..89)")
     p.add_argument("--table", help="lookup table file (YAML); default: the shipped table")
     p.add_argument("--config", help="controller settings overriding the shipped defaults")
-    p.add_argument("--record", default="landing.jsonl",
-                   help="transitions as JSON lines (default landing.jsonl)")
-    p.add_argument("--timeout", type=float, default=120.0,
-                   help="give up (abort) after this many s (default 120)")
+    p.add_argument(
+        "--record", default="landing.jsonl", help="transitions as JSON lines (default landing.jsonl)"
+    )
+    p.add_argument(
+        "--timeout", type=float, default=120.0, help="give up (abort) after this many s (default 120)"
+    )
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from slopelander.controller.config import load_config
-    from slopelander.controller.landing import choose_preset, expected_impact_speed, leg_geometry
+    from slopelander.controller.landing import (
+        angle_instruction,
+        cut_dynamics,
+        leg_geometry,
+        plan_landing,
+    )
     from slopelander.controller.link import Link
     from slopelander.controller.rc_presets import preset_for
     from slopelander.controller.runner import Lander
@@ -42,8 +49,6 @@ def run(args: argparse.Namespace) -> int:
 
     table = LookupTable.load(args.table or DEFAULT_TABLE)
     calibration = load_calibration()
-    speed = expected_impact_speed(cfg["descent.rate_mps"], cfg["reflex.cut_height_m"], args.slope,
-                                  leg_geometry())
     link = Link(args.connect, link_loss_s=cfg["link.link_loss_s"])
     legs = None
     try:
@@ -52,13 +57,31 @@ def run(args: argparse.Namespace) -> int:
         link.request_stream(27, cfg["link.imu_hz"])  # RAW_IMU
         link.request_stream(132, cfg["link.range_hz"])  # DISTANCE_SENSOR
         link.request_stream(65, 10)  # RC_CHANNELS
-        up, down, source = choose_preset(args.slope, speed, table,
-                                         preset_for(cfg, link.last.get("RC_CHANNELS")), calibration)
-        print(f"expected impact {speed:.2f} m/s on {args.slope:g} deg; "
-              f"legs {up:.2f}/{down:.2f} N*m ({source})")
+        preset, speed = plan_landing(
+            cfg["descent.rate_mps"],
+            cfg["reflex.cut_height_m"],
+            args.slope,
+            leg_geometry(),
+            table,
+            preset_for(cfg, link.last.get("RC_CHANNELS")),
+            calibration,
+            cut_dynamics(cfg["reflex.cut_latency_s"]),
+        )
+        up, down = preset.tau_up, preset.tau_down
+        angle = "" if preset.angle_up_deg is None else f", uphill angle {preset.angle_up_deg:.1f} deg"
+        print(
+            f"expected impact {speed:.2f} m/s on {args.slope:g} deg; "
+            f"legs {up:.2f}/{down:.2f} N*m{angle} ({preset.source})"
+        )
         legs = LegBoard.open(args.legs, calibration=calibration)
+        todo = angle_instruction(preset.angle_up_deg, legs.info.angle_stop)
+        if todo is not None:
+            print(todo)
+            link.send_statustext(f"SL set uphill legs to {preset.angle_up_deg:.1f} deg")
         with Path(args.record).open("w") as rec:
-            lander = Lander(link, cfg, (up, down), legs=legs, record=rec)
+            lander = Lander(
+                link, cfg, (up, down), legs=legs, record=rec, uphill_angle_deg=preset.angle_up_deg
+            )
             end = lander.run(args.timeout)
         for h in lander.machine.history:
             print(f"{h['t']:9.3f} s  {h['from'] or '-':>9} -> {h['to']:<9} {h['reason']}")

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
 from pathlib import Path
 
 from slopelander.errors import SlopelanderError
 from slopelander.model import LandingConditions, Model, Trajectory, load_effects, simulate
+from slopelander.outputs import check_output
 
 _D = LandingConditions()
 
@@ -58,29 +58,12 @@ def build_model(args: argparse.Namespace) -> Model:
     return model
 
 
-class OutputError(SlopelanderError):
-    """An output file that cannot be written: found before any work is done."""
-
-
-def check_output(path: Path | None, what: str) -> None:
-    """Refuse an output whose folder is missing or unwritable now, not after the work."""
-    if path is None:
-        return
-    folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise OutputError(f"{what} {path} is a folder; give a file name")
-    if not folder.is_dir():
-        raise OutputError(f"{what} {path}: folder {folder} does not exist (create it first)")
-    if not os.access(folder, os.W_OK):
-        raise OutputError(f"{what} {path}: folder {folder} is not writable")
-
-
 def run(args: argparse.Namespace) -> int:
     check_output(args.plot, "--plot")
     check_output(args.csv, "--csv")
     pct = args.rvt_percent if args.rvt_percent is not None else (100.0 if args.rvt else 0.0)
     if pct > 0 and "rotors" in args.without:
-        raise OutputError(
+        raise SlopelanderError(
             "reverse thrust needs the rotors: drop --rvt/--rvt-percent or 'rotors' from --without"
         )
     cond = LandingConditions(
@@ -98,12 +81,12 @@ def run(args: argparse.Namespace) -> int:
     )
     model = build_model(args)
     tr = simulate(cond, model, dt=args.dt)
-    gear = "rigid gear" if model.rigid_gear else "FSA legs"
-    print(
-        f"landing: {cond.slope_deg:g} deg slope, {cond.speed:g} m/s, {gear}, "
-        f"tau up/down {cond.tau_up:g}/{cond.tau_down:g} N*m, reverse thrust {pct:g} %"
-    )
-    print(tr.result.summary())
+    if model.rigid_gear:
+        gear = f"rigid gear (legs locked at {cond.angle_up_deg:g}/{cond.angle_down_deg:g} deg)"
+    else:
+        gear = f"FSA legs, tau up/down {cond.tau_up:g}/{cond.tau_down:g} N*m"
+    print(f"landing: {cond.slope_deg:g} deg slope, {cond.speed:g} m/s, {gear}, reverse thrust {pct:g} %")
+    print(tr.summary())
     if args.plot:
         from slopelander.plots.landing import plot_landing
 

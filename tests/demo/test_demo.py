@@ -54,8 +54,19 @@ def test_the_demo_lands_on_the_roof_takes_off_and_resets_the_legs(demo) -> None:
     ]
     result = json.loads((out / "result.json").read_text())
     assert result["outcome"] == "LANDED_AND_RESET"
-    assert 0.8 < result["impact_mps"] < 3.0  # a fall from the 0.30 m cut, not a hover descent
+    # the speed at the first foot contact, as predicted from descent rate, cut height and legs
+    assert result["impact_mps"] == pytest.approx(result["expected_impact_mps"], rel=0.15)
     assert result["slide_m"] < 1.0  # it stayed on the roof
+
+
+def test_the_demo_sets_the_tables_uphill_angle_on_the_board(demo) -> None:
+    proc, out = demo
+    result = json.loads((out / "result.json").read_text())
+    assert result["uphill_angle_deg"] is not None and result["uphill_angle_deg"] < 37.0
+    # the simulated board has the angle actuator: its uphill legs rest at the table's angle, not
+    # at their 37.5 deg stop, when the motors are cut
+    assert abs(result["uphill_angle_measured_deg"] - result["uphill_angle_deg"]) <= 0.5
+    assert f"uphill legs: preset {result['uphill_angle_deg']:.1f} deg" in proc.stdout
 
 
 def test_the_demo_writes_a_telemetry_log_mavlogdump_reads_and_a_picture(demo) -> None:

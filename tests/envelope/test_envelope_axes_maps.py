@@ -28,8 +28,9 @@ def test_default_axes_are_the_papers_range_at_1_deg_by_0_1_mps():
     assert ax.cell_area == pytest.approx(0.1)
 
 
-@pytest.mark.parametrize("kw", [{"slope_step": 0}, {"speed_step": -0.1}, {"slope_max": 80},
-                                {"speed_min": 2.0, "speed_max": 1.0}])
+@pytest.mark.parametrize(
+    "kw", [{"slope_step": 0}, {"speed_step": -0.1}, {"slope_max": 80}, {"speed_min": 2.0, "speed_max": 1.0}]
+)
 def test_impossible_axes_are_refused(kw):
     with pytest.raises(AxesError):
         MapAxes.build(**kw)
@@ -37,13 +38,23 @@ def test_impossible_axes_are_refused(kw):
 
 def synthetic_map() -> LandingMap:
     ax = MapAxes(np.array([0.0, 10.0, 20.0, 30.0]), np.array([1.0, 2.0]))
-    o = np.array([[Outcome.IDEAL, Outcome.UNDER_USED],
-                  [Outcome.IDEAL, Outcome.IDEAL],
-                  [Outcome.FLIP, Outcome.END_OF_TRAVEL],
-                  [Outcome.IDEAL, Outcome.SLID]], float)
-    f = {"outcome": o, "tau_up": np.full(o.shape, 1.1), "tau_down": np.full(o.shape, 2.3),
-         "angle_up_deg": np.full(o.shape, 30.0), "angle_down_deg": np.full(o.shape, 37.5),
-         "settle_time": np.where(o > 2, np.nan, 0.5)}
+    o = np.array(
+        [
+            [Outcome.IDEAL, Outcome.UNDER_USED],
+            [Outcome.IDEAL, Outcome.IDEAL],
+            [Outcome.FLIP, Outcome.END_OF_TRAVEL],
+            [Outcome.IDEAL, Outcome.SLID],
+        ],
+        float,
+    )
+    f = {
+        "outcome": o,
+        "tau_up": np.full(o.shape, 1.1),
+        "tau_down": np.full(o.shape, 2.3),
+        "angle_up_deg": np.full(o.shape, 30.0),
+        "angle_down_deg": np.full(o.shape, 37.5),
+        "settle_time": np.where(o > 2, np.nan, 0.5),
+    }
     return LandingMap("synthetic", ax, f, {"description": "test"})
 
 
@@ -51,9 +62,9 @@ def test_figures_of_merit_follow_their_definitions():
     m = synthetic_map()
     assert envelope_area(m, "ideal") == pytest.approx(4 * 10.0 * 1.0)
     assert envelope_area(m, "landed") == pytest.approx(6 * 10.0)
-    assert max_slope(m, "ideal") == 30.0          # the isolated ideal cell past a flip counts
-    assert reach_per_speed(m, "ideal").tolist()[0] == 10.0   # ...but not for the unbroken reach
-    assert np.isnan(reach_per_speed(m, "ideal")[1])          # first slope under-used: no reach
+    assert max_slope(m, "ideal") == 30.0  # the isolated ideal cell past a flip counts
+    assert reach_per_speed(m, "ideal").tolist()[0] == 10.0  # ...but not for the unbroken reach
+    assert np.isnan(reach_per_speed(m, "ideal")[1])  # first slope under-used: no reach
     assert reach_per_speed(m, "landed").tolist() == [10.0, 20.0]
     s = summary(m)
     assert s["reach_landed_min_deg"] == 10.0 and s["reach_landed_max_deg"] == 20.0
@@ -69,7 +80,7 @@ def test_a_map_round_trips_through_npz_and_writes_one_csv_row_per_cell(tmp_path)
     rows = list(csv.DictReader(path_csv.open()))
     assert len(rows) == 8
     assert rows[4]["slope_deg"] == "20" and rows[4]["outcome_name"] == "flip"
-    assert rows[4]["settle_time"] == ""   # NaN is an empty CSV cell
+    assert rows[4]["settle_time"] == ""  # NaN is an empty CSV cell
 
 
 def test_a_file_that_is_not_a_map_is_refused(tmp_path):

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from slopelander.cli import main
+from slopelander.cli import build_parser, main
 from slopelander.controller.table import LookupTable
 
 GRID = ["--slope-step", "30", "--speed-step", "1.0", "--speed-min", "1.0", "--quiet"]
@@ -24,7 +24,8 @@ def test_map_writes_png_data_and_a_summary(kind, tmp_path, capsys):
     if kind == "rigid":
         assert "area_ratio_fsa_rvt_vs_rigid" in summary
     if kind == "robustness":
-        assert 0.0 <= summary["overall_success_rate"] <= 1.0 or summary["nominal_cells"] == 0
+        assert summary["nominal_cells"] > 0  # level landings succeed on this grid (0 deg, 1-3 m/s)
+        assert 0.0 <= summary["overall_success_rate"] <= 1.0
     if kind == "uncertainty":
         assert len(list(tmp_path.glob("params_set*.yaml"))) == 3
 
@@ -43,8 +44,17 @@ def test_a_bad_grid_is_an_error_message_not_a_traceback(tmp_path, capsys):
 
 
 def test_the_main_command_lists_map_and_table(capsys):
+    from slopelander.envelope import cli as envelope_cli
+
     with pytest.raises(SystemExit):
         main(["--help"])
     out = capsys.readouterr().out
-    listed = {line.split()[0] for line in out.splitlines() if line.startswith("    ") and line.split()}
-    assert {"map", "table", "demo", "land", "simulate", "legs", "lookup"} <= listed
+    lines = {line.split()[0]: line for line in out.splitlines() if line.startswith("    ") and line.split()}
+    assert {"map", "table", "demo", "land", "simulate", "legs", "lookup", "params"} <= set(lines)
+    # listed as working commands, not as stubs asking for an extra
+    assert not [name for name, line in lines.items() if "needs:" in line]
+    assert "landing maps" in lines["map"] and "lookup table" in lines["table"]
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    assert sub.choices["map"].get_default("handler") is envelope_cli.run_map
+    assert sub.choices["table"].get_default("handler") is envelope_cli.run_table

@@ -28,15 +28,28 @@ def results(*rows: tuple[Outcome, float, float]) -> np.ndarray:
 
 
 def test_outcome_class_comes_before_compression():
-    s = preset_score(results((Outcome.IDEAL, 0.41, 0.0), (Outcome.UNDER_USED, 0.39, 0.39),
-                             (Outcome.END_OF_TRAVEL, 1.0, 0.0), (Outcome.SLID, 0.9, 0.9),
-                             (Outcome.JOINT_TOUCH, 0.5, 0.5), (Outcome.FLIP, 0.1, 0.1)))
+    s = preset_score(
+        results(
+            (Outcome.IDEAL, 0.41, 0.0),
+            (Outcome.UNDER_USED, 0.39, 0.39),
+            (Outcome.END_OF_TRAVEL, 1.0, 0.0),
+            (Outcome.SLID, 0.9, 0.9),
+            (Outcome.JOINT_TOUCH, 0.5, 0.5),
+            (Outcome.FLIP, 0.1, 0.1),
+        )
+    )
     assert list(np.argsort(-s)) == [0, 1, 2, 3, 4, 5]
 
 
 def test_among_landings_that_stop_short_the_one_compressing_most_wins():
-    s = preset_score(results((Outcome.IDEAL, 0.5, 0.5), (Outcome.IDEAL, 0.9, 0.6),
-                             (Outcome.UNDER_USED, 0.1, 0.2), (Outcome.UNDER_USED, 0.3, 0.3)))
+    s = preset_score(
+        results(
+            (Outcome.IDEAL, 0.5, 0.5),
+            (Outcome.IDEAL, 0.9, 0.6),
+            (Outcome.UNDER_USED, 0.1, 0.2),
+            (Outcome.UNDER_USED, 0.3, 0.3),
+        )
+    )
     assert s[1] > s[0] and s[3] > s[2]
 
 
@@ -61,7 +74,7 @@ def test_an_unknown_strategy_is_refused(model, tiny_axes):
 def small_axes(tiny_axes):
     from slopelander.envelope.axes import MapAxes
 
-    return MapAxes(tiny_axes.slopes[1:4], tiny_axes.speeds[1:3])   # 3 slopes x 2 speeds
+    return MapAxes(tiny_axes.slopes[1:4], tiny_axes.speeds[1:3])  # 3 slopes x 2 speeds
 
 
 def test_asymmetric_presets_are_the_best_of_all_16_pairs(model, small_axes):
@@ -79,12 +92,18 @@ def test_asymmetric_presets_are_the_best_of_all_16_pairs(model, small_axes):
 
 def test_the_continuous_option_is_never_worse_and_stays_in_range(model, small_axes):
     levels = choose_presets(model, small_axes, "asymmetric", progress=False)
-    fine = choose_presets(model, small_axes, STRATEGIES["asymmetric"].with_options(refine=True),
-                          progress=False)
+    fine = choose_presets(
+        model, small_axes, STRATEGIES["asymmetric"].with_options(refine=True), progress=False
+    )
+
     def score(m):
-        return preset_score(np.rec.fromarrays(
-            [m.fields["outcome"], m.fields["compression_up"], m.fields["compression_down"]],
-            names="outcome,compression_up,compression_down"))
+        return preset_score(
+            np.rec.fromarrays(
+                [m.fields["outcome"], m.fields["compression_up"], m.fields["compression_down"]],
+                names="outcome,compression_up,compression_down",
+            )
+        )
+
     assert np.all(score(fine) >= score(levels))
     for f in ("tau_up", "tau_down"):
         assert TORQUE_RANGE[0] <= fine.fields[f].min() and fine.fields[f].max() <= TORQUE_RANGE[1]

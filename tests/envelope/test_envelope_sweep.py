@@ -21,7 +21,7 @@ def reference(grid, model):
 
 
 def same(a: np.ndarray, b: np.ndarray) -> bool:
-    return a.dtype == b.dtype and a.tobytes() == b.tobytes()   # NaN-aware, bit for bit
+    return a.dtype == b.dtype and a.tobytes() == b.tobytes()  # NaN-aware, bit for bit
 
 
 def test_chunks_do_not_change_any_landing(grid, model, reference):
@@ -42,9 +42,12 @@ def test_a_zero_chunk_is_refused(grid, model):
 
 def test_a_dask_cluster_gives_identical_results(grid, model, reference):
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         out = run_sweep(grid, model, chunk=6, client=client, progress=False)
     assert same(out, reference)
 

@@ -33,11 +33,11 @@ def test_the_written_table_loads_and_holds_the_chosen_presets(built):
 
 def test_margin_is_the_neighbourhood_success_of_the_cells_own_preset(built, model, tiny_axes):
     _, presets, _ = built
-    i, j = 2, 1                                       # an interior cell
+    i, j = 2, 1  # an interior cell
     base = preset_conditions(presets).reshape(tiny_axes.shape)[i, j]
     g = np.repeat(base[None], 9)
-    g["slope_deg"] = np.repeat(tiny_axes.slopes[i - 1:i + 2], 3)
-    g["speed"] = np.tile(tiny_axes.speeds[j - 1:j + 2], 3)
+    g["slope_deg"] = np.repeat(tiny_axes.slopes[i - 1 : i + 2], 3)
+    g["speed"] = np.tile(tiny_axes.speeds[j - 1 : j + 2], 3)
     ok = simulate_batch(g, model)["outcome"] <= Outcome.END_OF_TRAVEL
     expected = ok.mean() if presets.landed()[i, j] else 0.0
     assert presets.fields["margin"][i, j] == pytest.approx(expected)

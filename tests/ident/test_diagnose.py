@@ -29,7 +29,10 @@ def test_hidden_leg_flex_is_found(truth, seed):
     assert best.values()["flex_stiffness"] == pytest.approx(truth.params["flex_stiffness"], rel=0.15)
     assert "missing: leg_flex" in d.verdict()
     assert sorted(r.candidate.name for r in d.results) == [
-        "downhill_friction_growth", "downhill_torque_growth", "leg_flex"]
+        "downhill_friction_growth",
+        "downhill_torque_growth",
+        "leg_flex",
+    ]
     assert all(r.fits for r in d.results)
 
 
@@ -47,8 +50,14 @@ def test_steps_error_falls_where_the_effect_is_added(truth, tmp_path):
 
     drops = synthesize(truth, paper_drops(8, seed=0), NoiseModel(), seed=4, duration=0.6)
     base = truth.without("leg_flex")
-    st = run_steps(base, drops, [Candidate("leg_flex", BUILTIN_CANDIDATES["leg_flex"])], seed=4,
-                   cma_evals=200, refit_evals=100)
+    st = run_steps(
+        base,
+        drops,
+        [Candidate("leg_flex", BUILTIN_CANDIDATES["leg_flex"])],
+        seed=4,
+        cma_evals=200,
+        refit_evals=100,
+    )
     assert [s.label for s in st.steps] == ["base", "+ leg_flex"]
     assert st.steps[1].validation < 0.8 * st.steps[0].validation
     assert st.steps[1].train < st.steps[0].train
@@ -68,12 +77,15 @@ def test_hidden_torque_growth_is_found(model):
     assert best.values()["factor_tau"] == pytest.approx(5e-3, rel=0.15)
 
 
-def test_hidden_friction_growth_is_found(model):
-    """Ranked first and cuts the validation error; its value is NOT yet recovered within 15 %:
-    factor_mu trades off against friction_kinetic on six training drops (docs/ident.md)."""
+def test_hidden_friction_growth_at_the_paper_value_is_below_the_noise(model):
+    """Since eq. 4 only raises the downhill foot's friction (max(1, 1 + factor_mu v), as the
+    model's documentation says), factor_mu at the paper's 0.57 s/m changes these drops by less
+    than the motion-capture noise: diagnose must say nothing is missing rather than invent a
+    gain. (Before that fix most of eq. 4's signal came from feet sliding below mu_k, or with no
+    friction at all; a proof that a visible factor_mu is found is open: docs/ident.md.)"""
     truth = model.without("downhill_torque_growth")
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=2)
     d = diagnose(truth.without("downhill_friction_growth"), drops, seed=2, **BUDGET)
-    best = d.missing
-    assert best is not None and best.candidate.name == "downhill_friction_growth", d.table()
-    assert 1 - best.validation_nrmse / d.base_validation >= 0.30, d.table()
+    assert d.missing is None, d.table()
+    row = next(r for r in d.results if r.candidate.name == "downhill_friction_growth")
+    assert abs(1 - row.validation_nrmse / d.base_validation) < 0.10, d.table()

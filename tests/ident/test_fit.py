@@ -62,6 +62,6 @@ def test_repeated_fits_give_mean_and_sigma(model):
     drops = synthesize(model, paper_drops(5, seed=6), NoiseModel(), seed=2, duration=0.4)
     params = resolve_params(model, ["friction_kinetic"])
     sf = fit_subsets(model, drops, params, repeats=2, cma_evals=24, ls_evals=6, workers=2)
-    (m, s), = sf.mean_sd().values()
+    ((m, s),) = sf.mean_sd().values()
     assert m == pytest.approx(0.8, rel=0.05) and s >= 0
     assert sf.validation_nrmse > 0 and "friction_kinetic" in sf.table()

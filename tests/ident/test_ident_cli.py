@@ -10,8 +10,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def run(*args: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
-    return subprocess.run([sys.executable, "-m", "slopelander.cli", *args], capture_output=True, text=True,
-                          env=env, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "slopelander.cli", *args], capture_output=True, text=True, env=env, timeout=120
+    )
 
 
 def test_synth_then_compare_with_report(tmp_path):
@@ -40,3 +41,42 @@ def test_bad_requests_are_one_line_errors(tmp_path):
     ]:
         r = run(*args)
         assert r.returncode == 1 and words in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)
+
+
+def test_a_user_effect_parameter_is_fitted_by_name_within_its_declared_bounds(tmp_path):
+    effect = str(ROOT / "docs" / "examples" / "effect_joint_torque.py")
+    ds = tmp_path / "ds"
+    r = run(
+        "synth",
+        "--out",
+        str(ds),
+        "--drops",
+        "3",
+        "--duration",
+        "0.4",
+        "--seed",
+        "4",
+        "--effects-file",
+        effect,
+        "--set",
+        "joint_viscous_gain=0.1",
+    )
+    assert r.returncode == 0, r.stderr
+    # no --fit bounds: the file declares them (0..0.2 s/rad)
+    r = run(
+        "fit",
+        str(ds),
+        "--effects-file",
+        effect,
+        "--fit",
+        "joint_viscous_gain",
+        "--cma-evals",
+        "20",
+        "--ls-evals",
+        "5",
+    )
+    assert r.returncode == 0, r.stderr
+    row = next(line for line in r.stdout.splitlines() if line.startswith("| joint_viscous_gain |"))
+    assert abs(float(row.split("|")[2]) - 0.1) < 0.015, r.stdout
+    r = run("fit", str(ds), "--effects-file", effect, "--set", "joint_viscous_gain=0.5")
+    assert r.returncode == 1 and "joint_viscous_gain" in r.stderr and "outside 0.0..0.2" in r.stderr, r.stderr

@@ -63,10 +63,18 @@ def _corrupt_csv(tmp_path, line: int, text: str):
     ("line", "text", "fieldname", "words"),
     [
         (1, "time [s],x [m],z [m],pitch [rad],x_rate [m/s],z_rate [m/s]", "pitch_rate", "missing column"),
-        (1, "time [s],x [m],z [m],pitch [grad],x_rate [m/s],z_rate [m/s],pitch_rate [rad/s]", "pitch",
-         "unknown unit 'grad'"),
-        (1, "time [s],x [m],z [m],roll [rad],x_rate [m/s],z_rate [m/s],pitch_rate [rad/s]", "roll",
-         "unknown column"),
+        (
+            1,
+            "time [s],x [m],z [m],pitch [grad],x_rate [m/s],z_rate [m/s],pitch_rate [rad/s]",
+            "pitch",
+            "unknown unit 'grad'",
+        ),
+        (
+            1,
+            "time [s],x [m],z [m],roll [rad],x_rate [m/s],z_rate [m/s],pitch_rate [rad/s]",
+            "roll",
+            "unknown column",
+        ),
         (5, "0.01,0,0,nan,0,0,0", "pitch", "not a finite number"),
         (6, "0.01,0,0,0,0,abc,0", "z_rate", "'abc' is not a number"),
         (7, "-0.02,0,0,0,0,0,0", "time", "time must increase"),
@@ -135,15 +143,45 @@ def test_converter_undoes_a_foreign_frame(tmp_path):
     src.parent.mkdir()
     rows = ["Time,PosX,PosZ,Pitch,VelX,VelZ,PitchRate"]
     for i, t in enumerate(d.t + 0.3):
-        rows.append(",".join(f"{v:.9g}" for v in (
-            t, -1000 * xs[i], 1000 * zs[i], math.degrees(pitch[i]), -1000 * vxs[i], 1000 * vzs[i],
-            math.degrees(rate[i]))))
+        rows.append(
+            ",".join(
+                f"{v:.9g}"
+                for v in (
+                    t,
+                    -1000 * xs[i],
+                    1000 * zs[i],
+                    math.degrees(pitch[i]),
+                    -1000 * vxs[i],
+                    1000 * vzs[i],
+                    math.degrees(rate[i]),
+                )
+            )
+        )
     src.write_text("\n".join(rows) + "\n")
-    conv = Convention(x_uphill=True, pitch_nose_down=True, slope_frame=True, time_offset=-0.3,
-                      columns={"time": "Time", "x": "PosX", "z": "PosZ", "pitch": "Pitch",
-                               "x_rate": "VelX", "z_rate": "VelZ", "pitch_rate": "PitchRate"})
-    units = {"time": "s", "x": "mm", "z": "mm", "pitch": "deg", "x_rate": "mm/s", "z_rate": "mm/s",
-             "pitch_rate": "deg/s"}
+    conv = Convention(
+        x_uphill=True,
+        pitch_nose_down=True,
+        slope_frame=True,
+        time_offset=-0.3,
+        columns={
+            "time": "Time",
+            "x": "PosX",
+            "z": "PosZ",
+            "pitch": "Pitch",
+            "x_rate": "VelX",
+            "z_rate": "VelZ",
+            "pitch_rate": "PitchRate",
+        },
+    )
+    units = {
+        "time": "s",
+        "x": "mm",
+        "z": "mm",
+        "pitch": "deg",
+        "x_rate": "mm/s",
+        "z_rate": "mm/s",
+        "pitch_rate": "deg/s",
+    }
     out = convert(src, d.conditions, tmp_path / "ds", conv, units=units)
     back = load_drop(out)
     np.testing.assert_allclose(back.t, d.t, atol=1e-6)
@@ -154,10 +192,26 @@ def test_converter_undoes_a_foreign_frame(tmp_path):
 def test_converter_reports_the_foreign_column(tmp_path):
     src = tmp_path / "take.csv"
     src.write_text("Time,PosX,PosZ,Pitch,VelX,VelZ,PitchRate\n0,1,1,1,1,1,1\n0.1,1,1,x,1,1,1\n")
-    conv = Convention(columns={"time": "Time", "x": "PosX", "z": "PosZ", "pitch": "Pitch",
-                               "x_rate": "VelX", "z_rate": "VelZ", "pitch_rate": "PitchRate"})
-    units = {"time": "s", "x": "m", "z": "m", "pitch": "rad", "x_rate": "m/s", "z_rate": "m/s",
-             "pitch_rate": "rad/s"}
+    conv = Convention(
+        columns={
+            "time": "Time",
+            "x": "PosX",
+            "z": "PosZ",
+            "pitch": "Pitch",
+            "x_rate": "VelX",
+            "z_rate": "VelZ",
+            "pitch_rate": "PitchRate",
+        }
+    )
+    units = {
+        "time": "s",
+        "x": "m",
+        "z": "m",
+        "pitch": "rad",
+        "x_rate": "m/s",
+        "z_rate": "m/s",
+        "pitch_rate": "rad/s",
+    }
     with pytest.raises(RecordingError) as err:
         convert(src, LandingConditions(), tmp_path / "ds", conv, units=units)
     assert str(src) in str(err.value) and "line 3" in str(err.value) and "'Pitch'" in str(err.value)

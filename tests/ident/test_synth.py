@@ -83,4 +83,3 @@ def test_seeds_differ_and_repeat(model):
     c = synthesize(model, cond, seed=2, duration=0.2)[0].states
     np.testing.assert_array_equal(a, b)
     assert not np.allclose(a, c)
-

@@ -49,8 +49,9 @@ class MapAxes:
             raise AxesError("slope: the model covers 0..75 deg")
         if speed_min < 0 or speed_max > 15:
             raise AxesError("speed: the model covers 0..15 m/s")
-        return cls(_axis("slope", slope_min, slope_max, slope_step),
-                   _axis("speed", speed_min, speed_max, speed_step))
+        return cls(
+            _axis("slope", slope_min, slope_max, slope_step), _axis("speed", speed_min, speed_max, speed_step)
+        )
 
     @property
     def shape(self) -> tuple[int, int]:

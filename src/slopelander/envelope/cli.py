@@ -7,21 +7,31 @@ import json
 import shlex
 import sys
 import time
+from pathlib import Path
+
+from slopelander.outputs import check_output, check_output_dir, files_changed_since
+
+INTERRUPTED = 130
+"""Exit code after Ctrl-C (128 + SIGINT), as a shell reports it."""
 
 
 def _common(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("grid")
     g.add_argument("--slope-step", type=float, default=1.0, help="deg (default 1)")
     g.add_argument("--speed-step", type=float, default=0.1, help="m/s (default 0.1)")
-    g.add_argument("--slope-min", type=float, default=0.0)
-    g.add_argument("--slope-max", type=float, default=60.0)
-    g.add_argument("--speed-min", type=float, default=0.5)
-    g.add_argument("--speed-max", type=float, default=3.0)
+    g.add_argument("--slope-min", type=float, default=0.0, help="deg")
+    g.add_argument("--slope-max", type=float, default=60.0, help="deg")
+    g.add_argument("--speed-min", type=float, default=0.5, help="m/s")
+    g.add_argument("--speed-max", type=float, default=3.0, help="m/s")
     p.add_argument("--params", metavar="FILE", help="model parameter YAML (default: shipped set)")
-    p.add_argument("--refine", action="store_true",
-                   help="continuous torque optimisation after the 16 level pairs")
-    p.add_argument("--optimal-angle", action="store_true",
-                   help="search the uphill leg angle instead of the paper's linear rule")
+    p.add_argument(
+        "--refine", action="store_true", help="continuous torque optimisation after the 16 level pairs"
+    )
+    p.add_argument(
+        "--optimal-angle",
+        action="store_true",
+        help="search the uphill leg angle instead of the paper's linear rule",
+    )
     p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -29,24 +39,42 @@ def _common(p: argparse.ArgumentParser) -> None:
 def register(subparsers) -> None:
     from slopelander.envelope.reports import MAP_KINDS
 
-    p = subparsers.add_parser("map", help="landing maps of the paper's Sec. V (PNG + NPZ + CSV)",
-                              description="Compute a landing map over slope x vertical impact speed.")
+    p = subparsers.add_parser(
+        "map",
+        help="landing maps of the paper's Sec. V (PNG + NPZ + CSV)",
+        description="Compute a landing map over slope x vertical impact speed.",
+    )
     p.add_argument("kind", choices=MAP_KINDS)
-    p.add_argument("--out", required=True, metavar="DIR", help="directory for the files")
-    p.add_argument("--config", default="rvt",
-                   choices=("symmetric", "asymmetric", "angle", "rvt", "rigid", "rigid_rvt"),
-                   help="presets flown by the uncertainty and robustness maps (default rvt)")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder for the files (created if missing; its parent folder must exist)",
+    )
+    p.add_argument(
+        "--config",
+        default="rvt",
+        choices=("symmetric", "asymmetric", "angle", "rvt", "rigid", "rigid_rvt"),
+        help="presets flown by the uncertainty and robustness maps (default rvt)",
+    )
     p.add_argument("--sets", type=int, default=3, help="parameter sets for 'uncertainty' (default 3)")
     p.add_argument("--draws", type=int, default=10, help="robustness draws per cell (default 10)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="random seed of the parameter sets and draws")
     _common(p)
     p.set_defaults(handler=run_map)
 
-    t = subparsers.add_parser("table", help="write the preset lookup table the controller flies with",
-                              description="Choose presets per (slope, speed) and write the YAML table.")
-    t.add_argument("--out", required=True, metavar="FILE", help="table file (.yaml)")
-    t.add_argument("--strategy", default="rvt", choices=("asymmetric", "angle", "rvt"),
-                   help="how the vehicle lands (default rvt: linear uphill angle + 100 %% reverse thrust)")
+    t = subparsers.add_parser(
+        "table",
+        help="write the preset lookup table the controller flies with",
+        description="Choose presets per (slope, speed) and write the YAML table.",
+    )
+    t.add_argument("--out", required=True, metavar="FILE", help="table file (.yaml); its folder must exist")
+    t.add_argument(
+        "--strategy",
+        default="rvt",
+        choices=("asymmetric", "angle", "rvt"),
+        help="how the vehicle lands (default rvt: linear uphill angle + 100 %% reverse thrust)",
+    )
     _common(t)
     t.set_defaults(handler=run_table)
 
@@ -55,8 +83,14 @@ def _setup(args):
     from slopelander.envelope.axes import MapAxes
     from slopelander.model import Model
 
-    axes = MapAxes.build(args.slope_step, args.speed_step, slope_min=args.slope_min,
-                         slope_max=args.slope_max, speed_min=args.speed_min, speed_max=args.speed_max)
+    axes = MapAxes.build(
+        args.slope_step,
+        args.speed_step,
+        slope_min=args.slope_min,
+        slope_max=args.slope_max,
+        speed_min=args.speed_min,
+        speed_max=args.speed_max,
+    )
     model = Model.from_file(args.params) if args.params else Model.default()
     client = None
     if args.dask:
@@ -67,15 +101,40 @@ def _setup(args):
     return axes, model, client, progress
 
 
+def _interrupted(command: str, written: list[Path]) -> int:
+    """Ctrl-C: one line on what is on disk, no traceback, exit code 130."""
+    if written:
+        names = ", ".join(str(p) for p in written)
+        print(f"slopelander {command}: interrupted; partial results written: {names}", file=sys.stderr)
+    else:
+        print(f"slopelander {command}: interrupted; nothing written", file=sys.stderr)
+    return INTERRUPTED
+
+
 def run_map(args) -> int:
     from slopelander.envelope.reports import make_map
 
+    check_output_dir(args.out, "--out")
     axes, model, client, progress = _setup(args)
     t0 = time.perf_counter()
+    started = time.time() - 1.0  # file times may be rounded to the second
     try:
-        result = make_map(args.kind, args.out, model=model, axes=axes, refine=args.refine,
-                          optimal_angle=args.optimal_angle, config=args.config, sets=args.sets,
-                          seed=args.seed, draws=args.draws, client=client, progress=progress)
+        result = make_map(
+            args.kind,
+            args.out,
+            model=model,
+            axes=axes,
+            refine=args.refine,
+            optimal_angle=args.optimal_angle,
+            config=args.config,
+            sets=args.sets,
+            seed=args.seed,
+            draws=args.draws,
+            client=client,
+            progress=progress,
+        )
+    except KeyboardInterrupt:
+        return _interrupted("map", files_changed_since(Path(args.out), started))
     finally:
         if client is not None:
             client.close()
@@ -88,20 +147,22 @@ def run_table(args) -> int:
     from slopelander.envelope.presets import STRATEGIES
     from slopelander.envelope.table import build_table, write_table
 
+    check_output(args.out, "--out")
     axes, model, client, progress = _setup(args)
-    strategy = STRATEGIES[args.strategy].with_options(refine=args.refine,
-                                                      optimal_angle=args.optimal_angle)
+    strategy = STRATEGIES[args.strategy].with_options(refine=args.refine, optimal_angle=args.optimal_angle)
     command = "slopelander " + shlex.join(sys.argv[1:]) if sys.argv[1:] else None
     t0 = time.perf_counter()
     try:
-        doc, presets = build_table(model, axes, strategy, client=client, progress=progress,
-                                   command=command)
+        doc, presets = build_table(model, axes, strategy, client=client, progress=progress, command=command)
+    except KeyboardInterrupt:
+        return _interrupted("table", [])  # the table is written only once it is complete
     finally:
         if client is not None:
             client.close()
     path = write_table(doc, args.out)
     landed = presets.landed()
-    print(f"wrote {path}: {axes.shape[0]} slopes x {axes.shape[1]} speeds, "
-          f"{int(landed.sum())} cells land, {time.perf_counter() - t0:.1f} s")
+    print(
+        f"wrote {path}: {axes.shape[0]} slopes x {axes.shape[1]} speeds, "
+        f"{int(landed.sum())} cells land, {time.perf_counter() - t0:.1f} s"
+    )
     return 0
-

@@ -69,7 +69,9 @@ class LandingMap:
         stem = stem or self.kind
         npz = directory / f"{stem}.npz"
         np.savez_compressed(
-            npz, slope_deg=self.axes.slopes, speed=self.axes.speeds,
+            npz,
+            slope_deg=self.axes.slopes,
+            speed=self.axes.speeds,
             meta=np.array(json.dumps({"kind": self.kind, **self.meta})),
             **{f"field_{k}": v for k, v in self.fields.items()},
         )
@@ -81,8 +83,14 @@ class LandingMap:
             for i, s in enumerate(self.axes.slopes):
                 for j, v in enumerate(self.axes.speeds):
                     code = int(self.fields["outcome"][i, j])
-                    w.writerow([f"{s:g}", f"{v:g}", Outcome(code).name.lower(),
-                                *(_fmt(self.fields[n][i, j]) for n in names)])
+                    w.writerow(
+                        [
+                            f"{s:g}",
+                            f"{v:g}",
+                            Outcome(code).name.lower(),
+                            *(_fmt(self.fields[n][i, j]) for n in names),
+                        ]
+                    )
         return npz, path_csv
 
     @classmethod
@@ -170,8 +178,7 @@ def fly_presets(
     """The same presets flown by another model (another parameter set): a new map."""
     if m.meta.get("strategy", {}).get("rigid"):
         model = model.rigid()
-    results = run_sweep(preset_conditions(m), model, client=client, progress=progress,
-                        desc=kind or m.kind)
+    results = run_sweep(preset_conditions(m), model, client=client, progress=progress, desc=kind or m.kind)
     fields = {n: m.fields[n].copy() for n in PRESET_FIELDS}
     fields.update(results_to_fields(results, m.axes.shape))
     meta = {**m.meta, "model": model_record(model), "presets_from": m.meta.get("model")}
@@ -181,5 +188,12 @@ def fly_presets(
 def model_record(model: Model) -> dict[str, Any]:
     """What a map or table must carry to say which model produced it."""
     d = model.params.to_dict()
-    return {"source": model.params.source, "effects": list(model.effects),
-            "parameters": d["parameters"], "dt": model.dt}
+    rec = {
+        "source": model.params.source,
+        "effects": list(model.effects),
+        "parameters": d["parameters"],
+        "dt": model.dt,
+    }
+    if model.user_effects:  # their parameters recorded like the built-ins', with bounds
+        rec["user_effects"] = {e.name: e.record() for e in model.user_effects}
+    return rec

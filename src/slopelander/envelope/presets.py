@@ -81,12 +81,21 @@ class Strategy:
         elif self.torques == "fixed":
             legs = f", tau_up = tau_down = {self.tau:g} N*m"
         else:
-            legs = ", best torque pair" + (" (continuous)" if self.torques == "refined" else
-                                           " of " + "/".join(f"{v:g}" for v in self.levels) + " N*m")
-        angle = {"max": "", "linear": ", uphill angle 37.5->24 deg at 40 deg",
-                 "optimal": ", best uphill angle"}[self.angle]
-        rvt = f", {self.reverse_percent:g} % reverse thrust at impact" if self.reverse_percent else \
-            ", no thrust"
+            legs = ", best torque pair" + (
+                " (continuous)"
+                if self.torques == "refined"
+                else " of " + "/".join(f"{v:g}" for v in self.levels) + " N*m"
+            )
+        angle = {
+            "max": "",
+            "linear": ", uphill angle 37.5->24 deg at 40 deg",
+            "optimal": ", best uphill angle",
+        }[self.angle]
+        rvt = (
+            f", {self.reverse_percent:g} % reverse thrust at impact"
+            if self.reverse_percent
+            else ", no thrust"
+        )
         return gear + legs + angle + rvt
 
     def to_dict(self) -> dict:
@@ -106,18 +115,19 @@ class Strategy:
 STRATEGIES: dict[str, Strategy] = {
     s.name: s
     for s in (
-        Strategy("symmetric", torques="fixed", tau=1.7),                       # Fig. 8
-        Strategy("asymmetric"),                                                 # Fig. 9
-        Strategy("angle", angle="linear"),                                      # Fig. 11, dark green
-        Strategy("rvt", angle="linear", reverse_percent=100.0),                 # Fig. 10
-        Strategy("rigid", torques="fixed", rigid=True),                         # Fig. 11, stock F450
+        Strategy("symmetric", torques="fixed", tau=1.7),  # Fig. 8
+        Strategy("asymmetric"),  # Fig. 9
+        Strategy("angle", angle="linear"),  # Fig. 11, dark green
+        Strategy("rvt", angle="linear", reverse_percent=100.0),  # Fig. 10
+        Strategy("rigid", torques="fixed", rigid=True),  # Fig. 11, stock F450
         Strategy("rigid_rvt", torques="fixed", rigid=True, reverse_percent=100.0),
     )
 }
 
 
-def linear_uphill_angle(slope_deg: np.ndarray | float, angle_min_deg: float = 0.5,
-                        angle_max_deg: float = ANGLE_FLAT_DEG) -> np.ndarray:
+def linear_uphill_angle(
+    slope_deg: np.ndarray | float, angle_min_deg: float = 0.5, angle_max_deg: float = ANGLE_FLAT_DEG
+) -> np.ndarray:
     """Paper Sec. V-C: 37.5 deg on flat ground falling linearly to 24 deg at 40 deg, continued."""
     a = ANGLE_FLAT_DEG + (ANGLE_AT_40_DEG - ANGLE_FLAT_DEG) * np.asarray(slope_deg, float) / 40.0
     return np.clip(a, angle_min_deg, angle_max_deg)
@@ -128,16 +138,18 @@ def preset_score(results: np.ndarray) -> np.ndarray:
     rank = results["outcome"].astype(int)
     mean = 0.5 * (results["compression_up"] + results["compression_down"])
     mean = np.clip(np.nan_to_num(mean), 0.0, 1.0)
-    key = np.where(rank <= Outcome.UNDER_USED, mean,
-                   np.where(rank == Outcome.END_OF_TRAVEL, 1.0 - mean, 0.0))
+    key = np.where(rank <= Outcome.UNDER_USED, mean, np.where(rank == Outcome.END_OF_TRAVEL, 1.0 - mean, 0.0))
     return (int(Outcome.FLIP) - rank) + 0.5 * key
 
 
 def _candidates(strategy: Strategy, axes: MapAxes, model: Model) -> np.ndarray:
     """Candidate presets per slope, shape (n_slopes, n_candidates, 4) in PRESET_FIELDS order."""
     lo, hi = model.params.angle_min_deg, model.params.angle_max_deg
-    pairs = [(strategy.tau, strategy.tau)] if strategy.torques == "fixed" or strategy.rigid \
+    pairs = (
+        [(strategy.tau, strategy.tau)]
+        if strategy.torques == "fixed" or strategy.rigid
         else list(product(strategy.levels, strategy.levels))
+    )
     n_s = axes.slopes.size
     if strategy.angle == "max" or strategy.rigid:
         angles = np.full((n_s, 1), hi)
@@ -150,8 +162,7 @@ def _candidates(strategy: Strategy, axes: MapAxes, model: Model) -> np.ndarray:
     k = 0
     for tu, td in pairs:
         for a in range(angles.shape[1]):
-            out[:, k] = np.column_stack([np.full(n_s, tu), np.full(n_s, td), angles[:, a],
-                                         np.full(n_s, hi)])
+            out[:, k] = np.column_stack([np.full(n_s, tu), np.full(n_s, td), angles[:, a], np.full(n_s, hi)])
             k += 1
     return out
 
@@ -183,8 +194,7 @@ def choose_presets(
         try:
             strategy = STRATEGIES[strategy]
         except KeyError:
-            raise StrategyError(f"unknown strategy {strategy!r}; known: {', '.join(STRATEGIES)}") \
-                from None
+            raise StrategyError(f"unknown strategy {strategy!r}; known: {', '.join(STRATEGIES)}") from None
     flown = model.rigid() if strategy.rigid else model
     kw = {"client": client, "progress": progress, **({"chunk": chunk} if chunk else {})}
     n_s, n_v = axes.shape
@@ -202,13 +212,18 @@ def choose_presets(
         evaluated += extra
     fields = {name: chosen[..., f] for f, name in enumerate(PRESET_FIELDS)}
     fields.update(results_to_fields(chosen_res, (n_s, n_v)))
-    meta = {"strategy": strategy.to_dict(), "description": strategy.describe(),
-            "model": model_record(flown), "landings_simulated": int(evaluated)}
+    meta = {
+        "strategy": strategy.to_dict(),
+        "description": strategy.describe(),
+        "model": model_record(flown),
+        "landings_simulated": int(evaluated),
+    }
     return LandingMap(strategy.name, axes, fields, meta)
 
 
-def _refine(model: Model, axes: MapAxes, strategy: Strategy, chosen: np.ndarray,
-            chosen_res: np.ndarray, kw: dict) -> tuple[np.ndarray, np.ndarray, int]:
+def _refine(
+    model: Model, axes: MapAxes, strategy: Strategy, chosen: np.ndarray, chosen_res: np.ndarray, kw: dict
+) -> tuple[np.ndarray, np.ndarray, int]:
     """Compass search on (tau_up, tau_down) from the best level pair, every cell at once."""
     n_s, n_v = axes.shape
     moves = np.array([(du, dd) for du in (-1, 0, 1) for dd in (-1, 0, 1) if du or dd], float)
@@ -217,8 +232,9 @@ def _refine(model: Model, axes: MapAxes, strategy: Strategy, chosen: np.ndarray,
     for h in REFINE_STEPS:
         cand = np.repeat(chosen[:, :, None, :], len(moves), axis=2)
         cand[..., 0:2] = np.clip(cand[..., 0:2] + h * moves, *TORQUE_RANGE)
-        res = run_sweep(_grid(axes, cand, strategy), model, desc=f"{strategy.name} refine {h:g}",
-                        **kw).reshape(n_s, n_v, len(moves))
+        res = run_sweep(
+            _grid(axes, cand, strategy), model, desc=f"{strategy.name} refine {h:g}", **kw
+        ).reshape(n_s, n_v, len(moves))
         evaluated += res.size
         s = preset_score(res)
         k = np.argmax(s, axis=-1)

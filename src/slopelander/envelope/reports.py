@@ -73,13 +73,20 @@ def make_map(
     model = model or Model.default()
     axes = axes or MapAxes.build()
     kw = {"client": client, "progress": progress}
-    result: dict[str, Any] = {"kind": kind, "grid": [len(axes.slopes), len(axes.speeds)],
-                              "slope_step_deg": axes.slope_step, "speed_step_mps": axes.speed_step}
+    result: dict[str, Any] = {
+        "kind": kind,
+        "grid": [len(axes.slopes), len(axes.speeds)],
+        "slope_step_deg": axes.slope_step,
+        "speed_step_mps": axes.speed_step,
+    }
 
     if kind in ("symmetric", "asymmetric", "angle", "rvt"):
         m = choose_presets(model, axes, _strategy(kind, refine, optimal_angle), **kw)
-        result.update(_write(m, out, presets_figure=kind != "symmetric"),
-                      description=m.meta["description"], landings=m.meta["landings_simulated"])
+        result.update(
+            _write(m, out, presets_figure=kind != "symmetric"),
+            description=m.meta["description"],
+            landings=m.meta["landings_simulated"],
+        )
         if kind != "symmetric":
             plots.plot_outcome_map(m, out / f"{kind}_outcome.png")
         return _finish(out, kind, result)
@@ -89,7 +96,8 @@ def make_map(
             "rigid gear (LG)": choose_presets(model, axes, "rigid", **kw),
             "rigid gear + RVT (LG+RVT)": choose_presets(model, axes, "rigid_rvt", **kw),
             "FSA (asym. torques + uphill angle)": choose_presets(
-                model, axes, _strategy("angle", refine, optimal_angle), **kw),
+                model, axes, _strategy("angle", refine, optimal_angle), **kw
+            ),
             "FSA + RVT": choose_presets(model, axes, _strategy("rvt", refine, optimal_angle), **kw),
         }
         for label, m in maps.items():
@@ -98,24 +106,25 @@ def make_map(
         rigid_area, fsa_rvt_area = areas[0], areas[3]
         result["area_ratio_fsa_rvt_vs_rigid"] = fsa_rvt_area / rigid_area if rigid_area else math.inf
         result["area_ratio_fsa_rvt_vs_rigid_rvt"] = fsa_rvt_area / areas[1] if areas[1] else math.inf
-        png = plots.plot_envelopes(maps, out / "envelopes.png",
-                                   static_friction=model.params["friction_static"])
+        png = plots.plot_envelopes(
+            maps, out / "envelopes.png", static_friction=model.params["friction_static"]
+        )
         result["png"] = str(png)
         return _finish(out, kind, result)
 
     if kind == "uncertainty":
         params = parameter_sets(model.params, sets, seed)
         result["parameter_files"] = [str(p) for p in write_parameter_sets(params, out)]
-        nominal, maps = uncertainty_maps(model, axes, _strategy(config, refine, optimal_angle),
-                                         params, **kw)
+        nominal, maps = uncertainty_maps(model, axes, _strategy(config, refine, optimal_angle), params, **kw)
         result["nominal"] = _write(nominal, out, f"uncertainty_{config}_nominal")
         for i, m in enumerate(maps, 1):
             result[f"set{i}"] = {k: v for k, v in _write(m, out).items()}
         frac = success_fraction(maps)
         result["cells_landed_by_all_sets"] = int((frac == 1).sum())
         result["cells_landed_by_some_sets"] = int(((frac > 0) & (frac < 1)).sum())
-        result["png"] = str(plots.plot_uncertainty(maps, out / f"uncertainty_{config}.png",
-                                                   title=f"uncertainty ({config})"))
+        result["png"] = str(
+            plots.plot_uncertainty(maps, out / f"uncertainty_{config}.png", title=f"uncertainty ({config})")
+        )
         return _finish(out, kind, result)
 
     # robustness
@@ -123,8 +132,16 @@ def make_map(
     r = robustness_map(presets, model, draws=draws, seed=seed, **kw)
     npz, csv_path = r.save(out, "robustness")
     png = plots.plot_robustness(r, out / "robustness.png")
-    result.update(png=str(png), npz=str(npz), csv=str(csv_path), presets=presets.kind,
-                  description=presets.meta["description"], overall_success_rate=r.meta["overall"],
-                  nominal_cells=r.meta["nominal_cells"], draws_per_cell=draws, seed=seed,
-                  landings=r.meta["landings"])
+    result.update(
+        png=str(png),
+        npz=str(npz),
+        csv=str(csv_path),
+        presets=presets.kind,
+        description=presets.meta["description"],
+        overall_success_rate=r.meta["overall"],
+        nominal_cells=r.meta["nominal_cells"],
+        draws_per_cell=draws,
+        seed=seed,
+        landings=r.meta["landings"],
+    )
     return _finish(out, kind, result)

@@ -49,16 +49,18 @@ def robustness_map(
     rate = ok.mean(axis=-1)
     nominal = presets.landed()
     overall = float(ok[nominal].mean()) if nominal.any() else float("nan")
-    fields = {n: presets.fields[n].copy()
-              for n in ("tau_up", "tau_down", "angle_up_deg", "angle_down_deg")}
-    fields.update(outcome=presets.fields["outcome"].copy(), success_rate=rate,
-                  nominal=nominal.astype(float))
+    fields = {n: presets.fields[n].copy() for n in ("tau_up", "tau_down", "angle_up_deg", "angle_down_deg")}
+    fields.update(outcome=presets.fields["outcome"].copy(), success_rate=rate, nominal=nominal.astype(float))
     meta = {
         **{k: v for k, v in presets.meta.items() if k != "model"},
         "model": model_record(flown),
-        "draws_per_cell": draws, "seed": seed,
-        "pitch_range_deg": pitch_range_deg, "pitch_rate_range_dps": pitch_rate_range_dps,
-        "overall": overall, "nominal_cells": int(nominal.sum()), "landings": int(grid.size),
+        "draws_per_cell": draws,
+        "seed": seed,
+        "pitch_range_deg": pitch_range_deg,
+        "pitch_rate_range_dps": pitch_rate_range_dps,
+        "overall": overall,
+        "nominal_cells": int(nominal.sum()),
+        "landings": int(grid.size),
         "presets_kind": presets.kind,
     }
     return LandingMap("robustness", presets.axes, fields, meta)

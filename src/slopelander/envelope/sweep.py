@@ -75,8 +75,7 @@ def run_sweep(
         return out
     from tqdm.auto import tqdm
 
-    bar = tqdm(total=n, desc=desc, unit="landing", disable=not _progress_enabled(progress),
-               smoothing=0.1)
+    bar = tqdm(total=n, desc=desc, unit="landing", disable=not _progress_enabled(progress), smoothing=0.1)
     slices = list(_chunks(n, chunk))
     try:
         if client is None:
@@ -90,8 +89,7 @@ def run_sweep(
     return out
 
 
-def _run_on_dask(grid: np.ndarray, model: Model, slices: list[slice], client, out: np.ndarray,
-                 bar) -> None:
+def _run_on_dask(grid: np.ndarray, model: Model, slices: list[slice], client, out: np.ndarray, bar) -> None:
     from distributed import as_completed
 
     own = None

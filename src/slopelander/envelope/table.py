@@ -51,8 +51,8 @@ def neighbour_margin(
         if not (i.size and j.size):
             continue
         ii, jj = np.meshgrid(i, j, indexing="ij")
-        g = base[ii, jj].copy()                  # this cell's preset ...
-        g["slope_deg"] = presets.axes.slopes[ii + di]   # ... flown at the neighbour's condition
+        g = base[ii, jj].copy()  # this cell's preset ...
+        g["slope_deg"] = presets.axes.slopes[ii + di]  # ... flown at the neighbour's condition
         g["speed"] = presets.axes.speeds[jj + dj]
         rows.append(g.ravel())
         owners.append(np.ravel_multi_index((ii.ravel(), jj.ravel()), (n_s, n_v)))
@@ -99,15 +99,24 @@ def table_document(presets: LandingMap, *, command: str | None = None) -> dict[s
     return {
         "schema": SCHEMA,
         "created": _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat(),
-        "generator": {"package": f"slopelander {slopelander.__version__}",
-                      **({"command": command} if command else {})},
+        "generator": {
+            "package": f"slopelander {slopelander.__version__}",
+            **({"command": command} if command else {}),
+        },
         "strategy": {**presets.meta["strategy"], "description": presets.meta["description"]},
         "margin_definition": MARGIN_DEFINITION,
-        "axes": {"slope_deg": [float(v) for v in presets.axes.slopes],
-                 "speed": [float(v) for v in presets.axes.speeds]},
+        "axes": {
+            "slope_deg": [float(v) for v in presets.axes.slopes],
+            "speed": [float(v) for v in presets.axes.speeds],
+        },
         "cells": cells,
-        "model": {"source": model["source"], "effects": model["effects"], "dt": model["dt"],
-                  "parameters": model["parameters"]},
+        "model": {
+            "source": model["source"],
+            "effects": model["effects"],
+            "dt": model["dt"],
+            "parameters": model["parameters"],
+            **({"user_effects": model["user_effects"]} if model.get("user_effects") else {}),
+        },
     }
 
 
@@ -115,8 +124,12 @@ def write_table(doc: dict[str, Any], path: str | Path) -> Path:
     """Write a table document as YAML (rows in flow style: one line per slope)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    header = ("# slopelander preset lookup table; schema: docs/lookup-table.md\n"
-              "# cells.<field>: one row per slope (axes.slope_deg), one value per speed (axes.speed)\n")
-    path.write_text(header + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None,
-                                            width=10_000, allow_unicode=True))
+    header = (
+        "# slopelander preset lookup table; schema: docs/lookup-table.md\n"
+        "# cells.<field>: one row per slope (axes.slope_deg), one value per speed (axes.speed)\n"
+    )
+    path.write_text(
+        header
+        + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=10_000, allow_unicode=True)
+    )
     return path

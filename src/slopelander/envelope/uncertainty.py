@@ -21,13 +21,13 @@ from slopelander.envelope.presets import Strategy, choose_presets
 from slopelander.model import Model, ModelParams
 
 TABLE_II_SIGMA: dict[str, float] = {
-    "flex_stiffness": 0.78,      # k_q, N*m/rad
-    "flex_damping": 0.017,       # b_q, N*m*s/rad
+    "flex_stiffness": 0.78,  # k_q, N*m/rad
+    "flex_damping": 0.017,  # b_q, N*m*s/rad
     "ground_stiffness": 7.77e3,  # k_g, N/m
-    "ground_damping": 72.0,      # b_g, N*s/m
-    "friction_kinetic": 0.023,   # mu_k
-    "factor_tau": 5.6e-4,        # 1/N
-    "factor_mu": 0.02,           # s/m
+    "ground_damping": 72.0,  # b_g, N*s/m
+    "friction_kinetic": 0.023,  # mu_k
+    "factor_tau": 5.6e-4,  # 1/N
+    "factor_mu": 0.02,  # s/m
 }
 """Table II's GA standard deviations, by model parameter name."""
 
@@ -49,12 +49,11 @@ def parameter_sets(base: ModelParams, n: int = 3, seed: int = 0) -> list[ModelPa
     columns = {name: rng.permutation(z) for name in TABLE_II_SIGMA}
     sets = []
     for i in range(n):
-        values = {name: base[name] + TABLE_II_SIGMA[name] * columns[name][i]
-                  for name in TABLE_II_SIGMA}
+        values = {name: base[name] + TABLE_II_SIGMA[name] * columns[name][i] for name in TABLE_II_SIGMA}
         p = base.with_values(provenance="derived", **values)
         notes = {
             name: f"Table II mean {base[name]:.4g} {columns[name][i]:+.2f} sigma "
-                  f"(set {i + 1} of {n}, Latin design seed {seed}; stands in for a GA fit)"
+            f"(set {i + 1} of {n}, Latin design seed {seed}; stands in for a GA fit)"
             for name in TABLE_II_SIGMA
         }
         p = _with_notes(p, notes)
@@ -99,8 +98,7 @@ def uncertainty_maps(
     maps = []
     for i, p in enumerate(sets, 1):
         m = Model(p, model.effects, model.user_effects, model.dt, model.criteria)
-        maps.append(fly_presets(nominal, m, kind=f"{nominal.kind}_set{i}", client=client,
-                                progress=progress))
+        maps.append(fly_presets(nominal, m, kind=f"{nominal.kind}_set{i}", client=client, progress=progress))
     return nominal, maps
 
 

@@ -46,9 +46,11 @@ def build_model(args: argparse.Namespace) -> Model:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "synth", help="write a dataset of synthetic drops from a 'truth' model",
+        "synth",
+        help="write a dataset of synthetic drops from a 'truth' model",
         description="Simulate drops over the paper's spread (0-45 deg, 1-3 m/s, the paper's torque "
-                    "levels) with a truth model and write them as recordings with motion-capture noise.")
+        "levels) with a truth model and write them as recordings with motion-capture noise.",
+    )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="dataset folder to write")
     p.add_argument("--drops", type=int, default=10, help="number of drops")
     p.add_argument("--seed", type=int, default=0, help="seed of the drop conditions and the noise")
@@ -68,7 +70,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run_synth(args: argparse.Namespace) -> int:
     from slopelander.ident.recording import write_dataset
     from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+    from slopelander.outputs import check_output_dir
 
+    check_output_dir(args.out, "--out")
     if args.out.exists() and any(args.out.glob("*.csv")):
         raise IdentCliError(f"--out {args.out} already holds drops; choose an empty folder")
     if not 1 <= args.drops <= 1000:
@@ -81,8 +85,14 @@ def run_synth(args: argparse.Namespace) -> int:
         raise IdentCliError(str(exc)) from None
     model = build_model(args)
     source = "synthetic: " + (" ".join(f"without {e}" for e in args.without) or "full model")
-    drops = synthesize(model, paper_drops(args.drops, args.seed), noise, seed=args.seed,
-                       duration=args.duration, source=source)
+    drops = synthesize(
+        model,
+        paper_drops(args.drops, args.seed),
+        noise,
+        seed=args.seed,
+        duration=args.duration,
+        source=source,
+    )
     write_dataset(drops, args.out)
     flips = sum(d.outcome is not None and d.outcome.name == "FLIP" for d in drops)
     print(f"wrote {len(drops)} drops ({flips} flipped) to {args.out}")
@@ -90,16 +100,19 @@ def run_synth(args: argparse.Namespace) -> int:
 
 
 def _dataset_arg(p: argparse.ArgumentParser) -> None:
-    p.add_argument("dataset", type=Path, metavar="DATASET",
-                   help="folder of drop recordings (docs/recordings.md)")
+    p.add_argument(
+        "dataset", type=Path, metavar="DATASET", help="folder of drop recordings (docs/recordings.md)"
+    )
 
 
 def register_compare(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "compare", help="compare the model with recorded drops: NRMSE, phases, outcomes, report",
+        "compare",
+        help="compare the model with recorded drops: NRMSE, phases, outcomes, report",
         description="Simulate every recorded drop, report NRMSE per state, drop and phase, outcome "
-                    "matches and where the residual concentrates; write a Markdown report with a plot "
-                    "per drop.")
+        "matches and where the residual concentrates; write a Markdown report with a plot "
+        "per drop.",
+    )
     _dataset_arg(p)
     p.add_argument("--report", type=Path, metavar="DIR", help="folder for report.md and one PNG per drop")
     _model_args(p, "analysed")
@@ -110,7 +123,9 @@ def run_compare(args: argparse.Namespace) -> int:
     from slopelander.ident.compare import compare
     from slopelander.ident.recording import STATES, load_dataset
     from slopelander.ident.report import write_report
+    from slopelander.outputs import check_output_dir
 
+    check_output_dir(args.report, "--report")
     drops = load_dataset(args.dataset)
     model = build_model(args)
     c = compare(model, drops)
@@ -118,8 +133,10 @@ def run_compare(args: argparse.Namespace) -> int:
     print(f"NRMSE {c.nrmse:.4f} over {len(drops)} drops (angular states x2); outcomes match {ok}/{known}")
     print("  per state: " + ", ".join(f"{s} {v:.4f}" for s, v in zip(STATES, c.per_state, strict=True)))
     share = c.phase_share()
-    print("  per phase: " + ", ".join(f"{p} {v:.4f} ({100 * share[p]:.0f} % of residual)"
-                                      for p, v in c.per_phase().items()))
+    print(
+        "  per phase: "
+        + ", ".join(f"{p} {v:.4f} ({100 * share[p]:.0f} % of residual)" for p, v in c.per_phase().items())
+    )
     for w in c.worst_windows(3):
         print(f"  worst: {w.drop} {w.start:.2f}-{w.end:.2f} s ({w.phase}, {w.state}): {100 * w.share:.1f} %")
     if args.report:
@@ -130,14 +147,21 @@ def run_compare(args: argparse.Namespace) -> int:
 
 def _search_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("search")
-    g.add_argument("--fit", nargs="+", default=None, metavar="NAME[=LOW:HIGH]",
-                   help="parameters to identify, with bounds where the defaults do not suit "
-                        "(default: the paper's seven the model has)")
-    g.add_argument("--repeats", type=int, default=3,
-                   help="training subsets (each 60 %% train / 40 %% validation)")
+    g.add_argument(
+        "--fit",
+        nargs="+",
+        default=None,
+        metavar="NAME[=LOW:HIGH]",
+        help="parameters to identify, with bounds where the defaults do not suit "
+        "(default: the paper's seven the model has)",
+    )
+    g.add_argument(
+        "--repeats", type=int, default=3, help="training subsets (each 60 %% train / 40 %% validation)"
+    )
     g.add_argument("--seed", type=int, default=0)
-    g.add_argument("--cma-evals", type=int, default=600,
-                   help="model evaluations of the global search per fit")
+    g.add_argument(
+        "--cma-evals", type=int, default=600, help="model evaluations of the global search per fit"
+    )
     g.add_argument("--ls-evals", type=int, default=30, help="local least-squares iterations per fit")
     g.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
     g.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
@@ -177,6 +201,18 @@ class _Bar:
         self.bar.close()
 
 
+def _search_settings(args: argparse.Namespace) -> dict:
+    """The search settings fit, diagnose and steps share (repeats, seed, budgets, workers, cluster)."""
+    return {
+        "repeats": args.repeats,
+        "seed": args.seed,
+        "cma_evals": args.cma_evals,
+        "ls_evals": args.ls_evals,
+        "workers": args.workers,
+        "client": _client(args),
+    }
+
+
 def _client(args: argparse.Namespace):
     if not args.dask:
         return None
@@ -187,14 +223,20 @@ def _client(args: argparse.Namespace):
 
 def register_fit(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "fit", help="identify model parameters from recorded drops (CMA-ES + least squares)",
+        "fit",
+        help="identify model parameters from recorded drops (CMA-ES + least squares)",
         description="Identify named parameters from recorded drops as the paper did: repeated fits on "
-                    "training subsets, validated on the other drops; prints a Table-II-style mean +- sigma, "
-                    "confidence intervals and identifiability warnings.")
+        "training subsets, validated on the other drops; prints a Table-II-style mean +- sigma, "
+        "confidence intervals and identifiability warnings.",
+    )
     _dataset_arg(p)
     p.add_argument("--out", type=Path, metavar="FILE", help="write the identified parameter set (YAML)")
-    p.add_argument("--restarts", type=int, default=0,
-                   help="extra CMA-ES runs from random points, sharing the budget (noisy data)")
+    p.add_argument(
+        "--restarts",
+        type=int,
+        default=0,
+        help="extra CMA-ES runs from random points, sharing the budget (noisy data)",
+    )
     _model_args(p, "analysed")
     _search_args(p)
     p.set_defaults(handler=run_fit)
@@ -203,7 +245,7 @@ def register_fit(subparsers: argparse._SubParsersAction) -> None:
 def run_fit(args: argparse.Namespace) -> int:
     from slopelander.ident.fit import FitError, fit_subsets, resolve_params
     from slopelander.ident.recording import load_dataset
-    from slopelander.simulate_cli import check_output
+    from slopelander.outputs import check_output
 
     check_output(args.out, "--out")
     drops = load_dataset(args.dataset)
@@ -215,9 +257,14 @@ def run_fit(args: argparse.Namespace) -> int:
         raise IdentCliError(str(exc)) from None
     bar = _Bar(args.quiet, "fit")
     try:
-        sf = fit_subsets(model, drops, params, repeats=args.repeats, seed=args.seed, cma_evals=args.cma_evals,
-                         ls_evals=args.ls_evals, workers=args.workers, client=_client(args), progress=bar,
-                         restarts=args.restarts)
+        sf = fit_subsets(
+            model,
+            drops,
+            params,
+            **_search_settings(args),
+            progress=bar,
+            restarts=args.restarts,
+        )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:
@@ -235,10 +282,12 @@ def run_fit(args: argparse.Namespace) -> int:
 
 def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "diagnose", help="find which physical effect the model is missing",
+        "diagnose",
+        help="find which physical effect the model is missing",
         description="Screen each candidate effect the model lacks (built-in: leg_flex, "
-                    "downhill_torque_growth, downhill_friction_growth; plus --candidates FILE), refit "
-                    "the model with it, and rank by held-out error with a penalty per added parameter.")
+        "downhill_torque_growth, downhill_friction_growth; plus --candidates FILE), refit "
+        "the model with it, and rank by held-out error with a penalty per added parameter.",
+    )
     _dataset_arg(p)
     p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects to try")
     p.add_argument("--refits", type=int, default=None, help="refit only the N best-screened candidates")
@@ -258,9 +307,16 @@ def run_diagnose(args: argparse.Namespace) -> int:
     users = load_effects(args.candidates) if args.candidates else None
     bar = _Bar(args.quiet, "diagnose")
     try:
-        d = diagnose(model, drops, user_effects=users, names=names, bounds=bounds, repeats=args.repeats,
-                     refits=args.refits, seed=args.seed, cma_evals=args.cma_evals, ls_evals=args.ls_evals,
-                     workers=args.workers, client=_client(args), progress=bar)
+        d = diagnose(
+            model,
+            drops,
+            user_effects=users,
+            names=names,
+            bounds=bounds,
+            refits=args.refits,
+            **_search_settings(args),
+            progress=bar,
+        )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:
@@ -272,12 +328,19 @@ def run_diagnose(args: argparse.Namespace) -> int:
 
 def register_steps(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "steps", help="add effects one by one, re-identify, and show the error fall",
+        "steps",
+        help="add effects one by one, re-identify, and show the error fall",
         description="Base model, then + each effect in turn, re-identifying at every step: the "
-                    "error-fall table (training and validation NRMSE, per state) and its plot.")
+        "error-fall table (training and validation NRMSE, per state) and its plot.",
+    )
     _dataset_arg(p)
-    p.add_argument("--add", nargs="+", required=True, metavar="EFFECT",
-                   help="effects to add in this order (built-in names or effects of --candidates)")
+    p.add_argument(
+        "--add",
+        nargs="+",
+        required=True,
+        metavar="EFFECT",
+        help="effects to add in this order (built-in names or effects of --candidates)",
+    )
     p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects")
     p.add_argument("--plot", type=Path, metavar="PNG", help="write the error-fall plot here")
     _model_args(p, "base")
@@ -290,7 +353,7 @@ def run_steps_cmd(args: argparse.Namespace) -> int:
     from slopelander.ident.fit import FitError
     from slopelander.ident.recording import load_dataset
     from slopelander.ident.steps import run_steps
-    from slopelander.simulate_cli import check_output
+    from slopelander.outputs import check_output
 
     check_output(args.plot, "--plot")
     users = {e.name: e for e in load_effects(args.candidates)} if args.candidates else {}
@@ -302,8 +365,9 @@ def run_steps_cmd(args: argparse.Namespace) -> int:
             effects.append(Candidate(name, tuple(users[name].parameters), users[name]))
         else:
             more = ", or one of --candidates" if users else ""
-            raise IdentCliError(f"--add {name!r}: not a candidate effect; built-in: "
-                                f"{', '.join(BUILTIN_CANDIDATES)}{more}")
+            raise IdentCliError(
+                f"--add {name!r}: not a candidate effect; built-in: {', '.join(BUILTIN_CANDIDATES)}{more}"
+            )
     drops = load_dataset(args.dataset)
     model = build_model(args)
     for c in effects:
@@ -312,9 +376,15 @@ def run_steps_cmd(args: argparse.Namespace) -> int:
     names, bounds = _fit_spec(args.fit)
     bar = _Bar(args.quiet, "steps")
     try:
-        st = run_steps(model, drops, effects, names=names, bounds=bounds, repeats=args.repeats,
-                       seed=args.seed, cma_evals=args.cma_evals, ls_evals=args.ls_evals, workers=args.workers,
-                       client=_client(args), progress=bar)
+        st = run_steps(
+            model,
+            drops,
+            effects,
+            names=names,
+            bounds=bounds,
+            **_search_settings(args),
+            progress=bar,
+        )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:

@@ -164,10 +164,23 @@ def compare_drop(model: Model, drop: Drop, ranges: np.ndarray) -> DropComparison
     err = (sim - drop.states) / ranges
     contact = drop.t >= 0
     per_state = np.sqrt(np.mean(err[contact] ** 2, axis=0))
-    per_phase = {p: np.sqrt(np.mean(err[labels == i] ** 2, axis=0))
-                 for i, p in enumerate(PHASES) if (labels == i).any()}
-    return DropComparison(drop.name, drop.t, drop.states, sim, labels, per_state, per_phase,
-                          drop.outcome, outcome, drop.conditions)
+    per_phase = {
+        p: np.sqrt(np.mean(err[labels == i] ** 2, axis=0))
+        for i, p in enumerate(PHASES)
+        if (labels == i).any()
+    }
+    return DropComparison(
+        drop.name,
+        drop.t,
+        drop.states,
+        sim,
+        labels,
+        per_state,
+        per_phase,
+        drop.outcome,
+        outcome,
+        drop.conditions,
+    )
 
 
 def compare(model: Model, drops: list[Drop], ranges: np.ndarray | None = None) -> Comparison:

@@ -120,41 +120,71 @@ class Diagnosis:
         m = self.missing
         if m is not None:
             vals = ", ".join(f"{k} = {v:.4g}" for k, v in m.values().items())
-            return (f"missing: {m.candidate.name} (validation NRMSE {self.base_validation:.4f} -> "
-                    f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % better after the penalty; {vals})")
+            return (
+                f"missing: {m.candidate.name} (validation NRMSE {self.base_validation:.4f} -> "
+                f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % better after the penalty; {vals})"
+            )
         fitted = [r for r in self.results if r.fits]
-        best = (f" (best candidate {fitted[0].candidate.name}: {100 * self.gain(fitted[0]):+.1f} %)"
-                if fitted else "")
-        return ("nothing missing: no candidate explains the residual better than noise"
-                f"{best}; the {len(self.results)} candidates were tried")
+        best = (
+            f" (best candidate {fitted[0].candidate.name}: {100 * self.gain(fitted[0]):+.1f} %)"
+            if fitted
+            else ""
+        )
+        return (
+            "nothing missing: no candidate explains the residual better than noise"
+            f"{best}; the {len(self.results)} candidates were tried"
+        )
 
     def table(self) -> str:
-        lines = ["| rank | candidate | screening | train NRMSE | validation NRMSE | gain | fitted |",
-                 "|---:|---|---:|---:|---:|---:|---|",
-                 f"| - | (base) | - | {self.base_train:.4f} | {self.base_validation:.4f} | - | - |"]
+        lines = [
+            "| rank | candidate | screening | train NRMSE | validation NRMSE | gain | fitted |",
+            "|---:|---|---:|---:|---:|---:|---|",
+            f"| - | (base) | - | {self.base_train:.4f} | {self.base_validation:.4f} | - | - |",
+        ]
         for i, r in enumerate(self.results, 1):
             if r.fits:
                 vals = ", ".join(f"{k} {v:.4g}" for k, v in r.values().items())
-                lines.append(f"| {i} | {r.candidate.name} | {100 * r.screening:.0f} % | {r.train_nrmse:.4f} "
-                             f"| {r.validation_nrmse:.4f} | {100 * self.gain(r):+.1f} % | {vals} |")
+                lines.append(
+                    f"| {i} | {r.candidate.name} | {100 * r.screening:.0f} % | {r.train_nrmse:.4f} "
+                    f"| {r.validation_nrmse:.4f} | {100 * self.gain(r):+.1f} % | {vals} |"
+                )
             else:
                 lines.append(f"| {i} | {r.candidate.name} | {100 * r.screening:.0f} % | not refitted | | | |")
         return "\n".join(lines)
 
 
-def candidate_params(model: Model, cand: Candidate, base_params: list[FitParam],
-                     bounds: dict[str, tuple[float, float]]) -> list[FitParam]:
+def neutral_values(cand: Candidate) -> dict[str, float]:
+    """Values at which the candidate leaves the model as it was: the built-ins' known ones, a
+    user effect's declared ``neutral`` values."""
+    out = {n: NEUTRAL[n] for n in cand.params if n in NEUTRAL}
+    if cand.user is not None:
+        out.update({n: p.neutral for n, p in cand.user.parameters.items() if p.neutral is not None})
+    return out
+
+
+def candidate_params(
+    model: Model, cand: Candidate, base_params: list[FitParam], bounds: dict[str, tuple[float, float]]
+) -> list[FitParam]:
+    declared = {}
+    if cand.user is not None:
+        declared = {n: (p.low, p.high) for n, p in cand.user.parameters.items() if p.bounded}
     extra = []
     for n in cand.params:
-        b = bounds.get(n, DEFAULT_BOUNDS.get(n))
+        b = bounds.get(n, declared.get(n, DEFAULT_BOUNDS.get(n)))
         if b is None:
             raise FitError(f"candidate {cand.name!r}: parameter {n!r} needs bounds ({n}=LOW:HIGH)")
         extra.append(make_param(n, *b))
     return [*base_params, *extra]
 
 
-def screen(base_model: Model, drops: list[Drop], cands: list[Candidate], base_params: list[FitParam],
-           ranges: np.ndarray, bounds: dict[str, tuple[float, float]]) -> dict[str, float]:
+def screen(
+    base_model: Model,
+    drops: list[Drop],
+    cands: list[Candidate],
+    base_params: list[FitParam],
+    ranges: np.ndarray,
+    bounds: dict[str, tuple[float, float]],
+) -> dict[str, float]:
     """Cheap signature test: switch each candidate on (a tenth of its range from "off", or at
     the centre of its bounds) and measure
     how much of the base residual the change in the simulated states removes (best step along
@@ -166,7 +196,8 @@ def screen(base_model: Model, drops: list[Drop], cands: list[Candidate], base_pa
         params = candidate_params(base_model, c, [], bounds)
         prob = Problem(c.add_to(base_model), drops, params, ranges)
         # a small step from "off" where the effect has an off value, else the bounds' centre
-        u = [p.unit(NEUTRAL[p.name]) + 0.1 if p.name in NEUTRAL else 0.5 for p in params]
+        off = neutral_values(c)
+        u = [min(1.0, p.unit(off[p.name]) + 0.1) if p.name in off else 0.5 for p in params]
         d = prob.residuals(u) - r
         dd = float(d @ d)
         alpha = -float(r @ d) / dd if dd > 0 else 0.0
@@ -183,11 +214,23 @@ def residual_signature(prob: Problem, u: np.ndarray) -> dict[str, float]:
     return dict(zip(STATES, (e / max(e.sum(), 1e-300)).tolist(), strict=True))
 
 
-def diagnose(model: Model, drops: list[Drop], *, user_effects: list[UserEffect] | None = None,
-             names: list[str] | None = None, bounds: dict[str, tuple[float, float]] | None = None,
-             repeats: int = 1, refits: int | None = None, seed: int = 0, cma_evals: int = 400,
-             refit_evals: int = 200, ls_evals: int = 20, workers: int | None = None, client=None,
-             progress=None) -> Diagnosis:
+def diagnose(
+    model: Model,
+    drops: list[Drop],
+    *,
+    user_effects: list[UserEffect] | None = None,
+    names: list[str] | None = None,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    repeats: int = 1,
+    refits: int | None = None,
+    seed: int = 0,
+    cma_evals: int = 400,
+    refit_evals: int = 200,
+    ls_evals: int = 20,
+    workers: int | None = None,
+    client=None,
+    progress=None,
+) -> Diagnosis:
     """Find the effect ``model`` is missing to explain ``drops``.
 
     ``names``: the base model's fitted parameters (default the paper's seven it has);
@@ -205,8 +248,17 @@ def diagnose(model: Model, drops: list[Drop], *, user_effects: list[UserEffect] 
     base_fits = []
     for k, (tr, va) in enumerate(splits):
         train = [drops[i] for i in tr]
-        base_fits.append(fit(model, train, base_params, seed=seed + k, cma_evals=cma_evals,
-                             validation=[drops[i] for i in va], **kw))
+        base_fits.append(
+            fit(
+                model,
+                train,
+                base_params,
+                seed=seed + k,
+                cma_evals=cma_evals,
+                validation=[drops[i] for i in va],
+                **kw,
+            )
+        )
     first_train = [drops[i] for i in splits[0][0]]
     scores = screen(base_fits[0].model, first_train, cands, base_params, ranges, bounds)
     order = sorted(cands, key=lambda c: -scores[c.name])
@@ -217,9 +269,20 @@ def diagnose(model: Model, drops: list[Drop], *, user_effects: list[UserEffect] 
         if i < n_refit:
             params = candidate_params(model, c, base_params, bounds)
             for k, (tr, va) in enumerate(splits):
-                res.fits.append(fit(c.add_to(model), [drops[j] for j in tr], params, seed=seed + k,
-                                    cma_evals=refit_evals, validation=[drops[j] for j in va],
-                                    start=base_fits[k].values, also=[NEUTRAL], sigma=0.25, **kw))
+                res.fits.append(
+                    fit(
+                        c.add_to(model),
+                        [drops[j] for j in tr],
+                        params,
+                        seed=seed + k,
+                        cma_evals=refit_evals,
+                        validation=[drops[j] for j in va],
+                        start=base_fits[k].values,
+                        also=[neutral_values(c)],
+                        sigma=0.25,
+                        **kw,
+                    )
+                )
         results.append(res)
     results.sort(key=lambda r: (not r.fits, r.score if r.fits else -r.screening))
     return Diagnosis(base_fits, results)

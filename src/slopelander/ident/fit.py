@@ -90,12 +90,13 @@ def effect_of(name: str) -> str | None:
     return None
 
 
-def resolve_params(model: Model, names: Sequence[str] | None = None,
-                   bounds: dict[str, tuple[float, float]] | None = None) -> list[FitParam]:
+def resolve_params(
+    model: Model, names: Sequence[str] | None = None, bounds: dict[str, tuple[float, float]] | None = None
+) -> list[FitParam]:
     """The fit parameters: ``names`` (default the paper's seven, less those whose effect the
-    model lacks) with ``bounds`` overriding :data:`DEFAULT_BOUNDS`. A user effect's parameter
-    needs its bounds given."""
-    bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
+    model lacks) with ``bounds`` overriding :data:`DEFAULT_BOUNDS` and a user effect's
+    declared bounds."""
+    bounds = {**DEFAULT_BOUNDS, **declared_bounds(model), **(bounds or {})}
     explicit = names is not None
     names = list(PAPER_SEVEN if names is None else names)
     user = {p: e for e in model.user_effects for p in e.parameters}
@@ -118,18 +119,15 @@ def resolve_params(model: Model, names: Sequence[str] | None = None,
     return out
 
 
+def declared_bounds(model: Model) -> dict[str, tuple[float, float]]:
+    """The bounds the model's user effects declare for their parameters (finite ones only)."""
+    return {n: (p.low, p.high) for n, p in model.user_parameters().items() if p.bounded}
+
+
 def apply(model: Model, params: Sequence[FitParam], values: Sequence[float]) -> Model:
     """``model`` with the named parameters set (built-in or of a user effect)."""
-    builtin, users = {}, list(model.user_effects)
-    for p, v in zip(params, values, strict=True):
-        for i, e in enumerate(users):
-            if p.name in e.parameters:
-                users[i] = e.with_values(**{p.name: v})
-                break
-        else:
-            builtin[p.name] = v
-    m = model.with_params(**builtin) if builtin else model
-    return replace(m, user_effects=tuple(users))
+    changes = {p.name: float(v) for p, v in zip(params, values, strict=True)}
+    return model.with_params(**changes) if changes else model
 
 
 @dataclass
@@ -263,8 +261,9 @@ def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> 
     return np.column_stack([(c - r0) / s for c, s in zip(cols, steps, strict=True)])
 
 
-def identifiability(params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.ndarray,
-                    values: dict[str, float]) -> tuple[dict[str, float], list[str]]:
+def identifiability(
+    params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.ndarray, values: dict[str, float]
+) -> tuple[dict[str, float], list[str]]:
     """95 % half-widths from the Gauss-Newton covariance, and warnings for parameters the data
     cannot identify: a flat direction (tiny singular value), a strong correlation, or an
     interval wider than half the value."""
@@ -278,8 +277,10 @@ def identifiability(params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.
     if sv.size and sv[0] > 0:
         for k in np.flatnonzero(sv / sv[0] < 1e-3):
             lead = [params[i].name for i in np.argsort(-np.abs(Vt[k]))[:2]]
-            warnings.append(f"flat direction: the data barely constrain a combination of "
-                            f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})")
+            warnings.append(
+                f"flat direction: the data barely constrain a combination of "
+                f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})"
+            )
     cov = np.linalg.pinv(JtJ) * s2
     sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
     ci = {}
@@ -287,26 +288,44 @@ def identifiability(params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.
         ci[p.name] = 1.96 * sd_u[i] * p.slope(float(u[i]))
         v = values[p.name]
         if ci[p.name] > 0.5 * abs(v) and abs(v) > 0:
-            warnings.append(f"{p.name} is poorly identified: 95 % interval +-{ci[p.name]:.3g} "
-                            f"on a value of {v:.3g}")
+            warnings.append(
+                f"{p.name} is poorly identified: 95 % interval +-{ci[p.name]:.3g} on a value of {v:.3g}"
+            )
         if u[i] < 0.01 or u[i] > 0.99:
-            warnings.append(f"{p.name} = {v:.3g} sits at its bound ({p.low:g}..{p.high:g}): widen the bounds "
-                            "or the data do not need it")
+            warnings.append(
+                f"{p.name} = {v:.3g} sits at its bound ({p.low:g}..{p.high:g}): widen the bounds "
+                "or the data do not need it"
+            )
     d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
     corr = cov / np.outer(d, d)
     for i in range(n):
         for j in range(i + 1, n):
             if abs(corr[i, j]) > 0.95:
-                warnings.append(f"{params[i].name} and {params[j].name} are correlated "
-                                f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each")
+                warnings.append(
+                    f"{params[i].name} and {params[j].name} are correlated "
+                    f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each"
+                )
     return ci, warnings
 
 
-def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *,
-        ranges: np.ndarray | None = None, cma_evals: int = 400, ls_evals: int = 30, seed: int = 0,
-        workers: int | None = None, client=None, progress: Callable[[int], None] | None = None,
-        validation: list[Drop] | None = None, start: dict[str, float] | None = None,
-        sigma: float = 0.3, also: list[dict[str, float]] | None = None, restarts: int = 0) -> FitResult:
+def fit(
+    model: Model,
+    drops: list[Drop],
+    params: list[FitParam] | None = None,
+    *,
+    ranges: np.ndarray | None = None,
+    cma_evals: int = 400,
+    ls_evals: int = 30,
+    seed: int = 0,
+    workers: int | None = None,
+    client=None,
+    progress: Callable[[int], None] | None = None,
+    validation: list[Drop] | None = None,
+    start: dict[str, float] | None = None,
+    sigma: float = 0.3,
+    also: list[dict[str, float]] | None = None,
+    restarts: int = 0,
+) -> FitResult:
     """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
 
     ``cma_evals`` bounds the global search, ``ls_evals`` the local iterations; ``progress`` is
@@ -354,8 +373,14 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
                 es = cma.CMAEvolutionStrategy(
                     list(x0) if run == 0 else list(np.random.default_rng(seed + run).uniform(0.2, 0.8, n)),
                     sigma,
-                    {"bounds": [0, 1], "popsize": popsize, "seed": seed + 1 + 100 * run, "verbose": -9,
-                     "maxfevals": cma_evals // runs, "tolfun": 1e-10},
+                    {
+                        "bounds": [0, 1],
+                        "popsize": popsize,
+                        "seed": seed + 1 + 100 * run,
+                        "verbose": -9,
+                        "maxfevals": cma_evals // runs,
+                        "tolfun": 1e-10,
+                    },
                 )
                 while not es.stop():
                     X = es.ask()
@@ -381,8 +406,17 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
             return J
 
         u0 = np.clip(best_u, 1e-6, 1 - 1e-6)
-        ls = least_squares(fun, u0, jac=jac, bounds=(0.0, 1.0), x_scale="jac", max_nfev=ls_evals,
-                           xtol=1e-8, ftol=1e-10, gtol=1e-10)
+        ls = least_squares(
+            fun,
+            u0,
+            jac=jac,
+            bounds=(0.0, 1.0),
+            x_scale="jac",
+            max_nfev=ls_evals,
+            xtol=1e-8,
+            ftol=1e-10,
+            gtol=1e-10,
+        )
         u = ls.x if 2 * ls.cost <= best_c else best_u
         r = fun(u)
         J = jac(u)
@@ -392,12 +426,26 @@ def fit(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *
     fitted = apply(model, params, [values[p.name] for p in params])
     train = compare(fitted, drops, ranges).nrmse
     val = compare(fitted, validation, ranges).nrmse if validation else None
-    return FitResult(params, values, u, float(r @ r), train, ci, warns, nfev, time.perf_counter() - t0,
-                     fitted, val, [d.name for d in drops], [d.name for d in validation or []])
+    return FitResult(
+        params,
+        values,
+        u,
+        float(r @ r),
+        train,
+        ci,
+        warns,
+        nfev,
+        time.perf_counter() - t0,
+        fitted,
+        val,
+        [d.name for d in drops],
+        [d.name for d in validation or []],
+    )
 
 
-def subsets(n: int, repeats: int = 3, train: int | None = None,
-            seed: int = 0) -> list[tuple[list[int], list[int]]]:
+def subsets(
+    n: int, repeats: int = 3, train: int | None = None, seed: int = 0
+) -> list[tuple[list[int], list[int]]]:
     """Training / validation index splits: by default 3 x (60 % / 40 %), as the paper's
     three fits of 6 drops validated on the other 4."""
     train = round(0.6 * n) if train is None else train
@@ -419,9 +467,13 @@ class SubsetFits:
 
     def mean_sd(self) -> dict[str, tuple[float, float]]:
         names = [p.name for p in self.fits[0].params]
-        return {n: (float(np.mean([f.values[n] for f in self.fits])),
-                    float(np.std([f.values[n] for f in self.fits], ddof=1)) if len(self.fits) > 1 else 0.0)
-                for n in names}
+        return {
+            n: (
+                float(np.mean([f.values[n] for f in self.fits])),
+                float(np.std([f.values[n] for f in self.fits], ddof=1)) if len(self.fits) > 1 else 0.0,
+            )
+            for n in names
+        }
 
     @property
     def train_nrmse(self) -> float:
@@ -444,18 +496,37 @@ class SubsetFits:
         for n, (m, s) in self.mean_sd().items():
             lines.append(f"| {n} | {m:.4g} | {s:.2g} | +-{self.fits[0].ci95[n]:.2g} |")
         lines.append("")
-        lines.append(f"NRMSE training {self.train_nrmse:.4f}, validation {self.validation_nrmse:.4f} "
-                     f"(mean of {len(self.fits)} fits)")
+        lines.append(
+            f"NRMSE training {self.train_nrmse:.4f}, validation {self.validation_nrmse:.4f} "
+            f"(mean of {len(self.fits)} fits)"
+        )
         return "\n".join(lines)
 
 
-def fit_subsets(model: Model, drops: list[Drop], params: list[FitParam] | None = None, *,
-                repeats: int = 3, train: int | None = None, seed: int = 0, **kw) -> SubsetFits:
+def fit_subsets(
+    model: Model,
+    drops: list[Drop],
+    params: list[FitParam] | None = None,
+    *,
+    repeats: int = 3,
+    train: int | None = None,
+    seed: int = 0,
+    **kw,
+) -> SubsetFits:
     """The paper's procedure: ``repeats`` fits on different training subsets, each validated on
     the drops it did not see."""
     ranges = state_ranges(drops)
     fits = []
     for k, (tr, va) in enumerate(subsets(len(drops), repeats, train, seed)):
-        fits.append(fit(model, [drops[i] for i in tr], params, ranges=ranges, seed=seed + k,
-                        validation=[drops[i] for i in va], **kw))
+        fits.append(
+            fit(
+                model,
+                [drops[i] for i in tr],
+                params,
+                ranges=ranges,
+                seed=seed + k,
+                validation=[drops[i] for i in va],
+                **kw,
+            )
+        )
     return SubsetFits(fits)

@@ -38,7 +38,7 @@ def phase_labels(t: np.ndarray, z_rate: np.ndarray) -> np.ndarray:
         return labels
     up = later[vz[later] > 0]
     end_comp = int(up[0]) if up.size else len(t)
-    labels[later[0]:end_comp] = 2
+    labels[later[0] : end_comp] = 2
     if end_comp < len(t):
         down = np.flatnonzero((np.arange(len(t)) > end_comp) & (vz <= 0))
         end_reb = int(down[0]) if down.size else len(t)

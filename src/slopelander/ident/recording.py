@@ -128,9 +128,7 @@ def parse_header(cells: list[str], path: Path) -> tuple[list[str], np.ndarray]:
         if name not in UNITS:
             raise RecordingError(path, 1, name, f"unknown column; columns are {', '.join(COLUMNS)}")
         if unit not in UNITS[name]:
-            raise RecordingError(
-                path, 1, name, f"unknown unit '{unit}'; accepted: {', '.join(UNITS[name])}"
-            )
+            raise RecordingError(path, 1, name, f"unknown unit '{unit}'; accepted: {', '.join(UNITS[name])}")
         if name in names:
             raise RecordingError(path, 1, name, "column appears twice")
         names.append(name)
@@ -157,8 +155,12 @@ def read_states(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(names):
-            raise RecordingError(path, lineno, names[min(len(row), len(names) - 1)],
-                                 f"{len(row)} cells, the header has {len(names)}")
+            raise RecordingError(
+                path,
+                lineno,
+                names[min(len(row), len(names) - 1)],
+                f"{len(row)} cells, the header has {len(names)}",
+            )
         vals = []
         for name, cell in zip(names, row, strict=True):
             try:
@@ -178,8 +180,9 @@ def read_states(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
-        raise RecordingError(path, data[i][0], "time",
-                             f"{t[i]:g} s does not follow {t[i - 1]:g} s (time must increase)")
+        raise RecordingError(
+            path, data[i][0], "time", f"{t[i]:g} s does not follow {t[i - 1]:g} s (time must increase)"
+        )
     return t, arr[:, 1:]
 
 
@@ -204,16 +207,21 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
     if not isinstance(doc, dict):
         raise RecordingError(path, 1, "<json>", "must be an object")
     if doc.get("schema") != SCHEMA:
-        raise RecordingError(path, _json_line(text, "schema") or 1, "schema",
-                             f"must be '{SCHEMA}', got {doc.get('schema')!r}")
+        raise RecordingError(
+            path, _json_line(text, "schema") or 1, "schema", f"must be '{SCHEMA}', got {doc.get('schema')!r}"
+        )
     raw = doc.get("conditions")
     if not isinstance(raw, dict):
         raise RecordingError(path, _json_line(text, "conditions"), "conditions", "missing or not an object")
     known = {f.name for f in fields(LandingConditions)}
     for key, v in raw.items():
         if key not in known:
-            raise RecordingError(path, _json_line(text, key), f"conditions.{key}",
-                                 f"unknown condition; known: {', '.join(sorted(known))}")
+            raise RecordingError(
+                path,
+                _json_line(text, key),
+                f"conditions.{key}",
+                f"unknown condition; known: {', '.join(sorted(known))}",
+            )
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise RecordingError(path, _json_line(text, key), f"conditions.{key}", f"{v!r} is not a number")
     for key in ("slope_deg", "speed"):
@@ -228,8 +236,12 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
     outcome = doc.get("outcome")
     if outcome is not None:
         if outcome not in OUTCOME_NAMES:
-            raise RecordingError(path, _json_line(text, "outcome"), "outcome",
-                                 f"unknown outcome {outcome!r}; known: {', '.join(OUTCOME_NAMES)}")
+            raise RecordingError(
+                path,
+                _json_line(text, "outcome"),
+                "outcome",
+                f"unknown outcome {outcome!r}; known: {', '.join(OUTCOME_NAMES)}",
+            )
         outcome = OUTCOME_NAMES[outcome]
     meta = doc.get("meta") or {}
     if not isinstance(meta, dict):
@@ -237,12 +249,18 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
     rates = meta.get("rates")
     if rates is not None:
         win = rates.get("window") if isinstance(rates, dict) else None
-        ok = (isinstance(rates, dict) and rates.get("method") in ("lsq_slope", "measured")
-              and (rates.get("method") == "measured" or (isinstance(win, int) and win >= 3 and win % 2)))
+        ok = (
+            isinstance(rates, dict)
+            and rates.get("method") in ("lsq_slope", "measured")
+            and (rates.get("method") == "measured" or (isinstance(win, int) and win >= 3 and win % 2))
+        )
         if not ok:
-            raise RecordingError(path, _json_line(text, "rates"), "meta.rates",
-                                 "must be {\"method\": \"measured\"} or {\"method\": \"lsq_slope\", "
-                                 "\"window\": odd number >= 3}")
+            raise RecordingError(
+                path,
+                _json_line(text, "rates"),
+                "meta.rates",
+                'must be {"method": "measured"} or {"method": "lsq_slope", "window": odd number >= 3}',
+            )
     return cond, outcome, str(doc.get("source", "")), meta
 
 
@@ -251,8 +269,9 @@ def load_drop(csv_path: str | Path) -> Drop:
     csv_path = Path(csv_path)
     side = csv_path.with_suffix(".json")
     if not side.is_file():
-        raise RecordingError(side, None, "<file>",
-                             f"missing: every drop needs its conditions beside {csv_path.name}")
+        raise RecordingError(
+            side, None, "<file>", f"missing: every drop needs its conditions beside {csv_path.name}"
+        )
     t, states = read_states(csv_path)
     cond, outcome, source, meta = read_conditions(side)
     return Drop(csv_path.stem, t, states, cond, outcome, source, meta)
@@ -287,9 +306,16 @@ class Convention:
     columns: dict[str, str] = field(default_factory=dict)
 
 
-def convert(src_csv: str | Path, conditions: LandingConditions, folder: str | Path,
-            convention: Convention, *, name: str | None = None, source: str = "",
-            units: dict[str, str] | None = None) -> Path:
+def convert(
+    src_csv: str | Path,
+    conditions: LandingConditions,
+    folder: str | Path,
+    convention: Convention,
+    *,
+    name: str | None = None,
+    source: str = "",
+    units: dict[str, str] | None = None,
+) -> Path:
     """Rewrite a foreign CSV (its own column names, units in ``name [unit]`` headers or given
     in ``units``, its own frame and signs) as a drop of this format in ``folder``."""
     src_csv = Path(src_csv)
@@ -300,7 +326,7 @@ def convert(src_csv: str | Path, conditions: LandingConditions, folder: str | Pa
     header = []
     for cell in rows[0]:
         text = cell.strip()
-        base, unit = (text[:-1].split("[", 1) if "[" in text and text.endswith("]") else (text, ""))
+        base, unit = text[:-1].split("[", 1) if "[" in text and text.endswith("]") else (text, "")
         base, unit = base.strip(), unit.strip()
         ours = back.get(base, base)
         if units and ours in units:
@@ -315,8 +341,9 @@ def convert(src_csv: str | Path, conditions: LandingConditions, folder: str | Pa
     try:
         t, s = read_states(tmp)
     except RecordingError as exc:
-        raise RecordingError(src_csv, exc.line, convention.columns.get(exc.field, exc.field),
-                             str(exc).split(": ", 1)[-1]) from None
+        raise RecordingError(
+            src_csv, exc.line, convention.columns.get(exc.field, exc.field), str(exc).split(": ", 1)[-1]
+        ) from None
     finally:
         tmp.unlink(missing_ok=True)
     s = s.copy()
@@ -333,6 +360,12 @@ def convert(src_csv: str | Path, conditions: LandingConditions, folder: str | Pa
             s[:, i] = c * xs + sn * zs
             s[:, j] = -sn * xs + c * zs
         s[:, 2] -= a  # level with the slope is pitch -slope in our frame
-    drop = Drop(name or src_csv.stem, t + convention.time_offset, s, conditions, None,
-                source or f"converted from {src_csv.name}")
+    drop = Drop(
+        name or src_csv.stem,
+        t + convention.time_offset,
+        s,
+        conditions,
+        None,
+        source or f"converted from {src_csv.name}",
+    )
     return write_drop(drop, folder)

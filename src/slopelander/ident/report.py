@@ -49,8 +49,9 @@ def plot_drop(d: DropComparison, windows: list[Window], path: Path) -> Path:
     return path
 
 
-def write_report(c: Comparison, folder: str | Path, title: str = "Model vs measured drops",
-                 model_note: str = "") -> Path:
+def write_report(
+    c: Comparison, folder: str | Path, title: str = "Model vs measured drops", model_note: str = ""
+) -> Path:
     """``report.md`` plus ``<drop>.png`` per drop in ``folder``; returns the Markdown path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -61,11 +62,16 @@ def write_report(c: Comparison, folder: str | Path, title: str = "Model vs measu
     ok, known = c.outcome_matches()
     lines += [
         f"Overall NRMSE **{c.nrmse:.4f}** (angular states x2) over {len(c.drops)} drops; "
-        f"predicted outcome matches the observed one in {ok} of {known} drops.", "",
-        "## NRMSE per state", "",
-        "| " + " | ".join(STATES) + " |", "|" + "---:|" * len(STATES),
-        "| " + " | ".join(f"{v:.4f}" for v in c.per_state) + " |", "",
-        "## Per drop", "",
+        f"predicted outcome matches the observed one in {ok} of {known} drops.",
+        "",
+        "## NRMSE per state",
+        "",
+        "| " + " | ".join(STATES) + " |",
+        "|" + "---:|" * len(STATES),
+        "| " + " | ".join(f"{v:.4f}" for v in c.per_state) + " |",
+        "",
+        "## Per drop",
+        "",
         "| drop | slope (deg) | speed (m/s) | NRMSE | observed | predicted | match |",
         "|---|---:|---:|---:|---|---|---|",
     ]
@@ -74,8 +80,9 @@ def write_report(c: Comparison, folder: str | Path, title: str = "Model vs measu
         pred = d.predicted.label if d.predicted is not None else "-"
         match = "-" if d.outcome_match is None else ("yes" if d.outcome_match else "**no**")
         cs = d.conditions
-        lines.append(f"| {d.name} | {cs.slope_deg:.1f} | {cs.speed:.2f} | {d.nrmse:.4f} "
-                     f"| {obs} | {pred} | {match} |")
+        lines.append(
+            f"| {d.name} | {cs.slope_deg:.1f} | {cs.speed:.2f} | {d.nrmse:.4f} | {obs} | {pred} | {match} |"
+        )
     phase = c.per_phase()
     share = c.phase_share()
     lines += ["", "## Where it fails", "", "| phase | NRMSE | share of the residual |", "|---|---:|---:|"]
@@ -83,13 +90,21 @@ def write_report(c: Comparison, folder: str | Path, title: str = "Model vs measu
         if p in phase:
             lines.append(f"| {p} | {phase[p]:.4f} | {100 * share[p]:.1f} % |")
     ss = c.state_share()
-    lines += ["", "Share of the weighted squared residual per state: "
-              + ", ".join(f"{k} {100 * v:.0f} %" for k, v in ss.items()) + ".", "",
-              f"Worst {WINDOW_TEXT} windows:", "", "| drop | from (s) | to (s) | phase | state | share |",
-              "|---|---:|---:|---|---|---:|"]
+    lines += [
+        "",
+        "Share of the weighted squared residual per state: "
+        + ", ".join(f"{k} {100 * v:.0f} %" for k, v in ss.items())
+        + ".",
+        "",
+        f"Worst {WINDOW_TEXT} windows:",
+        "",
+        "| drop | from (s) | to (s) | phase | state | share |",
+        "|---|---:|---:|---|---|---:|",
+    ]
     for w in windows:
-        lines.append(f"| {w.drop} | {w.start:.3f} | {w.end:.3f} | {w.phase} | {w.state} "
-                     f"| {100 * w.share:.1f} % |")
+        lines.append(
+            f"| {w.drop} | {w.start:.3f} | {w.end:.3f} | {w.phase} | {w.state} | {100 * w.share:.1f} % |"
+        )
     lines += ["", "## Drops", ""]
     for d in c.drops:
         png = plot_drop(d, windows, folder / f"{d.name}.png")

@@ -41,8 +41,11 @@ class Steps:
         head = "| step | train NRMSE | validation NRMSE | " + " | ".join(f"val {s}" for s in STATES) + " |"
         lines = [head, "|---|" + "---:|" * (2 + len(STATES))]
         for s in self.steps:
-            lines.append(f"| {s.label} | {s.train:.4f} | {s.validation:.4f} | "
-                         + " | ".join(f"{v:.4f}" for v in s.validation_per_state) + " |")
+            lines.append(
+                f"| {s.label} | {s.train:.4f} | {s.validation:.4f} | "
+                + " | ".join(f"{v:.4f}" for v in s.validation_per_state)
+                + " |"
+            )
         return "\n".join(lines)
 
     def plot(self, path: str | Path) -> Path:
@@ -74,10 +77,22 @@ class Steps:
         return path
 
 
-def run_steps(model: Model, drops: list[Drop], effects: list[Candidate], *, names: list[str] | None = None,
-              bounds: dict[str, tuple[float, float]] | None = None, repeats: int = 1, seed: int = 0,
-              cma_evals: int = 400, refit_evals: int = 200, ls_evals: int = 20, workers: int | None = None,
-              client=None, progress=None) -> Steps:
+def run_steps(
+    model: Model,
+    drops: list[Drop],
+    effects: list[Candidate],
+    *,
+    names: list[str] | None = None,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    repeats: int = 1,
+    seed: int = 0,
+    cma_evals: int = 400,
+    refit_evals: int = 200,
+    ls_evals: int = 20,
+    workers: int | None = None,
+    client=None,
+    progress=None,
+) -> Steps:
     """Fit ``model``, then ``model`` + effects[0], + effects[1], ... re-identifying at each step."""
     bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
     ranges = state_ranges(drops)
@@ -95,12 +110,27 @@ def run_steps(model: Model, drops: list[Drop], effects: list[Candidate], *, name
         fits = []
         for k, (tr, va) in enumerate(splits):
             start = prev[k].values if prev else None
-            fits.append(fit(current, [drops[j] for j in tr], params, seed=seed + k,
-                            cma_evals=refit_evals if prev else cma_evals, start=start,
-                            also=[NEUTRAL] if prev else None,
-                            sigma=0.2 if prev else 0.3, validation=[drops[j] for j in va], **kw))
-        per_state = np.mean([compare(f.model, [drops[j] for j in va], ranges).per_state
-                             for f, (_, va) in zip(fits, splits, strict=True)], axis=0)
+            fits.append(
+                fit(
+                    current,
+                    [drops[j] for j in tr],
+                    params,
+                    seed=seed + k,
+                    cma_evals=refit_evals if prev else cma_evals,
+                    start=start,
+                    also=[NEUTRAL] if prev else None,
+                    sigma=0.2 if prev else 0.3,
+                    validation=[drops[j] for j in va],
+                    **kw,
+                )
+            )
+        per_state = np.mean(
+            [
+                compare(f.model, [drops[j] for j in va], ranges).per_state
+                for f, (_, va) in zip(fits, splits, strict=True)
+            ],
+            axis=0,
+        )
         label = "base" if i == 0 else f"+ {effects[i - 1].name}"
         out.append(Step(label, fits, per_state))
         prev = fits

@@ -75,8 +75,11 @@ def paper_drops(n: int = 10, seed: int = 0) -> list[LandingConditions]:
     out = []
     for s, v in zip(slopes, speeds, strict=True):
         up, down = rng.choice(PAPER_TORQUE_LEVELS, 2)
-        out.append(LandingConditions(slope_deg=round(float(s), 1), speed=round(float(v), 2),
-                                     tau_up=float(up), tau_down=float(down)))
+        out.append(
+            LandingConditions(
+                slope_deg=round(float(s), 1), speed=round(float(v), 2), tau_up=float(up), tau_down=float(down)
+            )
+        )
     return out
 
 
@@ -84,14 +87,16 @@ def ballistic(cond: LandingConditions, t: np.ndarray, z0: float, gravity: float 
     """States of unpowered flight before first contact (t < 0), ending at the impact state."""
     pitch0 = math.radians(cond.pitch_deg)
     rate = math.radians(cond.pitch_rate_dps)
-    return np.column_stack([
-        cond.horizontal_speed * t,
-        z0 - cond.speed * t - 0.5 * gravity * t**2,
-        pitch0 + rate * t,
-        np.full_like(t, cond.horizontal_speed),
-        -cond.speed - gravity * t,
-        np.full_like(t, rate),
-    ])
+    return np.column_stack(
+        [
+            cond.horizontal_speed * t,
+            z0 - cond.speed * t - 0.5 * gravity * t**2,
+            pitch0 + rate * t,
+            np.full_like(t, cond.horizontal_speed),
+            -cond.speed - gravity * t,
+            np.full_like(t, rate),
+        ]
+    )
 
 
 def true_states(model: Model, cond: LandingConditions, t: np.ndarray):
@@ -104,9 +109,16 @@ def true_states(model: Model, cond: LandingConditions, t: np.ndarray):
     return np.where((t < 0)[:, None], before, after), tr.result.outcome
 
 
-def synthesize(model: Model, conditions: list[LandingConditions], noise: NoiseModel | None = None,
-               *, seed: int = 0, duration: float = 1.0, before: float = 0.05,
-               source: str = "synthetic") -> list[Drop]:
+def synthesize(
+    model: Model,
+    conditions: list[LandingConditions],
+    noise: NoiseModel | None = None,
+    *,
+    seed: int = 0,
+    duration: float = 1.0,
+    before: float = 0.05,
+    source: str = "synthetic",
+) -> list[Drop]:
     """One recorded drop per condition: the truth ``model``'s landing sampled with ``noise``
     from ``before`` seconds ahead of first contact to ``duration`` seconds after it."""
     noise = noise or NoiseModel()
@@ -123,7 +135,11 @@ def synthesize(model: Model, conditions: list[LandingConditions], noise: NoiseMo
         noisy = noise.position_sd > 0 or noise.angle_sd_deg > 0
         rates = differentiate(pos, t, noise.rate_window) if noisy else truth[:, 3:]
         meta = {"rates": {"method": "lsq_slope", "window": noise.rate_window}} if noisy else {}
-        meta["noise"] = {"position_sd_m": noise.position_sd, "angle_sd_deg": noise.angle_sd_deg,
-                         "latency_s": noise.latency, "seed": seed}
+        meta["noise"] = {
+            "position_sd_m": noise.position_sd,
+            "angle_sd_deg": noise.angle_sd_deg,
+            "latency_s": noise.latency,
+            "seed": seed,
+        }
         drops.append(Drop(f"drop{i:02d}", t, np.column_stack([pos, rates]), cond, outcome, source, meta))
     return drops

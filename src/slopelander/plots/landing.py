@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from slopelander.model import OUTCOME_COLORS, Trajectory
+from slopelander.model.landing import pitch_margin_text
 
 
 def _snapshot_indices(tr: Trajectory, n: int = 5) -> list[int]:
@@ -22,9 +23,33 @@ def _snapshot_indices(tr: Trajectory, n: int = 5) -> list[int]:
     return sorted({int(np.argmin(np.abs(t - x))) for x in np.linspace(0.0, end, n)})
 
 
+def landing_title(tr: Trajectory) -> str:
+    """What was flown and how it ended; rigid gear names no friction torque (its joints are locked)."""
+    c = tr.conditions
+    if tr.model.rigid_gear:
+        gear = f"rigid gear, legs locked at {c.angle_up_deg:g}°/{c.angle_down_deg:g}°"
+    else:
+        gear = (
+            f"FSA legs, τ up/down {c.tau_up:g}/{c.tau_down:g} N·m, "
+            f"legs {c.angle_up_deg:g}°/{c.angle_down_deg:g}°"
+        )
+    thrust = f", {c.reverse_percent:g} % reverse thrust" if c.reverse_percent else ""
+    margin = pitch_margin_text(tr.pitch_margin_deg, tr.model.criteria.flip_pitch_deg)
+    outcome = tr.result.outcome.label
+    return f"{c.slope_deg:g}° slope, {c.speed:g} m/s impact, {gear}{thrust}\n→  {outcome}, {margin}"
+
+
 def plot_landing(tr: Trajectory, path: str | Path) -> Path:
     """Write a PNG of the landing to ``path`` and return it."""
     path = Path(path)
+    fig = landing_figure(tr)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def landing_figure(tr: Trajectory) -> plt.Figure:
+    """Snapshots on the slope over the six states against time."""
     fig = plt.figure(figsize=(12, 8.5), constrained_layout=True)
     grid = fig.add_gridspec(3, 3, height_ratios=[1.5, 1, 1])
     ax = fig.add_subplot(grid[0, :])
@@ -61,15 +86,8 @@ def plot_landing(tr: Trajectory, path: str | Path) -> Path:
     ax.set_ylim(min(zs) - 0.05, max(zs.max(), max(tr.raw[:, 1])) + 0.25)
     ax.set_xlabel("x (m, downhill)")
     ax.set_ylabel("z (m)")
-    c = tr.conditions
     res = tr.result
-    ax.set_title(
-        f"{c.slope_deg:g}° slope, {c.speed:g} m/s impact, τ up/down {c.tau_up:g}/{c.tau_down:g} N·m, "
-        f"legs {c.angle_up_deg:g}°/{c.angle_down_deg:g}°"
-        + (f", {c.reverse_percent:g} % reverse thrust" if c.reverse_percent else "")
-        + f"  →  {res.outcome.label}",
-        color="black",
-    )
+    ax.set_title(landing_title(tr), color="black")
     ax.text(
         0.01,
         0.03,
@@ -94,9 +112,20 @@ def plot_landing(tr: Trajectory, path: str | Path) -> Path:
         for i in idx:
             axs.axvline(tr.t[i], color="0.85", lw=0.8, zorder=0)
         axs.set_ylabel(label)
+        if label == "pitch (deg)":
+            flip = tr.model.criteria.flip_pitch_deg
+            side = -1.0 if y.min() < -abs(y.max()) else 1.0
+            axs.axhline(side * flip, color="#b22222", ls="--", lw=1)
+            axs.text(
+                tr.t[-1],
+                side * flip,
+                "flip criterion",
+                color="#b22222",
+                fontsize=8,
+                ha="right",
+                va="bottom" if side < 0 else "top",
+            )
         axs.grid(alpha=0.3)
         if n >= 3:
             axs.set_xlabel("time since impact (s)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig

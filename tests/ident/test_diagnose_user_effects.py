@@ -1,0 +1,85 @@
+"""Hidden user effects: a law written in a user's file, hidden in the synthetic truth, is found
+by ``diagnose`` from its file, ranked first among the built-in candidates and the other user
+effects, and its parameter comes back.
+
+The drops are the steeper half of the paper's spread (22.5-45 deg, where feet slide and joints
+slip: on shallow slopes neither seam acts). The base model fits k_g's damping and the leg's
+flex; mu_k is taken as measured (a tilt test): fitted together with a slip-speed friction law
+on so few drops, the two trade off and the fit fixes their combination, not each
+(docs/effects.md has the numbers).
+"""
+
+from pathlib import Path
+
+import pytest
+
+from slopelander.ident.diagnose import diagnose
+from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+from slopelander.model import load_effects
+
+ROOT = Path(__file__).resolve().parents[2]
+FILES = {
+    "viscous_joint": ROOT / "docs" / "examples" / "effect_joint_torque.py",
+    "stribeck_feet": ROOT / "docs" / "examples" / "effect_foot_friction.py",
+    "slip_weakening": Path(__file__).parent / "effects" / "slip_weakening.py",
+}
+NAMES = ["ground_damping", "flex_stiffness", "flex_damping"]
+BUDGET = {"cma_evals": 150, "refit_evals": 100, "ls_evals": 10}
+
+
+@pytest.fixture(scope="module")
+def user_effects():
+    return {name: load_effects(path)[0] for name, path in FILES.items()}
+
+
+@pytest.fixture(scope="module")
+def base(model):
+    return model.without("downhill_torque_growth", "downhill_friction_growth")
+
+
+def _steep_drops(truth, seed):
+    conds = [c for c in paper_drops(16, seed=0) if c.slope_deg >= 22.5]
+    assert len(conds) == 8
+    return synthesize(truth, conds, NoiseModel(), seed=seed, duration=0.6)
+
+
+@pytest.mark.parametrize(
+    ("hidden", "parameter", "value"),
+    [("viscous_joint", "joint_viscous_gain", 0.05), ("slip_weakening", "slip_weakening", 1.0)],
+    ids=["joint_torque_law", "foot_friction_law"],
+)
+@pytest.mark.parametrize("seed", [1, 2])
+def test_hidden_user_effect_is_found_from_its_file(base, user_effects, hidden, parameter, value, seed):
+    truth = base.with_user_effect(user_effects[hidden]).with_params(**{parameter: value})
+    drops = _steep_drops(truth, seed)
+    # every user file is a candidate, the hidden one among them; so are the built-ins the
+    # base model lacks
+    d = diagnose(base, drops, user_effects=list(user_effects.values()), names=NAMES, seed=seed, **BUDGET)
+    assert sorted(r.candidate.name for r in d.results) == sorted(
+        ["downhill_friction_growth", "downhill_torque_growth", *user_effects]
+    )
+    best = d.missing
+    assert best is not None and best.candidate.name == hidden, d.table()
+    assert d.results[0] is best
+    assert 1 - best.validation_nrmse / d.base_validation >= 0.30, d.table()
+    assert best.values()[parameter] == pytest.approx(value, rel=0.15), d.table()
+    assert f"missing: {hidden}" in d.verdict()
+
+
+def test_declared_bounds_and_neutral_values_drive_the_search(base, user_effects):
+    from slopelander.ident.diagnose import Candidate, candidate_params, neutral_values
+    from slopelander.ident.fit import DEFAULT_BOUNDS, apply, resolve_params
+
+    joint = user_effects["viscous_joint"]
+    m = base.with_user_effect(joint)
+    (p,) = resolve_params(m, ["joint_viscous_gain"])
+    assert (p.low, p.high) == (0.0, 0.2)  # the file's declaration, no --fit bounds needed
+    (q,) = resolve_params(m, ["joint_viscous_gain"], {"joint_viscous_gain": (0.01, 0.1)})
+    assert (q.low, q.high) == (0.01, 0.1)  # given bounds win
+    cand = Candidate(joint.name, tuple(joint.parameters), joint)
+    assert neutral_values(cand) == {"joint_viscous_gain": 0.0}
+    (c,) = candidate_params(base, cand, [], DEFAULT_BOUNDS)
+    assert (c.low, c.high) == (0.0, 0.2)
+    fitted = apply(m, [p], [0.07])
+    assert fitted.parameter("joint_viscous_gain") == pytest.approx(0.07)
+    assert fitted.user_effects[0].parameters["joint_viscous_gain"].provenance == "identified"
