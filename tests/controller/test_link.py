@@ -94,7 +94,10 @@ def test_firmware_and_script_reported(pair):
     settle(link, peer)
     assert link.info.firmware == "4.5.7"
     assert link.script_present and link.info.script_version == 1.0
-    clk.advance(1.5)
+    clk.advance(1.5)  # local time alone (a slowed vehicle) does not make the script silent
+    assert link.script_present
+    peer.conn.mav.system_time_send(0, 1200)  # the vehicle's clock moves on without an SL_STATE
+    settle(link, peer)
     assert not link.script_present
 
 
@@ -139,6 +142,24 @@ def test_link_loss_on_local_clock_and_clock_from_vehicle_stamps(pair):
     clk.advance(1.4)
     assert not link.lost
     clk.advance(0.2)
+    assert link.lost  # nothing at all for 1.6 s of local time
+
+
+def test_a_slow_vehicle_is_not_lost_but_one_without_heartbeats_is(pair):
+    link, peer, clk = pair
+    peer.conn.mav.system_time_send(0, 1000)
+    found(link, peer)
+    # a vehicle running at a quarter of real time: its messages keep coming, 4 local s = 1 vehicle s
+    for i in range(1, 9):
+        clk.advance(0.5)
+        peer.conn.mav.raw_imu_send(1_000_000 + i * 125_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+        if i == 4:
+            peer.heartbeat()
+        settle(link, peer, 1)
+        assert not link.lost, i
+    # its clock moves on 1.6 s past the last HEARTBEAT with no new one: lost
+    peer.conn.mav.raw_imu_send(1_500_000 + 1_600_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+    settle(link, peer, 1)
     assert link.lost
 
 

@@ -181,6 +181,11 @@ ROWS = [
     ("DESCEND", {"estop": True}, "ESTOP", ["reflex_abort"]),
     ("REVERSE", {"estop": True}, "ESTOP", ["reflex_abort"]),
     ("LANDED", {"link_ok": False}, "LANDED", []),
+    # the script cut between two steps: its CUT wins over a range below the sensor's minimum,
+    # a leg fault or a script gap read in the same batch (aborting would release a falling vehicle)
+    ("ARMED", {"range_ok": False, "script_state": 11}, "CUT", []),
+    ("ARMED", {"legs_fault": "board silent", "script_state": 12}, "REVERSE", []),
+    ("DESCEND", {"range_m": None, "script_state": 11}, "CUT", []),
 ]
 
 
@@ -189,13 +194,12 @@ def test_failsafe_row(state, failure, expect, sent):
     m, act, _ = make()
     t = run_to(m, state)
     before = len(act.calls)
-    inp = replace(
-        OK,
-        t=t + 0.02,
-        range_m=0.2 if state != "DESCEND" else 3.0,
-        script_state={"CUT": 11, "REVERSE": 12}.get(state, 0),
-        **failure,
-    )
+    fields = {
+        "t": t + 0.02,
+        "range_m": 0.2 if state != "DESCEND" else 3.0,
+        "script_state": {"CUT": 11, "REVERSE": 12}.get(state, 0),
+    }
+    inp = replace(OK, **{**fields, **failure})
     m.step(inp)
     assert m.name == expect
     new = [c[0] for c in act.calls[before:] if c[0] not in ("statustext", "descend")]

@@ -26,7 +26,7 @@ mavlink = mavutil.mavlink
 COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
 HEARTBEAT_PERIOD_S = 1.0
 TIMESYNC_PERIOD_S = 0.02
-SCRIPT_SILENT_S = 1.0
+SCRIPT_SILENT_S = 1.0  # vehicle seconds without SL_STATE: the script is silent
 # Messages that carry the autopilot's time, and the field holding it.
 _USEC_FIELDS = {
     "SYSTEM_TIME": "time_boot_ms",
@@ -110,8 +110,8 @@ class Link:
     """A polled MAVLink connection to one autopilot.
 
     ``url`` is any pymavlink connection string (``udpin:0.0.0.0:14550``, ``tcp:host:5760``,
-    ``/dev/ttyACM0,921600``). ``link_loss_s`` is the silence (no HEARTBEAT, local time) after which
-    :attr:`lost` becomes true.
+    ``/dev/ttyACM0,921600``). :attr:`lost` becomes true after ``link_loss_s`` with nothing from the
+    autopilot (local time), or with its messages but no HEARTBEAT for ``link_loss_s`` of vehicle time.
     """
 
     def __init__(
@@ -140,6 +140,8 @@ class Link:
         self._rates: dict[str, _Rate] = {}
         self._commands: list[CommandHandle] = []
         self._last_heartbeat_rx: float | None = None
+        self._last_heartbeat_vt: float | None = None  # vehicle time of the newest HEARTBEAT
+        self._last_rx: float | None = None  # local time of the newest message from the autopilot
         self._last_heartbeat_tx = -math.inf
         self._last_timesync_usec = 0
         self._script_seen_at: float | None = None
@@ -200,6 +202,7 @@ class Link:
         if not self._from_autopilot(msg):
             return
         self.last[mtype] = msg
+        self._last_rx = now
         self._rates.setdefault(mtype, _Rate()).add(now)
         for fn in self._listeners:
             fn(msg)
@@ -211,6 +214,7 @@ class Link:
                 self.clock.observe_boot_ms(getattr(msg, fld))
         if mtype == "HEARTBEAT":
             self._last_heartbeat_rx = now
+            self._last_heartbeat_vt = self.clock.now() if self.clock.known else None
         elif mtype == "COMMAND_ACK":
             for h in self._commands:
                 if h.command == msg.command and not h.done:
@@ -228,11 +232,11 @@ class Link:
         elif mtype == "NAMED_VALUE_FLOAT":
             name = msg.name.rstrip("\x00") if isinstance(msg.name, str) else msg.name
             if name == "SL_STATE":
-                self._script_seen_at = now
+                self._script_seen_at = self.clock.now()
                 self.script_state = int(msg.value)
             elif name == "SL_VER" and self.info is not None:
                 self.info.script_version = float(msg.value)
-                self._script_seen_at = now
+                self._script_seen_at = self.clock.now()
 
     # ------------------------------------------------------------------ sending
     def _send_due(self) -> None:
@@ -321,15 +325,29 @@ class Link:
 
     @property
     def lost(self) -> bool:
-        """No autopilot HEARTBEAT for ``link_loss_s`` local seconds (true before the first one)."""
-        if self._last_heartbeat_rx is None:
+        """The autopilot silent for ``link_loss_s`` local seconds, or talking without a HEARTBEAT
+        for ``link_loss_s`` of its own time (true before the first HEARTBEAT).
+
+        Silence is measured locally, since a silent vehicle's clock stands still; a missing
+        HEARTBEAT is measured in vehicle time, so a simulated vehicle slowed by a loaded machine
+        (its 1 Hz heartbeat further apart in local time) is not taken for a lost one."""
+        if self._last_heartbeat_rx is None or self._last_rx is None:
             return True
-        return self.monotonic() - self._last_heartbeat_rx > self.link_loss_s
+        if self.monotonic() - self._last_rx > self.link_loss_s:
+            return True
+        hb = self._last_heartbeat_vt
+        return hb is not None and self.clock.now() - hb > self.link_loss_s
 
     @property
     def script_present(self) -> bool:
-        """The on-board script announced its state within the last second."""
-        return self._script_seen_at is not None and self.monotonic() - self._script_seen_at <= SCRIPT_SILENT_S
+        """The on-board script announced itself within the last second of vehicle time.
+
+        Vehicle time, not local time: a simulated vehicle slowed by a loaded machine sends its
+        5 Hz announcements further apart in local time; a vehicle that goes quiet altogether is
+        the link-loss check's business (local time), since its clock then stands still."""
+        if self._script_seen_at is None:
+            return False
+        return self.clock.now() - self._script_seen_at <= SCRIPT_SILENT_S
 
     def wait_autopilot(
         self, timeout_s: float = 10.0, sleep: Callable[[float], None] = time.sleep

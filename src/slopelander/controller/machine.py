@@ -51,6 +51,8 @@ STATES: dict[str, type[State]] = {
     )
 }
 PRE_CONTACT = ("PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED")
+#: the on-board script's CUT, RVT and HOLD: once it reports one, the motors are its business
+SCRIPT_HAS_CUT = (11, 12, 13)
 LINK_EXEMPT = ("LANDED", "ABORTED", "ESTOP", "LINK_LOST", "READY")
 
 
@@ -61,6 +63,11 @@ def failsafe(state: State, inp: Inputs) -> tuple[str, str] | None:
         return ("ESTOP", "emergency stop")
     if not inp.link_ok and name not in LINK_EXEMPT:
         return ("LINK_LOST", "link to the autopilot lost")
+    if state.airborne_descent and inp.script_state in SCRIPT_HAS_CUT:
+        # The script cut the motors before this step saw it (a slow companion reads the cut and
+        # the range below the sensor's minimum in one batch): aborting now would hand a falling
+        # vehicle back to the autopilot. The state's own step moves on to CUT, whose row applies.
+        return None
     if name in PRE_CONTACT and inp.legs_fault:
         return ("ABORTED", f"leg failure: {inp.legs_fault}")
     if state.airborne_descent:
