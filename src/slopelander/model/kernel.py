@@ -53,6 +53,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     F_RIGID,
     F_ROTORS,
     F_STICTION,
+    F_STRIBECK,
     F_TAU_GROWTH,
     IMPACT_SPEED,
     MAX_ACTIVE_SET_ITERATIONS,
@@ -66,6 +67,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     P_BQ,
     P_BT,
     P_DELAY,
+    P_DSTR,
     P_EZ,
     P_FMU,
     P_FTAU,
@@ -91,6 +93,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     P_TMAX,
     P_TRAVEL,
     P_VS,
+    P_VSTR,
     PT_CENTRE,
     PT_FOOT,
     PT_JOINT,
@@ -347,6 +350,14 @@ def _contact_rates(JNT, i, v):
 
 
 @njit(cache=True)
+def stribeck(mu_k, mu_s, slip_speed, v_s, delta):
+    """Sliding friction coefficient of a foot slipping at ``slip_speed`` (velocity weakening):
+    mu_k at speed, rising to mu_s as the slip stops, so the force is continuous at breakaway
+    and a slowing foot can stick again below the static limit."""
+    return mu_k + max(0.0, mu_s - mu_k) * math.exp(-((abs(slip_speed) / v_s) ** delta))
+
+
+@njit(cache=True)
 def _thrust(p, w):
     if w >= 0.0:
         return p[P_TMAX] * w * w
@@ -580,6 +591,8 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         if i == dleg and fl[F_MU_GROWTH] != 0:
             vj = dhx * vel[2 + down, 0] + dhz * vel[2 + down, 1]
             mu[i] *= max(1.0, 1.0 + p[P_FMU] * vj)  # eq. 4 only raises friction
+        if fl[F_STRIBECK] != 0:
+            mu[i] = stribeck(mu[i], mus, sd0[i], p[P_VSTR], p[P_DSTR])
         if HAS_FOOT_FRICTION and i < 2 and active[i]:
             mu[i] = max(0.0, _foot_friction(t, st, ctx, up, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
 
