@@ -137,8 +137,8 @@ class ReferenceLanding:
             vj = vel[2 + self.dleg] @ self.downhill
             mu[self.dleg] *= max(1.0, 1.0 + p[k.P_FMU] * vj)
         if self.fl[k.F_STRIBECK]:
-            w = np.exp(-((np.abs(sd) / p[k.P_VSTR]) ** p[k.P_DSTR]))
-            mu = mu + np.maximum(0.0, p[k.P_MUS] - mu) * w
+            weak = np.exp(-((np.abs(sd) / p[k.P_VSTR]) ** p[k.P_DSTR]))
+            mu = mu + np.maximum(0.0, p[k.P_MUS] - mu) * weak
         for i in range(k.N_POINTS):
             m = self.modes.contact[i]
             if m == 0:
