@@ -157,13 +157,13 @@ BUILTIN_EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             "downhill_torque_growth",
-            "downhill joint torque grows with its foot's friction force (eq. 3)",
+            "a joint's torque grows with its foot's inward friction (eq. 3; on a slope the downhill leg)",
             ("factor_tau",),
             F_TAU_GROWTH,
         ),
         Effect(
             "downhill_friction_growth",
-            "downhill foot friction grows with its joint's downhill speed (eq. 4)",
+            "a foot's friction grows with its joint's outward speed (eq. 4; on a slope the downhill leg)",
             ("factor_mu",),
             F_MU_GROWTH,
         ),
