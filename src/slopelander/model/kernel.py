@@ -53,6 +53,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     F_RIGID,
     F_ROTORS,
     F_STICTION,
+    F_STRIBECK,
     F_TAU_GROWTH,
     IMPACT_SPEED,
     MAX_ACTIVE_SET_ITERATIONS,
@@ -66,6 +67,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     P_BQ,
     P_BT,
     P_DELAY,
+    P_DSTR,
     P_EZ,
     P_FMU,
     P_FTAU,
@@ -91,6 +93,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     P_TMAX,
     P_TRAVEL,
     P_VS,
+    P_VSTR,
     PT_CENTRE,
     PT_FOOT,
     PT_JOINT,
@@ -347,6 +350,14 @@ def _contact_rates(JNT, i, v):
 
 
 @njit(cache=True)
+def stribeck(mu_k, mu_s, slip_speed, v_s, delta):
+    """Sliding friction coefficient of a foot slipping at ``slip_speed`` (velocity weakening):
+    mu_k at speed, rising to mu_s as the slip stops, so the force is continuous at breakaway
+    and a slowing foot can stick again below the static limit."""
+    return mu_k + max(0.0, mu_s - mu_k) * math.exp(-((abs(slip_speed) / v_s) ** delta))
+
+
+@njit(cache=True)
 def _thrust(p, w):
     if w >= 0.0:
         return p[P_TMAX] * w * w
@@ -421,12 +432,8 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
     # surface normal n (out of the ground) and tangent t (toward +x)
     nx, nz = sa, ca
     tx, tz = ca, -sa
-    down = int(ctx[C_DOWN])
-    # the downhill-leg effects (eq. 3, 4) need a downhill leg: none on level ground
-    dleg = down if sa != 0.0 else -1
-    # downhill unit vector along the surface
+    # downhill sign along the surface tangent (for the slip speeds users read)
     dsg = 1.0 if sa >= 0.0 else -1.0
-    dhx, dhz = dsg * tx, dsg * tz
 
     rigid = fl[F_RIGID] != 0
     flex = fl[F_FLEX] != 0 and not rigid
@@ -482,8 +489,10 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         zone[j] = 0.0
         lam[j] = 0.0
         tj = ctx[C_TAU + j]
-        if j == dleg and fl[F_TAU_GROWTH] != 0:
-            tj *= 1.0 + p[P_FTAU] * st[S_FF + j]
+        if fl[F_TAU_GROWTH] != 0:
+            # eq. 3 on the leg whose foot is pushed outward (its friction points inward): on a
+            # slope the downhill leg, on level ground both; no switch at 0 deg
+            tj *= 1.0 + p[P_FTAU] * max(0.0, (1.0 if j == 0 else -1.0) * st[S_FT + j])
         if HAS_JOINT_TORQUE:
             # the leg's rate (a smooth state): the joint's own rate from the last step would
             # feed a speed-dependent law back into the joint's stick-slip switching
@@ -577,9 +586,13 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         else:
             st[S_CM + i] = 0.0
         mu[i] = p[P_MUK]
-        if i == dleg and fl[F_MU_GROWTH] != 0:
-            vj = dhx * vel[2 + down, 0] + dhz * vel[2 + down, 1]
-            mu[i] *= max(1.0, 1.0 + p[P_FMU] * vj)  # eq. 4 only raises friction
+        if i < 2 and fl[F_MU_GROWTH] != 0:
+            # eq. 4: a foot's friction grows with its leg's joint moving outward along the
+            # surface (downhill for the downhill leg, as the paper); it only raises friction
+            vj = (-1.0 if i == 0 else 1.0) * (tx * vel[2 + i, 0] + tz * vel[2 + i, 1])
+            mu[i] *= max(1.0, 1.0 + p[P_FMU] * vj)
+        if fl[F_STRIBECK] != 0:
+            mu[i] = stribeck(mu[i], mus, sd0[i], p[P_VSTR], p[P_DSTR])
         if HAS_FOOT_FRICTION and i < 2 and active[i]:
             mu[i] = max(0.0, _foot_friction(t, st, ctx, up, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
 

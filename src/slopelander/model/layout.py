@@ -53,6 +53,8 @@ P_TMAX = _P["rotor_thrust_max"]
 P_REV = _P["rotor_reverse_ratio"]
 P_TAUM = _P["rotor_time_constant"]
 P_DELAY = _P["rotor_reversal_delay"]
+P_VSTR = _P["stribeck_speed"]
+P_DSTR = _P["stribeck_exponent"]
 
 # --- effect switches ---------------------------------------------------------------------
 F_FLEX = 0
@@ -65,7 +67,8 @@ F_ROTORS = 6
 F_REV_DELAY = 7
 F_RIGID = 8
 F_IMPLICIT_K = 9  # solver setting, not an effect: springs implicit (stable) or explicit (symplectic)
-N_FLAGS = 10
+F_STRIBECK = 10
+N_FLAGS = 11
 
 # --- context: the surface and the leg settings (may change between steps) ----------------
 C_SIN = 0  # sin(slope)
@@ -154,13 +157,13 @@ BUILTIN_EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             "downhill_torque_growth",
-            "downhill joint torque grows with its foot's friction force (eq. 3)",
+            "a joint's torque grows with its foot's inward friction (eq. 3; on a slope the downhill leg)",
             ("factor_tau",),
             F_TAU_GROWTH,
         ),
         Effect(
             "downhill_friction_growth",
-            "downhill foot friction grows with its joint's downhill speed (eq. 4)",
+            "a foot's friction grows with its joint's outward speed (eq. 4; on a slope the downhill leg)",
             ("factor_mu",),
             F_MU_GROWTH,
         ),
@@ -175,6 +178,13 @@ BUILTIN_EFFECTS: dict[str, Effect] = {
             "feet follow mu_k N tanh(v / v_s): smooth, but creeps on slopes (comparison only)",
             ("friction_smoothing_speed",),
             F_REGULARISED,
+        ),
+        Effect(
+            "velocity_weakening_friction",
+            "a sliding foot's friction rises from mu_k toward mu_s as it slows (Stribeck), so a "
+            "slowing foot can stick again below the static limit",
+            ("stribeck_speed", "stribeck_exponent"),
+            F_STRIBECK,
         ),
         Effect(
             "rotors",

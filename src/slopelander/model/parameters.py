@@ -90,6 +90,8 @@ SPECS: tuple[ParameterSpec, ...] = (
     _spec("rotor_reverse_ratio", "1", 0.0, 1.0, "full reverse thrust as a fraction of full forward"),
     _spec("rotor_time_constant", "s", 1e-3, 2.0, "first-order rotor speed response"),
     _spec("rotor_reversal_delay", "s", 0.0, 2.0, "stop-and-restart dead time when a rotor changes direction"),
+    _spec("stribeck_speed", "m/s", 1e-5, 1.0, "v_s: slip speed scale of the fall to mu_k"),
+    _spec("stribeck_exponent", "1", 0.5, 4.0, "mu_k + (mu_s - mu_k) exp(-(v / v_s)^delta)"),
 )
 PARAMETER_NAMES: tuple[str, ...] = tuple(s.name for s in SPECS)
 SPEC_BY_NAME = {s.name: s for s in SPECS}

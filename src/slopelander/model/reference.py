@@ -75,7 +75,6 @@ class ReferenceLanding:
         dsg = 1.0 if sa >= 0.0 else -1.0
         self.downhill = dsg * self.tv
         self.down = int(self.ctx[k.C_DOWN])
-        self.dleg = self.down if sa != 0.0 else -1
         self.modes = _Modes(np.zeros(k.N_POINTS), np.zeros(k.N_POINTS), np.zeros(2))
         self.t_impact: float | None = None
         self.touched = False
@@ -133,9 +132,12 @@ class ReferenceLanding:
         N = np.maximum(0.0, -p[k.P_KG] * d - p[k.P_BG] * dd)
         Ft = np.zeros(k.N_POINTS)
         mu = np.full(k.N_POINTS, p[k.P_MUK])
-        if self.dleg >= 0 and self.fl[k.F_MU_GROWTH]:
-            vj = vel[2 + self.dleg] @ self.downhill
-            mu[self.dleg] *= max(1.0, 1.0 + p[k.P_FMU] * vj)
+        if self.fl[k.F_MU_GROWTH]:  # eq. 4 per leg: its joint's speed outward along the surface
+            for j, out in ((0, -1.0), (1, 1.0)):
+                mu[j] *= max(1.0, 1.0 + p[k.P_FMU] * out * (vel[2 + j] @ self.tv))
+        if self.fl[k.F_STRIBECK]:
+            weak = np.exp(-((np.abs(sd) / p[k.P_VSTR]) ** p[k.P_DSTR]))
+            mu = mu + np.maximum(0.0, p[k.P_MUS] - mu) * weak
         for i in range(k.N_POINTS):
             m = self.modes.contact[i]
             if m == 0:
@@ -150,8 +152,9 @@ class ReferenceLanding:
             f += J[i].T @ (N[i] * self.n + Ft[i] * self.tv)
         # joints
         tau = self.ctx[k.C_TAU : k.C_TAU + 2].copy()
-        if self.dleg >= 0 and self.fl[k.F_TAU_GROWTH]:
-            tau[self.dleg] *= 1.0 + p[k.P_FTAU] * abs(Ft[self.dleg])
+        if self.fl[k.F_TAU_GROWTH]:  # eq. 3 per leg: its foot's friction pointing inward
+            for j, inward in ((0, 1.0), (1, -1.0)):
+                tau[j] *= 1.0 + p[k.P_FTAU] * max(0.0, inward * Ft[j])
         qEd = np.zeros(2)
         locked = np.zeros(5, dtype=bool)
         net = np.zeros(2)  # torque the friction must hold while a joint is stuck
