@@ -20,7 +20,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO / "src")]
 
 from slopelander.envelope.axes import MapAxes  # noqa: E402
-from slopelander.envelope.maps import envelope_area, max_slope, reach_per_speed  # noqa: E402
+from slopelander.envelope.maps import envelope_area, max_slope  # noqa: E402
 from slopelander.envelope.presets import choose_presets  # noqa: E402
 from slopelander.model import Model, Outcome  # noqa: E402
 
@@ -38,23 +38,17 @@ def main() -> None:
     }
     names = [str(o) for o in Outcome]
     print(f"grid {axes.shape[0]} x {axes.shape[1]}; cells per outcome class")
-    print(
-        "| map | reading | "
-        + " | ".join(names)
-        + " | ideal area | landed area | max ideal slope | landed reach |"
-    )
-    print("|---" * (len(names) + 6) + "|")
+    print("| map | reading | " + " | ".join(names) + " | ideal area | landed area | max ideal slope |")
+    print("|---" * (len(names) + 5) + "|")
     for strategy in ("symmetric", "rvt"):
         for label, model in readings.items():
             t0 = time.perf_counter()
             m = choose_presets(model, axes, strategy, progress=False)
             counts = [int((m.outcome == o).sum()) for o in Outcome]
-            reach = reach_per_speed(m, "landed")
             print(
                 f"| {strategy} | {label} | "
                 + " | ".join(map(str, counts))
-                + f" | {envelope_area(m):.1f} | {envelope_area(m, 'landed'):.1f} | {max_slope(m):g}"
-                + f" | {reach.min():g}-{reach.max():g} |"
+                + f" | {envelope_area(m):.1f} | {envelope_area(m, 'landed'):.1f} | {max_slope(m):g} |"
                 + f" <!-- {time.perf_counter() - t0:.0f} s -->"
             )
 
