@@ -373,10 +373,11 @@ def make_workspace():
         np.zeros(5),  # extra force
         np.zeros((N_POINTS, 2, 5)),  # jn/jt rows per point
         np.zeros(N_STATE),  # state before the step (to redo a touchdown finely)
-        np.zeros((11, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu,
+        np.zeros((12, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu,
         #                          a user normal law's force, stiffness, damping at the start,
-        #                          the energy in the stiction spring at the start, and the built-in
-        #                          normal law's stiffness and damping (the rigid gear's feet differ)
+        #                          the energy in the stiction spring at the start, the built-in
+        #                          normal law's stiffness and damping (the rigid gear's feet differ),
+        #                          and whether the point was in contact at the start
         np.zeros(N_POINTS, dtype=np.bool_),  # contact active this step
         np.zeros(5, dtype=np.bool_),  # generalised coordinate locked this step
         np.zeros((3, 2)),  # per joint: friction torque, in EOT zone, constraint torque
@@ -416,7 +417,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
     cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
     d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
     nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
-    kgp, bgp = cs_[9], cs_[10]
+    kgp, bgp, was_in = cs_[9], cs_[10], cs_[11]
     tau, zone, lam = js[0], js[1], js[2]
     began = 0
     kinematics(p, st, M, f, pts, vel, J)
@@ -550,6 +551,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         s0[i] = tx * pts[i, 0] + tz * pts[i, 1]
         sd0[i] = tx * vel[i, 0] + tz * vel[i, 1]
         pad[i] = 0.0
+        was_in[i] = 1.0 if st[S_CM + i] != 0.0 else 0.0
         if stiction and st[S_CM + i] == 1.0:
             pad[i] = 0.5 * kt * (s0[i] - st[S_ANC + i]) ** 2
         if HAS_NORMAL_FORCE:
@@ -699,6 +701,15 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         st[S_FT + i] = 0.0
         if not active[i]:
             st[S_DISS + D_FOOT] += pad[i]  # lifted off stuck: the pad's spring lets go
+            if was_in[i] != 0.0 and not HAS_NORMAL_FORCE:
+                # let go still pressed in (a rebounding foot's force reaches zero first): the
+                # massless contact's spring relaxes into its damper
+                acc = 0.0
+                for b in range(5):
+                    acc += (nx * J[i, 0, b] + nz * J[i, 1, b]) * vn[b]
+                de = d0[i] + h * acc
+                if de < 0.0:
+                    st[S_DISS + D_GROUND] += 0.5 * kgp[i] * de * de
             continue
         ddn, sdn = _contact_rates(JNT, i, vn)
         if HAS_NORMAL_FORCE:
@@ -1121,7 +1132,9 @@ def mechanical_energy(p, fl, ctx, st, ws, out):
     es = 0.0
     for i in range(N_POINTS):
         d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
-        if d < 0.0 and not HAS_NORMAL_FORCE:  # a user's law: booked as dissipated (ground)
+        # a point pressed in but let go holds no spring energy (booked as lost when it let go);
+        # a user's law: booked as dissipated (ground)
+        if d < 0.0 and st[S_CM + i] != 0.0 and not HAS_NORMAL_FORCE:
             kgi = p[P_KR] if fl[F_RIGID] != 0 and i < 2 else p[P_KG]
             eg += 0.5 * kgi * d * d
         if st[S_CM + i] == 1.0 and fl[F_STICTION] != 0:
