@@ -16,7 +16,7 @@ from slopelander.envelope.maps import (
     reach_per_speed,
     summary,
 )
-from slopelander.model import Outcome
+from slopelander.model import OUTCOME_NAMES, Outcome
 
 
 def test_default_axes_are_the_papers_range_at_1_deg_by_0_1_mps():
@@ -68,6 +68,9 @@ def test_figures_of_merit_follow_their_definitions():
     assert reach_per_speed(m, "landed").tolist() == [10.0, 20.0]
     s = summary(m)
     assert s["reach_landed_min_deg"] == 10.0 and s["reach_landed_max_deg"] == 20.0
+    counts = {o: s[f"cells_{o}"] for o in OUTCOME_NAMES}
+    assert sum(counts.values()) == m.outcome.size and counts["damaged"] == 0
+    assert counts["flip"] == int((m.outcome == Outcome.FLIP).sum()) > 0
 
 
 def test_a_map_round_trips_through_npz_and_writes_one_csv_row_per_cell(tmp_path):

@@ -36,9 +36,10 @@ def test_outcome_class_comes_before_compression():
             (Outcome.SLID, 0.9, 0.9),
             (Outcome.JOINT_TOUCH, 0.5, 0.5),
             (Outcome.FLIP, 0.1, 0.1),
+            (Outcome.DAMAGED, 0.0, 0.0),
         )
     )
-    assert list(np.argsort(-s)) == [0, 1, 2, 3, 4, 5]
+    assert list(np.argsort(-s)) == [0, 1, 2, 3, 4, 5, 6]
 
 
 def test_among_landings_that_stop_short_the_one_compressing_most_wins():

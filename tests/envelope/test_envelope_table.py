@@ -69,3 +69,23 @@ def test_any_lookup_inside_a_generated_table_stays_within_its_values(built):
             assert t.cells[f].min() <= getattr(p, f) <= t.cells[f].max()
 
     check()
+
+
+@pytest.mark.parametrize("strategy", ["rigid", "rigid_rvt"])
+def test_no_table_for_the_stock_rigid_gear(model, tiny_axes, strategy):
+    # its landings can be "damaged", which no table cell may hold, and it has no legs to set
+    from slopelander.envelope.presets import StrategyError
+
+    with pytest.raises(StrategyError, match="rigid gear"):
+        build_table(model, tiny_axes, strategy, progress=False)
+
+
+def test_the_rigid_map_shows_damaged_cells_and_fsa_maps_none(model, tiny_axes):
+    # the structural limit is the stock gear's: fast or steep rigid landings break it, the FSA's never
+    from slopelander.envelope.presets import choose_presets
+
+    rigid = choose_presets(model, tiny_axes, "rigid", progress=False)
+    fsa = choose_presets(model, tiny_axes, "asymmetric", progress=False)
+    assert (rigid.outcome == Outcome.DAMAGED).sum() > rigid.outcome.size // 2
+    assert (rigid.outcome == Outcome.IDEAL).any()
+    assert not (fsa.outcome == Outcome.DAMAGED).any()

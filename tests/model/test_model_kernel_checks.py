@@ -174,6 +174,7 @@ def test_state_layout_tiles_the_state_vector() -> None:
         "S_DUSER": 1,
         "S_SLIP": k.N_POINTS,
         "S_QED": 2,
+        "S_NPEAK": 1,
     }
     starts = _constants("S_")
     assert set(starts) == set(widths), set(starts) ^ set(widths)

@@ -22,7 +22,7 @@ def test_sizing_rejects_nonsense():
 def test_a_planar_leg_is_a_pair_of_real_joints(model):
     """3 m/s on level ground at the paper's highest torque (2.3 N*m per joint): with each
     planar leg standing for two joints the legs absorb it within their travel; with one
-    joint per planar leg they run to the end of travel (the energy check of DESIGN.md)."""
+    joint per planar leg they run to the end of travel (docs/model.md, what a planar leg stands for)."""
     cond = LandingConditions(slope_deg=0.0, speed=3.0, tau_up=2.3, tau_down=2.3)
     assert model.params["joints_per_planar_leg"] == 2.0
     pair = simulate(cond, model).result

@@ -24,7 +24,8 @@ def test_an_outcome_prints_as_its_name_and_converts_to_its_code() -> None:
     assert str(Outcome.END_OF_TRAVEL) == "end_of_travel"
     assert f"{Outcome.FLIP}" == "flip" and f"{Outcome.IDEAL:>6}" == " ideal"
     assert int(Outcome.SLID) == 3 and Outcome(3) is Outcome.SLID
-    assert OUTCOME_NAMES == ("ideal", "under_used", "end_of_travel", "slid", "joint_touch", "flip")
+    assert OUTCOME_NAMES == ("ideal", "under_used", "end_of_travel", "slid", "joint_touch", "flip", "damaged")
+    assert int(Outcome.DAMAGED) == 6 and not Outcome.DAMAGED.success
 
 
 def test_batch_results_hold_integer_codes_and_name_them() -> None:

@@ -46,3 +46,14 @@ def test_bad_input_is_one_clear_line(tmp_path):
     bad.write_text("schema: slopelander.model-parameters/1\nparameters: {body_mass: {unit: kg}}\n")
     r = _run("--params", str(bad))
     assert r.returncode == 1 and "missing 'value'" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_simulate_rigid_names_the_damage_and_the_load_behind_it():
+    r = _run("--rigid", "--slope", "0", "--speed", "2.0")
+    assert r.returncode == 0, r.stderr
+    assert "outcome: gear damaged (impact load over its limit)" in r.stdout
+    load = float(r.stdout.split("peak foot load: ")[1].split(" N")[0])
+    limit = float(r.stdout.split("limit: ")[1].split(" N")[0])
+    assert load > limit
+    gentle = _run("--rigid", "--slope", "0", "--speed", "0.8")
+    assert "outcome: ideal" in gentle.stdout and "peak foot load" in gentle.stdout

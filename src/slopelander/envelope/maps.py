@@ -149,6 +149,9 @@ def summary(m: LandingMap) -> dict[str, float]:
         out[f"reach_{s}_min_deg"] = float(np.nanmin(reach)) if np.isfinite(reach).any() else float("nan")
         out[f"reach_{s}_max_deg"] = float(np.nanmax(reach)) if np.isfinite(reach).any() else float("nan")
         out[f"area_{s}_deg_mps"] = envelope_area(m, s)
+    # cells per outcome class, by name (every class, zeros included, so a reader sees them all)
+    for o in Outcome:
+        out[f"cells_{o}"] = int((m.outcome == o).sum())
     return out
 
 

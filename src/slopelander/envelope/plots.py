@@ -200,8 +200,8 @@ def plot_envelopes(
     fig.legend(handles=handles, loc="outside lower center", ncols=3, fontsize=8, frameon=False)
     src = Path(str(next(iter(maps.values())).meta.get("model", {}).get("source") or "default")).name
     fig.suptitle(
-        f"{title}\nmodel: {src}; rigid gear = the same vehicle with its joints locked "
-        "(effect rigid_gear, no leg flexibility)",
+        f"{title}\nmodel: {src}; rigid gear = the same vehicle with its joints locked, on stiff "
+        "rebounding skids, damaged above its foot-load limit (effect rigid_gear)",
         fontsize=10,
     )
     return _save(fig, path)

@@ -3,7 +3,8 @@
 The paper's rule (Fig. 9): of the candidate friction-torque pairs, the best is the one whose
 shock absorbers "compressed the most without reaching their end of travel". As a ranking:
 
-1. by outcome class: ideal > under-used > end of travel > slid > joint touch > flip;
+1. by outcome class: ideal > under-used > end of travel > slid > joint touch > flip > damaged
+   (the outcome codes' order; damaged only happens to the stock rigid gear);
 2. among ideal or under-used landings, the larger **mean** of the two legs' peak compression
    wins (both legs' travel counts as dissipated energy; the class already guarantees that
    neither leg reached its end);
@@ -139,7 +140,7 @@ def preset_score(results: np.ndarray) -> np.ndarray:
     mean = 0.5 * (results["compression_up"] + results["compression_down"])
     mean = np.clip(np.nan_to_num(mean), 0.0, 1.0)
     key = np.where(rank <= Outcome.UNDER_USED, mean, np.where(rank == Outcome.END_OF_TRAVEL, 1.0 - mean, 0.0))
-    return (int(Outcome.FLIP) - rank) + 0.5 * key
+    return (int(max(Outcome)) - rank) + 0.5 * key
 
 
 def _candidates(strategy: Strategy, axes: MapAxes, model: Model) -> np.ndarray:

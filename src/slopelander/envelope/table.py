@@ -24,7 +24,7 @@ import slopelander
 from slopelander.controller.table import SCHEMA
 from slopelander.envelope.axes import MapAxes
 from slopelander.envelope.maps import PRESET_FIELDS, LandingMap, preset_conditions
-from slopelander.envelope.presets import Strategy, choose_presets
+from slopelander.envelope.presets import STRATEGIES, Strategy, StrategyError, choose_presets
 from slopelander.envelope.sweep import run_sweep
 from slopelander.model import CONDITION_DTYPE, Model, Outcome
 
@@ -75,7 +75,13 @@ def build_table(
     progress: bool | None = None,
     command: str | None = None,
 ) -> tuple[dict[str, Any], LandingMap]:
-    """Choose the presets, compute margins, and return the table document and the map."""
+    """Choose the presets, compute margins, and return the table document and the map.
+
+    The table sets FSA legs; the stock rigid gear has nothing to set (and can be damaged, an
+    outcome no table cell may hold), so a rigid strategy is refused."""
+    name = strategy if isinstance(strategy, str) else strategy.name
+    if (name in STRATEGIES and STRATEGIES[name].rigid) or (not isinstance(strategy, str) and strategy.rigid):
+        raise StrategyError(f"strategy {name!r} flies the stock rigid gear: a lookup table sets FSA legs")
     presets = choose_presets(model, axes, strategy, client=client, progress=progress)
     margin = neighbour_margin(presets, model, client=client, progress=progress)
     presets.fields["margin"] = margin

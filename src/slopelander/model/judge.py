@@ -87,6 +87,7 @@ class LandingJudge:
         s[k.S_QEMIN : k.S_QEMIN + 2] = s[k.S_QE : k.S_QE + 2]
         ctx[k.C_QINIT : k.C_QINIT + 2] = s[k.S_QE : k.S_QE + 2]
         s[k.S_PMIN] = s[k.S_PMAX] = s[k.S_Q + 2]
+        s[k.S_NPEAK] = 0.0  # the landing's impact load, not one from before
         self._prev = s.copy()  # the state before the step that makes contact
 
     def update(self, h: float, u_left: float, u_right: float) -> bool:

@@ -65,6 +65,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     P_BE,
     P_BG,
     P_BQ,
+    P_BR,
     P_BT,
     P_DELAY,
     P_DSTR,
@@ -79,6 +80,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     P_KE,
     P_KG,
     P_KQ,
+    P_KR,
     P_KT,
     P_LL,
     P_MB,
@@ -88,6 +90,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     P_NJ,
     P_QMAX,
     P_REV,
+    P_RLIM,
     P_ROT,
     P_TAUM,
     P_TMAX,
@@ -109,6 +112,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     S_FT,
     S_JM,
     S_NF,
+    S_NPEAK,
     S_PMAX,
     S_PMIN,
     S_Q,
@@ -380,9 +384,11 @@ def make_workspace():
         np.zeros(5),  # extra force
         np.zeros((N_POINTS, 2, 5)),  # jn/jt rows per point
         np.zeros(N_STATE),  # state before the step (to redo a touchdown finely)
-        np.zeros((9, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu,
-        #                          a user normal law's force, stiffness, damping at the start, and
-        #                          the energy in the stiction spring at the start
+        np.zeros((12, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu,
+        #                          a user normal law's force, stiffness, damping at the start,
+        #                          the energy in the stiction spring at the start, the built-in
+        #                          normal law's stiffness and damping (the rigid gear's feet differ),
+        #                          and whether the point was in contact at the start
         np.zeros(N_POINTS, dtype=np.bool_),  # contact active this step
         np.zeros(5, dtype=np.bool_),  # generalised coordinate locked this step
         np.zeros((3, 2)),  # per joint: friction torque, in EOT zone, constraint torque
@@ -422,6 +428,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
     cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
     d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
     nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
+    kgp, bgp, was_in = cs_[9], cs_[10], cs_[11]
     tau, zone, lam = js[0], js[1], js[2]
     began = 0
     kinematics(p, st, M, f, pts, vel, J)
@@ -538,8 +545,10 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         r0[a] = acc + h * f[a]
 
     # --- contacts: an active-set loop over modes --------------------------------------------
-    kg = p[P_KG]
-    bg = p[P_BG]
+    # the rigid gear's feet are stiff plastic skids: a contact of their own that rebounds
+    for i in range(N_POINTS):
+        kgp[i] = p[P_KR] if rigid and i < 2 else p[P_KG]
+        bgp[i] = p[P_BR] if rigid and i < 2 else p[P_BG]
     kt = p[P_KT]
     bt = p[P_BT]
     mus = p[P_MUS]
@@ -551,6 +560,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         s0[i] = tx * pts[i, 0] + tz * pts[i, 1]
         sd0[i] = tx * vel[i, 0] + tz * vel[i, 1]
         pad[i] = 0.0
+        was_in[i] = 1.0 if st[S_CM + i] != 0.0 else 0.0
         if stiction and st[S_CM + i] == 1.0:
             pad[i] = 0.5 * kt * (s0[i] - st[S_ANC + i]) ** 2
         if HAS_NORMAL_FORCE:
@@ -565,7 +575,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                 nk[i] = kk
                 nb[i] = bb
         else:
-            N0 = -kg * d0[i] - bg * dd0[i]
+            N0 = -kgp[i] * d0[i] - bgp[i] * dd0[i]
         active[i] = False
         if d0[i] < 0.0 and N0 > 0.0:
             active[i] = True
@@ -615,8 +625,8 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                 nc0 = nN[i] + nb[i] * dd0[i]
                 cn = h * h * nk[i] * ik + h * nb[i]
             else:
-                nc0 = -kg * d0[i]
-                cn = h * h * kg * ik + h * bg
+                nc0 = -kgp[i] * d0[i]
+                cn = h * h * kgp[i] * ik + h * bgp[i]
             for a in range(5):
                 jna = JNT[i, 0, a]
                 if jna != 0.0:
@@ -642,11 +652,11 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                             if HAS_NORMAL_FORCE:
                                 r[a] += h * jta * (-sg * mu[i] * nc0)
                             else:
-                                r[a] += h * jta * (sg * mu[i] * kg * d0[i])
+                                r[a] += h * jta * (sg * mu[i] * kgp[i] * d0[i])
                             for b in range(5):
                                 A[a, b] += -sg * mu[i] * cn * jta * JNT[i, 0, b]
             elif regular:
-                N0 = nN[i] if HAS_NORMAL_FORCE else -kg * d0[i] - bg * dd0[i]
+                N0 = nN[i] if HAS_NORMAL_FORCE else -kgp[i] * d0[i] - bgp[i] * dd0[i]
                 xx = sd0[i] / p[P_VS]
                 th_ = math.tanh(xx)
                 gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
@@ -675,7 +685,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                 Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
             else:
                 dn = d0[i] + h * ddn
-                Nn = -kg * dn - bg * ddn
+                Nn = -kgp[i] * dn - bgp[i] * ddn
             if Nn < 0.0:
                 active[i] = False
                 st[S_CM + i] = 0.0
@@ -704,6 +714,15 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         st[S_FT + i] = 0.0
         if not active[i]:
             st[S_DISS + D_FOOT] += pad[i]  # lifted off stuck: the pad's spring lets go
+            if was_in[i] != 0.0 and not HAS_NORMAL_FORCE:
+                # let go still pressed in (a rebounding foot's force reaches zero first): the
+                # massless contact's spring relaxes into its damper
+                acc = 0.0
+                for b in range(5):
+                    acc += (nx * J[i, 0, b] + nz * J[i, 1, b]) * vn[b]
+                de = d0[i] + h * acc
+                if de < 0.0:
+                    st[S_DISS + D_GROUND] += 0.5 * kgp[i] * de * de
             continue
         ddn, sdn = _contact_rates(JNT, i, vn)
         if HAS_NORMAL_FORCE:
@@ -712,8 +731,10 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
             # at the step's mean speed (what the kinetic energy's change sees)
             st[S_DISS + D_GROUND] -= Nn * 0.5 * (ddn + dd0[i]) * h
         else:
-            Nn = -kg * (d0[i] + h * ddn) - bg * ddn
-            st[S_DISS + D_GROUND] += bg * ddn * ddn * h
+            Nn = -kgp[i] * (d0[i] + h * ddn) - bgp[i] * ddn
+            st[S_DISS + D_GROUND] += bgp[i] * ddn * ddn * h
+        if i < 2 and Nn > st[S_NPEAK]:
+            st[S_NPEAK] = Nn
         if stiction:
             mode = st[S_CM + i]
             if mode == 1.0:
@@ -985,7 +1006,9 @@ def classify(p, fl, ctx, st, crit, settled, slid, res):
             if st[S_QEMIN + j] <= q_eot:
                 eot = True
     flip = max(-st[S_PMIN], st[S_PMAX]) > crit[R_FLIP] * DEG
-    if flip:
+    if rigid and st[S_NPEAK] > p[P_RLIM]:
+        code = 6  # the stock gear broke at impact: whatever followed, it needs repair
+    elif flip:
         code = 5
     elif st[S_TOUCH] != 0.0:
         code = 4
@@ -1122,8 +1145,11 @@ def mechanical_energy(p, fl, ctx, st, ws, out):
     es = 0.0
     for i in range(N_POINTS):
         d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
-        if d < 0.0 and not HAS_NORMAL_FORCE:  # a user's law: booked as dissipated (ground)
-            eg += 0.5 * p[P_KG] * d * d
+        # a point pressed in but let go holds no spring energy (booked as lost when it let go);
+        # a user's law: booked as dissipated (ground)
+        if d < 0.0 and st[S_CM + i] != 0.0 and not HAS_NORMAL_FORCE:
+            kgi = p[P_KR] if fl[F_RIGID] != 0 and i < 2 else p[P_KG]
+            eg += 0.5 * kgi * d * d
         if st[S_CM + i] == 1.0 and fl[F_STICTION] != 0:
             sx = ctx[C_COS] * pts[i, 0] - ctx[C_SIN] * pts[i, 1]
             es += 0.5 * p[P_KT] * (sx - st[S_ANC + i]) ** 2

@@ -234,9 +234,19 @@ class Trajectory:
     def _max_abs_pitch_deg(self) -> float:
         return float(np.degrees(np.abs(self.raw[:, k.S_Q + 2]).max())) if len(self.raw) else 0.0
 
+    @property
+    def peak_foot_load(self) -> float:
+        """Largest normal force on either foot during the landing (N)."""
+        return float(self.raw[:, k.S_NPEAK].max()) if len(self.raw) else 0.0
+
     def summary(self) -> str:
-        """The result's summary, with the margin to this model's flip criterion."""
-        return self.result.summary(self.model.criteria.flip_pitch_deg, self._max_abs_pitch_deg)
+        """The result's summary, with the margin to this model's flip criterion (and, for the
+        stock rigid gear, its peak foot load against its structural limit)."""
+        text = self.result.summary(self.model.criteria.flip_pitch_deg, self._max_abs_pitch_deg)
+        if self.model.rigid_gear:
+            limit = self.model.params["rigid_load_limit"]
+            text += f"\n  peak foot load: {self.peak_foot_load:.0f} N (the rigid gear's limit: {limit:g} N)"
+        return text
 
     def outline(self, i: int) -> dict[str, np.ndarray]:
         """World positions (x, z) of the vehicle's points in sample ``i``: the centre of

@@ -55,6 +55,9 @@ P_TAUM = _P["rotor_time_constant"]
 P_DELAY = _P["rotor_reversal_delay"]
 P_VSTR = _P["stribeck_speed"]
 P_DSTR = _P["stribeck_exponent"]
+P_KR = _P["rigid_contact_stiffness"]
+P_BR = _P["rigid_contact_damping"]
+P_RLIM = _P["rigid_load_limit"]
 
 # --- effect switches ---------------------------------------------------------------------
 F_FLEX = 0
@@ -107,7 +110,8 @@ S_REFINE = 64  # macro-steps still to be taken as fine sub-steps after a touchdo
 S_DUSER = 65  # energy taken out by user effects' forces (J): minus their work
 S_SLIP = 66  # 66..71 speed along the surface per contact point, downhill-positive (m/s), last step
 S_QED = 72  # 72, 73 friction-joint angular rate of leg C, D (rad/s), last step
-N_STATE = 74
+S_NPEAK = 74  # largest normal force on either foot so far (N)
+N_STATE = 75
 
 D_JOINT, D_FLEX, D_EOT, D_GROUND, D_FOOT, D_ROTOR = range(6)
 N_POINTS = 6  # contact points: feet C, D; joints C, D; rotor hubs 1, 2
@@ -200,8 +204,9 @@ BUILTIN_EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             "rigid_gear",
-            "stock rigid landing gear: joints locked at their set angle, same geometry",
-            (),
+            "stock rigid landing gear: joints locked at their set angle, same geometry, its feet "
+            "on a stiff, rebounding skid contact; a foot load over rigid_load_limit damages it",
+            ("rigid_contact_stiffness", "rigid_contact_damping", "rigid_load_limit"),
             F_RIGID,
         ),
     )

@@ -23,6 +23,8 @@ class Outcome(IntEnum):
     """A leg joint (or a rotor) touched the surface."""
     FLIP = 5
     """Pitch passed 80 deg: the vehicle tipped over."""
+    DAMAGED = 6
+    """Stock rigid gear only: a foot's impact load passed ``rigid_load_limit`` (the gear broke)."""
 
     def __str__(self) -> str:
         """The name a person reads (``ideal``, ``end_of_travel``); ``int()`` gives the code."""
@@ -47,10 +49,12 @@ OUTCOME_LABELS = {
     Outcome.SLID: "slid >1 m or still moving",
     Outcome.JOINT_TOUCH: "joint touched the surface",
     Outcome.FLIP: "flipped",
+    Outcome.DAMAGED: "gear damaged (impact load over its limit)",
 }
 
 # The paper's colour code (Fig. 8): green, blue, orange, white, light grey, dark grey -- except
-# that "slid" is light purple here, not white: a white cell reads as missing data.
+# that "slid" is light purple here, not white: a white cell reads as missing data. "Damaged" is
+# not one of the paper's classes: dark red, unlike any of them.
 OUTCOME_COLORS = {
     Outcome.IDEAL: "#2ca02c",
     Outcome.UNDER_USED: "#1f77b4",
@@ -58,6 +62,7 @@ OUTCOME_COLORS = {
     Outcome.SLID: "#c5b0d5",
     Outcome.JOINT_TOUCH: "#c7c7c7",
     Outcome.FLIP: "#555555",
+    Outcome.DAMAGED: "#b2182b",
 }
 
 

@@ -92,6 +92,27 @@ SPECS: tuple[ParameterSpec, ...] = (
     _spec("rotor_reversal_delay", "s", 0.0, 2.0, "stop-and-restart dead time when a rotor changes direction"),
     _spec("stribeck_speed", "m/s", 1e-5, 1.0, "v_s: slip speed scale of the fall to mu_k"),
     _spec("stribeck_exponent", "1", 0.5, 4.0, "mu_k + (mu_s - mu_k) exp(-(v / v_s)^delta)"),
+    _spec(
+        "rigid_contact_stiffness",
+        "N/m",
+        1.0,
+        1e8,
+        "normal spring of a stock rigid-gear foot (skid) on the ground",
+    ),
+    _spec(
+        "rigid_contact_damping",
+        "N*s/m",
+        0.0,
+        1e6,
+        "normal damper of a stock rigid-gear foot (skid) on the ground",
+    ),
+    _spec(
+        "rigid_load_limit",
+        "N",
+        1.0,
+        1e5,
+        "peak normal load on a rigid-gear foot (a real pair) beyond which the gear is damaged",
+    ),
 )
 PARAMETER_NAMES: tuple[str, ...] = tuple(s.name for s in SPECS)
 SPEC_BY_NAME = {s.name: s for s in SPECS}

@@ -65,6 +65,12 @@ class ReferenceLanding:
         self.q_end = (p[k.P_QMAX] - p[k.P_TRAVEL]) * DEG
         self.q_max = p[k.P_QMAX] * DEG
         self.q_zone = self.q_end + (p[k.P_EZ] * DEG if self.eot else 0.0)
+        # normal law per contact point: the rigid gear's feet are its stiff, rebounding skids
+        self.kg = np.full(k.N_POINTS, p[k.P_KG])
+        self.bg = np.full(k.N_POINTS, p[k.P_BG])
+        if self.rigid:
+            self.kg[:2], self.bg[:2] = p[k.P_KR], p[k.P_BR]
+        self.n_peak = 0.0  # largest normal force on a foot, sampled every 0.1 ms in contact
         self.kq = p[k.P_KQ] * p[k.P_NJ]
         self.bq = p[k.P_BQ] * p[k.P_NJ]
         self.ke = p[k.P_KE] if self.eot else 0.0
@@ -129,7 +135,7 @@ class ReferenceLanding:
         s = pts @ self.tv
         sd = vel @ self.tv
         # while a point is pressed in, the ground pushes but never pulls: max(0, k d + b d')
-        N = np.maximum(0.0, -p[k.P_KG] * d - p[k.P_BG] * dd)
+        N = np.maximum(0.0, -self.kg * d - self.bg * dd)
         Ft = np.zeros(k.N_POINTS)
         mu = np.full(k.N_POINTS, p[k.P_MUK])
         if self.fl[k.F_MU_GROWTH]:  # eq. 4 per leg: its joint's speed outward along the surface
@@ -197,7 +203,9 @@ class ReferenceLanding:
         if self.fl[k.F_ROTORS]:
             target = self._rotor_target(t)
             wd = (target - w) / p[k.P_TAUM]
-        return dict(acc=acc, qEd=qEd, wd=wd, d=d, dd=dd, sd=sd, N=N, Ft=Ft, net=net, tau=tau, s=s)
+        # the spring-damper's own force: a rebounding foot lets go when it would pull
+        Nraw = -self.kg * d - self.bg * dd
+        return dict(acc=acc, qEd=qEd, wd=wd, d=d, dd=dd, sd=sd, N=N, Nraw=Nraw, Ft=Ft, net=net, tau=tau, s=s)
 
     def _rotor_target(self, t: float) -> float:
         if self.t_impact is None or self.cond.reverse_percent == 0.0:
@@ -244,7 +252,12 @@ class ReferenceLanding:
             if m == 0:
                 out.append((self._signal("d", i), -1, ("touch", i)))
                 continue
-            out.append((self._signal("d", i), 1, ("release", i)))
+            if self.rigid and i < 2:
+                # a lightly damped skid rebounds: it leaves the ground when its force reaches zero,
+                # still pressed in (as the kernel's contact does), not at zero depth
+                out.append((self._signal("Nraw", i), -1, ("release", i)))
+            else:
+                out.append((self._signal("d", i), 1, ("release", i)))
             if self.fl[k.F_STICTION]:
                 if m == 1:
                     out.append((self._signal("slip", i), 1, ("slip", i)))
@@ -388,6 +401,8 @@ class ReferenceLanding:
                 if direction == 0:
                     continue
                 v = fn(t, y)
+                if action[0] == "touch" and self._eval(t, y)["Nraw"][action[1]] <= 0.0:
+                    continue  # pressed in but moving out faster than the spring pushes: no contact
                 if (
                     (direction < 0 and v < 0.0)
                     or (direction > 0 and v > 0.0)
@@ -410,6 +425,12 @@ class ReferenceLanding:
 
     def _track(self, sol):
         ys = sol.y
+        feet = self.modes.contact[:2] != 0
+        if feet.any() and sol.t[-1] > sol.t[0]:
+            n = max(2, math.ceil((sol.t[-1] - sol.t[0]) / 1e-4) + 1)
+            for t in np.linspace(sol.t[0], sol.t[-1], n):
+                N = self._compute(t, sol.sol(t))["N"][:2]
+                self.n_peak = max(self.n_peak, float(N[feet].max()))
         self.qe_min = np.minimum(self.qe_min, ys[10:12].min(axis=1) if self.flex else ys[3:5].min(axis=1))
         self.pitch_min = min(self.pitch_min, ys[2].min())
         self.pitch_max = max(self.pitch_max, ys[2].max())
@@ -423,6 +444,7 @@ class ReferenceLanding:
         st[k.S_QE : k.S_QE + 2] = y[10:12] if self.flex else y[3:5]
         st[k.S_QEMIN : k.S_QEMIN + 2] = self.qe_min
         st[k.S_TOUCH] = 1.0 if self.touched else 0.0
+        st[k.S_NPEAK] = self.n_peak
         st[k.S_PMIN], st[k.S_PMAX] = self.pitch_min, self.pitch_max
         if self.flipped:  # the event stops exactly at the threshold; the flip is past it
             edge = self.model.criteria.flip_pitch_deg * DEG + 1e-9

@@ -113,6 +113,13 @@ def foot_normal_force(st, leg):
 
 
 @njit(cache=True)
+def peak_foot_load(st):
+    """Largest normal force either foot has carried this landing (N): what the rigid gear's
+    structural limit (``rigid_load_limit``) is checked against."""
+    return st[lay.S_NPEAK]
+
+
+@njit(cache=True)
 def foot_slip_speed(st, leg):
     """Speed of the leg's foot along the surface last step (m/s, downhill-positive; toward +x
     on level ground)."""
