@@ -34,7 +34,15 @@ SCHEMA = "slopelander.lookup-table/1"
 DEFAULT_TABLE = Path(__file__).with_name("default_table.yaml")
 SCHEMA_NAME, SCHEMA_VERSION = SCHEMA.rsplit("/", 1)
 
-OUTCOMES: tuple[str, ...] = ("ideal", "under_used", "end_of_travel", "slid", "joint_touch", "flip")
+OUTCOMES: tuple[str, ...] = (
+    "ideal",
+    "under_used",
+    "end_of_travel",
+    "slid",
+    "joint_touch",
+    "flip",
+    "damaged",
+)
 """Outcome names, best first (the model's Outcome classes, lower-cased)."""
 LANDED = frozenset(OUTCOMES[:3])
 ACCEPTABLE = frozenset(OUTCOMES[:2])
