@@ -63,12 +63,45 @@ def hold_angle(model: Model, start: int = 36, stop: int = 55) -> int:
     return held
 
 
+def cost(rounds: int = 3) -> int:
+    """Landings per CPU-second with and without the law, interleaved so that load changes hit
+    both; CPU time (all threads) rather than wall time, as other work shares the machine."""
+    import numpy as np
+
+    from slopelander.model import simulate_batch
+    from slopelander.model.conditions import condition_grid
+
+    conds = condition_grid(
+        slope_deg=np.arange(0.0, 61.0, 2.0), speed=np.arange(0.5, 3.01, 0.1), tau_up=[1.1, 2.3]
+    )
+    models = {"with": Model.default(), "without": Model.default().without("velocity_weakening_friction")}
+    for m in models.values():
+        simulate_batch(conds[:8], m)  # compile / load
+    cpu: dict[str, list[float]] = {k: [] for k in models}
+    for _ in range(rounds):
+        for k, m in models.items():
+            t = time.process_time()
+            simulate_batch(conds, m)
+            cpu[k].append(time.process_time() - t)
+    rate = {k: len(conds) / min(v) for k, v in cpu.items()}
+    print(f"{len(conds)} landings (stopping at rest), best of {rounds} interleaved runs:")
+    for k, r in rate.items():
+        print(f"  {k:8s} velocity weakening: {r:7.0f} landings per CPU-second")
+    print(f"  ratio with / without: {rate['with'] / rate['without']:.2f}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--slope-step", type=float, default=2.0)
     ap.add_argument("--speed-step", type=float, default=0.5)
     ap.add_argument("--speeds", type=float, nargs="*", default=[0.003, 0.01, 0.03, 0.1])
+    ap.add_argument(
+        "--cost", action="store_true", help="only the speed cost of the law: landings/s with and without"
+    )
     a = ap.parse_args(argv)
+    if a.cost:
+        return cost()
     base = Model.default().without("velocity_weakening_friction")
     laws = {"stick/slip (mu_k while slipping)": base}
     for vs in a.speeds:

@@ -358,7 +358,11 @@ def stribeck(mu_k, mu_s, slip_speed, v_s, delta):
     """Sliding friction coefficient of a foot slipping at ``slip_speed`` (velocity weakening):
     mu_k at speed, rising to mu_s as the slip stops, so the force is continuous at breakaway
     and a slowing foot can stick again below the static limit."""
-    return mu_k + max(0.0, mu_s - mu_k) * math.exp(-((abs(slip_speed) / v_s) ** delta))
+    x = abs(slip_speed) / v_s
+    e = x * x if delta == 2.0 else x**delta
+    if e > 40.0 or mu_s <= mu_k:  # exp(-40) ~ 4e-18: mu_k to the last bit, without exp
+        return mu_k
+    return mu_k + (mu_s - mu_k) * math.exp(-e)
 
 
 @njit(cache=True)
@@ -601,7 +605,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
             # surface (downhill for the downhill leg, as the paper); it only raises friction
             vj = (-1.0 if i == 0 else 1.0) * (tx * vel[2 + i, 0] + tz * vel[2 + i, 1])
             mu[i] *= max(1.0, 1.0 + p[P_FMU] * vj)
-        if fl[F_STRIBECK] != 0:
+        if fl[F_STRIBECK] != 0 and active[i]:
             mu[i] = stribeck(mu[i], mus, sd0[i], p[P_VSTR], p[P_DSTR])
         if HAS_FOOT_FRICTION and i < 2 and active[i]:
             mu[i] = max(0.0, _foot_friction(t, st, ctx, up, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
