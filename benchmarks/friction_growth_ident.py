@@ -68,7 +68,8 @@ def proof(factor: float, seeds: list[int], fit_mu_k: bool) -> None:
             names=names,
             seed=seed,
             cma_evals=300,
-            refit_evals=200,
+            refit_evals=300,
+            refit_from_centre=True,
         )
         print(
             f"\nhidden: factor_mu = {factor}; seed {seed}; base fits {', '.join(names)}; "

@@ -38,9 +38,10 @@ def test_hidden_leg_flex_is_found(truth, seed):
     assert all(r.fits for r in d.results)
 
 
-def test_nothing_missing_when_nothing_is(truth):
-    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=3)
-    d = diagnose(truth, drops, seed=3, **BUDGET)
+@pytest.mark.parametrize("seed", [3, 4])
+def test_nothing_missing_when_nothing_is(truth, seed):
+    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
+    d = diagnose(truth, drops, seed=seed, **BUDGET)
     assert d.missing is None
     assert all(d.gain(r) < MIN_GAIN for r in d.results if r.fits)
     assert d.verdict().startswith("nothing missing")
@@ -100,7 +101,10 @@ def test_hidden_friction_growth_at_the_paper_value_is_found(model, seed):
         names=["ground_damping", "flex_stiffness", "flex_damping"],
         seed=seed,
         cma_evals=300,
-        refit_evals=200,
+        refit_evals=300,
+        # the base model bends k_q and b_g far to stand in for eq. 4; from its optimum alone
+        # the refit stalled (0.79 s/m on seed 2)
+        refit_from_centre=True,
     )
     best = d.missing
     assert best is not None and best.candidate.name == "downhill_friction_growth", d.table()

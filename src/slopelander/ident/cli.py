@@ -291,6 +291,12 @@ def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
     _dataset_arg(p)
     p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects to try")
     p.add_argument("--refits", type=int, default=None, help="refit only the N best-screened candidates")
+    p.add_argument(
+        "--refit-from-centre",
+        action="store_true",
+        help="share each refit's search between the base optimum and the centre of the bounds "
+        "(when the base model bent its parameters far to mimic the missing effect)",
+    )
     _model_args(p, "analysed")
     _search_args(p)
     p.set_defaults(handler=run_diagnose, repeats=1)
@@ -314,6 +320,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
             names=names,
             bounds=bounds,
             refits=args.refits,
+            refit_from_centre=args.refit_from_centre,
             **_search_settings(args),
             progress=bar,
         )

@@ -228,7 +228,7 @@ def diagnose(
     cma_evals: int = 400,
     refit_evals: int = 200,
     ls_evals: int = 20,
-    refit_from_centre: bool = True,
+    refit_from_centre: bool = False,
     workers: int | None = None,
     client=None,
     progress=None,
