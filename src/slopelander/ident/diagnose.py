@@ -2,8 +2,8 @@
 rank them by held-out error with a penalty per added parameter.
 
 The base model is first identified on its own (from the centre of the bounds). Each candidate
-is then added and the whole set re-identified from the base's optimum (and from the centre of
-the bounds, where the base fit began), so a candidate can only help the training error;
+is then added and the whole set re-identified from the base's optimum (optionally also from the
+centre of the bounds, where the base fit began), so a candidate can only help the training error;
 whether it helps the *validation* drops, by more than its extra parameters buy by themselves,
 decides. When none does by at least :data:`MIN_GAIN`, the
 verdict is that nothing is missing: the residual is noise or beyond the candidates.
