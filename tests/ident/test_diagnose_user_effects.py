@@ -47,12 +47,21 @@ def _steep_drops(truth, seed):
     return synthesize(truth, conds, NoiseModel(), seed=seed, duration=0.6)
 
 
+JOINT = ("viscous_joint", "joint_viscous_gain", 0.05)
+FOOT = ("slip_weakening", "slip_weakening", 1.0)
+
+
 @pytest.mark.parametrize(
-    ("hidden", "parameter", "value"),
-    [("viscous_joint", "joint_viscous_gain", 0.05), ("slip_weakening", "slip_weakening", 1.0)],
-    ids=["joint_torque_law", "foot_friction_law"],
+    ("hidden", "parameter", "value", "seed"),
+    [(*JOINT, 1), (*JOINT, 2), (*FOOT, 1), (*FOOT, 2), (*FOOT, 3)],
+    ids=[
+        "joint_torque_law-1",
+        "joint_torque_law-2",
+        "foot_friction_law-1",
+        "foot_friction_law-2",
+        "foot_friction_law-3",
+    ],
 )
-@pytest.mark.parametrize("seed", [1, 2])
 def test_hidden_user_effect_is_found_from_its_file(base, user_effects, hidden, parameter, value, seed):
     truth = base.with_user_effect(user_effects[hidden]).with_params(**{parameter: value})
     drops = _steep_drops(truth, seed)
