@@ -1,10 +1,14 @@
 """Find a user effect hidden in synthetic drops: the setting of tests/ident/test_diagnose_user_effects.py.
 
 Prints diagnose's ranking table and verdict for a hidden joint-torque law (docs/examples/
-effect_joint_torque.py) or foot-friction law (tests/ident/effects/slip_weakening.py), with the
-base model fitting k_g's damping and the leg's flex, and with --fit-mu-k also mu_k.
+effect_joint_torque.py), foot-friction law (tests/ident/effects/slip_weakening.py), normal-force
+law (docs/examples/effect_normal_force.py) or point force (tests/ident/effects/
+rotor_spin_down.py), with the base model fitting k_g's damping and the leg's flex, and with
+--fit-mu-k also mu_k. The joint and foot laws are shown on the steeper half of the paper's
+spread (8 drops), the normal force and the point force on the whole spread (10 drops).
 
-Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction} [--seed 1] [--fit-mu-k]
+Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction,normal_force,point_force}
+       [--seed 1] [--fit-mu-k]
 """
 
 from __future__ import annotations
@@ -22,11 +26,17 @@ FILES = {
     "viscous_joint": ROOT / "docs" / "examples" / "effect_joint_torque.py",
     "stribeck_feet": ROOT / "docs" / "examples" / "effect_foot_friction.py",
     "slip_weakening": ROOT / "tests" / "ident" / "effects" / "slip_weakening.py",
+    "hunt_crossley_ground": ROOT / "docs" / "examples" / "effect_normal_force.py",
+    "rotor_spin_down": ROOT / "tests" / "ident" / "effects" / "rotor_spin_down.py",
 }
 HIDDEN = {
     "joint_torque": ("viscous_joint", "joint_viscous_gain", 0.05),
     "foot_friction": ("slip_weakening", "slip_weakening", 1.0),
+    "normal_force": ("hunt_crossley_ground", "hc_damping", 0.5),
+    "point_force": ("rotor_spin_down", "spin_down_thrust", 3.0),
 }
+WHOLE_SPREAD = ("normal_force", "point_force")
+"""Seams that act on every drop, shown on the whole spread."""
 
 
 def main() -> None:
@@ -39,7 +49,10 @@ def main() -> None:
     base = Model.default().without("downhill_torque_growth", "downhill_friction_growth")
     name, param, value = HIDDEN[args.seam]
     truth = base.with_user_effect(effects[name]).with_params(**{param: value})
-    conds = [c for c in paper_drops(16, seed=0) if c.slope_deg >= 22.5]
+    if args.seam in WHOLE_SPREAD:
+        conds = paper_drops(10, seed=0)
+    else:
+        conds = [c for c in paper_drops(16, seed=0) if c.slope_deg >= 22.5]
     drops = synthesize(truth, conds, NoiseModel(), seed=args.seed, duration=0.6)
     names = ["ground_damping", "flex_stiffness", "flex_damping"]
     if args.fit_mu_k:

@@ -1,14 +1,16 @@
 """Hidden-effect proofs: drops from a truth with an effect, analysed by a model without it.
 
-The truth is the shipped model without the two downhill-leg factors (their paper values barely
-move these drops, see docs/ident.md), so the candidates the analysed model lacks are leg
-flexibility and both factors. Noise is motion-capture-like; several seeds.
+For leg flexibility and the control, the truth is the shipped model without the two
+downhill-leg factors, so the candidates the analysed model lacks are leg flexibility and both
+factors. factor_tau is hidden at 5e-3 1/N (at the paper's value it is below the noise), factor_mu
+at the paper's 0.57 s/m on the steep drops where feet slide. Noise is motion-capture-like;
+several seeds.
 """
 
 import pytest
 
 from slopelander.ident.diagnose import MIN_GAIN, diagnose
-from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesize
 
 BUDGET = {"cma_evals": 300, "refit_evals": 150}
 
@@ -36,9 +38,10 @@ def test_hidden_leg_flex_is_found(truth, seed):
     assert all(r.fits for r in d.results)
 
 
-def test_nothing_missing_when_nothing_is(truth):
-    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=3)
-    d = diagnose(truth, drops, seed=3, **BUDGET)
+@pytest.mark.parametrize("seed", [3, 4])
+def test_nothing_missing_when_nothing_is(truth, seed):
+    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
+    d = diagnose(truth, drops, seed=seed, **BUDGET)
     assert d.missing is None
     assert all(d.gain(r) < MIN_GAIN for r in d.results if r.fits)
     assert d.verdict().startswith("nothing missing")
@@ -77,15 +80,34 @@ def test_hidden_torque_growth_is_found(model):
     assert best.values()["factor_tau"] == pytest.approx(5e-3, rel=0.15)
 
 
-def test_hidden_friction_growth_at_the_paper_value_is_below_the_noise(model):
-    """Since eq. 4 only raises the downhill foot's friction (max(1, 1 + factor_mu v), as the
-    model's documentation says), factor_mu at the paper's 0.57 s/m changes these drops by less
-    than the motion-capture noise: diagnose must say nothing is missing rather than invent a
-    gain. (Before that fix most of eq. 4's signal came from feet sliding below mu_k, or with no
-    friction at all; a proof that a visible factor_mu is found is open: docs/ident.md.)"""
+def _survivable_steep_drops(truth, seed):
+    """Ten drops on the steep third of the paper's spread (30-45 deg, 1-3 m/s), where feet
+    slide; of 16 stratified conditions, those the truth does not flip on."""
+    conds = survived(truth, paper_drops(16, seed=0, slopes=(30.0, 45.0)))
+    assert len(conds) == 10
+    return synthesize(truth, conds, NoiseModel(), seed=seed, duration=0.6)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_hidden_friction_growth_at_the_paper_value_is_found(model, seed):
+    """factor_mu at the paper's 0.57 s/m, on drops where the feet slide. mu_k is taken as
+    measured (a tilt test): fitted together with factor_mu from so few drops the two trade off
+    (docs/ident.md has the figures)."""
     truth = model.without("downhill_torque_growth")
-    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=2)
-    d = diagnose(truth.without("downhill_friction_growth"), drops, seed=2, **BUDGET)
-    assert d.missing is None, d.table()
-    row = next(r for r in d.results if r.candidate.name == "downhill_friction_growth")
-    assert abs(1 - row.validation_nrmse / d.base_validation) < 0.10, d.table()
+    drops = _survivable_steep_drops(truth, seed)
+    d = diagnose(
+        truth.without("downhill_friction_growth"),
+        drops,
+        names=["ground_damping", "flex_stiffness", "flex_damping"],
+        seed=seed,
+        cma_evals=300,
+        refit_evals=300,
+        # the base model bends k_q and b_g far to stand in for eq. 4; from its optimum alone
+        # the refit stalled (0.79 s/m on seed 2)
+        refit_from_centre=True,
+    )
+    best = d.missing
+    assert best is not None and best.candidate.name == "downhill_friction_growth", d.table()
+    assert d.results[0] is best
+    assert 1 - best.validation_nrmse / d.base_validation >= 0.30, d.table()
+    assert best.values()["factor_mu"] == pytest.approx(0.57, rel=0.15), d.table()

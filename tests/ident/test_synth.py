@@ -3,12 +3,14 @@
 import math
 
 import numpy as np
+import pytest
 
 from slopelander.ident.synth import (
     PAPER_TORQUE_LEVELS,
     NoiseModel,
     differentiate,
     paper_drops,
+    survived,
     synthesize,
     true_states,
 )
@@ -22,6 +24,24 @@ def test_paper_spread_of_drops():
     assert 0 <= min(slopes) < 5 and 40 < max(slopes) <= 45
     assert 1 <= min(speeds) < 1.3 and 2.7 < max(speeds) <= 3
     assert all(c.tau_up in PAPER_TORQUE_LEVELS and c.tau_down in PAPER_TORQUE_LEVELS for c in conds)
+
+
+def test_a_part_of_the_paper_spread():
+    conds = paper_drops(8, seed=0, slopes=(30.0, 45.0), speeds=(1.0, 2.0))
+    slopes = sorted(c.slope_deg for c in conds)
+    assert 30 <= slopes[0] < 32 and 43 < slopes[-1] <= 45
+    assert all(1.0 <= c.speed <= 2.0 for c in conds)
+    for bad in ({"slopes": (30.0, 50.0)}, {"slopes": (20.0, 10.0)}, {"speeds": (0.5, 3.0)}):
+        with pytest.raises(ValueError, match="within the paper's"):
+            paper_drops(4, **bad)
+
+
+def test_survived_keeps_the_drops_that_do_not_flip(model):
+    conds = paper_drops(10, seed=0)
+    kept = survived(model, conds)
+    outcomes = [simulate(c, model).result.outcome for c in conds]
+    assert kept == [c for c, o in zip(conds, outcomes, strict=True) if o is not Outcome.FLIP]
+    assert 0 < len(kept) < len(conds)
 
 
 def test_some_paper_drops_flip(model):

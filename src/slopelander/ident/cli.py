@@ -59,6 +59,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--angle-noise", type=float, default=0.3, help="deg (standard deviation)")
     p.add_argument("--latency", type=float, default=0.005, help="s")
     p.add_argument("--rate", type=float, default=200.0, help="sample rate, Hz")
+    p.add_argument(
+        "--slopes", type=float, nargs=2, default=[0.0, 45.0], metavar=("LO", "HI"), help="deg, within 0..45"
+    )
+    p.add_argument(
+        "--speeds", type=float, nargs=2, default=[1.0, 3.0], metavar=("LO", "HI"), help="m/s, within 1..3"
+    )
+    p.add_argument("--no-flips", action="store_true", help="leave out the drops the truth flips on")
     _model_args(p, "truth")
     p.set_defaults(handler=run_synth)
     register_compare(subparsers)
@@ -69,7 +76,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_synth(args: argparse.Namespace) -> int:
     from slopelander.ident.recording import write_dataset
-    from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+    from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesize
     from slopelander.outputs import check_output_dir
 
     check_output_dir(args.out, "--out")
@@ -83,11 +90,22 @@ def run_synth(args: argparse.Namespace) -> int:
         noise = NoiseModel(args.position_noise, args.angle_noise, args.latency, args.rate)
     except ValueError as exc:
         raise IdentCliError(str(exc)) from None
+    try:
+        conds = paper_drops(args.drops, args.seed, slopes=tuple(args.slopes), speeds=tuple(args.speeds))
+    except ValueError as exc:
+        raise IdentCliError(f"--slopes/--speeds: {exc}") from None
     model = build_model(args)
+    if args.no_flips:
+        kept = survived(model, conds)
+        if not kept:
+            raise IdentCliError("--no-flips: the truth flips on every drop; choose gentler --slopes/--speeds")
+        if len(kept) < len(conds):
+            print(f"left out {len(conds) - len(kept)} of {len(conds)} drops: the truth flips on them")
+        conds = kept
     source = "synthetic: " + (" ".join(f"without {e}" for e in args.without) or "full model")
     drops = synthesize(
         model,
-        paper_drops(args.drops, args.seed),
+        conds,
         noise,
         seed=args.seed,
         duration=args.duration,
@@ -291,6 +309,12 @@ def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
     _dataset_arg(p)
     p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects to try")
     p.add_argument("--refits", type=int, default=None, help="refit only the N best-screened candidates")
+    p.add_argument(
+        "--refit-from-centre",
+        action="store_true",
+        help="share each refit's search between the base optimum and the centre of the bounds "
+        "(when the base model bent its parameters far to mimic the missing effect)",
+    )
     _model_args(p, "analysed")
     _search_args(p)
     p.set_defaults(handler=run_diagnose, repeats=1)
@@ -314,6 +338,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
             names=names,
             bounds=bounds,
             refits=args.refits,
+            refit_from_centre=args.refit_from_centre,
             **_search_settings(args),
             progress=bar,
         )

@@ -2,9 +2,10 @@
 rank them by held-out error with a penalty per added parameter.
 
 The base model is first identified on its own (from the centre of the bounds). Each candidate
-is then added and the whole set re-identified from the base's optimum, so a candidate can only
-help the training error; whether it helps the *validation* drops, by more than its extra
-parameters buy by themselves, decides. When none does by at least :data:`MIN_GAIN`, the
+is then added and the whole set re-identified from the base's optimum (optionally also from the
+centre of the bounds, where the base fit began), so a candidate can only help the training error;
+whether it helps the *validation* drops, by more than its extra parameters buy by themselves,
+decides. When none does by at least :data:`MIN_GAIN`, the
 verdict is that nothing is missing: the residual is noise or beyond the candidates.
 """
 
@@ -227,6 +228,7 @@ def diagnose(
     cma_evals: int = 400,
     refit_evals: int = 200,
     ls_evals: int = 20,
+    refit_from_centre: bool = False,
     workers: int | None = None,
     client=None,
     progress=None,
@@ -235,7 +237,10 @@ def diagnose(
 
     ``names``: the base model's fitted parameters (default the paper's seven it has);
     ``repeats``: training/validation splits (60/40); ``refits``: how many of the screened
-    candidates get the expensive refit (default all).
+    candidates get the expensive refit (default all); ``refit_from_centre``: each refit's
+    CMA-ES budget is shared between a run from the base optimum and one from the centre of the
+    bounds, where the base fit began (the base optimum can sit far from the answer when the
+    base model bent its parameters to mimic the missing effect).
     """
     bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
     base_params = resolve_params(model, names, bounds)
@@ -280,6 +285,7 @@ def diagnose(
                         start=base_fits[k].values,
                         also=[neutral_values(c)],
                         sigma=0.25,
+                        starts=[{}] if refit_from_centre else None,
                         **kw,
                     )
                 )

@@ -325,6 +325,7 @@ def fit(
     sigma: float = 0.3,
     also: list[dict[str, float]] | None = None,
     restarts: int = 0,
+    starts: list[dict[str, float]] | None = None,
 ) -> FitResult:
     """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
 
@@ -334,7 +335,9 @@ def fit(
     where given; ``sigma`` is the initial search width in units of the bounds. Points in
     ``also`` (values by name; unnamed ones from ``start``) are evaluated first and kept if best.
     ``restarts`` splits the global budget over that many more CMA-ES runs from random points
-    (a noisy cost has false basins one run can fall into).
+    (a noisy cost has false basins one run can fall into). ``starts`` adds one CMA-ES run from
+    each of these points (values by name; unnamed ones at the centre of the bounds), sharing
+    the budget likewise.
     """
     import cma
     from scipy.optimize import least_squares
@@ -368,10 +371,17 @@ def fit(
             popsize = max(8, 4 + int(3 * math.log(n)))
             if workers is None or workers > 1:
                 popsize += popsize % max(1, ev.workers)
-            runs = 1 + max(0, restarts)
-            for run in range(runs):
+            origins = [x0]
+            for point in starts or []:
+                origins.append(
+                    np.clip([p.unit(point[p.name]) if p.name in point else 0.5 for p in params], 0.0, 1.0)
+                )
+            for run in range(max(0, restarts)):
+                origins.append(np.random.default_rng(seed + 1 + run).uniform(0.2, 0.8, n))
+            runs = len(origins)
+            for run, origin in enumerate(origins):
                 es = cma.CMAEvolutionStrategy(
-                    list(x0) if run == 0 else list(np.random.default_rng(seed + run).uniform(0.2, 0.8, n)),
+                    list(origin),
                     sigma,
                     {
                         "bounds": [0, 1],

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from slopelander.ident.recording import Drop
-from slopelander.model import LandingConditions, Model, simulate
+from slopelander.model import LandingConditions, Model, Outcome, simulate
 
 PAPER_TORQUE_LEVELS = (0.56, 1.1, 1.7, 2.3)
 """Friction torques per real joint the paper's drops and maps use, N*m."""
@@ -63,17 +63,34 @@ def differentiate(x: np.ndarray, t: np.ndarray, window: int = 7) -> np.ndarray:
     return out
 
 
-def paper_drops(n: int = 10, seed: int = 0) -> list[LandingConditions]:
+PAPER_SLOPES = (0.0, 45.0)
+"""deg: the slopes of the paper's drops."""
+PAPER_SPEEDS = (1.0, 3.0)
+"""m/s: the vertical impact speeds of the paper's drops."""
+
+
+def paper_drops(
+    n: int = 10,
+    seed: int = 0,
+    *,
+    slopes: tuple[float, float] = PAPER_SLOPES,
+    speeds: tuple[float, float] = PAPER_SPEEDS,
+) -> list[LandingConditions]:
     """``n`` drop conditions over the paper's spread: slopes 0..45 deg, 1..3 m/s, joint torques
     from the paper's levels, full leg extension. Slopes and speeds are stratified so that even
-    a small set spans the range; steep fast drops on soft joints are the ones that flip."""
+    a small set spans the range; steep fast drops on soft joints are the ones that flip.
+    ``slopes`` and ``speeds`` narrow the spread (an effect that acts only where feet slide is
+    seen on the steep part of it); they must lie within the paper's."""
     if n < 1:
         raise ValueError("need at least one drop")
+    for name, (lo, hi), (plo, phi) in (("slopes", slopes, PAPER_SLOPES), ("speeds", speeds, PAPER_SPEEDS)):
+        if not (plo <= lo < hi <= phi):
+            raise ValueError(f"{name} {lo}..{hi} must be an interval within the paper's {plo}..{phi}")
     rng = np.random.default_rng(seed)
-    slopes = (np.arange(n) + rng.uniform(0.1, 0.9, n)) * 45.0 / n
-    speeds = 1.0 + 2.0 * (rng.permutation(n) + rng.uniform(0.1, 0.9, n)) / n
+    slopes_ = slopes[0] + (np.arange(n) + rng.uniform(0.1, 0.9, n)) * (slopes[1] - slopes[0]) / n
+    speeds_ = speeds[0] + (speeds[1] - speeds[0]) * (rng.permutation(n) + rng.uniform(0.1, 0.9, n)) / n
     out = []
-    for s, v in zip(slopes, speeds, strict=True):
+    for s, v in zip(slopes_, speeds_, strict=True):
         up, down = rng.choice(PAPER_TORQUE_LEVELS, 2)
         out.append(
             LandingConditions(
@@ -81,6 +98,17 @@ def paper_drops(n: int = 10, seed: int = 0) -> list[LandingConditions]:
             )
         )
     return out
+
+
+def survived(
+    model: Model, conditions: list[LandingConditions], horizon: float = 1.0
+) -> list[LandingConditions]:
+    """The conditions on which ``model`` does not flip within ``horizon`` seconds.
+
+    A flip ends the model's simulation, and a synthetic recording of it then holds still; a
+    set of drops meant to show a friction law is better made of drops the vehicle survives."""
+    t = np.array([0.0, horizon])
+    return [c for c in conditions if true_states(model, c, t)[1] is not Outcome.FLIP]
 
 
 def ballistic(cond: LandingConditions, t: np.ndarray, z0: float, gravity: float = 9.81) -> np.ndarray:
