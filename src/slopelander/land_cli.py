@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
         leg_geometry,
         plan_landing,
     )
-    from slopelander.controller.link import Link
+    from slopelander.controller.link import LANDING_MESSAGES, Link
     from slopelander.controller.rc_presets import preset_for
     from slopelander.controller.runner import Lander
     from slopelander.controller.table import LookupTable
@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
     table = LookupTable.load(args.table or DEFAULT_TABLE)
     calibration = load_calibration()
-    link = Link(args.connect, link_loss_s=cfg["link.link_loss_s"])
+    link = Link(args.connect, link_loss_s=cfg["link.link_loss_s"], decode=LANDING_MESSAGES)
     legs = None
     try:
         info = link.wait_autopilot(timeout_s=10.0)

@@ -27,6 +27,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.imu_hz": (1, 200, False),
     "link.range_hz": (1, 200, False),
     "link.min_delivered_fraction": (0.0, 1.0, False),
+    "link.poll_period_s": (0.0, 0.05, False),
     "descent.rate_mps": (0.1, 3.0, False),
     "descent.resend_hz": (5, 50, False),
     "reflex.cut_height_m": (0.10, 2.00, False),
