@@ -57,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
         link.request_stream(27, cfg["link.imu_hz"])  # RAW_IMU
         link.request_stream(132, cfg["link.range_hz"])  # DISTANCE_SENSOR
         link.request_stream(65, 10)  # RC_CHANNELS
+        link.request_stream(32, cfg["link.position_hz"])  # LOCAL_POSITION_NED
         preset, speed = plan_landing(
             cfg["descent.rate_mps"],
             cfg["reflex.cut_height_m"],

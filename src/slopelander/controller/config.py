@@ -28,6 +28,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.range_hz": (1, 200, False),
     "link.min_delivered_fraction": (0.0, 1.0, False),
     "link.poll_period_s": (0.0, 0.05, False),
+    "link.position_hz": (1, 200, False),
     "descent.rate_mps": (0.1, 3.0, False),
     "descent.resend_hz": (5, 50, False),
     "reflex.cut_height_m": (0.10, 2.00, False),
@@ -36,6 +37,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "reflex.impact_threshold_mps2": (5, 200, False),
     "reflex.reverse_thrust_pct": (0, 100, False),
     "reflex.reverse_thrust_ms": (0, 5000, True),
+    "reflex.reverse_max_ms": (0, 5000, True),
+    "reflex.reverse_still_s": (0.0, 2.0, False),
     "reflex.validity_ms": (100, 10000, True),
     "reflex.refresh_s": (0.05, 5.0, False),
     "range.max_age_s": (0.01, 5.0, False),
@@ -47,6 +50,9 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "settle.still_s": (0.1, 10.0, False),
     "settle.still_mps2": (0.1, 10.0, False),
     "settle.timeout_s": (0.5, 60.0, False),
+    "settle.still_speed_mps": (0.005, 1.0, False),
+    "settle.slide_speed_mps": (0.01, 5.0, False),
+    "settle.velocity_max_age_s": (0.01, 5.0, False),
     "takeoff.clear_height_m": (0.2, 10.0, False),
     "rc_presets.channel": (1, 18, True),
 }
@@ -154,6 +160,10 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
             raise ConfigError(source, field, f"{v!r} is outside {lo:g}..{hi:g}")
     if doc["reflex"]["arm_height_m"] <= doc["reflex"]["cut_height_m"]:
         raise ConfigError(source, "reflex.arm_height_m", "must be above reflex.cut_height_m")
+    if doc["reflex"]["reverse_max_ms"] < doc["reflex"]["reverse_thrust_ms"]:
+        raise ConfigError(source, "reflex.reverse_max_ms", "must not be below reflex.reverse_thrust_ms")
+    if doc["settle"]["slide_speed_mps"] < doc["settle"]["still_speed_mps"]:
+        raise ConfigError(source, "settle.slide_speed_mps", "must not be below settle.still_speed_mps")
     if doc["reflex"]["refresh_s"] * 1000 >= doc["reflex"]["validity_ms"]:
         raise ConfigError(source, "reflex.refresh_s", "must be shorter than reflex.validity_ms")
     rc = doc.get("rc_presets", {})

@@ -78,6 +78,12 @@ class Lander:
             range_ok = fresh and inside and quality
         imu = ln.last.get("RAW_IMU")
         accel = math.dist((0, 0, 0), raw_imu_accel(imu)) if imu else 9.80665
+        pos = ln.last.get("LOCAL_POSITION_NED")
+        speed = None
+        if pos is not None and t - pos.time_boot_ms / 1000.0 <= cfg["settle.velocity_max_age_s"]:
+            speed = math.sqrt(pos.vx * pos.vx + pos.vy * pos.vy + pos.vz * pos.vz)
+            if not math.isfinite(speed):
+                speed = None
         op = self.act.leg_op
         legs_fault = None if self.legs is not None else "no leg board connected"
         legs_fault = self.ctx.marks.get("legs_error") or legs_fault
@@ -106,6 +112,7 @@ class Lander:
             legs_fault=legs_fault,
             uphill_angles_deg=uphill,
             accel_mps2=accel,
+            speed_mps=speed,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,
         )

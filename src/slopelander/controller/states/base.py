@@ -18,6 +18,7 @@ class Actions(Protocol):
     def descend(self, rate_mps: float) -> None: ...
     def reflex_arm(self) -> None: ...
     def reflex_abort(self) -> None: ...
+    def reflex_end_reverse(self) -> None: ...
     def release(self) -> None: ...
     def reverse(self, pct: float, ms: int) -> None: ...
     def disarm(self) -> None: ...
@@ -43,6 +44,8 @@ class Inputs:
     #: the uphill legs' angles as the board reports them (deg below the horizontal; empty: unknown)
     uphill_angles_deg: tuple[float, ...] = ()
     accel_mps2: float = 9.81
+    #: the vehicle's speed (m/s) from LOCAL_POSITION_NED; None when none arrived recently
+    speed_mps: float | None = 0.0
     impact: bool = False
     takeoff_request: bool = False
 
@@ -66,6 +69,20 @@ class Context:
     next_preset: tuple[float, float] | None = None
     entered_at: float = 0.0
     marks: dict[str, float] = field(default_factory=dict)
+
+
+G = 9.80665
+
+
+def still(cfg: Any, inp: Inputs) -> bool:
+    """At rest on the ground: the accelerometer reads 1 g (``settle.still_mps2``) AND the vehicle's
+    speed is known and at most ``settle.still_speed_mps``. The accelerometer alone cannot tell a
+    steady slide (no acceleration) from rest."""
+    return (
+        abs(inp.accel_mps2 - G) <= cfg["settle.still_mps2"]
+        and inp.speed_mps is not None
+        and inp.speed_mps <= cfg["settle.still_speed_mps"]
+    )
 
 
 class State:
