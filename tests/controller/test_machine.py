@@ -354,7 +354,7 @@ def test_a_steady_slide_reading_one_g_is_never_called_still():
 
 
 def test_creeping_below_the_slide_speed_is_not_still_either():
-    m, act, _ = make()
+    m, _, _ = make()
     t = run_to(m, "SETTLED")
     creep = replace(OK, range_m=0.2, script_state=13, speed_mps=0.1)  # between still and slide
     for dt in (0.5, 1.5, 3.0):
