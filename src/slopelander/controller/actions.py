@@ -146,6 +146,11 @@ class MavActions:
             c["validity_ms"],
         )
 
+    def reflex_refresh(self) -> None:
+        """Renew the script's validity during its landing sequence (the same arm command: in
+        CUT, RVT and HOLD the script only extends the validity)."""
+        self.reflex_arm()
+
     def reflex_end_reverse(self) -> None:
         """End the script's reverse thrust now: a refresh with duration 0 (script contract 2);
         the script holds the motors stopped (HOLD) and the refresh renews its validity."""

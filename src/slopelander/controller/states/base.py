@@ -19,6 +19,7 @@ class Actions(Protocol):
     def reflex_arm(self) -> None: ...
     def reflex_abort(self) -> None: ...
     def reflex_end_reverse(self) -> None: ...
+    def reflex_refresh(self) -> None: ...
     def release(self) -> None: ...
     def reverse(self, pct: float, ms: int) -> None: ...
     def disarm(self) -> None: ...
@@ -72,6 +73,8 @@ class Context:
 
 
 G = 9.80665
+#: the script's CUT, RVT and HOLD: its landing sequence, where a re-sent arm only renews validity
+SCRIPT_LANDING = (11, 12, 13)
 
 
 def still(cfg: Any, inp: Inputs) -> bool:
@@ -83,6 +86,17 @@ def still(cfg: Any, inp: Inputs) -> bool:
         and inp.speed_mps is not None
         and inp.speed_mps <= cfg["settle.still_speed_mps"]
     )
+
+
+def keep_reflex(ctx: Context, inp: Inputs) -> None:
+    """Re-send the reflex arm every ``reflex.refresh_s``: after the cut it only renews the script's
+    validity (a lapse in HOLD disarms: the script's answer to a silent companion), so a companion
+    that is alive keeps the decision to disarm for itself."""
+    if inp.script_state not in SCRIPT_LANDING:  # never re-arm a script that has let go
+        return
+    if inp.t - ctx.marks.get("reflex_sent", -1e9) >= ctx.cfg["reflex.refresh_s"]:
+        ctx.act.reflex_refresh()
+        ctx.marks["reflex_sent"] = inp.t
 
 
 class State:

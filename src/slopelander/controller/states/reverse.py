@@ -9,7 +9,7 @@ at the latest after ``reflex.reverse_max_ms``, the bound the script itself keeps
 
 from __future__ import annotations
 
-from slopelander.controller.states.base import Context, Inputs, State, still
+from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
 
 #: how long past its longest duration the script may still report reverse thrust before the
 #: companion releases the outputs itself (the script's own bound is the duration plus a tick)
@@ -42,6 +42,7 @@ class Reverse(State):
             return ("SETTLED", f"still under reverse thrust after {elapsed:.2f} s: thrust ended")
         if elapsed >= shortest and inp.script_state != SCRIPT_RVT:
             return ("SETTLED", f"reverse thrust ended by the script after {elapsed:.2f} s")
+        keep_reflex(ctx, inp)
         if elapsed >= longest + REVERSE_OVERRUN_S:
             ctx.act.release()  # the script did not end its bounded reverse phase: take it back
             return ("SETTLED", "script still reversing after its duration: released")

@@ -3,7 +3,7 @@ but only a vehicle at rest: one sliding at a steady speed reads 1 g like one sta
 
 from __future__ import annotations
 
-from slopelander.controller.states.base import Context, Inputs, State, still
+from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
 
 
 class Settled(State):
@@ -23,6 +23,7 @@ class Settled(State):
         speed = inp.speed_mps
         if speed is not None and speed > cfg["settle.slide_speed_mps"]:
             return ("ABORTED", f"sliding at {speed:.2f} m/s after reverse thrust: not disarmed")
+        keep_reflex(ctx, inp)
         if still(cfg, inp):
             since = ctx.marks.setdefault("still_since", inp.t)
             if inp.t - since >= cfg["settle.still_s"]:
