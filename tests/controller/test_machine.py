@@ -336,9 +336,13 @@ def test_the_scripts_bound_ends_reverse_thrust_and_a_slide_after_it_is_not_disar
     t = run_to(m, "REVERSE")
     longest = m.ctx.cfg["reflex.reverse_max_ms"] / 1000.0
     m.step(replace(OK, t=t + longest + 0.01, range_m=0.2, script_state=13, speed_mps=0.4))
-    assert m.name == "ABORTED"
-    reasons = [h["reason"] for h in m.history[-2:]]
-    assert "ended by the script" in reasons[0] and "sliding at 0.40 m/s" in reasons[1]
+    assert m.name == "SETTLED" and "ended by the script" in m.history[-1]["reason"]
+    m.step(
+        replace(
+            OK, t=t + longest + 0.3, range_m=0.2, script_state=13, speed_mps=0.4, position_m=(0.1, 0, 0.07)
+        )
+    )
+    assert m.name == "ABORTED" and "sliding at 0.40 m/s, 0.12 m" in m.history[-1]["reason"]
     assert "disarm" not in act.names()
 
 
@@ -348,8 +352,10 @@ def test_a_steady_slide_reading_one_g_is_never_called_still():
     n = len(act.calls)
     # constant speed: no acceleration, so the accelerometer reads exactly 1 g
     slide = replace(OK, range_m=0.2, script_state=13, accel_mps2=9.80665, speed_mps=0.5)
-    m.step(replace(slide, t=t + 0.1))
-    assert m.name == "ABORTED" and "sliding at 0.50 m/s" in m.history[-1]["reason"]
+    m.step(replace(slide, t=t + 0.1, position_m=(0.04, 0.0, 0.03)))
+    assert m.name == "SETTLED"  # 5 cm: a rebound of the legs looks like this too
+    m.step(replace(slide, t=t + 0.3, position_m=(0.12, 0.0, 0.09)))
+    assert m.name == "ABORTED" and "sliding at 0.50 m/s, 0.15 m" in m.history[-1]["reason"]
     assert "disarm" not in [c[0] for c in act.calls[n:]]
 
 
@@ -377,3 +383,20 @@ def test_without_a_velocity_the_vehicle_is_not_disarmed_nor_the_landing_started(
     m2, _, _ = make()
     run_to(m2, "ABORTED", base=replace(OK, speed_mps=None))
     assert any("no velocity" in h["reason"] for h in m2.history)
+
+
+def test_the_legs_rebound_when_the_thrust_stops_is_not_a_slide():
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    # as flown on a 37 deg roof: up to ~0.2 m/s for ~0.2 s, 3 cm in all, then at rest
+    for i, (v, dx) in enumerate([(0.05, 0.0), (0.15, 0.01), (0.18, 0.02), (0.13, 0.025), (0.06, 0.03)]):
+        m.step(
+            replace(
+                OK, t=t + 0.02 * (i + 1), range_m=0.2, script_state=13, speed_mps=v, position_m=(dx, 0, 0)
+            )
+        )
+        assert m.name == "SETTLED", (v, dx)
+    rest = replace(OK, range_m=0.2, script_state=13, speed_mps=0.0, position_m=(0.03, 0, 0))
+    m.step(replace(rest, t=t + 0.2))
+    m.step(replace(rest, t=t + 0.2 + m.ctx.cfg["settle.still_s"]))
+    assert m.name == "LANDED" and "disarm" in act.names()

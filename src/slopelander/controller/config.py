@@ -52,6 +52,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "settle.timeout_s": (0.5, 60.0, False),
     "settle.still_speed_mps": (0.005, 1.0, False),
     "settle.slide_speed_mps": (0.01, 5.0, False),
+    "settle.slide_m": (0.01, 2.0, False),
     "settle.velocity_max_age_s": (0.01, 5.0, False),
     "takeoff.clear_height_m": (0.2, 10.0, False),
     "rc_presets.channel": (1, 18, True),
@@ -62,6 +63,10 @@ RC_PRESET_LIMITS = {
     "tau_up_nm": (0.0, 10.0),
     "tau_down_nm": (0.0, 10.0),
 }
+#: optional keys of a preset: its name (for the pilot's messages) and the uphill legs' angle (deg
+#: below the horizontal, as the table's; null or absent = the preset asks for no angle)
+RC_PRESET_OPTIONAL = ("name", "angle_up_deg")
+RC_ANGLE_LIMITS = (0.0, 90.0)
 
 
 class ConfigError(SlopelanderError, ValueError):
@@ -74,12 +79,15 @@ class ConfigError(SlopelanderError, ValueError):
 
 @dataclass(frozen=True)
 class RcPreset:
-    """One PWM band of the pilot's preset switch and the torques it selects (N·m)."""
+    """One PWM band of the pilot's preset switch and the named preset it selects: torques (N·m)
+    and, like the table's, the uphill legs' angle (deg; None = any angle)."""
 
     min_us: float
     max_us: float
     tau_up_nm: float
     tau_down_nm: float
+    name: str = ""
+    angle_up_deg: float | None = None
 
 
 class Config:
@@ -175,15 +183,41 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
     presets = []
     for i, item in enumerate(items):
         name = f"rc_presets.presets[{i}]"
-        if not isinstance(item, dict) or set(item) != set(RC_PRESET_LIMITS):
-            raise ConfigError(source, name, f"expected exactly the keys {', '.join(RC_PRESET_LIMITS)}")
+        if (
+            not isinstance(item, dict)
+            or not set(RC_PRESET_LIMITS) <= set(item)
+            or not set(item) <= set(RC_PRESET_LIMITS) | set(RC_PRESET_OPTIONAL)
+        ):
+            raise ConfigError(
+                source,
+                name,
+                f"expected the keys {', '.join(RC_PRESET_LIMITS)} "
+                f"and optionally {', '.join(RC_PRESET_OPTIONAL)}",
+            )
         for k, (lo, hi) in RC_PRESET_LIMITS.items():
             v = item[k]
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi):
                 raise ConfigError(source, f"{name}.{k}", f"expected a number in {lo:g}..{hi:g}, got {v!r}")
         if item["min_us"] >= item["max_us"]:
             raise ConfigError(source, f"{name}.min_us", "must be below max_us")
-        presets.append(RcPreset(**{k: float(item[k]) for k in RC_PRESET_LIMITS}))
+        label = item.get("name", f"preset {i + 1}")
+        if not isinstance(label, str) or not label.strip() or len(label) > 20:
+            raise ConfigError(source, f"{name}.name", f"expected a name of 1..20 characters, got {label!r}")
+        angle = item.get("angle_up_deg")
+        lo, hi = RC_ANGLE_LIMITS
+        if angle is not None and (
+            isinstance(angle, bool) or not isinstance(angle, (int, float)) or not (lo <= angle <= hi)
+        ):
+            raise ConfigError(
+                source, f"{name}.angle_up_deg", f"expected null or a number in {lo:g}..{hi:g}, got {angle!r}"
+            )
+        presets.append(
+            RcPreset(
+                **{k: float(item[k]) for k in RC_PRESET_LIMITS},
+                name=label.strip(),
+                angle_up_deg=None if angle is None else float(angle),
+            )
+        )
     if rc["enabled"] and not presets:
         raise ConfigError(source, "rc_presets.presets", "enabled but empty")
     ordered = sorted(presets, key=lambda p: p.min_us)

@@ -57,6 +57,7 @@ class Lander:
             legs.set_clock(link.clock.now)
             legs.silence_timeout = cfg["legs.board_silent_s"]
         self.start_preset = preset
+        self.start_angle_deg = uphill_angle_deg
         self.switch = PresetSwitch(cfg, link.last.get("RC_CHANNELS"))
         self._legs_t: float | None = None
 
@@ -79,11 +80,12 @@ class Lander:
         imu = ln.last.get("RAW_IMU")
         accel = math.dist((0, 0, 0), raw_imu_accel(imu)) if imu else 9.80665
         pos = ln.last.get("LOCAL_POSITION_NED")
-        speed = None
+        speed = position = None
         if pos is not None and t - pos.time_boot_ms / 1000.0 <= cfg["settle.velocity_max_age_s"]:
             speed = math.sqrt(pos.vx * pos.vx + pos.vy * pos.vy + pos.vz * pos.vz)
-            if not math.isfinite(speed):
-                speed = None
+            position = (pos.x, pos.y, pos.z)
+            if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
+                speed = position = None
         op = self.act.leg_op
         legs_fault = None if self.legs is not None else "no leg board connected"
         legs_fault = self.ctx.marks.get("legs_error") or legs_fault
@@ -113,6 +115,7 @@ class Lander:
             uphill_angles_deg=uphill,
             accel_mps2=accel,
             speed_mps=speed,
+            position_m=position,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,
         )
@@ -152,16 +155,24 @@ class Lander:
         changed, sel = self.switch.update(self.link.last.get("RC_CHANNELS"))
         if not changed:
             return
-        preset = self.start_preset if sel is None else (sel.tau_up_nm, sel.tau_down_nm)
+        if sel is None:
+            preset, angle, label = self.start_preset, self.start_angle_deg, "landing's"
+        else:
+            preset, angle, label = (sel.tau_up_nm, sel.tau_down_nm), sel.angle_up_deg, sel.name
         name = self.machine.name if self.machine._started else "PRESET"
-        what = f"pilot preset {preset[0]:.2f}/{preset[1]:.2f} N*m"
+        what = f"{label} {preset[0]:.2f}/{preset[1]:.2f}" + ("" if angle is None else f" {angle:.0f}deg")
         if name not in APPLY_IN:
             self.act.statustext(f"SL {what} ignored in {name}"[:50])
             return
+        refused = self.act.check_preset(*preset)
+        if refused is not None:
+            self.act.statustext(f"SL {what} refused: {refused}"[:50])
+            return
         self.ctx.preset = preset
+        self.ctx.uphill_angle_deg = angle  # CHECKS holds the legs to it, as to the table's
         if name == "READY":
             self.ctx.next_preset = preset
-        self.act.set_legs(*preset)
+        self.act.set_legs(*preset, angle)
         self.act.statustext(f"SL {what}"[:50])
         if self.machine._started and name in WAIT_AGAIN:
             if name == "DESCEND":  # stop the descent now, not after GUID_TIMEOUT

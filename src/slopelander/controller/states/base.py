@@ -47,6 +47,8 @@ class Inputs:
     accel_mps2: float = 9.81
     #: the vehicle's speed (m/s) from LOCAL_POSITION_NED; None when none arrived recently
     speed_mps: float | None = 0.0
+    #: the vehicle's position (m, north-east-down) from the same message; None when unknown
+    position_m: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
     impact: bool = False
     takeoff_request: bool = False
 
@@ -69,7 +71,7 @@ class Context:
     uphill_angle_deg: float | None = None
     next_preset: tuple[float, float] | None = None
     entered_at: float = 0.0
-    marks: dict[str, float] = field(default_factory=dict)
+    marks: dict[str, Any] = field(default_factory=dict)
 
 
 G = 9.80665

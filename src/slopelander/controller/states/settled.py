@@ -3,26 +3,43 @@ but only a vehicle at rest: one sliding at a steady speed reads 1 g like one sta
 
 from __future__ import annotations
 
+import math
+
 from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
+
+
+def _moved(ctx: Context, inp: Inputs) -> float | None:
+    """Distance (m) from where the vehicle was when SETTLED began (None: position unknown)."""
+    if inp.position_m is None:
+        return None
+    start = ctx.marks.setdefault("settle_pos", inp.position_m)
+    return math.dist(start, inp.position_m)
 
 
 class Settled(State):
     """Disarms once the vehicle has been still (:func:`still`: accel 1 g and speed low) for
-    ``settle.still_s``. A slide (speed above ``settle.slide_speed_mps``) is not disarmed: the
-    landing is aborted to the pilot, armed, in LOITER (docs/failsafes.md)."""
+    ``settle.still_s``. A slide (faster than ``settle.slide_speed_mps`` and more than
+    ``settle.slide_m`` from where SETTLED began) is not disarmed: the landing is aborted to the
+    pilot, armed, in LOITER (docs/failsafes.md)."""
 
     name = "SETTLED"
     reflex_owns = True
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         ctx.marks.pop("still_since", None)
+        ctx.marks.pop("settle_pos", None)
+        _moved(ctx, inp)
         return None
 
     def step(self, ctx: Context, inp: Inputs):
         cfg = ctx.cfg
-        speed = inp.speed_mps
-        if speed is not None and speed > cfg["settle.slide_speed_mps"]:
-            return ("ABORTED", f"sliding at {speed:.2f} m/s after reverse thrust: not disarmed")
+        speed, moved = inp.speed_mps, _moved(ctx, inp)
+        if speed is not None and speed > cfg["settle.slide_speed_mps"] and moved is not None:
+            if moved > cfg["settle.slide_m"]:
+                return (
+                    "ABORTED",
+                    f"sliding at {speed:.2f} m/s, {moved:.2f} m after reverse thrust: not disarmed",
+                )
         keep_reflex(ctx, inp)
         if still(cfg, inp):
             since = ctx.marks.setdefault("still_since", inp.t)
@@ -34,6 +51,8 @@ class Settled(State):
         if inp.t - ctx.entered_at >= cfg["settle.timeout_s"]:
             if speed is None:
                 return ("ABORTED", "speed unknown within the settle timeout: not disarmed")
+            if speed > cfg["settle.slide_speed_mps"]:
+                return ("ABORTED", f"still moving at {speed:.2f} m/s at the settle timeout: not disarmed")
             # not moving but the accelerometer keeps shaking (a vibrating sensor): the motors
             # are stopped either way, and it must not stay armed for ever
             ctx.act.disarm()
