@@ -34,12 +34,12 @@ class Settled(State):
     def step(self, ctx: Context, inp: Inputs):
         cfg = ctx.cfg
         speed, moved = inp.speed_mps, _moved(ctx, inp)
-        if speed is not None and speed > cfg["settle.slide_speed_mps"] and moved is not None:
-            if moved > cfg["settle.slide_m"]:
-                return (
-                    "ABORTED",
-                    f"sliding at {speed:.2f} m/s, {moved:.2f} m after reverse thrust: not disarmed",
-                )
+        fast = speed is not None and speed > cfg["settle.slide_speed_mps"]
+        if fast and moved is not None and moved > cfg["settle.slide_m"]:
+            return (
+                "ABORTED",
+                f"sliding at {speed:.2f} m/s, {moved:.2f} m after reverse thrust: not disarmed",
+            )
         keep_reflex(ctx, inp)
         if still(cfg, inp):
             since = ctx.marks.setdefault("still_since", inp.t)
