@@ -156,11 +156,15 @@ class Lander:
         if not changed:
             return
         if sel is None:
-            preset, angle, label = self.start_preset, self.start_angle_deg, "landing's"
+            preset, angle, label = self.start_preset, self.start_angle_deg, "landing's preset"
         else:
-            preset, angle, label = (sel.tau_up_nm, sel.tau_down_nm), sel.angle_up_deg, sel.name
+            preset, angle, label = (
+                (sel.tau_up_nm, sel.tau_down_nm),
+                sel.angle_up_deg,
+                f"pilot preset {sel.name}",
+            )
         name = self.machine.name if self.machine._started else "PRESET"
-        what = f"{label} {preset[0]:.2f}/{preset[1]:.2f}" + ("" if angle is None else f" {angle:.0f}deg")
+        what = f"{label} {preset[0]:.2f}/{preset[1]:.2f} N*m" + ("" if angle is None else f" {angle:g} deg")
         if name not in APPLY_IN:
             self.act.statustext(f"SL {what} ignored in {name}"[:50])
             return
