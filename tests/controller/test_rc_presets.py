@@ -65,7 +65,7 @@ def test_a_named_preset_carries_the_uphill_angle_and_is_checked_like_the_tables(
     # an angle the legs cannot take is refused before the flight, naming the range
     _, hi = load_calibration().angle_range_deg
     far = preset_for(load_config(named(tmp_path, angle_up_deg=min(90.0, hi + 5.0))), rc(1900))
-    with pytest.raises(PresetError, match="pilot preset 'preset 1'.*outside the range"):
+    with pytest.raises(PresetError, match=r"pilot preset 'preset 1'.*outside the range"):
         choose_leg_preset(40, 2.0, None, far, load_calibration())
 
 
