@@ -47,6 +47,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "legs.ready_timeout_s": (0.1, 60.0, False),
     "legs.board_silent_s": (0.05, 10.0, False),
     "legs.angle_tolerance_deg": (0.1, 20.0, False),
+    "legs.reconnect_s": (0.1, 60.0, False),
     "settle.still_s": (0.1, 10.0, False),
     "settle.still_mps2": (0.1, 10.0, False),
     "settle.timeout_s": (0.5, 60.0, False),

@@ -6,7 +6,9 @@ and steps the machine whenever vehicle time advanced.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import time
 from collections.abc import Callable
 from typing import IO
@@ -18,6 +20,7 @@ from slopelander.controller.link import Link, mavlink
 from slopelander.controller.machine import Machine
 from slopelander.controller.pilot_switch import APPLY_IN, WAIT_AGAIN, PresetSwitch
 from slopelander.controller.states.base import Context, Inputs
+from slopelander.legs.errors import LegBoardError
 
 MODE_NAMES = {v: k for k, v in MODES.items()}
 ENDINGS = ("LANDED", "ABORTED", "ESTOP", "READY")
@@ -27,6 +30,11 @@ SCRIPT_ESTOP = 20
 #: the longest the landing loop waits for input between polls: the leg board's queued writes and
 #: the descent setpoint's re-sends still go out at 200 Hz or more
 POLL_WAIT_S = 0.005
+#: a leg board that failed is reconnected only between landings: in a landing the failure policy
+#: (docs/failsafes.md) applies, and a fresh handshake must not reset legs under load
+RECONNECT_IN = ("LANDED", "READY", "ABORTED", "ESTOP")
+#: the reconnect's handshake, local seconds (the autopilot's clock is not read meanwhile)
+HANDSHAKE_S = 0.5
 
 
 class Lander:
@@ -56,6 +64,12 @@ class Lander:
         if legs is not None:  # the legs' timeouts run on vehicle time, like the machine's
             legs.set_clock(link.clock.now)
             legs.silence_timeout = cfg["legs.board_silent_s"]
+        #: the board this landing drives, also while it is disconnected (``self.legs`` is None then)
+        self.board = legs
+        self._reconnect_tried = -math.inf
+        if legs is not None and not legs.connected:  # it failed in an earlier landing
+            self.legs = None
+            self.act.legs = None
         self.start_preset = preset
         self.start_angle_deg = uphill_angle_deg
         self.switch = PresetSwitch(cfg, link.last.get("RC_CHANNELS"))
@@ -137,9 +151,14 @@ class Lander:
                 self.legs.poll()
             except Exception as exc:  # a board that vanished is a leg failure, not a crash
                 self.act.leg_op = None
+                self.act.legs = None
+                with contextlib.suppress(Exception):
+                    self.legs.close()
                 self.legs = None
                 self.ctx.marks["legs_error"] = str(exc)
             self.act.advance()
+        else:
+            self._legs_back()
         inp = self.inputs()
         self._pilot_switch(inp)
         if inp.t > self._last_t or not inp.link_ok:
@@ -149,6 +168,33 @@ class Lander:
             if self.machine.name == "CUT" and before != "CUT":
                 self.detector.arm_after_cut(inp.t)
         return self.machine.name
+
+    def _legs_back(self) -> None:
+        """Reconnect a board that failed once its port is back, between landings only
+        (:data:`RECONNECT_IN`, or before this landing starts), at most every ``legs.reconnect_s``."""
+        board = self.board
+        if board is None or (self.machine._started and self.machine.name not in RECONNECT_IN):
+            return
+        now = self.link.monotonic()
+        if now - self._reconnect_tried < self.cfg["legs.reconnect_s"]:
+            return
+        self._reconnect_tried = now
+        if not os.path.exists(board.port):  # a dangling link: the board is not back yet
+            return
+        board.set_clock(time.monotonic)  # the handshake waits in local time, not on the autopilot's
+        try:
+            board.reconnect(HANDSHAKE_S)
+        except (LegBoardError, OSError) as exc:
+            board.close()
+            self.ctx.marks["legs_error"] = f"leg board not back: {exc}"
+            return
+        finally:
+            board.set_clock(self.link.clock.now)
+        self.legs = self.act.legs = board
+        self.act.leg_op, self.act.leg_error = None, None
+        self.ctx.marks.pop("legs_error", None)
+        self._legs_t = None
+        self.act.statustext("SL leg board reconnected")
 
     def _pilot_switch(self, inp: Inputs) -> None:
         """Apply a change of the pilot's preset switch (see :mod:`pilot_switch`)."""
