@@ -299,11 +299,11 @@ class Link:
         elif mtype == "NAMED_VALUE_FLOAT":
             name = msg.name.rstrip("\x00") if isinstance(msg.name, str) else msg.name
             if name == "SL_STATE":
-                self._script_seen_at = now
+                self._script_seen_at = self.clock.now()
                 self.script_state = int(msg.value)
             elif name == "SL_VER" and self.info is not None:
                 self.info.script_version = float(msg.value)
-                self._script_seen_at = now
+                self._script_seen_at = self.clock.now()
 
     # ------------------------------------------------------------------ sending
     def _send_due(self) -> None:
@@ -399,8 +399,10 @@ class Link:
 
     @property
     def script_present(self) -> bool:
-        """The on-board script announced its state within the last second."""
-        return self._script_seen_at is not None and self.monotonic() - self._script_seen_at <= SCRIPT_SILENT_S
+        """The on-board script announced itself within the last second of the autopilot's time: a
+        simulation stalled by a loaded machine is not a silent script (a silent autopilot is link
+        loss, on the companion's own clock)."""
+        return self._script_seen_at is not None and self.clock.now() - self._script_seen_at <= SCRIPT_SILENT_S
 
     def wait_autopilot(
         self, timeout_s: float = 10.0, sleep: Callable[[float], None] = time.sleep
