@@ -133,7 +133,8 @@ def main() -> None:
                 m = simulate(f.model_conditions()).result.outcome if c else None
                 names = {"FLIP": "flipped", "SLID": "slid"}
                 model = "-" if m is None else ("landed" if m.success else names.get(m.name, m.name.lower()))
-                row.update(end=f.end, why=f.history[-1]["reason"] if f.history else "", outcome=outcome, vz=c["vz"] if c else math.nan,
+                why = f.history[-1]["reason"] if f.history else ""
+                row.update(end=f.end, why=why, outcome=outcome, vz=c["vz"] if c else math.nan,
                            vx=c["vx"] if c else math.nan, slide=fig.get("slide_m", math.nan),
                            model=model)  # fmt: skip
         except (RigError, LegBoardError) as exc:  # the rig could not fly it: reported, not hidden
