@@ -160,7 +160,8 @@ class Lander:
         else:
             self._legs_back()
         inp = self.inputs()
-        self._pilot_switch(inp)
+        if self._pilot_switch(inp):
+            inp = self.inputs()  # the legs were just given another preset: read them again
         if inp.t > self._last_t or not inp.link_ok:
             self._last_t = inp.t
             before = self.machine.name
@@ -196,11 +197,12 @@ class Lander:
         self._legs_t = None
         self.act.statustext("SL leg board reconnected")
 
-    def _pilot_switch(self, inp: Inputs) -> None:
-        """Apply a change of the pilot's preset switch (see :mod:`pilot_switch`)."""
+    def _pilot_switch(self, inp: Inputs) -> bool:
+        """Apply a change of the pilot's preset switch (see :mod:`pilot_switch`); True when the
+        legs were given another preset."""
         changed, sel = self.switch.update(self.link.last.get("RC_CHANNELS"))
         if not changed:
-            return
+            return False
         if sel is None:
             preset, angle, label = self.start_preset, self.start_angle_deg, "landing's preset"
         else:
@@ -213,11 +215,11 @@ class Lander:
         what = f"{label} {preset[0]:.2f}/{preset[1]:.2f} N*m" + ("" if angle is None else f" {angle:g} deg")
         if name not in APPLY_IN:
             self.act.statustext(f"SL {what} ignored in {name}"[:50])
-            return
+            return False
         refused = self.act.check_preset(*preset)
         if refused is not None:
             self.act.statustext(f"SL {what} refused: {refused}"[:50])
-            return
+            return False
         self.ctx.preset = preset
         self.ctx.uphill_angle_deg = angle  # CHECKS holds the legs to it, as to the table's
         if name == "READY":
@@ -229,6 +231,7 @@ class Lander:
                 self.act._last_descent = -1.0
                 self.act.descend(0.0)
             self.machine.transition("LEGS_WAIT", what, inp)
+        return True
 
     def run(
         self, timeout_s: float, sleep: Callable[[float], None] | None = None, until: tuple[str, ...] = ENDINGS
