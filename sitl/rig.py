@@ -237,9 +237,6 @@ class Rig:
                 self.wait_command(self.link.request_stream(msg_id, hz), f"stream {msg_id}")
             self.calibration = load_calibration()
             self.legs = LegBoard.open(self.board.pty, calibration=self.calibration)
-            # the board's silence is judged on the vehicle's clock, as the landing judges it: a
-            # loaded machine that stalls both processes for a wall second is not a silent board
-            self.legs.set_clock(self.link.clock.now)
         except BaseException:
             self.close()
             raise
