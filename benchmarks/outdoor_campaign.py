@@ -50,6 +50,7 @@ from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.link import mavlink  # noqa: E402
 from slopelander.controller.runner import Lander  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
+from slopelander.legs.errors import LegBoardError  # noqa: E402
 from slopelander.model.landing import simulate  # noqa: E402
 
 CONTACT_OFFSET_M = 0.06
@@ -132,17 +133,20 @@ def main() -> None:
                 m = simulate(f.model_conditions()).result.outcome if c else None
                 names = {"FLIP": "flipped", "SLID": "slid"}
                 model = "-" if m is None else ("landed" if m.success else names.get(m.name, m.name.lower()))
-                row.update(end=f.end, outcome=outcome, vz=c["vz"] if c else math.nan,
+                why = f.history[-1]["reason"] if f.history else ""
+                row.update(end=f.end, why=why, outcome=outcome, vz=c["vz"] if c else math.nan,
                            vx=c["vx"] if c else math.nan, slide=fig.get("slide_m", math.nan),
                            model=model)  # fmt: skip
-        except RigError as exc:
-            row.update(end="rig error", outcome=str(exc), vz=math.nan, vx=math.nan, slide=math.nan, model="-")
+        except (RigError, LegBoardError) as exc:  # the rig could not fly it: reported, not hidden
+            row.update(end="rig error", why=str(exc), outcome="rig error", vz=math.nan, vx=math.nan,
+                       slide=math.nan, model="-")  # fmt: skip
         rows.append(row)
         print(
             f"{i + 1:2d}  roof {s:4.1f} deg, heading {h:+5.1f} -> {planar:4.1f} deg  "
             f"impact {row['vz']:4.2f} m/s "
             f"(goal {v:4.2f}), vx {row['vx']:+5.2f} (goal {vx:+5.2f})  legs {p.tau_up:.2f}/{p.tau_down:.2f} "
-            f"{which}  cut {cut:.2f} m  {row['end']:<8} {row['outcome']}  slide {row['slide']:.2f} m",
+            f"{which}  cut {cut:.2f} m  {row['end']:<8} {row['outcome']}  slide {row['slide']:.2f} m"
+            f"  ({row['why']})",
             flush=True,
         )
     landed = sum(1 for r in rows if r["outcome"] == "landed")

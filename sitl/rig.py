@@ -26,7 +26,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from sitl.linkfault import Relay
 from sitl.vehicle.launch import start_legboard, start_vehicle
 from slopelander.controller.config import Config, load_config, merge
-from slopelander.controller.link import Link
+from slopelander.controller.link import LANDING_MESSAGES, Link
 from slopelander.controller.runner import Lander
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
@@ -44,6 +44,10 @@ STREAMS = (
     (mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 50),
     (mavlink.MAVLINK_MSG_ID_RC_CHANNELS, 10),
 )
+
+
+#: what the rig's :class:`Track` reads on top of the landing's messages
+TRACK_MESSAGES = LANDING_MESSAGES | {"ATTITUDE", "SERVO_OUTPUT_RAW"}
 
 
 class RigError(RuntimeError):
@@ -200,6 +204,7 @@ class Rig:
         relay: bool = False,
         range_hz: float = 50.0,
         telemetry: bool = True,
+        decode: frozenset[str] | None = TRACK_MESSAGES,
     ) -> None:
         self.slope_deg = slope_deg
         scn = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "seed": seed}
@@ -220,7 +225,7 @@ class Rig:
             if relay:
                 self.relay = Relay("tcp:127.0.0.1:0", f"tcp:127.0.0.1:{self.vehicle.port}").start()
                 url = f"tcp:127.0.0.1:{self.relay.port}"
-            self.link = Link(url, link_loss_s=load_config()["link.link_loss_s"])
+            self.link = Link(url, link_loss_s=load_config()["link.link_loss_s"], decode=decode)
             self.link.add_listener(self.track.listen)
             self.info = self.link.wait_autopilot(timeout_s=30.0)
             streams = (

@@ -11,7 +11,7 @@
 -- The companion decides; this script only does what cannot wait for a MAVLink round trip.
 -- Contract (commands, states, validity rules): docs/onboard-script.md in slopelander.
 
-local VERSION = 1
+local VERSION = 2 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local MSG_COMMAND_LONG = 76
@@ -120,7 +120,13 @@ local function arm_reflex(p, t)
   if not arming:is_armed() then return TEMP_REJECTED, "disarmed" end
   if state == ESTOP then return TEMP_REJECTED, "emergency stop" end
   valid_until = t + p[6]
-  if state == CUT or state == RVT or state == HOLD then return ACCEPTED end -- a refresh
+  if state == RVT then
+    -- a refresh during reverse thrust sets its duration, counted from the impact: the companion
+    -- shortens it once the vehicle is still; a silent companion leaves the armed bound in force
+    reflex.dur_ms = p[5]
+    return ACCEPTED
+  end
+  if state == CUT or state == HOLD then return ACCEPTED end -- a refresh
   reflex = { cut_m = p[2], impact = p[3], pct = p[4], dur_ms = p[5] }
   below, last_range = 0, nil
   enter(ARMED, t)

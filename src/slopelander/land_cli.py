@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
         leg_geometry,
         plan_landing,
     )
-    from slopelander.controller.link import Link
+    from slopelander.controller.link import LANDING_MESSAGES, Link
     from slopelander.controller.rc_presets import preset_for
     from slopelander.controller.runner import Lander
     from slopelander.controller.table import LookupTable
@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
     table = LookupTable.load(args.table or DEFAULT_TABLE)
     calibration = load_calibration()
-    link = Link(args.connect, link_loss_s=cfg["link.link_loss_s"])
+    link = Link(args.connect, link_loss_s=cfg["link.link_loss_s"], decode=LANDING_MESSAGES)
     legs = None
     try:
         info = link.wait_autopilot(timeout_s=10.0)
@@ -57,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
         link.request_stream(27, cfg["link.imu_hz"])  # RAW_IMU
         link.request_stream(132, cfg["link.range_hz"])  # DISTANCE_SENSOR
         link.request_stream(65, 10)  # RC_CHANNELS
+        link.request_stream(32, cfg["link.position_hz"])  # LOCAL_POSITION_NED
         preset, speed = plan_landing(
             cfg["descent.rate_mps"],
             cfg["reflex.cut_height_m"],

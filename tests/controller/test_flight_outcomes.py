@@ -60,6 +60,11 @@ def ensure_airborne(rig: Rig) -> None:
     f = rig.last_flight
     if f is not None and f.end == "LANDED":
         assert rig.take_off_again(f) == "READY", f.history[-3:]
+    elif f is not None and f.end == "ABORTED":  # a slide handed to the pilot: the pilot climbs away
+        if rig.armed():  # still armed (that is the point): back to GUIDED, the goto below climbs
+            rig.wait_command(rig.link.command(176, 1, 4), "GUIDED")  # MAV_CMD_DO_SET_MODE
+        else:
+            rig.take_off(rig.height() + 1.5, force=True)
     rig.go_over_roof(2.5)
 
 
@@ -78,7 +83,11 @@ def fly(rig: Rig, fall_m: float, **reflex) -> tuple[Flight, str]:
 def check_against_the_model(rig: Rig, fall_m: float) -> None:
     """Fly one landing; its outcome class must be the model's for the contact state the vehicle reported."""
     flight, source = fly(rig, fall_m)
-    assert flight.states == SEQUENCE, (flight.history, source)
+    if flight.end == "ABORTED":  # a slide after the thrust is handed to the pilot, not disarmed
+        assert flight.states == [*SEQUENCE[:-1], "ABORTED"], (flight.history, source)
+        assert "sliding at" in flight.history[-1]["reason"], flight.history[-1]
+    else:
+        assert flight.states == SEQUENCE, (flight.history, source)
     c = flight.contact
     assert c is not None
     assert abs(c["slope"] - rig.slope_deg) < 1e-6
@@ -134,21 +143,43 @@ class TestRoof35:
 class TestRoof45:
     SLOPE = 45.0
 
+    @pytest.fixture
+    def rig(self):
+        """A vehicle of its own for each landing: on 45 deg a landing may end with the vehicle
+        sliding down the roof, handed to the pilot (ABORTED), not ready for the next one."""
+        with Rig(slope_deg=self.SLOPE, seed=45) as r:
+            r.take_off(3.0)
+            r.last_flight = None
+            yield r
+
     def test_a_slow_landing_rests_under_reverse_thrust_and_slides_once_it_stops(self, rig):
         flight, source = fly(rig, 0.1)
         c = flight.contact
-        assert c is not None and flight.end == "LANDED", (flight.history, source)
+        assert c is not None and flight.end in ("LANDED", "ABORTED"), (flight.history, source)
         predicted = simulate(flight.model_conditions()).result
         assert model_class(predicted.outcome) == "landed", (
             predicted.summary()
         )  # the model: held by the thrust
+        # the thrust ended on evidence: once at rest, after its minimum, before its bound
+        cfg = flight.cfg
+        ended = next(h for h in flight.history if h["to"] == "SETTLED")
+        assert "still under reverse thrust" in ended["reason"], ended
         stop = rig.track.event_times("EV_STOP", c["t"])  # the reflex's HOLD after the reverse thrust
-        assert stop and 0.4 < stop[0] - c["t"] < 0.6
+        shortest, longest = cfg["reflex.reverse_thrust_ms"] / 1000.0, cfg["reflex.reverse_max_ms"] / 1000.0
+        assert stop and shortest < stop[0] - c["t"] < longest, stop[0] - c["t"]
+        rig.wait(2.0, tick=flight.lander.poll)
         pos = rig.track.pos
         under_thrust = [p for p in pos if stop[0] - 0.05 <= p[0] <= stop[0]]
         after = [p for p in pos if stop[0] + 1.0 <= p[0] <= stop[0] + 1.5]
         assert under_thrust and max(math.hypot(p[3], p[4]) for p in under_thrust) < 0.05  # at rest
-        assert after and min(math.hypot(p[3], p[4]) for p in after) > 0.2  # sliding down the roof
+        # and yet a foot slips once the thrust ends (docs/flight-figures.md): it slides down the roof
+        assert after and min(math.hypot(p[3], p[4]) for p in after) > 0.2
+        if flight.end == "ABORTED":  # seen sliding before the disarm: handed to the pilot, armed
+            assert "sliding at" in flight.history[-1]["reason"], flight.history[-1]
+        else:  # disarmed at rest (speed and accel still for settle.still_s), the slip came after
+            t_landed = flight.time_of("LANDED")
+            before = [p for p in pos if t_landed - 0.3 <= p[0] <= t_landed]
+            assert before and max(math.hypot(p[3], p[4]) for p in before) <= cfg["settle.still_speed_mps"]
         assert flight.classify(rig.slope_deg)[0] == "slid"
 
     def test_a_fast_landing_ends_as_the_model_predicts_for_the_preset_flown(self, rig):

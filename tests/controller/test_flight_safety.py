@@ -22,10 +22,11 @@ from slopelander.controller.runner import Lander
 LOITER, GUIDED = 5, 4
 HOVER_M = 2.8  # above the roof: within the rangefinder's 3 m
 LOW_ARM = {"arm_height_m": 0.5}  # the descent lasts longer before the reflex is armed
-RC_SWITCH_T = 45.0  # vehicle time (s) the pilot flips channel 8 to the 2.5/2.5 N*m band
+RC_SWITCH_T = 45.0  # vehicle time (s) the pilot flips channel 8 to the "steep" band (2.5/2.5 N*m, 25 deg)
 DROPOUT_T = 120.0  # vehicle time (s) the rangefinder starts reporting NoData
 DROPOUT_S = 3.0
 SWITCHED = (2.5, 2.5)
+SWITCHED_ANGLE = 25.0  # uphill legs, deg below the horizontal (the legs rest at 37.5)
 SCENARIO = {
     # the pilot holds the throttle stick centred (LOITER holds height) and flips channel 8 once
     "rc": [{"t": 0.0, "channels": {3: 1500, 8: 1500}}, {"t": RC_SWITCH_T, "channels": {8: 1900}}],
@@ -36,7 +37,14 @@ RC_CONFIG = {
     "channel": 8,
     "presets": [
         {"min_us": 1000, "max_us": 1300, "tau_up_nm": 1.0, "tau_down_nm": 1.0},
-        {"min_us": 1800, "max_us": 2100, "tau_up_nm": SWITCHED[0], "tau_down_nm": SWITCHED[1]},
+        {
+            "min_us": 1800,
+            "max_us": 2100,
+            "tau_up_nm": SWITCHED[0],
+            "tau_down_nm": SWITCHED[1],
+            "name": "steep",
+            "angle_up_deg": SWITCHED_ANGLE,
+        },
     ],
 }
 
@@ -90,19 +98,28 @@ def test_the_pilots_preset_switch_sets_the_legs_during_a_landing(rig):
         if (
             settled is None
             and rig.now > RC_SWITCH_T
-            and all(abs(lg.torque_nm - SWITCHED[lg.leg // 2]) < 0.15 for lg in st.legs)
+            # while the angle is being set a leg reports no torque
+            and all(
+                lg.torque_nm is not None and abs(lg.torque_nm - SWITCHED[lg.leg // 2]) < 0.15
+                for lg in st.legs
+            )
         ):
             settled = rig.now
         if lander.machine.name == "DESCEND" and settled is not None:
             break
         rig.poll()
     reasons = [h["reason"] for h in lander.machine.history]
-    assert "pilot preset 2.50/2.50 N*m" in reasons, lander.machine.history
+    assert "pilot preset steep 2.50/2.50 N*m 25 deg" in reasons, lander.machine.history
     assert settled is not None, rig.legs.status
     took = settled - RC_SWITCH_T
     assert took < config()["legs.ready_timeout_s"], took
-    assert lander.ctx.preset == SWITCHED
-    assert [h["to"] for h in lander.machine.history][-3:] == ["LEGS_WAIT", "CHECKS", "DESCEND"]
+    assert lander.ctx.preset == SWITCHED and lander.ctx.uphill_angle_deg == SWITCHED_ANGLE
+    # the preset's angle set on the uphill legs first, as the table's: CHECKS passed on it again
+    uphill = [rig.legs.status.legs[i].angle_deg for i in rig.legs.pairs.uphill]
+    assert all(abs(a - SWITCHED_ANGLE) <= config()["legs.angle_tolerance_deg"] for a in uphill), uphill
+    assert [h["to"] for h in lander.machine.history][-3:] == ["LEGS_WAIT", "CHECKS", "DESCEND"], (
+        lander.machine.history[-2:]
+    )
     lander.machine.transition("ABORTED", "test: done", lander.inputs())
     assert_safe(rig, lander, "done")
 

@@ -256,11 +256,11 @@ def test_reset_gives_up_on_legs_that_never_report_loose():
 def test_a_script_stuck_in_reverse_thrust_is_released():
     m, act, _ = make()
     t = run_to(m, "REVERSE")
-    limit = m.ctx.cfg["reflex.reverse_thrust_ms"] / 1000.0 + 1.0
-    m.step(replace(OK, t=t + limit - 0.1, range_m=0.2, script_state=12))
+    limit = m.ctx.cfg["reflex.reverse_max_ms"] / 1000.0 + 1.0
+    m.step(replace(OK, t=t + limit - 0.1, range_m=0.2, script_state=12, speed_mps=0.1))
     assert m.name == "REVERSE"
     n = len(act.calls)
-    m.step(replace(OK, t=t + limit + 0.1, range_m=0.2, script_state=12))
+    m.step(replace(OK, t=t + limit + 0.1, range_m=0.2, script_state=12, speed_mps=0.1))
     assert m.name == "SETTLED" and "released" in m.history[-1]["reason"]
     assert ("release",) in act.calls[n:]
 
@@ -303,3 +303,104 @@ def test_reset_does_not_take_the_previous_presets_readiness_for_the_loosening():
     run_to(m, "LANDED")
     run_to(m, "RESET", t0=100.0)  # legs_ready stays True in these inputs, as the preset's op was
     assert m.name == "RESET"
+
+
+def test_reverse_thrust_lasts_its_minimum_then_ends_once_the_vehicle_is_still():
+    m, act, _ = make()
+    t = run_to(m, "REVERSE")
+    cfg = m.ctx.cfg
+    shortest, hold = cfg["reflex.reverse_thrust_ms"] / 1000.0, cfg["reflex.reverse_still_s"]
+    at_rest = replace(OK, range_m=0.2, script_state=12, speed_mps=0.0)
+    m.step(replace(at_rest, t=t + shortest - 0.05))
+    assert m.name == "REVERSE"  # still from the start, but the minimum is not over
+    n = len(act.calls)
+    m.step(replace(at_rest, t=t + shortest + 0.01))
+    assert m.name == "SETTLED" and "still under reverse thrust" in m.history[-1]["reason"]
+    assert ("reflex_end_reverse",) in act.calls[n:]
+    assert hold <= shortest  # the rest began at entry, so the hold was over by the minimum
+
+
+def test_reverse_thrust_goes_on_while_the_vehicle_slides_until_the_scripts_bound():
+    m, act, _ = make()
+    t = run_to(m, "REVERSE")
+    longest = m.ctx.cfg["reflex.reverse_max_ms"] / 1000.0
+    sliding = replace(OK, range_m=0.2, script_state=12, speed_mps=0.4)
+    for dt in (0.6, 1.0, 2.0, longest - 0.05):
+        m.step(replace(sliding, t=t + dt))
+        assert m.name == "REVERSE", dt
+    # a slide that ends under the thrust: rest for the hold time ends it
+    m.step(replace(sliding, t=t + longest - 0.04, speed_mps=0.01))
+    assert m.name == "REVERSE"
+    m.step(replace(sliding, t=t + longest - 0.03 + m.ctx.cfg["reflex.reverse_still_s"], speed_mps=0.01))
+    assert m.name == "SETTLED" and "reflex_end_reverse" in act.names()
+
+
+def test_the_scripts_bound_ends_reverse_thrust_and_a_slide_after_it_is_not_disarmed():
+    m, act, _ = make()
+    t = run_to(m, "REVERSE")
+    longest = m.ctx.cfg["reflex.reverse_max_ms"] / 1000.0
+    m.step(replace(OK, t=t + longest + 0.01, range_m=0.2, script_state=13, speed_mps=0.4))
+    assert m.name == "SETTLED" and "ended by the script" in m.history[-1]["reason"]
+    m.step(
+        replace(
+            OK, t=t + longest + 0.3, range_m=0.2, script_state=13, speed_mps=0.4, position_m=(0.1, 0, 0.07)
+        )
+    )
+    assert m.name == "ABORTED" and "sliding at 0.40 m/s, 0.12 m" in m.history[-1]["reason"]
+    assert "disarm" not in act.names()
+
+
+def test_a_steady_slide_reading_one_g_is_never_called_still():
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    n = len(act.calls)
+    # constant speed: no acceleration, so the accelerometer reads exactly 1 g
+    slide = replace(OK, range_m=0.2, script_state=13, accel_mps2=9.80665, speed_mps=0.5)
+    m.step(replace(slide, t=t + 0.1, position_m=(0.04, 0.0, 0.03)))
+    assert m.name == "SETTLED"  # 5 cm: a rebound of the legs looks like this too
+    m.step(replace(slide, t=t + 0.3, position_m=(0.12, 0.0, 0.09)))
+    assert m.name == "ABORTED" and "sliding at 0.50 m/s, 0.15 m" in m.history[-1]["reason"]
+    assert "disarm" not in [c[0] for c in act.calls[n:]]
+
+
+def test_creeping_below_the_slide_speed_is_not_still_either():
+    m, _, _ = make()
+    t = run_to(m, "SETTLED")
+    creep = replace(OK, range_m=0.2, script_state=13, speed_mps=0.1)  # between still and slide
+    for dt in (0.5, 1.5, 3.0):
+        m.step(replace(creep, t=t + dt))
+        assert m.name == "SETTLED", dt
+    m.step(replace(creep, t=t + 3.1, speed_mps=0.0))
+    m.step(replace(creep, t=t + 3.1 + m.ctx.cfg["settle.still_s"], speed_mps=0.0))
+    assert m.name == "LANDED" and m.history[-1]["reason"].startswith("still")
+
+
+def test_without_a_velocity_the_vehicle_is_not_disarmed_nor_the_landing_started():
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    blind = replace(OK, range_m=0.2, script_state=13, speed_mps=None)
+    m.step(replace(blind, t=t + 2.0))
+    assert m.name == "SETTLED"
+    m.step(replace(blind, t=t + m.ctx.cfg["settle.timeout_s"] + 0.1))
+    assert m.name == "ABORTED" and "speed unknown" in m.history[-1]["reason"]
+    assert "disarm" not in act.names()
+    m2, _, _ = make()
+    run_to(m2, "ABORTED", base=replace(OK, speed_mps=None))
+    assert any("no velocity" in h["reason"] for h in m2.history)
+
+
+def test_the_legs_rebound_when_the_thrust_stops_is_not_a_slide():
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    # as flown on a 37 deg roof: up to ~0.2 m/s for ~0.2 s, 3 cm in all, then at rest
+    for i, (v, dx) in enumerate([(0.05, 0.0), (0.15, 0.01), (0.18, 0.02), (0.13, 0.025), (0.06, 0.03)]):
+        m.step(
+            replace(
+                OK, t=t + 0.02 * (i + 1), range_m=0.2, script_state=13, speed_mps=v, position_m=(dx, 0, 0)
+            )
+        )
+        assert m.name == "SETTLED", (v, dx)
+    rest = replace(OK, range_m=0.2, script_state=13, speed_mps=0.0, position_m=(0.03, 0, 0))
+    m.step(replace(rest, t=t + 0.2))
+    m.step(replace(rest, t=t + 0.2 + m.ctx.cfg["settle.still_s"]))
+    assert m.name == "LANDED" and "disarm" in act.names()

@@ -148,6 +148,33 @@ def test_impact_reverses_then_holds(bench: Bench) -> None:
     assert bench.outputs() == [1500] * 4
 
 
+def test_a_refresh_during_reverse_thrust_sets_its_duration(bench: Bench) -> None:
+    cut_now(bench)
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    assert bench.io.state() == RVT
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 2000, 3000).result == ACCEPTED  # longer
+    bench.run(int(DUR_MS) + 500)
+    assert bench.io.state() == RVT and bench.outputs() == [1100] * 4  # past the armed 300 ms
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 0, 3000).result == ACCEPTED  # end it now
+    bench.run(30)
+    assert bench.io.state() == HOLD and bench.outputs() == [1500] * 4
+    assert bench.io.armed
+
+
+def test_reverse_thrust_stays_bounded_when_the_companion_goes_silent(bench: Bench) -> None:
+    cut_now(bench, validity_ms=500)
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 1500, 500).result == ACCEPTED
+    bench.run(1400)
+    assert bench.io.state() == RVT  # the last duration it was given, then no longer
+    bench.run(200)
+    assert not bench.io.armed and bench.io.state() == IDLE  # HOLD with a lapsed validity disarms
+
+
 def test_accel_noise_below_the_threshold_does_not_fire(bench: Bench) -> None:
     rng = random.Random(3)
     bench.io.range = good(1.0)

@@ -131,7 +131,9 @@ class MavActions:
             0,
         )
 
-    def reflex_arm(self) -> None:
+    def reflex_arm(self, reverse_ms: float | None = None) -> None:
+        """Arm (or refresh) the reflex; the reverse-thrust duration sent is the longest allowed
+        (``reflex.reverse_max_ms``, the script's bound if the companion goes silent)."""
         c = self.cfg.reflex
         self._cmd(
             "reflex",
@@ -140,9 +142,19 @@ class MavActions:
             c["cut_height_m"],
             c["impact_threshold_mps2"],
             c["reverse_thrust_pct"],
-            c["reverse_thrust_ms"],
+            c["reverse_max_ms"] if reverse_ms is None else reverse_ms,
             c["validity_ms"],
         )
+
+    def reflex_refresh(self) -> None:
+        """Renew the script's validity during its landing sequence (the same arm command: in
+        CUT, RVT and HOLD the script only extends the validity)."""
+        self.reflex_arm()
+
+    def reflex_end_reverse(self) -> None:
+        """End the script's reverse thrust now: a refresh with duration 0 (script contract 2);
+        the script holds the motors stopped (HOLD) and the refresh renews its validity."""
+        self.reflex_arm(reverse_ms=0)
 
     def reflex_abort(self) -> None:
         self._cmd("reflex", USER_2, 0)

@@ -27,6 +27,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.imu_hz": (1, 200, False),
     "link.range_hz": (1, 200, False),
     "link.min_delivered_fraction": (0.0, 1.0, False),
+    "link.poll_period_s": (0.0, 0.05, False),
+    "link.position_hz": (1, 200, False),
     "descent.rate_mps": (0.1, 3.0, False),
     "descent.resend_hz": (5, 50, False),
     "reflex.cut_height_m": (0.10, 2.00, False),
@@ -35,6 +37,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "reflex.impact_threshold_mps2": (5, 200, False),
     "reflex.reverse_thrust_pct": (0, 100, False),
     "reflex.reverse_thrust_ms": (0, 5000, True),
+    "reflex.reverse_max_ms": (0, 5000, True),
+    "reflex.reverse_still_s": (0.0, 2.0, False),
     "reflex.validity_ms": (100, 10000, True),
     "reflex.refresh_s": (0.05, 5.0, False),
     "range.max_age_s": (0.01, 5.0, False),
@@ -43,9 +47,14 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "legs.ready_timeout_s": (0.1, 60.0, False),
     "legs.board_silent_s": (0.05, 10.0, False),
     "legs.angle_tolerance_deg": (0.1, 20.0, False),
+    "legs.reconnect_s": (0.1, 60.0, False),
     "settle.still_s": (0.1, 10.0, False),
     "settle.still_mps2": (0.1, 10.0, False),
     "settle.timeout_s": (0.5, 60.0, False),
+    "settle.still_speed_mps": (0.005, 1.0, False),
+    "settle.slide_speed_mps": (0.01, 5.0, False),
+    "settle.slide_m": (0.01, 2.0, False),
+    "settle.velocity_max_age_s": (0.01, 5.0, False),
     "takeoff.clear_height_m": (0.2, 10.0, False),
     "rc_presets.channel": (1, 18, True),
 }
@@ -55,6 +64,10 @@ RC_PRESET_LIMITS = {
     "tau_up_nm": (0.0, 10.0),
     "tau_down_nm": (0.0, 10.0),
 }
+#: optional keys of a preset: its name (for the pilot's messages) and the uphill legs' angle (deg
+#: below the horizontal, as the table's; null or absent = the preset asks for no angle)
+RC_PRESET_OPTIONAL = ("name", "angle_up_deg")
+RC_ANGLE_LIMITS = (0.0, 90.0)
 
 
 class ConfigError(SlopelanderError, ValueError):
@@ -67,12 +80,15 @@ class ConfigError(SlopelanderError, ValueError):
 
 @dataclass(frozen=True)
 class RcPreset:
-    """One PWM band of the pilot's preset switch and the torques it selects (N·m)."""
+    """One PWM band of the pilot's preset switch and the named preset it selects: torques (N·m)
+    and, like the table's, the uphill legs' angle (deg; None = any angle)."""
 
     min_us: float
     max_us: float
     tau_up_nm: float
     tau_down_nm: float
+    name: str = ""
+    angle_up_deg: float | None = None
 
 
 class Config:
@@ -153,6 +169,10 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
             raise ConfigError(source, field, f"{v!r} is outside {lo:g}..{hi:g}")
     if doc["reflex"]["arm_height_m"] <= doc["reflex"]["cut_height_m"]:
         raise ConfigError(source, "reflex.arm_height_m", "must be above reflex.cut_height_m")
+    if doc["reflex"]["reverse_max_ms"] < doc["reflex"]["reverse_thrust_ms"]:
+        raise ConfigError(source, "reflex.reverse_max_ms", "must not be below reflex.reverse_thrust_ms")
+    if doc["settle"]["slide_speed_mps"] < doc["settle"]["still_speed_mps"]:
+        raise ConfigError(source, "settle.slide_speed_mps", "must not be below settle.still_speed_mps")
     if doc["reflex"]["refresh_s"] * 1000 >= doc["reflex"]["validity_ms"]:
         raise ConfigError(source, "reflex.refresh_s", "must be shorter than reflex.validity_ms")
     rc = doc.get("rc_presets", {})
@@ -164,15 +184,41 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
     presets = []
     for i, item in enumerate(items):
         name = f"rc_presets.presets[{i}]"
-        if not isinstance(item, dict) or set(item) != set(RC_PRESET_LIMITS):
-            raise ConfigError(source, name, f"expected exactly the keys {', '.join(RC_PRESET_LIMITS)}")
+        if (
+            not isinstance(item, dict)
+            or not set(RC_PRESET_LIMITS) <= set(item)
+            or not set(item) <= set(RC_PRESET_LIMITS) | set(RC_PRESET_OPTIONAL)
+        ):
+            raise ConfigError(
+                source,
+                name,
+                f"expected the keys {', '.join(RC_PRESET_LIMITS)} "
+                f"and optionally {', '.join(RC_PRESET_OPTIONAL)}",
+            )
         for k, (lo, hi) in RC_PRESET_LIMITS.items():
             v = item[k]
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi):
                 raise ConfigError(source, f"{name}.{k}", f"expected a number in {lo:g}..{hi:g}, got {v!r}")
         if item["min_us"] >= item["max_us"]:
             raise ConfigError(source, f"{name}.min_us", "must be below max_us")
-        presets.append(RcPreset(**{k: float(item[k]) for k in RC_PRESET_LIMITS}))
+        label = item.get("name", f"preset {i + 1}")
+        if not isinstance(label, str) or not label.strip() or len(label) > 20:
+            raise ConfigError(source, f"{name}.name", f"expected a name of 1..20 characters, got {label!r}")
+        angle = item.get("angle_up_deg")
+        lo, hi = RC_ANGLE_LIMITS
+        if angle is not None and (
+            isinstance(angle, bool) or not isinstance(angle, (int, float)) or not (lo <= angle <= hi)
+        ):
+            raise ConfigError(
+                source, f"{name}.angle_up_deg", f"expected null or a number in {lo:g}..{hi:g}, got {angle!r}"
+            )
+        presets.append(
+            RcPreset(
+                **{k: float(item[k]) for k in RC_PRESET_LIMITS},
+                name=label.strip(),
+                angle_up_deg=None if angle is None else float(angle),
+            )
+        )
     if rc["enabled"] and not presets:
         raise ConfigError(source, "rc_presets.presets", "enabled but empty")
     ordered = sorted(presets, key=lambda p: p.min_us)

@@ -180,7 +180,9 @@ def choose_leg_preset(
     """
     angle: float | None = None
     if pilot is not None:
-        up, down, source = pilot.tau_up_nm, pilot.tau_down_nm, "pilot preset"
+        up, down = pilot.tau_up_nm, pilot.tau_down_nm
+        source = f"pilot preset '{pilot.name}'" if pilot.name else "pilot preset"
+        angle = pilot.angle_up_deg
     elif table is not None:
         p: Preset = table.lookup(slope_deg, speed_mps)
         if not p.landed:

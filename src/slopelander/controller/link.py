@@ -11,14 +11,16 @@ from __future__ import annotations
 
 import math
 import select
+import struct
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from pymavlink import mavutil
 
 from slopelander.controller.clock import VehicleClock
+from slopelander.controller.frames import FrameFilter
 from slopelander.errors import SlopelanderError
 
 mavlink = mavutil.mavlink
@@ -39,6 +41,36 @@ _USEC_FIELDS = {
     "NAMED_VALUE_FLOAT": "time_boot_ms",
     "RC_CHANNELS": "time_boot_ms",
 }
+
+
+#: what a landing reads from the autopilot; everything else can be dropped before decoding
+LANDING_MESSAGES = frozenset(
+    {
+        "HEARTBEAT",
+        "COMMAND_ACK",
+        "STATUSTEXT",
+        "AUTOPILOT_VERSION",
+        "SYSTEM_TIME",
+        "NAMED_VALUE_FLOAT",
+        "RAW_IMU",
+        "DISTANCE_SENSOR",
+        "LOCAL_POSITION_NED",
+        "RC_CHANNELS",
+    }
+)
+#: the largest read from the link per call (a UDP read returns one datagram whatever this is)
+RECV_BYTES = 4096
+
+
+def message_ids(names) -> frozenset[int]:
+    """MAVLink message ids for message names; an unknown name is a :class:`LinkError`."""
+    ids = set()
+    for name in names:
+        msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}", None)
+        if not isinstance(msg_id, int):
+            raise LinkError(f"unknown MAVLink message name {name!r} in the messages to decode")
+        ids.add(msg_id)
+    return frozenset(ids)
 
 
 class LinkError(SlopelanderError):
@@ -112,15 +144,24 @@ class Link:
     ``url`` is any pymavlink connection string (``udpin:0.0.0.0:14550``, ``tcp:host:5760``,
     ``/dev/ttyACM0,921600``). :attr:`lost` becomes true after ``link_loss_s`` with nothing from the
     autopilot (local time), or with its messages but no HEARTBEAT for ``link_loss_s`` of vehicle time.
+    ``decode``: the message names to decode (e.g. :data:`LANDING_MESSAGES`); frames of any other
+    message are dropped unread (see :mod:`slopelander.controller.frames`). None decodes everything
+    through pymavlink's own reader.
     """
 
     def __init__(
-        self, url: str, *, link_loss_s: float = 1.5, monotonic: Callable[[], float] = time.monotonic
+        self,
+        url: str,
+        *,
+        link_loss_s: float = 1.5,
+        monotonic: Callable[[], float] = time.monotonic,
+        decode: Iterable[str] | None = None,
     ) -> None:
         if not isinstance(url, str) or not url.strip():
             raise LinkError("connection string is empty (expected e.g. udpin:0.0.0.0:14550)")
         if not (link_loss_s > 0 and math.isfinite(link_loss_s)):
             raise LinkError(f"link_loss_s must be a positive number of seconds, got {link_loss_s!r}")
+        self.filter = None if decode is None else FrameFilter(message_ids(decode))
         try:
             self.conn = mavutil.mavlink_connection(
                 url,
@@ -149,6 +190,10 @@ class Link:
         self._listeners: list[Callable[[object], None]] = []
 
     # ---------------------------------------------------------------- receiving
+    def set_decode(self, names: Iterable[str] | None) -> None:
+        """Decode only these messages from now on (None: all, through pymavlink's own reader)."""
+        self.filter = None if names is None else FrameFilter(message_ids(names))
+
     def add_listener(self, fn: Callable[[object], None]) -> None:
         """Call ``fn(msg)`` for every message from the autopilot (e.g. the impact detector)."""
         self._listeners.append(fn)
@@ -168,15 +213,42 @@ class Link:
 
     def poll(self) -> int:
         """Handle every waiting message, send what is due; return the number of messages read."""
+        n = self._read_filtered() if self.filter is not None else self._read_all()
+        self._send_due()
+        return n
+
+    def _read_all(self) -> int:
         n = 0
         while True:
             msg = self.conn.recv_match(blocking=False)
             if msg is None:
-                break
+                return n
             n += 1
             self._handle(msg)
-        self._send_due()
-        return n
+
+    def _read_filtered(self) -> int:
+        """Read raw bytes, drop unwanted frames, decode the rest: what ``recv_match`` does, less
+        its per-message bookkeeping (``conn.messages``, packet-loss counts) that nothing here reads.
+        The tlog, when one is set up, gets the decoded messages as pymavlink would write them."""
+        conn, n = self.conn, 0
+        while True:
+            data = conn.recv(RECV_BYTES)
+            if data:
+                if conn.logfile_raw:
+                    conn.logfile_raw.write(data)
+                if conn.first_byte:
+                    conn.auto_mavlink_version(data)
+                data = self.filter.feed(data)
+            # whole frames only reach the parser, but an empty read still drains its buffer
+            msgs = conn.mav.parse_buffer(data or b"") or ()
+            for msg in msgs:
+                if conn.logfile and msg.get_type() != "BAD_DATA":
+                    usec = int(time.time() * 1.0e6) & ~3
+                    conn.logfile.write(struct.pack(">Q", usec) + msg.get_msgbuf())
+                n += 1
+                self._handle(msg)
+            if not data and not msgs:
+                return n
 
     def _from_autopilot(self, msg) -> bool:
         if self.info is None:
@@ -340,14 +412,10 @@ class Link:
 
     @property
     def script_present(self) -> bool:
-        """The on-board script announced itself within the last second of vehicle time.
-
-        Vehicle time, not local time: a simulated vehicle slowed by a loaded machine sends its
-        5 Hz announcements further apart in local time; a vehicle that goes quiet altogether is
-        the link-loss check's business (local time), since its clock then stands still."""
-        if self._script_seen_at is None:
-            return False
-        return self.clock.now() - self._script_seen_at <= SCRIPT_SILENT_S
+        """The on-board script announced itself within the last second of the autopilot's time: a
+        simulation stalled by a loaded machine is not a silent script (a silent autopilot is link
+        loss, on the companion's own clock)."""
+        return self._script_seen_at is not None and self.clock.now() - self._script_seen_at <= SCRIPT_SILENT_S
 
     def wait_autopilot(
         self, timeout_s: float = 10.0, sleep: Callable[[float], None] = time.sleep

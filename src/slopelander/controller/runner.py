@@ -6,7 +6,10 @@ and steps the machine whenever vehicle time advanced.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import time
 from collections.abc import Callable
 from typing import IO
 
@@ -17,6 +20,7 @@ from slopelander.controller.link import Link, mavlink
 from slopelander.controller.machine import Machine
 from slopelander.controller.pilot_switch import APPLY_IN, WAIT_AGAIN, PresetSwitch
 from slopelander.controller.states.base import Context, Inputs
+from slopelander.legs.errors import LegBoardError
 
 MODE_NAMES = {v: k for k, v in MODES.items()}
 ENDINGS = ("LANDED", "ABORTED", "ESTOP", "READY")
@@ -26,6 +30,11 @@ SCRIPT_ESTOP = 20
 #: the longest the landing loop waits for input between polls: the leg board's queued writes and
 #: the descent setpoint's re-sends still go out at 200 Hz or more
 POLL_WAIT_S = 0.005
+#: a leg board that failed is reconnected only between landings: in a landing the failure policy
+#: (docs/failsafes.md) applies, and a fresh handshake must not reset legs under load
+RECONNECT_IN = ("LANDED", "READY", "ABORTED", "ESTOP")
+#: the reconnect's handshake, local seconds (the autopilot's clock is not read meanwhile)
+HANDSHAKE_S = 0.5
 
 
 class Lander:
@@ -55,7 +64,14 @@ class Lander:
         if legs is not None:  # the legs' timeouts run on vehicle time, like the machine's
             legs.set_clock(link.clock.now)
             legs.silence_timeout = cfg["legs.board_silent_s"]
+        #: the board this landing drives, also while it is disconnected (``self.legs`` is None then)
+        self.board = legs
+        self._reconnect_tried = -math.inf
+        if legs is not None and not legs.connected:  # it failed in an earlier landing
+            self.legs = None
+            self.act.legs = None
         self.start_preset = preset
+        self.start_angle_deg = uphill_angle_deg
         self.switch = PresetSwitch(cfg, link.last.get("RC_CHANNELS"))
         self._legs_t: float | None = None
 
@@ -77,6 +93,13 @@ class Lander:
             range_ok = fresh and inside and quality
         imu = ln.last.get("RAW_IMU")
         accel = math.dist((0, 0, 0), raw_imu_accel(imu)) if imu else 9.80665
+        pos = ln.last.get("LOCAL_POSITION_NED")
+        speed = position = None
+        if pos is not None and t - pos.time_boot_ms / 1000.0 <= cfg["settle.velocity_max_age_s"]:
+            speed = math.sqrt(pos.vx * pos.vx + pos.vy * pos.vy + pos.vz * pos.vz)
+            position = (pos.x, pos.y, pos.z)
+            if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
+                speed = position = None
         op = self.act.leg_op
         legs_fault = None if self.legs is not None else "no leg board connected"
         legs_fault = self.ctx.marks.get("legs_error") or legs_fault
@@ -105,6 +128,8 @@ class Lander:
             legs_fault=legs_fault,
             uphill_angles_deg=uphill,
             accel_mps2=accel,
+            speed_mps=speed,
+            position_m=position,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,
         )
@@ -126,11 +151,17 @@ class Lander:
                 self.legs.poll()
             except Exception as exc:  # a board that vanished is a leg failure, not a crash
                 self.act.leg_op = None
+                self.act.legs = None
+                with contextlib.suppress(Exception):
+                    self.legs.close()
                 self.legs = None
                 self.ctx.marks["legs_error"] = str(exc)
             self.act.advance()
+        else:
+            self._legs_back()
         inp = self.inputs()
-        self._pilot_switch(inp)
+        if self._pilot_switch(inp):
+            inp = self.inputs()  # the legs were just given another preset: read them again
         if inp.t > self._last_t or not inp.link_ok:
             self._last_t = inp.t
             before = self.machine.name
@@ -139,36 +170,81 @@ class Lander:
                 self.detector.arm_after_cut(inp.t)
         return self.machine.name
 
-    def _pilot_switch(self, inp: Inputs) -> None:
-        """Apply a change of the pilot's preset switch (see :mod:`pilot_switch`)."""
+    def _legs_back(self) -> None:
+        """Reconnect a board that failed once its port is back, between landings only
+        (:data:`RECONNECT_IN`, or before this landing starts), at most every ``legs.reconnect_s``."""
+        board = self.board
+        if board is None or (self.machine._started and self.machine.name not in RECONNECT_IN):
+            return
+        now = self.link.monotonic()
+        if now - self._reconnect_tried < self.cfg["legs.reconnect_s"]:
+            return
+        self._reconnect_tried = now
+        if not os.path.exists(board.port):  # a dangling link: the board is not back yet
+            return
+        board.set_clock(time.monotonic)  # the handshake waits in local time, not on the autopilot's
+        try:
+            board.reconnect(HANDSHAKE_S)
+        except (LegBoardError, OSError) as exc:
+            board.close()
+            self.ctx.marks["legs_error"] = f"leg board not back: {exc}"
+            return
+        finally:
+            board.set_clock(self.link.clock.now)
+        self.legs = self.act.legs = board
+        self.act.leg_op, self.act.leg_error = None, None
+        self.ctx.marks.pop("legs_error", None)
+        self._legs_t = None
+        self.act.statustext("SL leg board reconnected")
+
+    def _pilot_switch(self, inp: Inputs) -> bool:
+        """Apply a change of the pilot's preset switch (see :mod:`pilot_switch`); True when the
+        legs were given another preset."""
         changed, sel = self.switch.update(self.link.last.get("RC_CHANNELS"))
         if not changed:
-            return
-        preset = self.start_preset if sel is None else (sel.tau_up_nm, sel.tau_down_nm)
+            return False
+        if sel is None:
+            preset, angle, label = self.start_preset, self.start_angle_deg, "landing's preset"
+        else:
+            preset, angle, label = (
+                (sel.tau_up_nm, sel.tau_down_nm),
+                sel.angle_up_deg,
+                f"pilot preset {sel.name}",
+            )
         name = self.machine.name if self.machine._started else "PRESET"
-        what = f"pilot preset {preset[0]:.2f}/{preset[1]:.2f} N*m"
+        what = f"{label} {preset[0]:.2f}/{preset[1]:.2f} N*m" + ("" if angle is None else f" {angle:g} deg")
         if name not in APPLY_IN:
             self.act.statustext(f"SL {what} ignored in {name}"[:50])
-            return
+            return False
+        refused = self.act.check_preset(*preset)
+        if refused is not None:
+            self.act.statustext(f"SL {what} refused: {refused}"[:50])
+            return False
         self.ctx.preset = preset
+        self.ctx.uphill_angle_deg = angle  # CHECKS holds the legs to it, as to the table's
         if name == "READY":
             self.ctx.next_preset = preset
-        self.act.set_legs(*preset)
+        self.act.set_legs(*preset, angle)
         self.act.statustext(f"SL {what}"[:50])
         if self.machine._started and name in WAIT_AGAIN:
             if name == "DESCEND":  # stop the descent now, not after GUID_TIMEOUT
                 self.act._last_descent = -1.0
                 self.act.descend(0.0)
             self.machine.transition("LEGS_WAIT", what, inp)
+        return True
 
     def run(
         self, timeout_s: float, sleep: Callable[[float], None] | None = None, until: tuple[str, ...] = ENDINGS
     ) -> str:
         """Poll until an ending state (or ``timeout_s`` local seconds: then abort); returns the state.
         Between polls it waits for the link or the leg board to have bytes (at most
-        ``POLL_WAIT_S``), or calls ``sleep`` when one is given (tests)."""
+        ``POLL_WAIT_S``), or calls ``sleep`` when one is given (tests). Polls are at least
+        ``link.poll_period_s`` apart: the IMU, range and position frames of one autopilot cycle
+        arrive as separate datagrams, and one wake-up for all of them is most of the CPU saved."""
         t0 = self.link.monotonic()
+        period = self.cfg["link.poll_period_s"]
         while True:
+            started = time.monotonic()
             name = self.poll()
             if self.machine._started and name in until:
                 return name
@@ -180,5 +256,8 @@ class Lander:
             if sleep is not None:
                 sleep(0.001)
             else:
+                rest = period - (time.monotonic() - started)
+                if rest > 0:
+                    time.sleep(rest)  # a rate limit, not a synchronisation: the wait below follows
                 legs = self.legs.fileno() if self.legs is not None else None
                 self.link.wait_readable(POLL_WAIT_S, () if legs is None else (legs,))

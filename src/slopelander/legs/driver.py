@@ -527,6 +527,11 @@ class LegBoard:
         self.clock = clock
         self._shift(offset)
 
+    @property
+    def connected(self) -> bool:
+        """Whether the port is open (False after :meth:`close`, or before a reconnect)."""
+        return self._ser is not None
+
     def fileno(self) -> int | None:
         """The port's file descriptor while open (for a caller that waits on it), else None."""
         try:

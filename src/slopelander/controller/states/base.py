@@ -18,6 +18,8 @@ class Actions(Protocol):
     def descend(self, rate_mps: float) -> None: ...
     def reflex_arm(self) -> None: ...
     def reflex_abort(self) -> None: ...
+    def reflex_end_reverse(self) -> None: ...
+    def reflex_refresh(self) -> None: ...
     def release(self) -> None: ...
     def reverse(self, pct: float, ms: int) -> None: ...
     def disarm(self) -> None: ...
@@ -43,6 +45,10 @@ class Inputs:
     #: the uphill legs' angles as the board reports them (deg below the horizontal; empty: unknown)
     uphill_angles_deg: tuple[float, ...] = ()
     accel_mps2: float = 9.81
+    #: the vehicle's speed (m/s) from LOCAL_POSITION_NED; None when none arrived recently
+    speed_mps: float | None = 0.0
+    #: the vehicle's position (m, north-east-down) from the same message; None when unknown
+    position_m: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
     impact: bool = False
     takeoff_request: bool = False
 
@@ -65,7 +71,34 @@ class Context:
     uphill_angle_deg: float | None = None
     next_preset: tuple[float, float] | None = None
     entered_at: float = 0.0
-    marks: dict[str, float] = field(default_factory=dict)
+    marks: dict[str, Any] = field(default_factory=dict)
+
+
+G = 9.80665
+#: the script's CUT, RVT and HOLD: its landing sequence, where a re-sent arm only renews validity
+SCRIPT_LANDING = (11, 12, 13)
+
+
+def still(cfg: Any, inp: Inputs) -> bool:
+    """At rest on the ground: the accelerometer reads 1 g (``settle.still_mps2``) AND the vehicle's
+    speed is known and at most ``settle.still_speed_mps``. The accelerometer alone cannot tell a
+    steady slide (no acceleration) from rest."""
+    return (
+        abs(inp.accel_mps2 - G) <= cfg["settle.still_mps2"]
+        and inp.speed_mps is not None
+        and inp.speed_mps <= cfg["settle.still_speed_mps"]
+    )
+
+
+def keep_reflex(ctx: Context, inp: Inputs) -> None:
+    """Re-send the reflex arm every ``reflex.refresh_s``: after the cut it only renews the script's
+    validity (a lapse in HOLD disarms: the script's answer to a silent companion), so a companion
+    that is alive keeps the decision to disarm for itself."""
+    if inp.script_state not in SCRIPT_LANDING:  # never re-arm a script that has let go
+        return
+    if inp.t - ctx.marks.get("reflex_sent", -1e9) >= ctx.cfg["reflex.refresh_s"]:
+        ctx.act.reflex_refresh()
+        ctx.marks["reflex_sent"] = inp.t
 
 
 class State:

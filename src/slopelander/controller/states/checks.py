@@ -13,6 +13,8 @@ def refusal(inp: Inputs) -> str | None:
         return "rangefinder not healthy"
     if not inp.legs_ready:
         return "legs not ready"
+    if inp.speed_mps is None:
+        return "no velocity (LOCAL_POSITION_NED): rest could not be told from a slide"
     if inp.mode != "GUIDED":
         return f"mode {inp.mode}, GUIDED needed"
     if not inp.armed:
