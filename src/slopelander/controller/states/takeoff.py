@@ -4,19 +4,53 @@ from __future__ import annotations
 
 from slopelander.controller.states.base import Context, Inputs, State
 
+#: a reading is believed only when it follows the last believed one within this jump plus what the
+#: fastest climb covers in between: a spike of the rangefinder on the ground is not a climb
+JUMP_M = 0.1
+MAX_CLIMB_MPS = 3.0
+#: the believed range stays at or above the clear height this long before the legs loosen
+HOLD_S = 0.5
+#: readings that disagree with the believed one for this long start a new chain (the sensor came
+#: back after a dropout during the climb); the hold then starts again
+RESEED_S = 1.0
+
 
 class Takeoff(State):
-    """Releases the script, takes off, and moves on once the range shows the vehicle clear."""
+    """Releases the script, takes off, and moves on once the range shows the vehicle clear: a
+    chain of readings that each follow the last (no spike, no jump) above the clear height for
+    ``HOLD_S`` (found by the soak benchmark: one spike on the ground loosened the legs)."""
 
     name = "TAKEOFF"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         ctx.act.release()
         ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+        ctx.marks["takeoff_range"] = None  # (t, m) of the last believed reading
+        ctx.marks["takeoff_disagree"] = None  # since when readings disagree with it
+        ctx.marks["takeoff_clear"] = None  # since when the believed range is clear
         return None
 
     def step(self, ctx: Context, inp: Inputs):
         # a stale or invalid reading must never loosen the legs on the ground
-        if inp.range_valid and inp.range_m >= ctx.cfg["takeoff.clear_height_m"]:
+        if not inp.range_valid:
+            return None
+        last = ctx.marks.get("takeoff_range")
+        m = ctx.marks
+        if last is not None and abs(inp.range_m - last[1]) > JUMP_M + MAX_CLIMB_MPS * (inp.t - last[0]):
+            if m.get("takeoff_disagree") is None:
+                m["takeoff_disagree"] = inp.t
+            if inp.t - m["takeoff_disagree"] < RESEED_S:
+                m["takeoff_clear"] = None
+                return None
+            m["takeoff_clear"] = None  # a new chain: the hold starts again
+        m["takeoff_disagree"] = None
+        m["takeoff_range"] = (inp.t, inp.range_m)
+        clear = ctx.cfg["takeoff.clear_height_m"]
+        if inp.range_m < clear:
+            m["takeoff_clear"] = None
+            return None
+        if m.get("takeoff_clear") is None:
+            m["takeoff_clear"] = inp.t
+        if inp.t - m["takeoff_clear"] >= HOLD_S:
             return ("RESET", f"clear of the ground at {inp.range_m:.2f} m")
         return None
