@@ -164,6 +164,7 @@ class Soak:
         span = 60.0 * self.a.per_vehicle + 200.0
         self.scenario_faults = background_faults(self.rng, span)
         scenario = {
+            "rc": [{"t": 0.0, "channels": {3: 1500}}],  # throttle centred: LOITER holds after an abort
             "faults": self.scenario_faults,
             "wind": {
                 "random_gusts": {
