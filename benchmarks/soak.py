@@ -410,6 +410,7 @@ def main() -> None:
         raise HangError("wall-time limit")
 
     signal.signal(signal.SIGALRM, alarm)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))  # stop the vehicle and board on the way out
     try:
         for i in tqdm(range(a.landings), unit="landing", file=sys.stderr):
             if time.monotonic() - wall0 > 60.0 * a.minutes:

@@ -362,3 +362,15 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
             seen_at = i * 0.02
             break
     assert seen_at is not None and seen_at >= 0.5  # believed as a new chain after a hold
+
+
+def test_takeoff_without_a_trustworthy_range_ends_with_the_legs_clamped():
+    """Found by the soak: the vehicle climbed out of the rangefinder's reach during a dropout and
+    TAKEOFF waited for ever. The legs stay clamped (safe in the air) and the pilot is told."""
+    m, t = _to_takeoff()
+    for _ in range(1000):
+        t += 0.02
+        if m.step(replace(OK, t=t, range_m=3.0, range_ok=False)) != "TAKEOFF":
+            break
+    assert m.name == "READY" and "legs left clamped" in m.history[-1]["reason"], m.history[-1]
+    assert 15.0 <= t - m.history[-2]["t"] < 15.1

@@ -13,6 +13,9 @@ HOLD_S = 0.5
 #: readings that disagree with the believed one for this long start a new chain (the sensor came
 #: back after a dropout during the climb); the hold then starts again
 RESEED_S = 1.0
+#: no believed clear range within this (vehicle time): the climb goes on without the legs
+#: loosened (clamped legs are safe in the air), the machine ends in READY and tells the pilot
+GIVE_UP_S = 15.0
 
 
 class Takeoff(State):
@@ -31,6 +34,8 @@ class Takeoff(State):
         return None
 
     def step(self, ctx: Context, inp: Inputs):
+        if inp.t - ctx.entered_at > GIVE_UP_S:
+            return ("READY", f"legs left clamped: no trustworthy clear range within {GIVE_UP_S:g} s")
         # a stale or invalid reading must never loosen the legs on the ground
         if not inp.range_valid:
             return None
