@@ -193,7 +193,12 @@ class Soak:
     def ready_over_roof(self) -> None:
         """Bring the vehicle (whatever the last landing left) to a hover over the roof, legs loose."""
         rig = self.rig
-        if not rig.armed():
+        if rig.track.pos and self.clearance(rig.now) < 0.3:  # on the roof: from the start again
+            if rig.armed():
+                rig.wait_command(rig.link.command(400, 0, 21196), "disarm")  # forced, on the roof
+                rig.fly_until(lambda: not rig.armed(), 5.0, "report disarmed")
+            rig.take_off(3.0, force=True)
+        elif not rig.armed():
             rig.take_off(3.0, force=True)
         if rig.mode() != GUIDED:
             rig.wait_command(rig.link.command(MAV_CMD_DO_SET_MODE, 1, GUIDED), "GUIDED")
@@ -276,6 +281,7 @@ class Soak:
         self.lander = lander = Lander(rig.link, cfg, (p.tau_up, p.tau_down), legs=rig.legs)
         self.forever_until = None
         t0 = rig.now
+        said0 = len(rig.track.statustext)
         fired = fault in ("none", "link_noise")
         seen = set()
         end = None
@@ -322,6 +328,8 @@ class Soak:
         )
         if not fired:
             row["hit_state"] = "never reached"
+        row["after"] = {"armed": rig.armed(), "clearance": round(self.clearance(rig.now), 2)}
+        row["vehicle_said"] = [t for t in rig.track.statustext[said0:] if not t.startswith("SL ")][:12]
         if end == "hang":  # what the companion saw last, to tell why
             tr = rig.track
             row["last"] = {

@@ -11,6 +11,7 @@ import pytest
 from slopelander.controller.config import load_config
 from slopelander.controller.machine import Machine
 from slopelander.controller.states.base import Context, Inputs
+from slopelander.controller.states.takeoff import HOLD_S
 
 
 class Recorder:
@@ -288,7 +289,7 @@ def test_a_number_in_an_invalid_range_never_loosens_the_legs(bad):
             != "TAKEOFF"
         ):
             break
-    assert m.name == "RESET" and i * 0.02 >= 0.5 - 1e-9
+    assert m.name == "RESET" and i * 0.02 >= HOLD_S - 1e-9
 
 
 def test_reset_reports_legs_that_do_not_loosen():
@@ -351,7 +352,7 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
         rng += 0.02  # 1 m/s
         m.step(replace(OK, t=t, range_m=rng))
     assert [h["to"] for h in m.history][-2:] in (["TAKEOFF", "RESET"], ["RESET", "READY"]), m.history[-2:]
-    assert rng >= 0.8 + 0.5 * 1.0 - 0.03  # held clear for HOLD_S
+    assert rng >= 0.8 + HOLD_S * 1.0 - 0.03  # held clear for HOLD_S
     m, t = _to_takeoff()
     t += 2.0  # no valid reading while climbing 2 m, then the sensor is back far above
     seen_at = None
@@ -361,7 +362,7 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
         if m.name != "TAKEOFF":
             seen_at = i * 0.02
             break
-    assert seen_at is not None and seen_at >= 0.5  # believed as a new chain after a hold
+    assert seen_at is not None and seen_at >= HOLD_S  # believed as a new chain after a hold
 
 
 def test_takeoff_without_a_trustworthy_range_ends_with_the_legs_clamped():

@@ -9,7 +9,7 @@ from slopelander.controller.states.base import Context, Inputs, State
 JUMP_M = 0.1
 MAX_CLIMB_MPS = 3.0
 #: the believed range stays at or above the clear height this long before the legs loosen
-HOLD_S = 0.5
+HOLD_S = 0.25
 #: readings that disagree with the believed one for this long start a new chain (the sensor came
 #: back after a dropout during the climb); the hold then starts again
 RESEED_S = 1.0
@@ -36,11 +36,12 @@ class Takeoff(State):
     def step(self, ctx: Context, inp: Inputs):
         if inp.t - ctx.entered_at > GIVE_UP_S:
             return ("READY", f"legs left clamped: no trustworthy clear range within {GIVE_UP_S:g} s")
-        # a stale or invalid reading must never loosen the legs on the ground
+        m = ctx.marks
+        last = m.get("takeoff_range")
+        # a stale or invalid reading must never loosen the legs on the ground (nor one beyond the
+        # sensor's reach: a vehicle that climbs out of it first ends by GIVE_UP_S, legs clamped)
         if not inp.range_valid:
             return None
-        last = ctx.marks.get("takeoff_range")
-        m = ctx.marks
         if last is not None and abs(inp.range_m - last[1]) > JUMP_M + MAX_CLIMB_MPS * (inp.t - last[0]):
             if m.get("takeoff_disagree") is None:
                 m["takeoff_disagree"] = inp.t
