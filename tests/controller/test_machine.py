@@ -375,3 +375,23 @@ def test_takeoff_without_a_trustworthy_range_ends_with_the_legs_clamped():
             break
     assert m.name == "READY" and "legs left clamped" in m.history[-1]["reason"], m.history[-1]
     assert 15.0 <= t - m.history[-2]["t"] < 15.1
+
+
+def test_a_refused_take_off_is_sent_again_once_armed():
+    """Found by the soak: on a lossy link the take-off arrived before the arm, was refused, and the
+    vehicle sat armed on the roof."""
+    m, t = _to_takeoff()
+    act = m.ctx.act
+    act.refused = lambda key: key == "takeoff"  # what MavActions reports from the command's answer
+    sent = len([c for c in act.calls if c[0] == "takeoff"])
+    for _ in range(150):  # 3 s on the roof, armed, the take-off refused
+        t += 0.02
+        m.step(replace(OK, t=t, range_m=0.1, armed=True))
+    again = len([c for c in act.calls if c[0] == "takeoff"]) - sent
+    assert 2 <= again <= 3, again  # once a second
+    m, t = _to_takeoff()
+    m.ctx.act.refused = lambda key: key == "takeoff"
+    for _ in range(150):  # disarmed: sending the take-off again would only be refused again
+        t += 0.02
+        m.step(replace(OK, t=t, range_m=0.1, armed=False))
+    assert len([c for c in m.ctx.act.calls if c[0] == "takeoff"]) == 1
