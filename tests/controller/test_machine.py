@@ -11,6 +11,7 @@ import pytest
 from slopelander.controller.config import load_config
 from slopelander.controller.machine import Machine
 from slopelander.controller.states.base import Context, Inputs
+from slopelander.controller.states.takeoff import HOLD_S
 
 
 class Recorder:
@@ -286,8 +287,13 @@ def test_a_number_in_an_invalid_range_never_loosens_the_legs(bad):
     assert m.name == "TAKEOFF" and "loosen_legs" not in [c[0] for c in act.calls]
     m.step(replace(OK, t=t + 0.2, range_m=bad, range_ok=True, takeoff_request=True))
     assert m.name == "TAKEOFF" and "loosen_legs" not in [c[0] for c in act.calls]
-    m.step(replace(OK, t=t + 0.3, range_m=1.0, range_ok=True, takeoff_request=True))
-    assert m.name == "RESET"
+    for i in range(30):  # a believed range above the clear height, held for 0.5 s
+        if (
+            m.step(replace(OK, t=t + 0.3 + 0.02 * i, range_m=1.0, range_ok=True, takeoff_request=True))
+            != "TAKEOFF"
+        ):
+            break
+    assert m.name == "RESET" and i * 0.02 >= HOLD_S - 1e-9
 
 
 def test_reset_reports_legs_that_do_not_loosen():
@@ -404,3 +410,93 @@ def test_the_legs_rebound_when_the_thrust_stops_is_not_a_slide():
     m.step(replace(rest, t=t + 0.2))
     m.step(replace(rest, t=t + 0.2 + m.ctx.cfg["settle.still_s"]))
     assert m.name == "LANDED" and "disarm" in act.names()
+
+
+def test_armed_ends_when_the_autopilot_disarms_before_the_cut():
+    """Feet on the roof before the range reached the cut height: the autopilot's land detector
+    disarms, the script cannot cut any more; ARMED must not wait for a cut for ever (found by the
+    soak benchmark)."""
+    m, _, _ = make()
+    t = run_to(m, "ARMED")
+    m.step(replace(OK, t=t + 0.1, range_m=0.35, armed=False))
+    assert m.name == "LANDED" and "before the cut" in m.history[-1]["reason"]
+    m, _, _ = make()
+    t = run_to(m, "ARMED")
+    m.step(replace(OK, t=t + 0.1, range_m=2.5, armed=False))
+    assert m.name == "ABORTED" and "in the air" in m.history[-1]["reason"]
+
+
+def _to_takeoff():
+    m, _, _ = make()
+    t = run_to(m, "LANDED")
+    m.step(replace(OK, t=t + 0.02, range_m=0.1, armed=False, takeoff_request=True))
+    assert m.name == "TAKEOFF"
+    return m, t + 0.02
+
+
+@pytest.mark.parametrize("spike_s", [0.02, 0.3, 0.9])
+def test_a_rangefinder_spike_on_the_ground_does_not_loosen_the_legs(spike_s):
+    """Found by the soak benchmark: one reading of 2.4 m on the ground took the vehicle for clear."""
+    m, t = _to_takeoff()
+    for _ in range(int(spike_s / 0.02)):  # the spike
+        t += 0.02
+        m.step(replace(OK, t=t, range_m=2.42))
+    for _ in range(50):  # back on the ground: 0.1 m, for a second
+        t += 0.02
+        m.step(replace(OK, t=t, range_m=0.1))
+    assert m.name == "TAKEOFF", m.history[-1]
+
+
+def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_dropout():
+    m, t = _to_takeoff()
+    rng = 0.1
+    for _ in range(500):
+        if m.name != "TAKEOFF":
+            break
+        t += 0.02
+        rng += 0.02  # 1 m/s
+        m.step(replace(OK, t=t, range_m=rng))
+    assert [h["to"] for h in m.history][-2:] in (["TAKEOFF", "RESET"], ["RESET", "READY"]), m.history[-2:]
+    assert rng >= 0.8 + HOLD_S * 1.0 - 0.03  # held clear for HOLD_S
+    m, t = _to_takeoff()
+    t += 2.0  # no valid reading while climbing 2 m, then the sensor is back far above
+    seen_at = None
+    for i in range(200):
+        t += 0.02
+        m.step(replace(OK, t=t, range_m=2.1 + 0.02 * i))
+        if m.name != "TAKEOFF":
+            seen_at = i * 0.02
+            break
+    assert seen_at is not None and seen_at >= HOLD_S  # believed as a new chain after a hold
+
+
+def test_takeoff_without_a_trustworthy_range_ends_with_the_legs_clamped():
+    """Found by the soak: the vehicle climbed out of the rangefinder's reach during a dropout and
+    TAKEOFF waited for ever. The legs stay clamped (safe in the air) and the pilot is told."""
+    m, t = _to_takeoff()
+    for _ in range(1000):
+        t += 0.02
+        if m.step(replace(OK, t=t, range_m=3.0, range_ok=False)) != "TAKEOFF":
+            break
+    assert m.name == "READY" and "legs left clamped" in m.history[-1]["reason"], m.history[-1]
+    assert 15.0 <= t - m.history[-2]["t"] < 15.1
+
+
+def test_a_refused_take_off_is_sent_again_once_armed():
+    """Found by the soak: on a lossy link the take-off arrived before the arm, was refused, and the
+    vehicle sat armed on the roof."""
+    m, t = _to_takeoff()
+    act = m.ctx.act
+    act.refused = lambda key: key == "takeoff"  # what MavActions reports from the command's answer
+    sent = len([c for c in act.calls if c[0] == "takeoff"])
+    for _ in range(150):  # 3 s on the roof, armed, the take-off refused
+        t += 0.02
+        m.step(replace(OK, t=t, range_m=0.1, armed=True))
+    again = len([c for c in act.calls if c[0] == "takeoff"]) - sent
+    assert 2 <= again <= 3, again  # once a second
+    m, t = _to_takeoff()
+    m.ctx.act.refused = lambda key: key == "takeoff"
+    for _ in range(150):  # disarmed: sending the take-off again would only be refused again
+        t += 0.02
+        m.step(replace(OK, t=t, range_m=0.1, armed=False))
+    assert len([c for c in m.ctx.act.calls if c[0] == "takeoff"]) == 1

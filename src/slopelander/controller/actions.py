@@ -175,3 +175,9 @@ class MavActions:
 
     def statustext(self, text: str) -> None:
         self.link.send_statustext(text)
+
+    def refused(self, key: str) -> bool:
+        """Whether the last command of this kind (``"takeoff"``, ``"arm"``, ...) was answered
+        with anything but ACCEPTED or never answered."""
+        h = self.pending.get(key)
+        return bool(h is not None and h.done and not h.ok)

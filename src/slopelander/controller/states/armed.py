@@ -18,6 +18,12 @@ class Armed(State):
         return None
 
     def step(self, ctx: Context, inp: Inputs):
+        if not inp.armed:
+            # the autopilot disarmed (its land detector: the feet met the roof before the range
+            # reached the cut height): the script cannot cut any more, so waiting here is for ever
+            if inp.range_valid and inp.range_m <= ctx.cfg["reflex.arm_height_m"]:
+                return ("LANDED", "disarmed by the autopilot before the cut: on the ground")
+            return ("ABORTED", "disarmed by the autopilot in the air")
         ctx.act.descend(ctx.cfg["descent.rate_mps"])
         if inp.t - ctx.marks["reflex_sent"] >= ctx.cfg["reflex.refresh_s"]:
             ctx.act.reflex_arm()

@@ -4,19 +4,71 @@ from __future__ import annotations
 
 from slopelander.controller.states.base import Context, Inputs, State
 
+#: a reading is believed only when it follows the last believed one within this jump plus what the
+#: fastest climb covers since the previous valid reading: a spike on the ground is not a climb
+JUMP_M = 0.1
+MAX_CLIMB_MPS = 8.0  # with the slant of a body still tilting level after leaving the roof
+#: the believed range stays at or above the clear height this long before the legs loosen
+HOLD_S = 0.25
+#: readings that disagree with the believed one for this long start a new chain (the sensor came
+#: back after a dropout during the climb); the hold then starts again
+RESEED_S = 1.0
+#: no believed clear range within this (vehicle time): the climb goes on without the legs
+#: loosened (clamped legs are safe in the air), the machine ends in READY and tells the pilot
+GIVE_UP_S = 15.0
+
 
 class Takeoff(State):
-    """Releases the script, takes off, and moves on once the range shows the vehicle clear."""
+    """Releases the script, takes off, and moves on once the range shows the vehicle clear: a
+    chain of readings that each follow the last (no spike, no jump) above the clear height for
+    ``HOLD_S`` (found by the soak benchmark: one spike on the ground loosened the legs)."""
 
     name = "TAKEOFF"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         ctx.act.release()
         ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+        ctx.marks["takeoff_range"] = None  # (t, m) of the last believed reading
+        ctx.marks["takeoff_disagree"] = None  # since when readings disagree with it
+        ctx.marks["takeoff_clear"] = None  # since when the believed range is clear
+        ctx.marks["takeoff_sent"] = inp.t
+        ctx.marks["takeoff_prev_t"] = None  # time of the previous valid reading, believed or not
         return None
 
     def step(self, ctx: Context, inp: Inputs):
-        # a stale or invalid reading must never loosen the legs on the ground
-        if inp.range_valid and inp.range_m >= ctx.cfg["takeoff.clear_height_m"]:
+        if inp.t - ctx.entered_at > GIVE_UP_S:
+            return ("READY", f"legs left clamped: no trustworthy clear range within {GIVE_UP_S:g} s")
+        m = ctx.marks
+        if inp.armed and ctx.act.refused("takeoff") and inp.t - m.get("takeoff_sent", -1.0) >= 1.0:
+            # on a lossy link the take-off can arrive before the arm (or the mode) and be refused
+            # (found by the soak: armed on the roof, never climbing): send it again, armed now
+            m["takeoff_sent"] = inp.t
+            ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+        last = m.get("takeoff_range")
+        # a stale or invalid reading must never loosen the legs on the ground (nor one beyond the
+        # sensor's reach: a vehicle that climbs out of it first ends by GIVE_UP_S, legs clamped)
+        if not inp.range_valid:
+            return None
+        # the allowance grows only over time without any valid reading (a dropout), not while
+        # readings keep coming and disagree (a spike that lasts)
+        prev_t = m.get("takeoff_prev_t")
+        m["takeoff_prev_t"] = inp.t
+        gap = inp.t - prev_t if prev_t is not None else 0.0
+        if last is not None and abs(inp.range_m - last[1]) > JUMP_M + MAX_CLIMB_MPS * gap:
+            if m.get("takeoff_disagree") is None:
+                m["takeoff_disagree"] = inp.t
+            if inp.t - m["takeoff_disagree"] < RESEED_S:
+                m["takeoff_clear"] = None
+                return None
+            m["takeoff_clear"] = None  # a new chain: the hold starts again
+        m["takeoff_disagree"] = None
+        m["takeoff_range"] = (inp.t, inp.range_m)
+        clear = ctx.cfg["takeoff.clear_height_m"]
+        if inp.range_m < clear:
+            m["takeoff_clear"] = None
+            return None
+        if m.get("takeoff_clear") is None:
+            m["takeoff_clear"] = inp.t
+        if inp.t - m["takeoff_clear"] >= HOLD_S:
             return ("RESET", f"clear of the ground at {inp.range_m:.2f} m")
         return None

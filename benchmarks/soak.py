@@ -1,0 +1,500 @@
+"""Soak: many simulated landings across the envelope with random faults, by the companion's
+controller against the simulated vehicle and leg board (real processes, lock-step, the link
+through the fault-injecting relay). Prints the outcome table, the safety checks and the growth of
+the companion process (this one: it runs the controller) in memory, threads and open files.
+
+    python3 benchmarks/soak.py [--landings 1000] [--seed 1] [--per-vehicle 25] [--speed 8]
+                               [--minutes M] [--log soak.jsonl]
+
+Envelope: each vehicle (started afresh every ``--per-vehicle`` landings, and after a landing that
+leaves it unusable: an emergency stop, an unplugged leg board, a rig error) flies one roof of
+15..45 deg; each landing draws an impact speed of 1.0..2.5 m/s (the cut height is chosen for it)
+and flies the lookup table's preset for that cell.
+
+Faults, one drawn per landing (weights in ``FAULTS``):
+- ``link_noise``: for the whole landing the relay drops, duplicates, reorders, corrupts and delays
+  frames (each rate drawn up to 10 %, delay up to 50 ms with jitter);
+- ``cut_0.5``, ``cut_3``, ``cut_forever``: the relay cuts the link for 0.5 s, 3 s, or until the
+  landing is given up (8 s of wall time, then restored to look at the vehicle), when the landing
+  reaches a state drawn from PRESET .. RESET (a state the machine passes within one step is hit on
+  the first poll after it: the state actually hit is what the table shows);
+- ``leg_stuck``/``leg_slip``/``leg_overcurrent`` (one leg), ``leg_silent``, ``leg_corrupt`` (a byte
+  rate of 1..30 %), ``leg_unplug``: injected in the board process in a drawn state;
+- ``pilot_mode``: the pilot switches to LOITER in a drawn state; ``pilot_estop``: the pilot's
+  emergency stop (``MAV_CMD_DO_AUX_FUNCTION`` 31) in a drawn state;
+- in the background of every vehicle, from its scenario: rangefinder dropouts, spikes and stuck
+  readings, IMU spikes and random gusts at random vehicle times; a landing that overlaps one
+  lists it in the table under ``sensor faults seen``.
+
+Checks per landing ("unsafe" = any of these):
+- ``hang``: no ending (LANDED→READY, ABORTED, ESTOP, READY) within 150 s of vehicle time or 300 s
+  of wall time;
+- ``stop_high``: the outputs stopped (vehicle event EV_STOP) while the body was more than the cut
+  height + 0.25 m above the roof, except after the pilot's emergency stop;
+- ``reverse_in_air``: reverse thrust (EV_RVT) with no contact in the 2 s before it and the body
+  more than 0.3 m above the roof;
+- ``armed_stopped_in_air``/``disarmed_in_air``: at the end, more than 0.3 m above the roof, armed
+  with all four outputs in the stop band, or disarmed (except after an emergency stop);
+- ``legs_loose_on_ground``: LANDED with a leg LOOSE, or the legs loosened (RESET entered) less than
+  ``takeoff.clear_height_m`` − 0.1 m above the roof.
+Telemetry lost in a cut is not seen; the end state after the link is back is.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+os.environ.setdefault("MAVLINK20", "1")
+REPO = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(REPO / "src"), str(REPO)]
+
+import numpy as np  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+from sitl.legboard.control import BoardControl  # noqa: E402
+from sitl.rig import Rig, RigError, config  # noqa: E402
+from slopelander.controller.landing import leg_geometry  # noqa: E402
+from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
+from slopelander.legs.driver import LegBoard  # noqa: E402
+
+LOITER, GUIDED = 5, 4
+MAV_CMD_DO_SET_MODE, MAV_CMD_DO_AUX_FUNCTION, AUX_MOTOR_ESTOP = 176, 218, 31
+STATES = (
+    "PRESET",
+    "LEGS_WAIT",
+    "CHECKS",
+    "ARMED",
+    "DESCEND",
+    "CUT",
+    "REVERSE",
+    "SETTLED",
+    "TAKEOFF",
+    "RESET",
+)
+FAULTS = {
+    "none": 10,
+    "link_noise": 10,
+    "cut_0.5": 8,
+    "cut_3": 8,
+    "cut_forever": 4,
+    "leg_stuck": 3,
+    "leg_slip": 3,
+    "leg_overcurrent": 3,
+    "leg_silent": 3,
+    "leg_corrupt": 3,
+    "leg_unplug": 1,
+    "pilot_mode": 4,
+    "pilot_estop": 1,
+}
+CONTACT_OFFSET_M = 0.06
+VEHICLE_LIMIT_S = 150.0
+WALL_LIMIT_S = 300.0
+FOREVER_WALL_S = 8.0
+
+
+class HangError(Exception):
+    """A landing that did not end within its wall-time limit."""
+
+
+def contact_range(slope_deg: float) -> float:
+    g = leg_geometry()
+    a = math.radians(g.leg_angle_deg)
+    return g.leg_length_m * math.cos(a) + (g.joint_x_m + g.leg_length_m * math.sin(a)) * math.tan(
+        math.radians(slope_deg)
+    )
+
+
+def resources() -> dict[str, float]:
+    """This process's resident memory (MB), threads and open file descriptors."""
+    rss = threads = 0.0
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                rss = int(line.split()[1]) / 1024.0
+            elif line.startswith("Threads:"):
+                threads = int(line.split()[1])
+    return {"rss_mb": rss, "threads": threads, "fds": len(os.listdir("/proc/self/fd"))}
+
+
+def background_faults(rng: np.random.Generator, span_s: float) -> list[dict]:
+    """Sensor faults at random vehicle times (about one per 40 s) for a vehicle's scenario."""
+    out = []
+    t = 20.0
+    while True:
+        t += rng.exponential(40.0)
+        if t > span_s:
+            return out
+        kind = rng.choice(["rangefinder_dropout", "rangefinder_spike", "rangefinder_stuck", "imu_spike"])
+        if kind == "rangefinder_dropout":
+            f = {"end": t + rng.uniform(0.2, 3.0)}
+        elif kind == "rangefinder_spike":
+            f = {"end": t + rng.uniform(0.05, 0.5), "value": float(rng.uniform(0.05, 2.5))}
+        elif kind == "rangefinder_stuck":
+            f = {"end": t + rng.uniform(0.5, 3.0)}
+        else:
+            f = {"end": t + rng.uniform(0.01, 0.05), "value": float(rng.uniform(10.0, 60.0))}
+        out.append({"kind": str(kind), "start": round(t, 3), **{k: round(v, 3) for k, v in f.items()}})
+
+
+class Soak:
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.a = args
+        self.rng = np.random.default_rng(args.seed)
+        self.table = LookupTable.load(DEFAULT_TABLE)
+        self.rig: Rig | None = None
+        self.rig_landings = 0
+        self.rig_count = 0
+        self.scenario_faults: list[dict] = []
+        self.restarts: Counter = Counter()
+        self.row: dict = {}
+
+    # ---------------------------------------------------------------- vehicle life cycle
+    def new_rig(self) -> None:
+        self.close_rig()
+        slope = float(self.rng.uniform(15.0, 45.0))
+        seed = int(self.rng.integers(1 << 30))
+        span = 60.0 * self.a.per_vehicle + 200.0
+        self.scenario_faults = background_faults(self.rng, span)
+        scenario = {
+            "rc": [{"t": 0.0, "channels": {3: 1500}}],  # throttle centred: LOITER holds after an abort
+            "faults": self.scenario_faults,
+            "wind": {
+                "random_gusts": {
+                    "count": max(1, int(span / 20.0)),
+                    "max_n": 2.0,
+                    "from_s": 0.0,
+                    "to_s": span,
+                    "duration_s": 1.5,
+                }
+            },
+        }
+        self.rig = Rig(
+            slope_deg=round(slope, 2), seed=seed, scenario=scenario, relay=True, speed=self.a.speed
+        )
+        self.rig_count += 1
+        self.rig_landings = 0
+        self.rig.take_off(3.0)
+
+    def close_rig(self) -> None:
+        if self.rig is not None:
+            try:
+                self.rig.close()
+            finally:
+                self.rig = None
+
+    def ready_over_roof(self) -> None:
+        """Bring the vehicle (whatever the last landing left) to a hover over the roof, legs loose."""
+        rig = self.rig
+        if rig.track.pos and self.clearance(rig.now) < 0.3:  # on the roof: from the start again
+            if rig.armed():
+                rig.wait_command(rig.link.command(400, 0, 21196), "disarm")  # forced, on the roof
+                rig.fly_until(lambda: not rig.armed(), 5.0, "report disarmed")
+            rig.take_off(3.0, force=True)
+        elif not rig.armed():
+            rig.take_off(3.0, force=True)
+        if rig.mode() != GUIDED:
+            rig.wait_command(rig.link.command(MAV_CMD_DO_SET_MODE, 1, GUIDED), "GUIDED")
+            rig.fly_until(lambda: rig.mode() == GUIDED, 3.0, "report GUIDED")
+        rig.go_over_roof(2.0)
+        st = rig.legs.status if rig.legs is not None else None
+        if st is None or not all(lg.state.name == "LOOSE" for lg in st.legs):
+            op = rig.legs.start_loosen()
+            rig.fly_until(lambda: op.done, 30.0, "loosen the legs")
+
+    def reopen_legs(self) -> None:
+        rig = self.rig
+        if rig.legs is not None:
+            rig.legs.close()
+            rig.legs = None
+        with BoardControl(rig.board.control) as ctl:
+            ctl.clear_faults()
+            if ctl.state()["unplugged"]:
+                raise RigError("leg board unplugged")
+        rig.legs = LegBoard.open(rig.board.pty, calibration=rig.calibration)
+
+    # --------------------------------------------------------------------- one landing
+    def inject(self, fault: str, row: dict) -> None:
+        rig = self.rig
+        row["hit_state"] = self.lander.machine.name
+        row["hit_t"] = round(rig.now, 3)
+        if fault == "cut_0.5":
+            rig.relay.cut(0.5)
+        elif fault == "cut_3":
+            rig.relay.cut(3.0)
+        elif fault == "cut_forever":
+            rig.relay.cut(None)
+            self.forever_until = time.monotonic() + FOREVER_WALL_S
+        elif fault.startswith("leg_"):
+            kind = fault[4:]
+            leg = int(self.rng.integers(4))
+            rate = float(self.rng.uniform(0.01, 0.3))
+            with BoardControl(rig.board.control) as ctl:
+                if kind in ("stuck", "slip", "overcurrent"):
+                    ctl.inject(kind, leg=leg)
+                    row["leg"] = leg
+                elif kind == "corrupt":
+                    ctl.inject(kind, rate=rate)
+                    row["rate"] = round(rate, 3)
+                else:
+                    ctl.inject(kind)
+        elif fault == "pilot_mode":
+            rig.link.command(MAV_CMD_DO_SET_MODE, 1, LOITER)
+        elif fault == "pilot_estop":
+            rig.link.command(MAV_CMD_DO_AUX_FUNCTION, AUX_MOTOR_ESTOP, 2)
+
+    def fly_one(self, i: int) -> dict:
+        a, rng = self.a, self.rng
+        if self.rig is None or self.rig_landings >= a.per_vehicle:
+            self.new_rig()
+        rig = self.rig
+        self.ready_over_roof()
+        slope = rig.slope_deg
+        v = float(rng.uniform(1.0, 2.5))
+        p = self.table.lookup(slope, v)
+        fall = max(0.0, (v * v - 0.25) / (2 * 9.80665))
+        cut = round(contact_range(slope) + CONTACT_OFFSET_M + fall, 2)
+        cfg = config(reflex={"cut_height_m": cut})
+        names = list(FAULTS)
+        w = np.array([FAULTS[n] for n in names], float)
+        fault = str(rng.choice(names, p=w / w.sum()))
+        target = str(rng.choice(STATES))
+        row = {"i": i, "rig": self.rig_count, "slope": slope, "v": round(v, 2), "cut": cut,
+               "preset": [p.tau_up, p.tau_down], "fault": fault, "target": target}  # fmt: skip
+        self.row = row
+        if fault == "link_noise":
+            noise = {
+                k: round(float(rng.uniform(0.0, 0.1)), 3) for k in ("drop", "duplicate", "reorder", "corrupt")
+            }
+            noise.update(delay_s=round(float(rng.uniform(0.0, 0.05)), 3), jitter_s=0.02)
+            rig.relay.set_faults(noise)
+            row["noise"] = noise
+        from slopelander.controller.runner import Lander
+
+        self.lander = lander = Lander(rig.link, cfg, (p.tau_up, p.tau_down), legs=rig.legs)
+        self.forever_until = None
+        t0 = rig.now
+        said0 = len(rig.track.statustext)
+        fired = fault in ("none", "link_noise")
+        seen = set()
+        end = None
+        took_off = False
+        wall0 = time.monotonic()
+        try:
+            while True:
+                name = lander.poll()
+                seen.update(h["to"] for h in lander.machine.history)
+                if not fired and target in seen:
+                    self.inject(fault, row)
+                    fired = True
+                if self.forever_until is not None and time.monotonic() > self.forever_until:
+                    rig.relay.restore()
+                    self.forever_until = None
+                if lander.machine._started:
+                    if name == "LANDED" and not took_off:
+                        rig.wait(1.0, tick=lander.poll)
+                        row["legs_on_ground"] = [lg.state.name for lg in rig.legs.status.legs] if (
+                            rig.legs is not None and rig.legs.status is not None) else None  # fmt: skip
+                        lander.takeoff_request = True
+                        took_off = True
+                    elif name in ("ABORTED", "ESTOP", "READY") and self.forever_until is None:
+                        end = name
+                        break
+                if rig.now - t0 > VEHICLE_LIMIT_S or time.monotonic() - wall0 > WALL_LIMIT_S:
+                    end = "hang"
+                    break
+                legs = lander.legs.fileno() if lander.legs is not None else None
+                rig.link.wait_readable(0.005, () if legs is None else (legs,))
+            if end != "hang":
+                rig.wait(2.0, tick=lander.poll)
+        finally:
+            if self.forever_until is not None or fault.startswith("cut"):
+                rig.relay.restore()
+            if fault == "link_noise":
+                rig.relay.set_faults({k: 0.0 for k in row["noise"]})
+        row.update(
+            end=end,
+            states=[h["to"] for h in lander.machine.history],
+            t_end=round(rig.now, 3),
+            wall_s=round(time.monotonic() - wall0, 2),
+            reason=lander.machine.history[-1]["reason"],
+        )
+        if not fired:
+            row["hit_state"] = "never reached"
+        row["after"] = {"armed": rig.armed(), "clearance": round(self.clearance(rig.now), 2)}
+        row["vehicle_said"] = [t for t in rig.track.statustext[said0:] if not t.startswith("SL ")][:12]
+        if end == "hang":  # what the companion saw last, to tell why
+            tr = rig.track
+            row["last"] = {
+                "range": tr.ranges[-1][1] if tr.ranges else None,
+                "clearance": round(self.clearance(rig.now), 3),
+                "armed": rig.armed(),
+                "mode": rig.mode(),
+                "script": rig.link.script_state,
+                "range_ok": lander.inputs().range_ok,
+            }
+        row["unsafe"] = self.check(row, t0, cfg, lander)
+        row["sensor_faults"] = sorted(
+            {f["kind"] for f in self.scenario_faults if f["start"] < rig.now and f["end"] > t0}
+        )
+        self.rig_landings += 1
+        if fault in ("pilot_estop", "leg_unplug") or end in ("ESTOP", "hang"):
+            self.restarts[fault if fault in ("pilot_estop", "leg_unplug") else end] += 1
+            self.close_rig()
+        elif fault.startswith("leg_") or lander.legs is None:
+            self.reopen_legs()
+        return row
+
+    # --------------------------------------------------------------------------- checks
+    def clearance(self, t: float) -> float:
+        """Height (m) of the body above the roof below it at vehicle time ``t`` (nearest sample)."""
+        pos = self.rig.track.pos
+        lo, hi = 0, len(pos) - 1
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if pos[mid][0] < t:
+                lo = mid + 1
+            else:
+                hi = mid
+        _, x, z, _, _ = pos[lo]
+        return z - self.rig.surface_z(x)
+
+    def check(self, row: dict, t0: float, cfg, lander) -> list[str]:
+        rig, tr = self.rig, self.rig.track
+        bad = []
+        estop = row["fault"] == "pilot_estop" and row.get("hit_state") not in (None, "never reached")
+        if row["end"] == "hang":
+            bad.append("hang")
+        contacts = tr.event_times("EV_CONTACT", t0)
+        for t in tr.event_times("EV_STOP", t0):
+            if not estop and self.clearance(t) > row["cut"] + 0.25:
+                bad.append(f"stop_high@{t:.2f}:{self.clearance(t):.2f}m")
+        for t in tr.event_times("EV_RVT", t0):
+            if not any(t - 2.0 <= c <= t + 0.01 for c in contacts) and self.clearance(t) > 0.3:
+                bad.append(f"reverse_in_air@{t:.2f}")
+        h = self.clearance(rig.now)
+        if h > 0.3 and not estop:
+            servo = tr.servo[-1][1] if tr.servo else ()
+            if rig.armed() and servo and all(1470 <= s <= 1530 for s in servo):
+                bad.append("armed_stopped_in_air")
+            if not rig.armed():
+                bad.append(f"disarmed_in_air:{h:.2f}m")
+        if "LANDED" in row["states"] and row.get("legs_on_ground") and "LOOSE" in row["legs_on_ground"]:
+            bad.append("legs_loose_on_ground")
+        t_reset = next((e["t"] for e in lander.machine.history if e["to"] == "RESET"), None)
+        if t_reset is not None and self.clearance(t_reset) < cfg["takeoff.clear_height_m"] - 0.1:
+            bad.append(f"legs_loosened_low:{self.clearance(t_reset):.2f}m")
+        return bad
+
+
+def fit_slope(xs: list[float], ys: list[float]) -> float:
+    return float(np.polyfit(xs, ys, 1)[0]) if len(xs) > 2 else math.nan
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--landings", type=int, default=1000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--per-vehicle", type=int, default=25, help="landings per vehicle process")
+    ap.add_argument("--speed", type=float, default=8.0, help="vehicle's most simulated s per wall s")
+    ap.add_argument("--minutes", type=float, default=math.inf, help="start no landing after this (wall)")
+    ap.add_argument("--log", type=Path, default=None, help="write one JSON line per landing here")
+    a = ap.parse_args()
+    if a.landings < 1 or a.per_vehicle < 1:
+        ap.error("--landings and --per-vehicle must be at least 1")
+    soak = Soak(a)
+    rows, samples = [], []
+    log = open(a.log, "w") if a.log else None  # noqa: SIM115
+    wall0 = time.monotonic()
+
+    def alarm(signum, frame):
+        raise HangError("wall-time limit")
+
+    signal.signal(signal.SIGALRM, alarm)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))  # stop the vehicle and board on the way out
+    try:
+        for i in tqdm(range(a.landings), unit="landing", file=sys.stderr):
+            if time.monotonic() - wall0 > 60.0 * a.minutes:
+                print(f"stopped after {a.minutes:g} min (--minutes)", file=sys.stderr)
+                break
+            signal.alarm(int(WALL_LIMIT_S + 120))
+            try:
+                row = soak.fly_one(i)
+            except Exception as exc:  # recorded: a rig error, or a crash the table shows by type
+                row = soak.row if soak.row.get("i") == i else {"i": i, "fault": "-"}
+                row.update(
+                    {
+                        "rig": soak.rig_count,
+                        "end": "rig error",
+                        "reason": f"{type(exc).__name__}: {exc}",
+                        "unsafe": ["hang"] if isinstance(exc, HangError) else [],
+                    }
+                )
+                soak.restarts["rig error"] += 1
+                soak.close_rig()
+            finally:
+                signal.alarm(0)
+            rows.append(row)
+            samples.append((i, time.monotonic() - wall0, resources()))
+            if log:
+                log.write(json.dumps(row) + "\n")
+                log.flush()
+    finally:
+        soak.close_rig()
+        if log:
+            log.close()
+    report(rows, samples, soak, time.monotonic() - wall0)
+
+
+def report(rows: list[dict], samples: list, soak: Soak, wall: float) -> None:
+    n = len(rows)
+    print(f"\n{n} landings on {soak.rig_count} vehicles in {wall:.0f} s wall ({wall / n:.1f} s per landing)")
+    ends = sorted({r["end"] for r in rows})
+    print(f"\n{'fault':<16} {'n':>4}  " + "  ".join(f"{e:>9}" for e in ends) + "  unsafe")
+    for fault in [*FAULTS, "-"]:
+        rs = [r for r in rows if r["fault"] == fault]
+        if not rs:
+            continue
+        c = Counter(r["end"] for r in rs)
+        print(f"{fault:<16} {len(rs):>4}  " + "  ".join(f"{c[e]:>9}" for e in ends)
+              + f"  {sum(1 for r in rs if r['unsafe']):>6}")  # fmt: skip
+    print("\nstate hit by an injected fault (faults other than none/link_noise):")
+    hit = Counter(r.get("hit_state") for r in rows if r.get("hit_state"))
+    print("  " + ", ".join(f"{k} {v}" for k, v in sorted(hit.items(), key=lambda kv: -kv[1])))
+    sens = Counter(k for r in rows for k in r.get("sensor_faults", []))
+    print(
+        "sensor faults overlapping a landing: " + (", ".join(f"{k} {v}" for k, v in sens.items()) or "none")
+    )
+    reasons = Counter(r["reason"].split(":")[0][:48] for r in rows if r["end"] in ("ABORTED", "rig error"))
+    print("abort / error reasons:")
+    for k, v in reasons.most_common():
+        print(f"  {v:4d}  {k}")
+    print(
+        "vehicle restarts besides the scheduled ones: "
+        + (", ".join(f"{k} {v}" for k, v in soak.restarts.items()) or "none")
+    )
+    unsafe = [r for r in rows if r["unsafe"]]
+    hangs = [r for r in rows if "hang" in r["unsafe"]]
+    print(f"\nhangs: {len(hangs)}; unsafe ends: {len(unsafe)}")
+    for r in unsafe[:20]:
+        print(
+            f"  landing {r['i']}: {r['fault']} in {r.get('hit_state')}: {r['unsafe']} "
+            f"({r['end']}: {r['reason']})"
+        )
+    xs = [s[0] for s in samples]
+    print("\ncompanion process (this one)  first   last   slope per 100 landings (second half)")
+    half = len(samples) // 2
+    for k in ("rss_mb", "threads", "fds"):
+        ys = [s[2][k] for s in samples]
+        print(f"  {k:<26} {ys[0]:6.1f} {ys[-1]:6.1f}   {100 * fit_slope(xs[half:], ys[half:]):+.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,187 @@
+"""Link cuts in landing states other than DESCEND, and leg faults injected in the real board
+process during a flight, each checked against its row of docs/failsafes.md.
+
+The companion's controller flies the simulated vehicle (real on-board script) and leg board as
+processes in lock-step, its MAVLink link through the fault-injecting relay (sitl.linkfault). One
+vehicle on a 20 deg roof flies the module's tests in order. This is a fast representative subset;
+``benchmarks/soak.py`` injects cuts of 0.5 s, 3 s and for good in every state, and every leg fault,
+at random.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from sitl.legboard.control import BoardControl
+from sitl.rig import Rig, config
+from slopelander.controller.runner import Lander
+from slopelander.legs.driver import LegBoard
+
+LOITER, GUIDED = 5, 4
+PRESET = (1.7, 2.3)
+CUT = {"cut_height_m": 0.45}
+# the pilot holds the throttle stick centred: LOITER holds its height after an abort
+SCENARIO = {
+    "rc": [{"t": 0.0, "channels": {3: 1500}}]
+}  # 20 deg roof: the feet meet it near 0.3 m of range, ~1.2 m/s impact
+
+
+@pytest.fixture(scope="module")
+def rig():
+    with Rig(slope_deg=20.0, seed=11, relay=True, scenario=SCENARIO) as r:
+        r.take_off(3.0)
+        yield r
+
+
+class Told:
+    """What the controller told the pilot (its STATUSTEXTs, still sent over the real link)."""
+
+    def __init__(self, lander: Lander) -> None:
+        self.texts: list[str] = []
+        send = lander.link.send_statustext
+
+        def record(text: str, *args) -> None:
+            self.texts.append(text)
+            send(text, *args)
+
+        lander.link.send_statustext = record
+
+
+def ready_over_roof(rig: Rig) -> None:
+    if not rig.armed():
+        rig.take_off(3.0, force=True)
+    if rig.mode() != GUIDED:
+        rig.wait_command(rig.link.command(176, 1, GUIDED), "GUIDED")  # MAV_CMD_DO_SET_MODE
+        rig.fly_until(lambda: rig.mode() == GUIDED, 2.0, "report GUIDED")
+    rig.go_over_roof(2.0)
+
+
+def run_until(rig: Rig, lander: Lander, states: tuple[str, ...], vehicle_s: float = 60.0) -> str:
+    """Poll the landing until it has entered one of ``states`` (seen in its history)."""
+    t0 = rig.now
+    end = time.monotonic() + 120.0
+    while rig.now - t0 < vehicle_s and time.monotonic() < end:
+        lander.poll()
+        for h in lander.machine.history:
+            if h["to"] in states:
+                return h["to"]
+        time.sleep(0.001)
+    pytest.fail(f"never reached {states}: {lander.machine.history}; script {rig.track.script[-8:]}")
+
+
+def poll_for(lander: Lander, wall_s: float) -> None:
+    """Keep the controller running for ``wall_s`` of wall time: while the link is cut the
+    vehicle runs on without the companion (lock-step gives up), so vehicle time says nothing."""
+    end = time.monotonic() + wall_s
+    while time.monotonic() < end:
+        lander.poll()
+        time.sleep(0.002)
+
+
+def link_back(rig: Rig, lander: Lander) -> None:
+    rig.fly_until(lambda: lander.poll() == "ABORTED", 60.0, "see the link come back", wall_s=30.0)
+    rig.wait(1.5, tick=lander.poll)
+
+
+def assert_hovering_safe(rig: Rig) -> None:
+    """Armed in LOITER, clear of the roof, the script released."""
+    assert rig.armed() and rig.mode() == LOITER, (rig.armed(), rig.mode())
+    x = rig.track.pos[-1][1]
+    assert rig.height() - rig.surface_z(x) > 0.5, rig.track.pos[-1]
+    assert rig.link.script_state == 0
+
+
+# ----------------------------------------------------------------------------- link cuts
+def test_a_3s_cut_in_takeoff_goes_link_lost_and_never_loosens_the_legs_low(rig):
+    """TAKEOFF row: LINK_LOST; back: ABORTED (LOITER). The legs keep their torque throughout."""
+    ready_over_roof(rig)
+    lander = Lander(rig.link, config(reflex=CUT), PRESET, legs=rig.legs)
+    assert lander.run(60.0) == "LANDED", lander.machine.history[-3:]
+    lander.takeoff_request = True
+    run_until(rig, lander, ("TAKEOFF",))
+    rig.relay.cut(3.0)
+    poll_for(lander, 2.5)
+    assert lander.machine.name == "LINK_LOST", lander.machine.history
+    link_back(rig, lander)
+    states = [h["to"] for h in lander.machine.history]
+    assert states[-3:] == ["TAKEOFF", "LINK_LOST", "ABORTED"], states
+    assert all(lg.state.name != "LOOSE" for lg in rig.legs.status.legs), rig.legs.status
+    x = rig.track.pos[-1][1]
+    if rig.height() - rig.surface_z(x) > 0.4:  # the take-off got through: the abort holds in LOITER
+        assert_hovering_safe(rig)
+    else:  # it was lost in the cut: still on the roof, the legs clamped (asserted above); not yet
+        # explained: once seen armed there, slid 20 m down the roof (docs/reliability.md)
+        assert rig.mode() != GUIDED or not rig.armed(), (rig.mode(), rig.armed())
+
+
+def test_a_3s_cut_in_legs_wait_aborts_to_loiter_when_the_link_is_back(rig):
+    ready_over_roof(rig)
+    # a fresh driver: the last one measured its timeouts on the autopilot's clock, which jumped
+    # over the previous cut while only the controller (which tells it so) was watching
+    rig.legs.close()
+    rig.legs = LegBoard.open(rig.board.pty, calibration=rig.calibration)
+    op = rig.legs.start_loosen()
+    rig.fly_until(lambda: op.done, 30.0, "loosen the legs")
+    lander = Lander(rig.link, config(reflex=CUT), PRESET, legs=rig.legs)
+    run_until(rig, lander, ("LEGS_WAIT",))
+    rig.relay.cut(3.0)
+    poll_for(lander, 2.5)
+    assert lander.machine.name == "LINK_LOST", lander.machine.history
+    link_back(rig, lander)
+    assert [h["to"] for h in lander.machine.history][-2:] == ["LINK_LOST", "ABORTED"]
+    assert_hovering_safe(rig)
+
+
+def test_a_3s_cut_after_the_cut_leaves_the_vehicle_disarmed_on_the_roof_legs_clamped(rig):
+    """CUT/REVERSE/SETTLED row: LINK_LOST; the script finishes its bounded sequence and its HOLD
+    lapses and disarms on the ground by itself."""
+    ready_over_roof(rig)
+    lander = Lander(rig.link, config(reflex=CUT), PRESET, legs=rig.legs)
+    run_until(rig, lander, ("CUT", "REVERSE", "SETTLED"))  # one row of the table: the first seen
+    rig.relay.cut(3.0)
+    poll_for(lander, 2.5)
+    assert lander.machine.name == "LINK_LOST", lander.machine.history
+    link_back(rig, lander)
+    assert not rig.armed()
+    x = rig.track.pos[-1][1]
+    assert rig.height() - rig.surface_z(x) < 0.4  # on the roof
+    assert all(lg.torque_nm > 1.0 for lg in rig.legs.status.legs), rig.legs.status  # still clamped
+
+
+# ------------------------------------------------------------------------------ leg faults
+@pytest.mark.parametrize(
+    ("kind", "state", "why"),
+    [
+        ("overcurrent", "LEGS_WAIT", "leg failure"),  # one leg does not reach its torque
+        ("stuck", "LEGS_WAIT", "leg failure"),  # a motor stalls
+        ("corrupt", "LEGS_WAIT", "leg failure"),  # every byte from the board garbled
+        ("unplug", "DESCEND", "leg failure"),  # the port disappears
+    ],
+)
+def test_a_leg_fault_aborts_before_the_motors_stop_and_the_pilot_is_told(kind, state, why):
+    """A vehicle of its own each: a leg that faulted stays faulted (the board needs service)."""
+    with Rig(slope_deg=20.0, seed=12, relay=False, scenario=SCENARIO) as rig:
+        rig.take_off(3.0)
+        rig.go_over_roof(2.0)
+        lander = Lander(rig.link, config(reflex=CUT), PRESET, legs=rig.legs)
+        told = Told(lander)
+        run_until(rig, lander, (state,))
+        with BoardControl(rig.board.control) as ctl:
+            if kind in ("overcurrent", "stuck"):
+                ctl.inject(kind, leg=1)
+            elif kind == "corrupt":
+                ctl.inject(kind, rate=1.0)
+            else:
+                ctl.inject(kind)
+        t0 = rig.now
+        assert lander.run(40.0, until=("ABORTED", "LANDED")) == "ABORTED", lander.machine.history
+        h = lander.machine.history[-1]
+        assert h["reason"].startswith(why) and h["from"] in ("LEGS_WAIT", "CHECKS", "DESCEND", "ARMED"), h
+        assert not rig.track.event_times("EV_STOP", t0)  # aborted before the motors stop
+        assert any(t.startswith("SL ABORTED: leg failure") for t in told.texts), told.texts
+        rig.wait(2.0, tick=lander.poll)
+        assert_hovering_safe(rig)
+        if kind == "unplug":
+            rig.legs = None  # the port is gone
