@@ -68,12 +68,16 @@ def test_steps_error_falls_where_the_effect_is_added(truth, tmp_path):
     assert st.plot(tmp_path / "steps.png").stat().st_size > 10_000
 
 
-def test_hidden_torque_growth_is_found(model):
+@pytest.mark.parametrize("seed", [1, 2])
+def test_hidden_torque_growth_is_found(model, seed):
     """factor_tau at the paper's 5.8e-4 1/N changes these drops by less than the noise (see
-    docs/ident.md), so the truth uses 5e-3 1/N."""
+    docs/ident.md), so the truth uses 5e-3 1/N. Since eq. 3 acts on every leg whose foot is
+    pushed outward (both legs on level ground), the refit needs a longer search than the
+    others: with 150 evaluations it stopped at 0.0024 on seed 1 (measured 2026-11-23)."""
     truth = model.without("downhill_friction_growth").with_params(factor_tau=5e-3)
-    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=1)
-    d = diagnose(truth.without("downhill_torque_growth"), drops, seed=1, **BUDGET)
+    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
+    budget = {**BUDGET, "refit_evals": 400}
+    d = diagnose(truth.without("downhill_torque_growth"), drops, seed=seed, **budget)
     best = d.missing
     assert best is not None and best.candidate.name == "downhill_torque_growth", d.table()
     assert 1 - best.validation_nrmse / d.base_validation >= 0.30, d.table()
@@ -101,9 +105,10 @@ def test_hidden_friction_growth_at_the_paper_value_is_found(model, seed):
         names=["ground_damping", "flex_stiffness", "flex_damping"],
         seed=seed,
         cma_evals=300,
-        refit_evals=300,
         # the base model bends k_q and b_g far to stand in for eq. 4; from its optimum alone
-        # the refit stalled (0.79 s/m on seed 2)
+        # the refit stalled (0.79 s/m on seed 2), and with the velocity-weakening foot friction
+        # 300 evaluations stopped at 0.80 s/m on seed 1 (600: 0.563; measured 2026-11-23)
+        refit_evals=600,
         refit_from_centre=True,
     )
     best = d.missing

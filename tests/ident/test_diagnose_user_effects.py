@@ -79,10 +79,11 @@ def test_hidden_user_effect_is_found_from_its_file(base, user_effects, hidden, p
     assert f"missing: {hidden}" in d.verdict()
 
 
-def _found(base, user_effects, hidden, drops, seed):
+def _found(base, user_effects, hidden, drops, seed, **budget):
     """Diagnose with every user file and the built-ins the base lacks as candidates; the hidden
     effect must be ranked first, named missing and cut the validation error by 30 %."""
-    d = diagnose(base, drops, user_effects=list(user_effects.values()), names=NAMES, seed=seed, **BUDGET)
+    kw = {**BUDGET, **budget}
+    d = diagnose(base, drops, user_effects=list(user_effects.values()), names=NAMES, seed=seed, **kw)
     assert sorted(r.candidate.name for r in d.results) == sorted(
         ["downhill_friction_growth", "downhill_torque_growth", *user_effects]
     )
@@ -115,7 +116,9 @@ def test_hidden_point_force_is_found_from_its_file(base, user_effects, seed):
     rotor_spin_down.py): a force at the rotor hubs, 3 N each at touchdown."""
     truth = base.with_user_effect(user_effects["rotor_spin_down"]).with_params(spin_down_thrust=3.0)
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed, duration=0.6)
-    d, best = _found(base, user_effects, "rotor_spin_down", drops, seed)
+    # the rotors' lift trades off against the ground damping: with 100 refit evaluations the
+    # search stopped at 2.39 N on seed 1 (300: 2.94 N; measured 2026-11-23)
+    d, best = _found(base, user_effects, "rotor_spin_down", drops, seed, refit_evals=300)
     assert best.values()["spin_down_thrust"] == pytest.approx(3.0, rel=0.15), d.table()
 
 

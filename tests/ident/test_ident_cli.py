@@ -71,7 +71,7 @@ def test_a_user_effect_parameter_is_fitted_by_name_within_its_declared_bounds(tm
         "--effects-file",
         effect,
         "--set",
-        "joint_viscous_gain=0.1",
+        "joint_viscous_gain=0.06",
     )
     assert r.returncode == 0, r.stderr
     # no --fit bounds: the file declares them (0..0.2 s/rad)
@@ -83,12 +83,17 @@ def test_a_user_effect_parameter_is_fitted_by_name_within_its_declared_bounds(tm
         "--fit",
         "joint_viscous_gain",
         "--cma-evals",
-        "20",
+        "60",
         "--ls-evals",
-        "5",
+        "20",
     )
     assert r.returncode == 0, r.stderr
     row = next(line for line in r.stdout.splitlines() if line.startswith("| joint_viscous_gain |"))
-    assert abs(float(row.split("|")[2]) - 0.1) < 0.015, r.stdout
+    fitted = float(row.split("|")[2])
+    # the search starts at the centre of the declared bounds (0.1): the truth is elsewhere, so a
+    # fit that did not use the file's bounds or never moved cannot pass. Three short noisy drops
+    # pin the gain only to about 15 % (0.051 measured on 2026-11-23).
+    assert 0.0 <= fitted <= 0.2 and abs(fitted - 0.06) < 0.015, r.stdout
+    assert abs(fitted - 0.06) < abs(fitted - 0.1), r.stdout
     r = run("fit", str(ds), "--effects-file", effect, "--set", "joint_viscous_gain=0.5")
     assert r.returncode == 1 and "joint_viscous_gain" in r.stderr and "outside 0.0..0.2" in r.stderr, r.stderr
