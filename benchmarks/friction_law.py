@@ -28,30 +28,8 @@ from slopelander.envelope.maps import summary
 from slopelander.envelope.presets import choose_presets
 from slopelander.envelope.reports import _strategy
 from slopelander.model import DEFAULT_DT, LandingConditions, Model, kernel, simulate
-from slopelander.model.stepper import Stepper
-
-
-def settle(model: Model, slope_deg: float, tau: float = 5.0, seconds: float = 0.8) -> Stepper:
-    """At rest on the slope: set down with sticky feet, then given the model's own friction."""
-    sticky = model.with_params(friction_static=3.0, friction_kinetic=3.0)
-    s = Stepper(sticky, slope_deg=slope_deg)
-    s.set_friction(tau, tau)
-    s.place(height=0.0, pitch_deg=-slope_deg)
-    for _ in range(int(seconds / 1e-3)):
-        s.step(1e-3, 0.0, 0.0)
-    real = Stepper(model, slope_deg=slope_deg)
-    real.st[:] = s.st
-    real.ctx[:] = s.ctx
-    return real
-
-
-def slide(s: Stepper, seconds: float) -> float:
-    b0 = s.body()
-    for _ in range(int(seconds / 1e-3)):
-        s.step(1e-3, 0.0, 0.0)
-    b = s.body()
-    a = math.radians(s.slope_deg)
-    return math.cos(a) * (b.x - b0.x) - math.sin(a) * (b.z - b0.z)
+from slopelander.model.placement import settle_on_slope as settle
+from slopelander.model.placement import slide_after as slide
 
 
 def hold_angle(model: Model, start: int = 36, stop: int = 55) -> int:

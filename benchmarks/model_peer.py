@@ -33,6 +33,7 @@ import numpy as np
 
 from slopelander.model import Model, Outcome, condition_grid, simulate_batch
 from slopelander.model import kernel as k
+from slopelander.model.placement import settle_on_slope, slide_after
 from slopelander.model.stepper import Stepper
 from slopelander.peers.mujoco_drop import MujocoDrop, PeerSettings, matched_model
 
@@ -77,29 +78,11 @@ def rate_of(fn, n: int, min_seconds: float = 3.0) -> tuple[float, float]:
 
 
 def settle(model: Model, slope_deg: float, tau: float) -> Stepper:
-    """A vehicle set down at rest on the slope with sticky feet, then given the model's
-    friction and left 1 s to settle (its legs splay a little as they take the weight)."""
-    sticky = model.with_params(friction_static=3.0, friction_kinetic=3.0)
-    s = Stepper(sticky, slope_deg=slope_deg)
-    s.set_friction(tau, tau)
-    s.place(height=0.0, pitch_deg=-slope_deg)
-    for _ in range(800):
-        s.step(1e-3, 0.0, 0.0)
-    real = Stepper(model, slope_deg=slope_deg)
-    real.st[:] = s.st
-    real.ctx[:] = s.ctx
-    for _ in range(1000):
-        real.step(1e-3, 0.0, 0.0)
+    """A vehicle set down at rest on the slope, then left 1 s to settle (its legs splay a little
+    as they take the weight)."""
+    real = settle_on_slope(model, slope_deg, tau)
+    slide_after(real, 1.0)
     return real
-
-
-def model_slide(s: Stepper, seconds: float) -> float:
-    b0 = s.body()
-    for _ in range(round(seconds / 1e-3)):
-        s.step(1e-3, 0.0, 0.0)
-    b = s.body()
-    a = math.radians(s.slope_deg)
-    return math.cos(a) * (b.x - b0.x) - math.sin(a) * (b.z - b0.z)
 
 
 def peer_slide(peer: MujocoDrop, s: Stepper, seconds: float) -> float:
@@ -279,10 +262,10 @@ def main() -> None:
         )
         print("  slope   model shipped (mu_s 1.2)   model matched (mu 0.8)   MuJoCo (mu 0.8)")
         for slope in (30, 34, 36, 38, 40):
-            a = model_slide(settle(shipped, slope, 1.7), 5.0)
+            a = slide_after(settle(shipped, slope, 1.7), 5.0)
             sm = settle(matched, slope, 1.7)
             c = peer_slide(peer, sm, 5.0)
-            b = model_slide(sm, 5.0)
+            b = slide_after(sm, 5.0)
             print(f"  {slope:3d} deg  {a * 1e3:14.4f}            {b * 1e3:14.4f}          {c * 1e3:10.1f}")
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
     print(f"\nload average at the end {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}")
