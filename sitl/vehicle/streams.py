@@ -132,7 +132,8 @@ def _ext_state(v: Vehicle):
     return M.MAVLink_extended_sys_state_message(M.MAV_VTOL_STATE_MC, landed)
 
 
-def _system_time(v: Vehicle):
+def system_time(v: Vehicle):
+    """SYSTEM_TIME now (also sent by a lock-stepped vehicle when it starts to wait)."""
     return M.MAVLink_system_time_message(int(time.time() * 1e6), int(v.t * 1000))
 
 
@@ -148,7 +149,7 @@ class Streams:
         M.MAVLINK_MSG_ID_RC_CHANNELS: _rc_channels,
         M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: _servo_output,
         M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: _ext_state,
-        M.MAVLINK_MSG_ID_SYSTEM_TIME: _system_time,
+        M.MAVLINK_MSG_ID_SYSTEM_TIME: system_time,
     }
 
     def __init__(self) -> None:

@@ -17,7 +17,7 @@ from sitl.vehicle.mavlink_endpoints import Endpoints, mavlink
 from sitl.vehicle.params import Params
 from sitl.vehicle.scenario import Scenario
 from sitl.vehicle.sensors import Imu, Range, range_reading
-from sitl.vehicle.streams import Streams
+from sitl.vehicle.streams import Streams, system_time
 from sitl.vehicle.world import beam_range, start_on_ground
 from slopelander.model.judge import LandingJudge
 
@@ -301,6 +301,10 @@ class Vehicle:
                     wall0 = time.monotonic() - (self.t - sim0) / self.speed
 
     def _wait_for_companion(self) -> None:
+        if self.running and self.echo_t is not None and self.t - self.echo_t > LOCKSTEP_LEAD_S:
+            # tell the companion the time it waits at: with no fast stream asked for yet, nothing
+            # else it reads may carry a newer stamp, and both would wait for the give-up
+            self.links.send(system_time(self))
         while self.running and self.echo_t is not None and self.t - self.echo_t > LOCKSTEP_LEAD_S:
             if time.monotonic() - self.echo_wall > LOCKSTEP_GIVE_UP_S:
                 self.echo_t = None  # the companion went away: run free until it echoes again

@@ -324,7 +324,10 @@ class Link:
             )
         if self.clock.known and self.clock.usec - self._last_timesync_usec >= TIMESYNC_PERIOD_S * 1e6:
             self._last_timesync_usec = self.clock.usec
-            self.conn.mav.timesync_send(0, self.clock.usec * 1000)
+            # tc1 != 0 makes this an answer, not a request (tc1 == 0 asks the autopilot for its
+            # time): a lock-stepped simulator reads ts1 as the newest vehicle time seen, and
+            # ArduPilot drops answers whose ts1 is not one of its own requests.
+            self.conn.mav.timesync_send(max(1, int(self.monotonic() * 1e9)), self.clock.usec * 1000)
         for h in self._commands:
             if h.done or now - h.sent_at < h.timeout_s:
                 continue

@@ -1,0 +1,58 @@
+"""The companion's link keeps a lock-stepped simulated vehicle (a real process) in step: the
+vehicle never runs more than its 50 ms lead ahead of the newest time the link has seen, so a
+flight in simulation does not depend on how fast the machine runs the companion."""
+
+from __future__ import annotations
+
+import time
+
+from sitl.vehicle.launch import start_vehicle
+from slopelander.controller.link import TIMESYNC_PERIOD_S, Link, mavlink
+from tests.vehicle.conftest import ROUTE_A
+
+LEAD_S = 0.05  # the vehicle's lock-step lead (sitl/vehicle/vehicle.py)
+TICK_S = 0.0025  # one control tick: the vehicle checks the lead between ticks
+GIVE_UP_S = 1.0  # wall seconds without an echo before the vehicle runs free
+
+
+def poll_for(link: Link, wall_s: float) -> None:
+    end = time.monotonic() + wall_s
+    while time.monotonic() < end:
+        link.poll()
+        time.sleep(0.001)
+
+
+def test_the_vehicle_waits_for_the_links_echo():
+    v = start_vehicle(params=ROUTE_A, no_script=True, speed=0.0, lockstep=True)
+    link = Link(v.mavlink_url, link_loss_s=5.0)
+    try:
+        link.wait_autopilot(timeout_s=30.0)
+        ask = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200)  # the landing's clock source
+        end = time.monotonic() + 10.0
+        while not ask.done and time.monotonic() < end:
+            poll_for(link, 0.01)
+        assert ask.ok, ask.state
+        poll_for(link, 0.5)
+        assert link.clock.known
+        jumps = []
+        for _ in range(5):
+            before = link.clock.now()
+            t0 = time.monotonic()
+            time.sleep(0.3)  # the companion looks away; a free-running vehicle would run on
+            link.poll()  # what arrived meanwhile (this poll's echo lets the vehicle go on)
+            paused = time.monotonic() - t0
+            if paused > 0.8 * GIVE_UP_S:  # the machine stalled us past the vehicle's patience
+                continue
+            jumps.append(link.clock.now() - before)
+        assert jumps, "the test process never got a pause shorter than the vehicle's give-up time"
+        # the newest echo is at most one echo period older than `before`; the vehicle stops once it
+        # is LEAD_S ahead of it, within a control tick
+        for jump in jumps:
+            assert jump <= LEAD_S + TIMESYNC_PERIOD_S + TICK_S + 1e-6, jumps
+        # and while the link polls, the vehicle does run on
+        before = link.clock.now()
+        poll_for(link, 0.5)
+        assert link.clock.now() - before > 0.1
+    finally:
+        link.close()
+        v.stop()
