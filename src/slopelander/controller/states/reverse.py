@@ -31,7 +31,7 @@ class Reverse(State):
         cfg = ctx.cfg
         elapsed = inp.t - ctx.entered_at
         shortest = cfg["reflex.reverse_thrust_ms"] / 1000.0
-        longest = cfg["reflex.reverse_max_ms"] / 1000.0
+        longest = (cfg["reflex.reverse_max_ms"] + cfg["reflex.reverse_ramp_ms"]) / 1000.0
         if still(cfg, inp):
             since = ctx.marks.setdefault("rvt_still_since", inp.t)
         else:
