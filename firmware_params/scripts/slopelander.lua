@@ -11,7 +11,8 @@
 -- The companion decides; this script only does what cannot wait for a MAVLink round trip.
 -- Contract (commands, states, validity rules): docs/onboard-script.md in slopelander.
 
-local VERSION = 2 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 3 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+-- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local MSG_COMMAND_LONG = 76
@@ -37,7 +38,7 @@ local IDLE, STOP, REVERSE, ARMED, CUT, RVT, HOLD, ESTOP = 0, 1, 2, 10, 11, 12, 1
 local state = IDLE
 local valid_until = 0
 local reverse_pct = 0
-local reflex = nil -- {cut_m, impact, pct, dur_ms, valid_ms}
+local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from}
 local entered_ms = 0
 local below, last_range, last_count_ms = 0, nil, 0
 local last_announce, last_version = -ANNOUNCE_MS, -VERSION_MS
@@ -117,17 +118,22 @@ local function arm_reflex(p, t)
   if bad(p[4], 0, 100) then return DENIED, "thrust percent out of 0..100" end
   if bad(p[5], 0, 5000) then return DENIED, "reverse duration out of 0..5000 ms" end
   if bad(p[6], 100, 10000) then return DENIED, "validity out of 100..10000 ms" end
+  if bad(p[7], 0, 3000) then return DENIED, "reverse ramp out of 0..3000 ms" end
   if not arming:is_armed() then return TEMP_REJECTED, "disarmed" end
   if state == ESTOP then return TEMP_REJECTED, "emergency stop" end
   valid_until = t + p[6]
   if state == RVT then
     -- a refresh during reverse thrust sets its duration, counted from the impact: the companion
-    -- shortens it once the vehicle is still; a silent companion leaves the armed bound in force
-    reflex.dur_ms = p[5]
+    -- shortens it once the vehicle is still; a silent companion leaves the armed bound in force.
+    -- Once the thrust has begun to ramp down, it only ends: the refresh renews the validity.
+    if reflex.ramp_from == nil then
+      reflex.dur_ms = p[5]
+      reflex.ramp_ms = p[7]
+    end
     return ACCEPTED
   end
   if state == CUT or state == HOLD then return ACCEPTED end -- a refresh
-  reflex = { cut_m = p[2], impact = p[3], pct = p[4], dur_ms = p[5] }
+  reflex = { cut_m = p[2], impact = p[3], pct = p[4], dur_ms = p[5], ramp_ms = p[7], ramp_from = nil }
   below, last_range = 0, nil
   enter(ARMED, t)
   return ACCEPTED
@@ -184,7 +190,10 @@ local function run_reflex(t)
       end
     end
   elseif state == RVT then
-    if t - entered_ms >= reflex.dur_ms then enter(HOLD, t) end
+    -- the duration over, the thrust falls linearly to zero over ramp_ms (the legs, bent under
+    -- the thrust, spring back slowly enough for the feet to hold), then HOLD
+    if reflex.ramp_from == nil and t - entered_ms >= reflex.dur_ms then reflex.ramp_from = t end
+    if reflex.ramp_from ~= nil and t - reflex.ramp_from >= reflex.ramp_ms then enter(HOLD, t) end
   elseif state == HOLD then
     if t >= valid_until then
       arming:disarm()
@@ -221,7 +230,9 @@ local function update()
   elseif state == REVERSE then
     output(reverse_pwm(reverse_pct))
   elseif state == RVT then
-    output(reverse_pwm(reflex.pct))
+    local pct = reflex.pct
+    if reflex.ramp_from ~= nil then pct = pct * (1 - (t - reflex.ramp_from) / reflex.ramp_ms) end
+    output(reverse_pwm(pct))
   end
 
   if t - last_announce >= ANNOUNCE_MS then announce(t) end

@@ -48,6 +48,8 @@ def test_defaults_load_and_override(tmp_path):
         ({"refelx": {}}, "refelx"),
         ({"link": {"command_retries": 1.5}}, "link.command_retries"),
         ({"reflex": {"arm_height_m": 0.25}}, "reflex.arm_height_m"),
+        ({"reflex": {"reverse_ramp_ms": 3500}}, "reflex.reverse_ramp_ms"),
+        ({"reflex": {"reverse_ramp_ms": 500.5}}, "reflex.reverse_ramp_ms"),
         ({"rc_presets": {"enabled": True}}, "rc_presets.presets"),
         (
             {

@@ -257,7 +257,8 @@ def test_reset_gives_up_on_legs_that_never_report_loose():
 def test_a_script_stuck_in_reverse_thrust_is_released():
     m, act, _ = make()
     t = run_to(m, "REVERSE")
-    limit = m.ctx.cfg["reflex.reverse_max_ms"] / 1000.0 + 1.0
+    cfg = m.ctx.cfg
+    limit = (cfg["reflex.reverse_max_ms"] + cfg["reflex.reverse_ramp_ms"]) / 1000.0 + 1.0
     m.step(replace(OK, t=t + limit - 0.1, range_m=0.2, script_state=12, speed_mps=0.1))
     assert m.name == "REVERSE"
     n = len(act.calls)
@@ -500,3 +501,15 @@ def test_a_refused_take_off_is_sent_again_once_armed():
         t += 0.02
         m.step(replace(OK, t=t, range_m=0.1, armed=False))
     assert len([c for c in m.ctx.act.calls if c[0] == "takeoff"]) == 1
+
+
+def test_still_is_not_disarmed_while_the_script_ramps_the_reverse_thrust_down():
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    still_s = m.ctx.cfg["settle.still_s"]
+    rest = replace(OK, range_m=0.2, accel_mps2=9.80665, speed_mps=0.0, position_m=(0.0, 0.0, 0.0))
+    m.step(replace(rest, t=t + 0.01, script_state=12))
+    m.step(replace(rest, t=t + still_s + 0.1, script_state=12))  # still long enough, but ramping
+    assert m.name == "SETTLED" and "disarm" not in act.names()
+    m.step(replace(rest, t=t + still_s + 0.2, script_state=13))  # the ramp is over: HOLD
+    assert m.name == "LANDED" and "disarm" in act.names()

@@ -15,7 +15,7 @@ def test_registers_and_blocks_its_commands(bench: Bench) -> None:
     assert bench.host.running, bench.host.error
     assert bench.host.blocks_command(ACTUATOR) and bench.host.blocks_command(REFLEX)
     assert not bench.host.blocks_command(400)
-    assert any(t.startswith("SL: slopelander script v2") for t in bench.io.sl_texts())
+    assert any(t.startswith("SL: slopelander script v3") for t in bench.io.sl_texts())
 
 
 @pytest.mark.parametrize(
@@ -134,7 +134,7 @@ def test_state_announcements(bench: Bench) -> None:
     states = [t for t, n in window if n == "SL_STATE"]
     versions = [v for t, n, v in bench.io.named if n == "SL_VER" and t > start]
     assert 9 <= len(states) <= 11  # 5 Hz
-    assert len(versions) == 2 and set(versions) == {2.0}  # 1 Hz, contract version 2
+    assert len(versions) == 2 and set(versions) == {3.0}  # 1 Hz, contract version 3
     before = len(bench.io.named)
     bench.command(ACTUATOR, 1, 0, 1000, wait_ms=12)
     changes = [(t, v) for t, n, v in bench.io.named[before:] if n == "SL_STATE"]

@@ -259,3 +259,51 @@ def test_emergency_stop_releases_a_cut(bench: Bench) -> None:
     bench.io.estop = True
     bench.run(40)
     assert bench.io.state() == 20 and bench.outputs() == [None] * 4
+
+
+def test_the_reverse_thrust_ramps_down_when_it_ends(bench: Bench) -> None:
+    # contract 3: param 7 of the arm ramps the thrust linearly to zero once its duration is over
+    bench.io.range = good(0.5)
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000, 400).result == ACCEPTED
+    descend(bench, 0.32, 0.5, 80)
+    bench.io.range = good(0.2)
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    assert bench.io.state() == RVT
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    bench.run(int(DUR_MS) - 20)
+    assert bench.outputs() == [1100] * 4  # full reverse for the duration
+    pwm = []
+    for _ in range(500):
+        bench.run(1)
+        pwm.append((bench.io.state(), bench.outputs()[0]))
+    ramp = [p for s, p in pwm if s == RVT and p != 1100]
+    assert 390 <= len(ramp) <= 410  # 400 ms, sampled every ms
+    assert ramp == sorted(ramp)  # never back up
+    assert ramp[0] < 1110 and ramp[-1] > 1490  # from full reverse to stopped, no step
+    assert pwm[-1] == (HOLD, 1500)
+    assert bench.io.armed
+
+
+def test_a_refresh_during_the_ramp_does_not_bring_the_thrust_back(bench: Bench) -> None:
+    cut_now(bench)
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000, 1000).result == ACCEPTED
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 0, 3000, 1000).result == ACCEPTED  # end it
+    bench.run(300)
+    before = bench.outputs()[0]
+    assert bench.io.state() == RVT and 1100 < before < 1500
+    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 3000, 3000, 1000).result == ACCEPTED
+    bench.run(20)
+    assert bench.outputs()[0] >= before  # still falling toward stop, not back to full reverse
+    bench.run(800)
+    assert bench.io.state() == HOLD and bench.outputs() == [1500] * 4
+
+
+def test_a_ramp_out_of_range_is_denied(bench: Bench) -> None:
+    bench.io.range = good(0.5)
+    for bad in (-1.0, 3001.0, float("nan")):
+        assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000, bad).result == 2
+    assert any("reverse ramp out of 0..3000 ms" in t for t in bench.io.sl_texts())

@@ -144,6 +144,7 @@ class MavActions:
             c["reverse_thrust_pct"],
             c["reverse_max_ms"] if reverse_ms is None else reverse_ms,
             c["validity_ms"],
+            c["reverse_ramp_ms"],
         )
 
     def reflex_refresh(self) -> None:
@@ -152,8 +153,9 @@ class MavActions:
         self.reflex_arm()
 
     def reflex_end_reverse(self) -> None:
-        """End the script's reverse thrust now: a refresh with duration 0 (script contract 2);
-        the script holds the motors stopped (HOLD) and the refresh renews its validity."""
+        """End the script's reverse thrust now: a refresh with duration 0 (script contract 2); the
+        script ramps it down over ``reflex.reverse_ramp_ms`` (contract 3), then holds the motors
+        stopped (HOLD); the refresh renews its validity."""
         self.reflex_arm(reverse_ms=0)
 
     def reflex_abort(self) -> None:

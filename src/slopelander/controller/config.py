@@ -39,6 +39,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "reflex.reverse_thrust_ms": (0, 5000, True),
     "reflex.reverse_max_ms": (0, 5000, True),
     "reflex.reverse_still_s": (0.0, 2.0, False),
+    "reflex.reverse_ramp_ms": (0, 3000, True),
     "reflex.validity_ms": (100, 10000, True),
     "reflex.refresh_s": (0.05, 5.0, False),
     "range.max_age_s": (0.01, 5.0, False),

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from slopelander.model import kernel as k
-from slopelander.model.conditions import ConditionError
+from slopelander.model.conditions import CONDITION_FIELDS, ConditionError, LandingConditions
 from slopelander.model.landing import Model
 from slopelander.model.usercode import compiling_notice
 
@@ -133,6 +133,15 @@ class Stepper:
         st[k.S_W] = rotor_speed
         st[k.S_W + 1] = rotor_speed
         st[k.S_CM : k.S_CM + k.N_POINTS] = 0.0
+
+    def start_landing(self, conditions: LandingConditions) -> None:
+        """Put the vehicle at the moment of impact exactly as ``simulate`` starts a landing
+        (slope, leg presets, impact velocity); the rotor commands stay the caller's."""
+        p = self.model.params
+        conditions.validate(p.angle_min_deg, p.angle_max_deg)
+        row = np.array([getattr(conditions, n) for n in CONDITION_FIELDS], dtype=np.float64)
+        k.init_landing(self._p, self._fl, row, self.st, self.ctx, self._ws)
+        self.slope_deg = conditions.slope_deg
 
     def set_slope(self, slope_deg: float, shift_x: float = 0.0, shift_z: float = 0.0) -> None:
         """Fly over onto another surface: set its slope and move the vehicle by (-shift_x,

@@ -4,7 +4,9 @@ A fixed duration is wrong both ways: above atan(mu_k) (38.7 deg for the paper's 
 still sliding when the thrust stops keeps sliding, while one at rest stays there up to
 atan(mu_s) (50 deg). So the thrust lasts at least ``reflex.reverse_thrust_ms``, then ends as soon
 as the vehicle has read still (accel and speed, :func:`still`) for ``reflex.reverse_still_s``, and
-at the latest after ``reflex.reverse_max_ms``, the bound the script itself keeps.
+at the latest after ``reflex.reverse_max_ms``, the bound the script itself keeps. The script
+ramps the thrust down over ``reflex.reverse_ramp_ms`` when it ends: the legs, bent under it,
+must spring back slowly for the feet to hold (docs/model.md).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ class Reverse(State):
         cfg = ctx.cfg
         elapsed = inp.t - ctx.entered_at
         shortest = cfg["reflex.reverse_thrust_ms"] / 1000.0
-        longest = cfg["reflex.reverse_max_ms"] / 1000.0
+        longest = (cfg["reflex.reverse_max_ms"] + cfg["reflex.reverse_ramp_ms"]) / 1000.0
         if still(cfg, inp):
             since = ctx.marks.setdefault("rvt_still_since", inp.t)
         else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
+from slopelander.controller.states.reverse import SCRIPT_RVT
 
 
 def _moved(ctx: Context, inp: Inputs) -> float | None:
@@ -43,7 +44,8 @@ class Settled(State):
         keep_reflex(ctx, inp)
         if still(cfg, inp):
             since = ctx.marks.setdefault("still_since", inp.t)
-            if inp.t - since >= cfg["settle.still_s"]:
+            # not while the script still ramps the reverse thrust down: the legs are unbending
+            if inp.t - since >= cfg["settle.still_s"] and inp.script_state != SCRIPT_RVT:
                 ctx.act.disarm()
                 return ("LANDED", "still: motors stopped, disarming")
         else:
