@@ -138,7 +138,9 @@ def test_link_loss_on_local_clock_and_clock_from_vehicle_stamps(pair):
     settle(link, peer)
     assert link.clock.now() == pytest.approx(2.0)
     ts = [m for m in peer.received if m.get_type() == "TIMESYNC"]
-    assert ts and ts[-1].tc1 == 0 and ts[-1].ts1 == 2_000_000_000
+    # an answer (tc1 != 0: ArduPilot takes tc1 == 0 as a request for its own time) echoing the
+    # newest vehicle time, the lock-step echo a simulated vehicle waits on
+    assert ts and ts[-1].tc1 != 0 and ts[-1].ts1 == 2_000_000_000
     clk.advance(1.4)
     assert not link.lost
     clk.advance(0.2)

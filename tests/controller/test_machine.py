@@ -153,6 +153,8 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     ("change", "why"),
     [
         ({"script_present": False}, "script"),
+        ({"script_version": None}, "did not report its version"),
+        ({"script_version": 2.0}, "v2, v3 needed"),
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),

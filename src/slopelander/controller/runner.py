@@ -124,6 +124,7 @@ class Lander:
             range_ok=range_ok,
             script_present=ln.script_present,
             script_state=state if state is not None else 0,
+            script_version=ln.info.script_version if ln.info is not None else None,
             legs_ready=legs_ready,
             legs_fault=legs_fault,
             uphill_angles_deg=uphill,

@@ -28,6 +28,11 @@ class Actions(Protocol):
     def statustext(self, text: str) -> None: ...
 
 
+#: the on-board script contract this controller speaks (docs/onboard-script.md): 2 ends the
+#: reverse thrust on a refresh, 3 ramps it down (the arm's param 7)
+SCRIPT_CONTRACT = 3
+
+
 @dataclass
 class Inputs:
     """One snapshot of everything the machine reads; ``t`` is vehicle time (s)."""
@@ -41,6 +46,8 @@ class Inputs:
     range_ok: bool = False
     script_present: bool = True
     script_state: int = 0
+    #: the contract version the on-board script reports (SL_VER); None until it has
+    script_version: float | None = SCRIPT_CONTRACT
     legs_ready: bool = False
     legs_fault: str | None = None
     #: the uphill legs' angles as the board reports them (deg below the horizontal; empty: unknown)

@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
-from slopelander.controller.states.base import Context, Inputs, State
+from slopelander.controller.states.base import SCRIPT_CONTRACT, Context, Inputs, State
 
 
 def refusal(inp: Inputs) -> str | None:
     """The first failed pre-descent check, or None."""
     if not inp.script_present:
         return "on-board script not present"
+    if inp.script_version is None:
+        return "on-board script did not report its version (SL_VER)"
+    if inp.script_version < SCRIPT_CONTRACT:
+        # an older script would take the arm but end the reverse thrust its own way
+        return (
+            f"on-board script v{inp.script_version:g}, v{SCRIPT_CONTRACT} needed: "
+            "install firmware_params/scripts/slopelander.lua"
+        )
     if not inp.range_valid:
         return "rangefinder not healthy"
     if not inp.legs_ready:
