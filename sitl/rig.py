@@ -223,7 +223,9 @@ class Rig:
             )
             url = self.vehicle.mavlink_url
             if relay:
-                self.relay = Relay("tcp:127.0.0.1:0", f"tcp:127.0.0.1:{self.vehicle.port}").start()
+                self.relay = Relay(
+                    "tcp:127.0.0.1:0", f"tcp:127.0.0.1:{self.vehicle.port}", lockstep=True
+                ).start()
                 url = f"tcp:127.0.0.1:{self.relay.port}"
             self.link = Link(url, link_loss_s=load_config()["link.link_loss_s"], decode=decode)
             self.link.add_listener(self.track.listen)

@@ -33,10 +33,18 @@ def main(argv: list[str] | None = None) -> int:
         ap.add_argument(f"--{f}", type=float, default=0.0, help=f"probability a frame is {past}")
     ap.add_argument("--delay", type=float, default=0.0, help="added delay per frame (s)")
     ap.add_argument("--jitter", type=float, default=0.0, help="extra random delay per frame, 0..this (s)")
+    ap.add_argument(
+        "--lockstep",
+        action="store_true",
+        help="the vehicle is a lock-stepped simulator: cuts last vehicle seconds, and during one the "
+        "relay paces the vehicle in real time in the companion's place",
+    )
     a = ap.parse_args(argv)
     try:
         faults = LinkFaults(a.drop, a.duplicate, a.reorder, a.corrupt, a.delay, a.jitter)
-        relay = Relay(a.listen, a.to, faults, seed=a.seed, control_port=a.control).start()
+        relay = Relay(
+            a.listen, a.to, faults, seed=a.seed, control_port=a.control, lockstep=a.lockstep
+        ).start()
     except (FaultConfigError, OSError) as e:
         print(f"linkfault: {e}", file=sys.stderr)
         return 2

@@ -60,15 +60,24 @@ class _Direction:
     def feed(self, data: bytes) -> None:
         msgs = self.parser.parse_buffer(data) or []
         for m in msgs:
+            if self is self.relay.down:
+                self.relay.observe(m)
             raw = bytes(m.get_msgbuf()) if hasattr(m, "get_msgbuf") else bytes(getattr(m, "data", b""))
             if raw:
                 self.frame(raw)
 
+    def inject(self, raw: bytes) -> None:
+        """Send ``raw`` now, past the faults (the relay's own frames)."""
+        with self.cv:
+            heapq.heappush(self.heap, (time.monotonic(), next(self.order), raw))
+            self.cv.notify()
+
     def frame(self, raw: bytes) -> None:
         now = time.monotonic()
+        cut = self.relay.is_cut(now)
         with self.cv:
             self.counts["frames"] += 1
-            if self.relay.is_cut(now):
+            if cut:
                 self.counts["cut"] += 1
                 return
             d = decide(raw, self.relay.faults, self.rng)
@@ -113,9 +122,22 @@ class _Direction:
                 pass  # the peer went away; the reader notices and resets
 
 
+#: fields that carry the vehicle's time, in microseconds or milliseconds
+_TIME_FIELDS = (("time_usec", 1e-6), ("time_boot_ms", 1e-3))
+ECHO_PERIOD_S = 0.005  # wall seconds between the relay's own lock-step echoes during a cut
+
+
 class Relay:
     """A fault-injecting MAVLink relay from ``listen`` (where the companion connects) to ``to``
-    (the vehicle), TCP or UDP on both sides, with an optional UDP control port."""
+    (the vehicle), TCP or UDP on both sides, with an optional UDP control port.
+
+    ``lockstep``: the vehicle behind the relay is a lock-stepped simulator (``sitl.vehicle
+    --lockstep``), which waits for the companion's TIMESYNC echo. A cut would freeze it, then (after
+    its give-up second) let it run free as fast as it can, so a cut's length in vehicle time would
+    depend on the machine's load. With ``lockstep`` the relay stands in for the companion during a
+    cut: it echoes the vehicle's time paced to the wall clock, so the vehicle runs in real time (or
+    slower, never faster) while the link is gone, as a real one would, and a cut of N seconds lasts
+    N seconds of vehicle time (and at least N of wall time: the companion sees all of it)."""
 
     def __init__(
         self,
@@ -124,12 +146,18 @@ class Relay:
         faults: LinkFaults | None = None,
         seed: int = 0,
         control_port: int | None = None,
+        lockstep: bool = False,
     ) -> None:
         self.listen_kind, lh, lp = parse_address(listen)
         self.to_kind, th, tp = parse_address(to)
         self.listen_addr, self.to_addr = (lh, lp), (th, tp)
         self.faults = faults or LinkFaults()
         self._cut_until = 0.0
+        self.lockstep = lockstep
+        self.vehicle_t: float | None = None  # newest vehicle time seen going down (s)
+        self._cut_from: tuple[float, float] | None = None  # (vehicle s, wall s) where a cut began
+        self._cut_vehicle_until = 0.0
+        self._echo = mavutil.mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
         self._lock = threading.Lock()
         self.up = _Direction("up", self, seed)  # companion -> vehicle
         self.down = _Direction("down", self, seed)  # vehicle -> companion
@@ -143,18 +171,54 @@ class Relay:
     # -- faults ------------------------------------------------------------------------------
     def is_cut(self, now: float) -> bool:
         with self._lock:
+            if self._cut_from is not None:  # lock-step: the cut runs on vehicle time
+                if self.vehicle_t is not None and self.vehicle_t >= self._cut_vehicle_until:
+                    self._cut_from = None
+                    return False
+                return True
             return now < self._cut_until
 
     def cut(self, seconds: float | None) -> None:
-        """Lose every frame both ways for ``seconds`` (None: for good, until :meth:`restore`)."""
+        """Lose every frame both ways for ``seconds`` (None: for good, until :meth:`restore`);
+        vehicle seconds with ``lockstep`` (once the relay has seen the vehicle's time), else wall."""
         if seconds is not None and (not isinstance(seconds, (int, float)) or not 0 <= seconds <= 3600):
             raise FaultConfigError(f"cut seconds = {seconds!r}: must lie within 0..3600 (or none: for good)")
         with self._lock:
-            self._cut_until = float("inf") if seconds is None else time.monotonic() + seconds
+            if self.lockstep and self.vehicle_t is not None:
+                self._cut_from = (self.vehicle_t, time.monotonic())
+                self._cut_vehicle_until = float("inf") if seconds is None else self.vehicle_t + seconds
+            else:
+                self._cut_until = float("inf") if seconds is None else time.monotonic() + seconds
 
     def restore(self) -> None:
         with self._lock:
             self._cut_until = 0.0
+            self._cut_from = None
+
+    def observe(self, msg) -> None:
+        """Follow the vehicle's time in the frames going down (for ``lockstep``)."""
+        if not self.lockstep:
+            return
+        for name, scale in _TIME_FIELDS:
+            stamp = getattr(msg, name, None)
+            if isinstance(stamp, int) and stamp > 0:
+                t = stamp * scale
+                with self._lock:
+                    if self.vehicle_t is None or t > self.vehicle_t:
+                        self.vehicle_t = t
+                return
+
+    def _pace(self, stop: threading.Event) -> None:
+        """During a lock-step cut, echo the vehicle's time no faster than the wall clock."""
+        while not stop.wait(ECHO_PERIOD_S):
+            with self._lock:
+                start, seen = self._cut_from, self.vehicle_t
+            if start is None or seen is None:
+                continue
+            t_cut, wall_cut = start
+            echo = min(seen, t_cut + (time.monotonic() - wall_cut))
+            msg = mavutil.mavlink.MAVLink_timesync_message(max(1, time.monotonic_ns()), int(echo * 1e9))
+            self.up.inject(bytes(msg.pack(self._echo)))
 
     def set_faults(self, changes: dict) -> None:
         self.faults = self.faults.updated(changes)
@@ -170,6 +234,8 @@ class Relay:
     def start(self) -> Relay:
         for d in (self.up, self.down):
             self._spawn(d.run_sender, self._stop)
+        if self.lockstep:
+            self._spawn(self._pace, self._stop)
         if self.listen_kind == "tcp":
             srv = socket.create_server(self.listen_addr)
             srv.settimeout(0.2)

@@ -221,6 +221,30 @@ def test_link_back_after_loss_aborts_to_loiter():
     assert m.name == "ABORTED" and ("set_mode", "LOITER") in act.calls
 
 
+@pytest.mark.parametrize("lost_in", ["CUT", "REVERSE", "SETTLED"])
+def test_link_back_after_contact_judges_rest_instead_of_releasing_the_script(lost_in):
+    """The vehicle is on the roof and the script owns the motors: back to SETTLED, which disarms a
+    vehicle at rest (or LANDED when the script's lapse already disarmed it); no release, no LOITER."""
+    for armed_when_back, expect in ((True, "SETTLED"), (False, "LANDED")):
+        m, act, _ = make()
+        t = run_to(m, lost_in)
+        script = 13 if lost_in != "CUT" else 11
+        m.step(replace(OK, t=t + 0.02, range_m=0.2, script_state=script, impact=True, link_ok=False))
+        assert m.name == "LINK_LOST"
+        before = len(act.calls)
+        back = replace(OK, t=t + 4.0, range_m=0.2, script_state=13, impact=True, armed=armed_when_back)
+        m.step(back)
+        assert m.name == expect, m.history[-2:]
+        sent = [c[0] for c in act.calls[before:]]
+        assert "release" not in sent and "set_mode" not in sent, sent
+        if expect == "SETTLED":  # at rest: disarmed deliberately, as after any landing
+            for i in range(1, 200):
+                m.step(replace(back, t=back.t + 0.02 * i))
+                if m.name != "SETTLED":
+                    break
+            assert m.name == "LANDED" and "disarm" in [c[0] for c in act.calls[before:]]
+
+
 def test_false_cut_and_no_impact():
     m, _, _ = make()
     t = run_to(m, "CUT")

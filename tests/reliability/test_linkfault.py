@@ -200,3 +200,61 @@ def test_the_control_port_refuses_a_bad_setting_with_its_reason(clean) -> None:
     _, ctl = clean
     with pytest.raises(FaultConfigError, match="drop"):
         ctl.set(drop=2.0)
+
+
+# -- a lock-stepped vehicle behind the relay ---------------------------------------------------
+def test_a_lockstep_cut_lasts_its_vehicle_seconds_and_the_vehicle_runs_in_real_time() -> None:
+    """Without the relay's pacing a lock-stepped vehicle freezes during a cut (nobody echoes),
+    then runs free as fast as it can after its give-up second: the cut's length in vehicle time
+    would follow the machine's load (here: frozen for 1 s, then 1 s of vehicle time in a flash)."""
+    from slopelander.controller.link import Link, mavlink
+
+    v = start_vehicle(params=ROUTE_A, no_script=True, speed=0.0, lockstep=True)
+    port = free_port()
+    relay = subprocess.Popen(
+        [sys.executable, "-m", "sitl.linkfault", "--listen", f"tcp:127.0.0.1:{port}",
+         "--to", f"tcp:127.0.0.1:{v.port}", "--lockstep"],
+        stdout=subprocess.PIPE, text=True, env=child_env(), cwd=REPO,
+    )  # fmt: skip
+    link = None
+    try:
+        ready = relay.stdout.readline().split()
+        assert ready[:2] == ["linkfault", "ready"], ready
+        ctl = RelayControl(int(ready[3].split("=")[1]))
+        link = Link(f"tcp:127.0.0.1:{port}", link_loss_s=60.0)
+        link.wait_autopilot(timeout_s=30.0)
+        ask = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200)
+        end = time.monotonic() + 10.0
+        while not ask.done and time.monotonic() < end:
+            link.poll()
+            time.sleep(0.002)
+        assert ask.ok
+        t_run = link.clock.now()
+        w_run = time.monotonic()
+        while time.monotonic() - w_run < 0.5:
+            link.poll()
+            time.sleep(0.001)
+        assert link.clock.now() - t_run > 0.2  # with the companion echoing, it runs (speed 0: flat out)
+        for _ in range(50):  # let the frames in flight arrive, so the clock is the cut's start
+            link.poll()
+            time.sleep(0.001)
+        before = link.clock.now()
+        ctl.cut(2.0)
+        w0 = time.monotonic()
+        while link.clock.now() <= before + 0.1 and time.monotonic() - w0 < 30.0:
+            link.poll()
+            time.sleep(0.001)
+        silent_wall = time.monotonic() - w0
+        after = link.clock.now()
+        # the first vehicle time after the cut: it lasted two vehicle seconds, and ended then
+        assert 1.95 <= after - before <= 2.2, (before, after)
+        # during it the vehicle ran no faster than the wall clock: its 50 ms lead over the echo,
+        # and up to as much again between the newest time this link saw and the cut's start
+        assert silent_wall >= (after - before) - 0.11, (silent_wall, before, after)
+        assert ctl.stats()["cut"] is False
+    finally:
+        if link is not None:
+            link.close()
+        relay.terminate()
+        relay.wait(10)
+        v.stop()

@@ -103,6 +103,7 @@ class Machine:
         self._started = True
         self.state = STATES[new]()
         self.ctx.entered_at = inp.t
+        self.ctx.previous = old
         entry = {"t": round(inp.t, 6), "from": old, "to": new, "reason": reason}
         self.history.append(entry)
         log.info("%s -> %s: %s", old, new, reason)

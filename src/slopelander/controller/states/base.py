@@ -79,6 +79,8 @@ class Context:
     uphill_angle_deg: float | None = None
     next_preset: tuple[float, float] | None = None
     entered_at: float = 0.0
+    #: the state the machine was in before the current one (None at the start)
+    previous: str | None = None
     marks: dict[str, Any] = field(default_factory=dict)
 
 

@@ -4,14 +4,28 @@ from __future__ import annotations
 
 from slopelander.controller.states.base import Context, Inputs, State
 
+#: states after contact: the vehicle is on the roof and the script owns the motors
+AFTER_CONTACT = ("CUT", "REVERSE", "SETTLED")
+
 
 class LinkLost(State):
     """On board: GUID_TIMEOUT stops the descent, the reflex validity lapses, a HOLD disarms when its
-    validity lapses. When the link returns, abort to LOITER."""
+    validity lapses. When the link returns: a landing lost before contact is aborted to LOITER; one
+    lost after contact is judged as it lies (SETTLED: disarmed at rest, handed to the pilot armed if
+    it slides), because releasing a script that is still reversing or holding the motors on a roof
+    and asking a grounded vehicle for LOITER is no safer than finishing the landing."""
 
     name = "LINK_LOST"
 
-    def step(self, ctx: Context, inp: Inputs):
-        if inp.link_ok:
-            return ("ABORTED", "link back: aborting the landing")
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        ctx.marks["lost_in"] = ctx.previous
         return None
+
+    def step(self, ctx: Context, inp: Inputs):
+        if not inp.link_ok:
+            return None
+        if ctx.marks.get("lost_in") in AFTER_CONTACT:
+            if not inp.armed:
+                return ("LANDED", "link back: the script disarmed on the ground")
+            return ("SETTLED", "link back after contact: judging rest")
+        return ("ABORTED", "link back: aborting the landing")
