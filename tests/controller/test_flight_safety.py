@@ -84,11 +84,6 @@ def assert_safe(rig: Rig, lander: Lander, why: str, clear_m: float = 0.5) -> Non
 
 
 # ----------------------------------------------------------------------- pilot presets
-@pytest.mark.xfail(
-    strict=False,
-    reason="flaky in a full test run: once the machine was still in LEGS_WAIT when the board reported "
-    "the new preset (it steps on its own polls); passes alone; under investigation",
-)
 def test_the_pilots_preset_switch_sets_the_legs_during_a_landing(rig):
     start_over_roof(rig, HOVER_M)
     rig.set_legs(1.7, 2.3)
