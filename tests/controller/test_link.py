@@ -96,8 +96,30 @@ def test_firmware_and_script_reported(pair):
     assert link.script_present and link.info.script_version == 1.0
     clk.advance(1.5)
     assert link.script_present  # no autopilot time went by: a stalled vehicle, not a silent script
-    peer.conn.mav.system_time_send(0, 10 + 1500)  # 1.5 s of the autopilot's time without SL_ news
+    # 1.5 s of the autopilot's time without SL_ news, its telemetry arriving all along
+    for ms in range(60, 1511, 50):
+        peer.conn.mav.system_time_send(0, ms)
     settle(link, peer)
+    assert not link.script_present
+
+
+def test_a_telemetry_gap_is_not_taken_for_silent_sensors_or_script(pair):
+    """What the link missed during a gap says nothing about the vehicle: ages count from where the
+    telemetry resumed, so the first message after a cut does not make every reading stale."""
+    link, peer, _ = pair
+    found(link, peer)
+    peer.conn.mav.system_time_send(0, 1000)
+    peer.conn.mav.named_value_float_send(1000, b"SL_STATE", 0.0)
+    settle(link, peer)
+    assert link.script_present and link.age(1.0) == pytest.approx(0.0)
+    peer.conn.mav.system_time_send(0, 2500)  # 1.5 s later, nothing in between: a gap
+    settle(link, peer)
+    assert link.resumed_at == pytest.approx(2.5)
+    assert link.script_present and link.age(1.0) == pytest.approx(0.0)
+    for ms in range(2550, 3551, 50):  # telemetry flows again, still no SL_STATE: now it is silent
+        peer.conn.mav.system_time_send(0, ms)
+    settle(link, peer)
+    assert link.age(1.0) == pytest.approx(1.05)
     assert not link.script_present
 
 
@@ -152,15 +174,16 @@ def test_a_slow_vehicle_is_not_lost_but_one_without_heartbeats_is(pair):
     peer.conn.mav.system_time_send(0, 1000)
     found(link, peer)
     # a vehicle running at a quarter of real time: its messages keep coming, 4 local s = 1 vehicle s
-    for i in range(1, 9):
-        clk.advance(0.5)
-        peer.conn.mav.raw_imu_send(1_000_000 + i * 125_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
-        if i == 4:
+    for i in range(1, 21):
+        clk.advance(0.2)
+        peer.conn.mav.raw_imu_send(1_000_000 + i * 50_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+        if i == 10:
             peer.heartbeat()
         settle(link, peer, 1)
         assert not link.lost, i
-    # its clock moves on 1.6 s past the last HEARTBEAT with no new one: lost
-    peer.conn.mav.raw_imu_send(1_500_000 + 1_600_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+    # its clock moves on 1.6 s past the last HEARTBEAT (at 1.5 s) with no new one: lost
+    for us in range(2_050_000, 3_150_001, 50_000):
+        peer.conn.mav.raw_imu_send(us, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
     settle(link, peer, 1)
     assert link.lost
 

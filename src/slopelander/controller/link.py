@@ -29,6 +29,9 @@ COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
 HEARTBEAT_PERIOD_S = 1.0
 TIMESYNC_PERIOD_S = 0.02
 SCRIPT_SILENT_S = 1.0  # vehicle seconds without SL_STATE: the script is silent
+#: a jump in the newest vehicle time larger than this (s) is a telemetry gap (a 200 Hz IMU stream
+#: normally advances it by 5 ms): ages of what the link holds are counted from where it resumed
+GAP_S = 0.1
 # Messages that carry the autopilot's time, and the field holding it.
 _USEC_FIELDS = {
     "SYSTEM_TIME": "time_boot_ms",
@@ -187,6 +190,8 @@ class Link:
         self._last_timesync_usec = 0
         self._script_seen_at: float | None = None
         self.script_state: int | None = None
+        #: vehicle time at which telemetry resumed after the last gap (-inf: none yet)
+        self.resumed_at = -math.inf
         self._listeners: list[Callable[[object], None]] = []
 
     # ---------------------------------------------------------------- receiving
@@ -280,10 +285,13 @@ class Link:
             fn(msg)
         fld = _USEC_FIELDS.get(mtype)
         if fld is not None:
+            before = self.clock.usec if self.clock.known else None
             if fld == "time_usec":
                 self.clock.observe_usec(getattr(msg, fld))
             else:
                 self.clock.observe_boot_ms(getattr(msg, fld))
+            if before is not None and self.clock.usec - before > GAP_S * 1e6:
+                self.resumed_at = self.clock.now()
         if mtype == "HEARTBEAT":
             self._last_heartbeat_rx = now
             self._last_heartbeat_vt = self.clock.now() if self.clock.known else None
@@ -411,14 +419,19 @@ class Link:
         if self.monotonic() - self._last_rx > self.link_loss_s:
             return True
         hb = self._last_heartbeat_vt
-        return hb is not None and self.clock.now() - hb > self.link_loss_s
+        return hb is not None and self.age(hb) > self.link_loss_s
+
+    def age(self, stamp_s: float) -> float:
+        """Vehicle seconds since ``stamp_s``, counted from where telemetry resumed if it had a gap
+        since: what the link missed during a gap says nothing about the vehicle or its sensors."""
+        return self.clock.now() - max(stamp_s, self.resumed_at)
 
     @property
     def script_present(self) -> bool:
         """The on-board script announced itself within the last second of the autopilot's time: a
         simulation stalled by a loaded machine is not a silent script (a silent autopilot is link
         loss, on the companion's own clock)."""
-        return self._script_seen_at is not None and self.clock.now() - self._script_seen_at <= SCRIPT_SILENT_S
+        return self._script_seen_at is not None and self.age(self._script_seen_at) <= SCRIPT_SILENT_S
 
     def wait_autopilot(
         self, timeout_s: float = 10.0, sleep: Callable[[float], None] = time.sleep

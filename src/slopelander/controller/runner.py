@@ -86,7 +86,7 @@ class Lander:
         range_m, range_ok = None, False
         if ds is not None and ds.orientation == mavlink.MAV_SENSOR_ROTATION_PITCH_270:
             range_m = ds.current_distance / 100.0
-            fresh = t - ds.time_boot_ms / 1000.0 <= cfg["range.max_age_s"]
+            fresh = ln.age(ds.time_boot_ms / 1000.0) <= cfg["range.max_age_s"]
             inside = ds.min_distance <= ds.current_distance <= ds.max_distance
             q = getattr(ds, "signal_quality", 0)  # a MAVLink 1 link has no quality: unknown
             quality = q != 1 and (q == 0 or q >= cfg["range.min_quality"])
@@ -95,7 +95,7 @@ class Lander:
         accel = math.dist((0, 0, 0), raw_imu_accel(imu)) if imu else 9.80665
         pos = ln.last.get("LOCAL_POSITION_NED")
         speed = position = None
-        if pos is not None and t - pos.time_boot_ms / 1000.0 <= cfg["settle.velocity_max_age_s"]:
+        if pos is not None and ln.age(pos.time_boot_ms / 1000.0) <= cfg["settle.velocity_max_age_s"]:
             speed = math.sqrt(pos.vx * pos.vx + pos.vy * pos.vy + pos.vz * pos.vz)
             position = (pos.x, pos.y, pos.z)
             if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
