@@ -205,6 +205,7 @@ class Rig:
         range_hz: float = 50.0,
         telemetry: bool = True,
         decode: frozenset[str] | None = TRACK_MESSAGES,
+        script: bool = True,
     ) -> None:
         self.slope_deg = slope_deg
         scn = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "seed": seed}
@@ -219,7 +220,11 @@ class Rig:
         self.last_flight: Flight | None = None  # for callers that fly a sequence of landings
         try:
             self.vehicle = start_vehicle(
-                scenario=scn, speed=speed, lockstep=True, legboard_control=self.board.control
+                scenario=scn,
+                speed=speed,
+                lockstep=True,
+                legboard_control=self.board.control,
+                no_script=not script,
             )
             url = self.vehicle.mavlink_url
             if relay:
@@ -239,6 +244,9 @@ class Rig:
                 self.wait_command(self.link.request_stream(msg_id, hz), f"stream {msg_id}")
             self.calibration = load_calibration()
             self.legs = LegBoard.open(self.board.pty, calibration=self.calibration)
+            # the board's silence is judged on the vehicle's clock, as the landing controller does:
+            # a loaded machine that slows the lock-stepped simulation is not a silent board
+            self.legs.set_clock(self.link.clock.now)
         except BaseException:
             self.close()
             raise

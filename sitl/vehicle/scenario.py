@@ -16,6 +16,9 @@ from slopelander.model.landing import Model
 
 RANGE_FAULTS = ("rangefinder_dropout", "rangefinder_spike", "rangefinder_stuck", "rangefinder_noise")
 IMU_FAULTS = ("imu_noise", "imu_spike")
+#: the on-board script not run (late or not answering: the scheduler skips it; its overrides lapse)
+SCRIPT_FAULTS = ("script_stall",)
+FAULT_KINDS = RANGE_FAULTS + IMU_FAULTS + SCRIPT_FAULTS
 TOP_KEYS = {
     "seed",
     "start_on",
@@ -77,6 +80,10 @@ class Scenario:
 
     def _active(self, t: float, kinds: tuple[str, ...]) -> list[Fault]:
         return [f for f in self.faults if f.kind in kinds and f.start <= t < f.end]
+
+    def script_stalled(self, t: float) -> bool:
+        """Whether the on-board script is not run at vehicle time ``t``."""
+        return bool(self._active(t, SCRIPT_FAULTS))
 
     def imu_spike(self, t: float) -> float:
         return sum(f.value for f in self._active(t, ("imu_spike",)))
@@ -181,10 +188,8 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
             or set(f) - {"kind", "start", "end", "value"}
         ):
             raise ScenarioError(f"{src}: {where} needs kind, start, end (s) and optionally value")
-        if f["kind"] not in RANGE_FAULTS + IMU_FAULTS:
-            raise ScenarioError(
-                f"{src}: {where}.kind {f['kind']!r} unknown; one of {RANGE_FAULTS + IMU_FAULTS}"
-            )
+        if f["kind"] not in FAULT_KINDS:
+            raise ScenarioError(f"{src}: {where}.kind {f['kind']!r} unknown; one of {FAULT_KINDS}")
         start = _num(src, f"{where}.start", f["start"], 0.0, 1e6)
         end = _num(src, f"{where}.end", f["end"], start, 1e6)
         value = _num(src, f"{where}.value", f.get("value", 0.0), -1e4, 1e4)

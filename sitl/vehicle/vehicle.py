@@ -166,7 +166,7 @@ class Vehicle:
         front, rear = self.fc.update(dt, b, tgt, math.radians(self.params["ANGLE_MAX"] / 100))
         self.mixer_pwm = self._mix(front, rear)
         now_ms = int(self.t * 1000)
-        if self.host is not None:
+        if self.host is not None and not self.scn.script_stalled(self.t):
             self.host.run_due(now_ms)
         out = list(self.mixer_pwm)
         if self.host is not None and self.armed:
