@@ -77,6 +77,8 @@ def one_landing(rig: Rig, fall_m: float, table: LookupTable) -> dict[str, float]
             break
         time.sleep(0.001)
     out: dict[str, float] = {"end": name, "cut": cut}
+    if name != "LANDED" and lander.machine.history:
+        out["why"] = lander.machine.history[-1]["reason"]
     tr = rig.track
     c = tr.contact(t0)
     stop = tr.event_times("EV_STOP", t0)
@@ -183,7 +185,8 @@ def fly_slope(slope, seed, todo, rows, rng, table) -> None:
             )
             print(
                 f"{slope:4.0f} deg cut {r['cut']:.2f} m: {r['end']:<8} "
-                f"impact {r.get('vz', math.nan):.2f} m/s {shown} ms",
+                f"impact {r.get('vz', math.nan):.2f} m/s {shown} ms"
+                + (f" ({r['why']})" if "why" in r else ""),
                 flush=True,
             )
             if todo and todo[0][1] == slope:

@@ -219,6 +219,12 @@ class Soak:
             if ctl.state()["unplugged"]:
                 raise RigError("leg board unplugged")
         rig.legs = LegBoard.open(rig.board.pty, calibration=rig.calibration)
+        rig.legs.set_clock(rig.link.clock.now)
+        # a leg the fault left latched in its fault state refuses every preset until loosened
+        # ("loosen it first"), as a mechanic would do before the next flight
+        if any(lg.fault for lg in (rig.legs.status.legs if rig.legs.status else ())):
+            op = rig.legs.start_loosen()
+            rig.fly_until(lambda: op.done, 30.0, "loosen the faulted legs")
 
     # --------------------------------------------------------------------- one landing
     def inject(self, fault: str, row: dict) -> None:
