@@ -353,6 +353,23 @@ def test_reverse_thrust_lasts_its_minimum_then_ends_once_the_vehicle_is_still():
     assert hold <= shortest  # the rest began at entry, so the hold was over by the minimum
 
 
+def test_once_the_thrust_is_ended_no_refresh_puts_it_back_on():
+    """After REVERSE ends the thrust, SETTLED's refreshes say duration 0 as well: a refresh with the
+    full duration reaching the script before (or instead of) the end would keep the thrust on to its
+    3 s bound (the link drops a pending command when a newer one with the same id is sent)."""
+    m, act, _ = make()
+    t = run_to(m, "REVERSE")
+    shortest = m.ctx.cfg["reflex.reverse_thrust_ms"] / 1000.0
+    at_rest = replace(OK, range_m=0.2, script_state=12, speed_mps=0.0)
+    m.step(replace(at_rest, t=t + shortest + 0.01))
+    assert m.name == "SETTLED"
+    n = len(act.calls)
+    for i in range(1, 60):  # the script still ramps (RVT), then holds (HOLD)
+        m.step(replace(at_rest, t=t + shortest + 0.01 + 0.02 * i, script_state=12 if i < 40 else 13))
+    sent = [c[0] for c in act.calls[n:]]
+    assert "reflex_end_reverse" in sent and "reflex_refresh" not in sent, sent
+
+
 def test_reverse_thrust_goes_on_while_the_vehicle_slides_until_the_scripts_bound():
     m, act, _ = make()
     t = run_to(m, "REVERSE")

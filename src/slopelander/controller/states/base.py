@@ -100,14 +100,19 @@ def still(cfg: Any, inp: Inputs) -> bool:
     )
 
 
-def keep_reflex(ctx: Context, inp: Inputs) -> None:
+def keep_reflex(ctx: Context, inp: Inputs, thrust_ended: bool = False) -> None:
     """Re-send the reflex arm every ``reflex.refresh_s``: after the cut it only renews the script's
     validity (a lapse in HOLD disarms: the script's answer to a silent companion), so a companion
-    that is alive keeps the decision to disarm for itself."""
+    that is alive keeps the decision to disarm for itself. Once the reverse thrust is over
+    (``thrust_ended``) the refresh says so too (duration 0): a refresh with the full duration could
+    reach the script before the end command and put the thrust back on to its bound."""
     if inp.script_state not in SCRIPT_LANDING:  # never re-arm a script that has let go
         return
     if inp.t - ctx.marks.get("reflex_sent", -1e9) >= ctx.cfg["reflex.refresh_s"]:
-        ctx.act.reflex_refresh()
+        if thrust_ended:
+            ctx.act.reflex_end_reverse()
+        else:
+            ctx.act.reflex_refresh()
         ctx.marks["reflex_sent"] = inp.t
 
 

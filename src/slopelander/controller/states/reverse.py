@@ -41,6 +41,7 @@ class Reverse(State):
             since = None
         if elapsed >= shortest and since is not None and inp.t - since >= cfg["reflex.reverse_still_s"]:
             ctx.act.reflex_end_reverse()
+            ctx.marks["reflex_sent"] = inp.t  # the end is a refresh too
             return ("SETTLED", f"still under reverse thrust after {elapsed:.2f} s: thrust ended")
         if elapsed >= shortest and inp.script_state != SCRIPT_RVT:
             return ("SETTLED", f"reverse thrust ended by the script after {elapsed:.2f} s")

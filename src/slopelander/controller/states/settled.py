@@ -41,7 +41,7 @@ class Settled(State):
                 "ABORTED",
                 f"sliding at {speed:.2f} m/s, {moved:.2f} m after reverse thrust: not disarmed",
             )
-        keep_reflex(ctx, inp)
+        keep_reflex(ctx, inp, thrust_ended=True)  # SETTLED comes after the thrust
         if still(cfg, inp):
             since = ctx.marks.setdefault("still_since", inp.t)
             # not while the script still ramps the reverse thrust down: the legs are unbending
