@@ -30,7 +30,7 @@ from slopelander.envelope.axes import MapAxes
 from slopelander.envelope.maps import PRESET_FIELDS, LandingMap, model_record, results_to_fields
 from slopelander.envelope.sweep import run_sweep
 from slopelander.errors import SlopelanderError
-from slopelander.model import CONDITION_DTYPE, Model, Outcome
+from slopelander.model import Model, Outcome, default_conditions
 
 TORQUE_LEVELS: tuple[float, ...] = (0.56, 1.1, 1.7, 2.3)
 """Per-joint friction torque levels of Sec. V-B, N*m."""
@@ -171,7 +171,7 @@ def _candidates(strategy: Strategy, axes: MapAxes, model: Model) -> np.ndarray:
 def _grid(axes: MapAxes, presets: np.ndarray, strategy: Strategy) -> np.ndarray:
     """Conditions for presets of shape (n_slopes, n_speeds, n_candidates, 4)."""
     n_s, n_v, n_c, _ = presets.shape
-    grid = np.zeros(n_s * n_v * n_c, dtype=CONDITION_DTYPE)
+    grid = default_conditions(n_s * n_v * n_c)
     grid["slope_deg"] = np.broadcast_to(axes.slopes[:, None, None], (n_s, n_v, n_c)).ravel()
     grid["speed"] = np.broadcast_to(axes.speeds[None, :, None], (n_s, n_v, n_c)).ravel()
     for f, name in enumerate(PRESET_FIELDS):
