@@ -34,6 +34,7 @@ after it; and, as the maps and the table assume, with the thrust held to the mod
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -103,6 +104,11 @@ def main() -> None:
         action="store_true",
         help="leave the legs at 37.5 deg instead of setting the table's angles on the board",
     )
+    ap.add_argument(
+        "--save-conditions",
+        metavar="FILE",
+        help="write each landing's model conditions (thrust as flown) and outcomes as JSON lines",
+    )
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
     table = LookupTable.load(DEFAULT_TABLE)
@@ -140,6 +146,11 @@ def main() -> None:
                 f = rig.land((p.tau_up, p.tau_down), cfg, lander=lander, timeout_s=60.0, rest_s=2.0)
                 c = f.contact
                 outcome, fig = f.classify(planar)
+                if c and a.save_conditions:
+                    cond = {
+                        k: (None if v == math.inf else v) for k, v in f.model_conditions().as_dict().items()
+                    }
+                    row["conditions"] = cond  # reverse_duration None: held
                 (model, m_slide), (held, _) = (
                     model_class(f.model_conditions(t)) if c else ("-", math.nan) for t in ("flown", "held")
                 )
@@ -160,6 +171,10 @@ def main() -> None:
             f"  ({row['why']})",
             flush=True,
         )
+    if a.save_conditions:
+        with open(a.save_conditions, "w") as fh:
+            for r in rows:
+                fh.write(json.dumps({k: v for k, v in r.items()}, default=float) + "\n")
     landed = sum(1 for r in rows if r["outcome"] == "landed")
     print(f"\nlegs at {'37.5 deg' if a.no_angles else 'the table angles'}")
     print(
