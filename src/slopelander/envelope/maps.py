@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -164,8 +165,12 @@ def preset_conditions(m: LandingMap, **fixed: float) -> np.ndarray:
     grid["speed"] = np.tile(m.axes.speeds, n_s)
     for name in PRESET_FIELDS:
         grid[name] = m.fields[name].ravel()
+    strategy = m.meta.get("strategy", {})
     for name in ("reverse_percent", "reverse_delay"):
-        grid[name] = float(m.meta.get("strategy", {}).get(name, 0.0))
+        grid[name] = float(strategy.get(name, 0.0))
+    if grid["reverse_percent"].any():  # a thrust that ends; files without it: held
+        grid["reverse_duration"] = float(strategy.get("reverse_duration", math.inf))
+        grid["reverse_ramp"] = float(strategy.get("reverse_ramp", 0.0))
     for name, value in fixed.items():
         grid[name] = value
     return grid
