@@ -147,10 +147,7 @@ def main() -> None:
                 c = f.contact
                 outcome, fig = f.classify(planar)
                 if c and a.save_conditions:
-                    cond = {
-                        k: (None if v == math.inf else v) for k, v in f.model_conditions().as_dict().items()
-                    }
-                    row["conditions"] = cond  # reverse_duration None: held
+                    row["conditions"] = f.model_conditions().as_file_dict()  # no reverse_duration: held
                 (model, m_slide), (held, _) = (
                     model_class(f.model_conditions(t)) if c else ("-", math.nan) for t in ("flown", "held")
                 )

@@ -123,6 +123,14 @@ class LandingConditions:
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
 
+    def as_file_dict(self) -> dict[str, float]:
+        """The fields for a file: a thrust held to the horizon leaves its end out, so that JSON
+        holds no ``Infinity`` and files read as before the thrust could end."""
+        d = asdict(self)
+        if not math.isfinite(self.reverse_duration):
+            del d["reverse_duration"], d["reverse_ramp"]
+        return d
+
 
 CONDITION_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(LandingConditions))
 CONDITION_DTYPE = np.dtype([(name, np.float64) for name in CONDITION_FIELDS])
