@@ -29,6 +29,9 @@ model's outcome for the contact state the vehicle reported (slope, speeds, pitch
 leg angles, reverse delay) with the reverse thrust as flown: held until the companion ended it,
 then ramped down as the on-board script did (sitl/rig.py Flight.model_conditions), and judged
 after it; and, as the maps and the table assume, with the thrust held to the model's horizon.
+Last, the simulated vehicle's own judge of the landing (its STATUSTEXT "Landing: ..."): the
+model's classifier on the vehicle's physics, decided like the held column (at rest under the
+thrust); it names a joint touch, which the telemetry's classes (landed/slid/flipped) cannot see.
 """
 
 from __future__ import annotations
@@ -151,13 +154,17 @@ def main() -> None:
                 (model, m_slide), (held, _) = (
                     model_class(f.model_conditions(t)) if c else ("-", math.nan) for t in ("flown", "held")
                 )
+                # the simulated vehicle's own judge (the model's classifier on its physics, decided
+                # as `simulate` decides a held thrust): it sees a joint touch, the telemetry does not
+                said = [t.split()[1] for t in rig.track.statustext if t.startswith("Landing: ")]
+                judge = said[-1] if said else "-"
                 why = f.history[-1]["reason"] if f.history else ""
                 row.update(end=f.end, why=why, outcome=outcome, vz=c["vz"] if c else math.nan,
                            vx=c["vx"] if c else math.nan, slide=fig.get("slide_m", math.nan),
-                           model=model, held=held, m_slide=m_slide)  # fmt: skip
+                           model=model, held=held, m_slide=m_slide, judge=judge)  # fmt: skip
         except (RigError, LegBoardError) as exc:  # the rig could not fly it: reported, not hidden
             row.update(end="rig error", why=str(exc), outcome="rig error", vz=math.nan, vx=math.nan,
-                       slide=math.nan, model="-", held="-", m_slide=math.nan)  # fmt: skip
+                       slide=math.nan, model="-", held="-", m_slide=math.nan, judge="-")  # fmt: skip
         rows.append(row)
         print(
             f"{i + 1:2d}  roof {s:4.1f} deg, heading {h:+5.1f} -> {planar:4.1f} deg  "
@@ -176,13 +183,13 @@ def main() -> None:
     print(f"\nlegs at {'37.5 deg' if a.no_angles else 'the table angles'}")
     print(
         f"{'slope':>6} {'planar':>6} {'speed':>6} {'vx':>6}  preset       table says    flown     "
-        f"model     model, thrust held"
+        f"model       thrust held vehicle's judge"
     )
     for r in rows:
         print(
             f"{r['slope']:6.1f} {r['planar']:6.1f} {r['vz']:6.2f} {r['vx']:+6.2f}  "
             f"{r['preset'][0]:.2f}/{r['preset'][1]:.2f} {r['which'].split(':')[0].split()[-1]:<6}  "
-            f"{r['table']:<13} {r['outcome']:<9} {r['model']:<9} {r['held']}"
+            f"{r['table']:<13} {r['outcome']:<9} {r['model']:<11} {r['held']:<11} {r['judge']}"
         )
     agree = sum(1 for r in rows if r["outcome"] == r["model"])
     agree_held = sum(1 for r in rows if r["outcome"] == r["held"])
