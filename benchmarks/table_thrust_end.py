@@ -10,9 +10,9 @@ table's reverse thrust (100 % at impact). The companion holds the thrust at leas
 ``reflex.reverse_still_s`` (0.2 s); flown, that came to 0.56-0.64 s after contact
 (benchmarks/outdoor_campaign.py). The model takes a fixed duration instead (``--duration``,
 assumed the same for every cell): a cell that bounces longer would be held longer in flight.
-The "re-chosen" column chooses the presets again with the ended, ramped thrust
-(``slopelander table --reverse-duration D --reverse-ramp R``) on a coarse grid (``--coarse``
-deg x 0.25 m/s) and counts the cells that land there.
+The "re-chosen" columns choose the presets again on the table's grid, with the thrust held (as
+the table was made) and with the ended, ramped thrust (what ``slopelander table
+--reverse-duration D --reverse-ramp R`` would write), and count the cells that land.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from slopelander.envelope import MapAxes, choose_presets  # noqa: E402
 from slopelander.envelope.presets import STRATEGIES  # noqa: E402
 from slopelander.model import Model, Outcome, default_conditions, simulate_batch  # noqa: E402
 
-BANDS = [(0, 30), (30, 35), (35, 38.7), (38.7, 42), (42, 45), (45, 50), (50, 60.01)]
+BANDS = [(0, 30), (30, 40), (40, 45), (45, 50), (50, 60.01)]
 
 
 def main() -> None:
@@ -40,7 +40,6 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=0.6, help="s the thrust is held (default 0.6)")
     ap.add_argument("--ramp", type=float, default=1.0, help="s of the ramp to zero (default 1.0)")
     ap.add_argument("--table", default=str(DEFAULT_TABLE))
-    ap.add_argument("--coarse", type=float, default=2.0, help="slope step (deg) of the re-chosen grid")
     a = ap.parse_args()
     table = LookupTable.load(a.table)
     st = table.strategy
@@ -74,16 +73,30 @@ def main() -> None:
 
     # presets chosen again with the ramped end, on a coarse grid
     t1 = time.perf_counter()
-    axes = MapAxes.build(a.coarse, 0.25, slope_max=60.0, speed_min=0.5, speed_max=3.0)
-    rechosen = {}
+    axes = MapAxes(np.asarray(table.slopes, float), np.asarray(table.speeds, float))
+    rechosen, maps = {}, {}
     for name, (dur, ramp) in (("held", (None, 0.0)), ("ended", (a.duration, a.ramp))):
-        strat = STRATEGIES[st.get("name", "rvt")].with_options(reverse_duration=dur, reverse_ramp=ramp)
-        m = choose_presets(model, axes, strat, progress=False)
-        rechosen[name] = (m.outcome <= Outcome.END_OF_TRAVEL, axes.slopes)
-    print(f"presets re-chosen on {axes.shape[0]} x {axes.shape[1]} cells: {time.perf_counter() - t1:.0f} s")
+        strat = STRATEGIES[st.get("name", "rvt")].with_options(
+            refine=st.get("torques") == "refined",
+            optimal_angle=st.get("angle") == "optimal",
+            reverse_duration=dur,
+            reverse_ramp=ramp,
+        )
+        maps[name] = choose_presets(model, axes, strat, progress=False)
+        rechosen[name] = (maps[name].outcome <= Outcome.END_OF_TRAVEL, axes.slopes)
+    changed = np.zeros((n_s, n_v), bool)
+    for f in ("tau_up", "tau_down", "angle_up_deg", "angle_down_deg"):
+        changed |= ~np.isclose(maps["held"].fields[f], maps["ended"].fields[f])
+    print(
+        f"presets re-chosen on the table's {n_s} x {n_v} cells: {time.perf_counter() - t1:.0f} s; "
+        f"the ended thrust chooses another preset in {int(changed.sum())} cells"
+    )
 
     head = "  ".join(f"{n:>12}" for n in cases)
-    print(f"\n{'slopes (deg)':>14}  {'cells':>5}  {head}  {'re-chosen held':>14} {'re-chosen ended':>15}")
+    print(
+        f"\n{'slopes (deg)':>14}  {'cells':>5}  {head}  {'re-chosen held':>14} {'re-chosen ended':>15} "
+        f"{'other preset':>12}"
+    )
     for lo, hi in BANDS:
         rows = (table.slopes >= lo) & (table.slopes < hi)
         cols = "  ".join(f"{int(landed[n][rows].sum()):>12}" for n in cases)
@@ -92,10 +105,13 @@ def main() -> None:
             ok, sl = rechosen[name]
             sel = (sl >= lo) & (sl < hi)
             rc.append(f"{int(ok[sel].sum())}/{int(sel.sum()) * ok.shape[1]}")
-        print(f"{lo:6.1f}-{hi:<6.1f}  {int(rows.sum()) * n_v:>5}  {cols}  {rc[0]:>14} {rc[1]:>15}")
+        print(
+            f"{lo:6.1f}-{hi:<6.1f}  {int(rows.sum()) * n_v:>5}  {cols}  {rc[0]:>14} {rc[1]:>15} "
+            f"{int(changed[rows].sum()):>12}"
+        )
     tot = "  ".join(f"{int(landed[n].sum()):>12}" for n in cases)
     rc = [f"{int(rechosen[n][0].sum())}/{rechosen[n][0].size}" for n in ("held", "ended")]
-    print(f"{'all':>14}  {n_s * n_v:>5}  {tot}  {rc[0]:>14} {rc[1]:>15}")
+    print(f"{'all':>14}  {n_s * n_v:>5}  {tot}  {rc[0]:>14} {rc[1]:>15} {int(changed.sum()):>12}")
 
     ramp_name = list(cases)[2]
     lost = landed["held"] & ~landed[ramp_name]
