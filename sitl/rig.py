@@ -130,12 +130,14 @@ class Flight:
         slope, vertical and horizontal speed, pitch and rate, the preset, the leg angles, and the
         reverse thrust with the delay the vehicle measured from contact to reversed outputs.
 
-        ``thrust="flown"`` ends the reverse thrust as the script did: its RVT state (12) began
-        at the vehicle's EV_RVT and left for HOLD (13) at the end of the ramp
-        (``reflex.reverse_ramp_ms``), so it was held until that time less the ramp; leaving RVT
-        for any other state (a disarm, the emergency stop) stopped the outputs at once. An RVT
-        never seen to end is held. ``thrust="held"`` keeps it on to the model's horizon, as the
-        maps and the table assume."""
+        ``thrust="flown"`` ends the reverse thrust as it was flown. The script's RVT state (12)
+        began at the vehicle's EV_RVT and left for HOLD (13) at the end of the ramp
+        (``reflex.reverse_ramp_ms``), so the thrust was held until that time less the ramp;
+        leaving RVT for another state (a disarm, the emergency stop) stopped the outputs at
+        once. A flight handed to the pilot ends before the script's HOLD is heard: then the ramp
+        began when the companion ended the thrust (its SETTLED state, within a few ms of the
+        script's ramp in the flights). An RVT seen to end neither way is held.
+        ``thrust="held"`` keeps it on to the model's horizon, as the maps and the table assume."""
         from slopelander.model.conditions import MAX_REVERSE_DURATION, LandingConditions
 
         if thrust not in ("flown", "held"):
@@ -148,6 +150,7 @@ class Flight:
         delay = min(5.0, rvt[0] - c["t"]) if (pct > 0 and rvt) else 0.0
         duration, ramp = math.inf, 0.0
         if pct > 0 and rvt and thrust == "flown":
+            full_ramp = float(self.cfg["reflex.reverse_ramp_ms"]) / 1000.0
             # the script's states from contact on (RVT begins within ms of it; its SL_STATE
             # times are in ms), and the first state it went to after RVT
             after = [(t, code) for t, code in self.track.script if t >= c["t"] - 0.01]
@@ -155,12 +158,17 @@ class Flight:
             left = (
                 next(((t, code) for t, code in after[i + 1 :] if code != 12), None) if i is not None else None
             )
+            settled = next((h["t"] for h in self.history if h["to"] == "SETTLED" and h["t"] >= rvt[0]), None)
+            ramp_start = None
             if left is not None:
-                t_left, code = left
-                ramp = float(self.cfg["reflex.reverse_ramp_ms"]) / 1000.0 if code == 13 else 0.0
-                held = t_left - ramp - rvt[0]
+                ramp = full_ramp if left[1] == 13 else 0.0
+                ramp_start = left[0] - ramp
+            elif settled is not None:
+                ramp, ramp_start = full_ramp, settled
+            if ramp_start is not None:
+                held = ramp_start - rvt[0]
                 if held <= 0.0:  # ended within the reversal: what was left of the ramp ran
-                    ramp, held = max(0.0, t_left - rvt[0]), 1e-3
+                    ramp, held = max(0.0, ramp + held), 1e-3
                 duration = min(MAX_REVERSE_DURATION, held)
         return LandingConditions(
             slope_deg=c["slope"],

@@ -68,16 +68,22 @@ def test_with_reverse_thrust_it_stops_on_the_roof_and_a_slide_after_it_is_not_di
     assert flight.states[-1] in ("ABORTED", "LANDED"), flight.history
     c = flight.contact
     assert c is not None and c["vz"] > 0.6
-    predicted = simulate(flight.model_conditions()).result
-    assert predicted.outcome.success, predicted.summary()  # the model: landed, under the thrust
+    predicted = simulate(flight.model_conditions("held")).result
+    assert predicted.outcome.success, predicted.summary()  # the model, thrust held: landed under it
+    # the model given the thrust as flown (ended, then ramped) judges after it: it slides
+    as_flown = simulate(flight.model_conditions()).result
+    assert not as_flown.outcome.success, as_flown.summary()
     # reverse thrust ended on evidence: at rest under the thrust, after the minimum, before the bound
     ended = flight.history[-2]
     assert ended["to"] == "SETTLED" and "still under reverse thrust" in ended["reason"], ended
+    ramp = cfg["reflex.reverse_ramp_ms"] / 1000.0  # the motors reach the stop band after the ramp
+    if flight.end == "ABORTED":  # handed to the pilot while the ramp still ran: hear its end
+        rig.wait(ramp + 0.2)
     rvt = rig.track.event_times("EV_RVT", c["t"] - 0.001)
     stop = rig.track.event_times("EV_STOP", c["t"])
     assert rvt and rvt[0] - c["t"] < 0.01 and stop
     shortest, longest = cfg["reflex.reverse_thrust_ms"] / 1000.0, cfg["reflex.reverse_max_ms"] / 1000.0
-    assert shortest < stop[0] - c["t"] < longest, stop[0] - c["t"]
+    assert shortest < stop[0] - c["t"] < longest + ramp, stop[0] - c["t"]
     # the controller's own window: it read "still" for the hold time before it ended the thrust
     # (the vehicle's EV_STOP comes a command's latency later, so it does not mark that window)
     hold = cfg["reflex.reverse_still_s"]
