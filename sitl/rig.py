@@ -136,7 +136,9 @@ class Flight:
         leaving RVT for another state (a disarm, the emergency stop) stopped the outputs at
         once. A flight handed to the pilot ends before the script's HOLD is heard: then the ramp
         began when the companion ended the thrust (its SETTLED state, within a few ms of the
-        script's ramp in the flights). An RVT seen to end neither way is held.
+        script's ramp in the flights). Held past ``reflex.reverse_max_ms``, the script's own
+        bound ended it: held to the bound, then its ramp until RVT was left (a ramp cut short
+        reads as a steeper one). An RVT seen to end neither way is held.
         ``thrust="held"`` keeps it on to the model's horizon, as the maps and the table assume."""
         from slopelander.model.conditions import MAX_REVERSE_DURATION, LandingConditions
 
@@ -167,6 +169,10 @@ class Flight:
                 ramp, ramp_start = full_ramp, settled
             if ramp_start is not None:
                 held = ramp_start - rvt[0]
+                bound = float(self.cfg["reflex.reverse_max_ms"]) / 1000.0
+                if held > bound + 0.05:  # the script's own bound ended it, and its ramp ran until left
+                    ramp = min(full_ramp, max(0.0, ramp_start + ramp - rvt[0] - bound))
+                    held = bound
                 if held <= 0.0:  # ended within the reversal: what was left of the ramp ran
                     ramp, held = max(0.0, ramp + held), 1e-3
                 duration = min(MAX_REVERSE_DURATION, held)

@@ -46,9 +46,11 @@ def speed(p) -> float:
 
 @pytest.mark.xfail(
     strict=False,
-    reason="flaky: how 55 deg ends once the thrust stops (a slide, or legs that catch) varies with "
-    "the lock-step timing of the cut, and in one run in three the vehicle's hold event was not seen; "
-    "under investigation (docs/flight-figures.md)",
+    reason="flaky: 2 of 12 runs on 2026-11-23 heard no EV_STOP. In the one examined the script kept "
+    "the reverse thrust to its own 3 s bound although the companion had ended it (SETTLED 'thrust "
+    "ended'), and the slide was handed to the pilot before the motors reached the stop band. "
+    "Suspected: SETTLED's reflex refresh (the same command, duration reflex.reverse_max_ms) "
+    "supersedes the end command (docs/flight-figures.md)",
 )
 def test_with_reverse_thrust_it_stops_on_the_roof_and_a_slide_after_it_is_not_disarmed(rig):
     rig.go_over_roof(2.5)
@@ -81,7 +83,7 @@ def test_with_reverse_thrust_it_stops_on_the_roof_and_a_slide_after_it_is_not_di
         rig.wait(ramp + 0.2)
     rvt = rig.track.event_times("EV_RVT", c["t"] - 0.001)
     stop = rig.track.event_times("EV_STOP", c["t"])
-    assert rvt and rvt[0] - c["t"] < 0.01 and stop
+    assert rvt and rvt[0] - c["t"] < 0.01 and stop, (flight.history[-2:], rig.track.script[-3:], rvt, rig.now)
     shortest, longest = cfg["reflex.reverse_thrust_ms"] / 1000.0, cfg["reflex.reverse_max_ms"] / 1000.0
     assert shortest < stop[0] - c["t"] < longest + ramp, stop[0] - c["t"]
     # the controller's own window: it read "still" for the hold time before it ended the thrust
