@@ -26,12 +26,18 @@ Outcome from the telemetry after contact until 2 s after the controller called t
 with the model's criteria (sitl/rig.py Flight.classify): slid = more than 1 m along the roof or
 still moving; flipped = pitch past 80 deg. Beside it: what the table said of the cell, and the
 model's outcome for the contact state the vehicle reported (slope, speeds, pitch, rate, preset,
-leg angles, reverse delay), with the reverse thrust held to the model's horizon.
+leg angles, reverse delay) with the reverse thrust as flown: held until the companion ended it,
+then ramped down as the on-board script did (sitl/rig.py Flight.model_conditions), and judged
+after it; and, as the maps and the table assume, with the thrust held to the model's horizon.
+Last, the simulated vehicle's own judge of the landing (its STATUSTEXT "Landing: ..."): the
+model's classifier on the vehicle's physics, decided like the held column (at rest under the
+thrust); it names a joint touch, which the telemetry's classes (landed/slid/flipped) cannot see.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -64,6 +70,14 @@ def contact_range(slope_deg: float) -> float:
     )
 
 
+def model_class(conditions) -> tuple[str, float]:
+    """The model's outcome for ``conditions`` in the flight's classes (landed / slid / flipped),
+    and its slide along the roof (m)."""
+    r = simulate(conditions).result
+    m = r.outcome
+    return "landed" if m.success else {"FLIP": "flipped", "SLID": "slid"}.get(m.name, m.name.lower()), r.slide
+
+
 def drifting(lander: Lander, vx: float) -> None:
     """The descent setpoint with a horizontal speed ``vx`` (m/s, + downhill) as well."""
     act = lander.act
@@ -92,6 +106,11 @@ def main() -> None:
         "--no-angles",
         action="store_true",
         help="leave the legs at 37.5 deg instead of setting the table's angles on the board",
+    )
+    ap.add_argument(
+        "--save-conditions",
+        metavar="FILE",
+        help="write each landing's model conditions (thrust as flown) and outcomes as JSON lines",
     )
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
@@ -130,39 +149,54 @@ def main() -> None:
                 f = rig.land((p.tau_up, p.tau_down), cfg, lander=lander, timeout_s=60.0, rest_s=2.0)
                 c = f.contact
                 outcome, fig = f.classify(planar)
-                m = simulate(f.model_conditions()).result.outcome if c else None
-                names = {"FLIP": "flipped", "SLID": "slid"}
-                model = "-" if m is None else ("landed" if m.success else names.get(m.name, m.name.lower()))
+                if c and a.save_conditions:
+                    row["conditions"] = f.model_conditions().as_file_dict()  # no reverse_duration: held
+                (model, m_slide), (held, _) = (
+                    model_class(f.model_conditions(t)) if c else ("-", math.nan) for t in ("flown", "held")
+                )
+                # the simulated vehicle's own judge (the model's classifier on its physics, decided
+                # as `simulate` decides a held thrust): it sees a joint touch, the telemetry does not
+                said = [t.split()[1] for t in rig.track.statustext if t.startswith("Landing: ")]
+                judge = said[-1] if said else "-"
                 why = f.history[-1]["reason"] if f.history else ""
                 row.update(end=f.end, why=why, outcome=outcome, vz=c["vz"] if c else math.nan,
                            vx=c["vx"] if c else math.nan, slide=fig.get("slide_m", math.nan),
-                           model=model)  # fmt: skip
+                           model=model, held=held, m_slide=m_slide, judge=judge)  # fmt: skip
         except (RigError, LegBoardError) as exc:  # the rig could not fly it: reported, not hidden
             row.update(end="rig error", why=str(exc), outcome="rig error", vz=math.nan, vx=math.nan,
-                       slide=math.nan, model="-")  # fmt: skip
+                       slide=math.nan, model="-", held="-", m_slide=math.nan, judge="-")  # fmt: skip
         rows.append(row)
         print(
             f"{i + 1:2d}  roof {s:4.1f} deg, heading {h:+5.1f} -> {planar:4.1f} deg  "
             f"impact {row['vz']:4.2f} m/s "
             f"(goal {v:4.2f}), vx {row['vx']:+5.2f} (goal {vx:+5.2f})  legs {p.tau_up:.2f}/{p.tau_down:.2f} "
             f"{which}  cut {cut:.2f} m  {row['end']:<8} {row['outcome']}  slide {row['slide']:.2f} m"
+            f"  model {row['model']}, slide {row['m_slide']:.2f} m"
             f"  ({row['why']})",
             flush=True,
         )
+    if a.save_conditions:
+        with open(a.save_conditions, "w") as fh:
+            for r in rows:
+                fh.write(json.dumps({k: v for k, v in r.items()}, default=float) + "\n")
     landed = sum(1 for r in rows if r["outcome"] == "landed")
     print(f"\nlegs at {'37.5 deg' if a.no_angles else 'the table angles'}")
-    print(f"{'slope':>6} {'planar':>6} {'speed':>6} {'vx':>6}  preset       table says    flown     model")
+    print(
+        f"{'slope':>6} {'planar':>6} {'speed':>6} {'vx':>6}  preset       table says    flown     "
+        f"model       thrust held vehicle's judge"
+    )
     for r in rows:
         print(
             f"{r['slope']:6.1f} {r['planar']:6.1f} {r['vz']:6.2f} {r['vx']:+6.2f}  "
             f"{r['preset'][0]:.2f}/{r['preset'][1]:.2f} {r['which'].split(':')[0].split()[-1]:<6}  "
-            f"{r['table']:<13} {r['outcome']:<9} {r['model']}"
+            f"{r['table']:<13} {r['outcome']:<9} {r['model']:<11} {r['held']:<11} {r['judge']}"
         )
     agree = sum(1 for r in rows if r["outcome"] == r["model"])
+    agree_held = sum(1 for r in rows if r["outcome"] == r["held"])
     print(
         f"landed {landed}/{len(rows)} (paper: 25/25); the model, run for each contact state, agrees on "
-        f"{agree}/{len(rows)}; gusts: {a.gusts} per landing up to {a.gust_n} N; "
-        f"{time.monotonic() - wall0:.0f} s wall"
+        f"{agree}/{len(rows)} with the thrust as flown, {agree_held}/{len(rows)} with it held; "
+        f"gusts: {a.gusts} per landing up to {a.gust_n} N; {time.monotonic() - wall0:.0f} s wall"
     )
 
 

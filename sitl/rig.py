@@ -125,18 +125,57 @@ class Flight:
     lander: Lander
     leg_angles_deg: tuple[float, float] = (37.5, 37.5)
 
-    def model_conditions(self):
+    def model_conditions(self, thrust: str = "flown"):
         """The model's :class:`LandingConditions` for what the vehicle reported at contact: its
         slope, vertical and horizontal speed, pitch and rate, the preset, the leg angles, and the
-        reverse thrust with the delay the vehicle measured from contact to reversed outputs."""
-        from slopelander.model.conditions import LandingConditions
+        reverse thrust with the delay the vehicle measured from contact to reversed outputs.
 
+        ``thrust="flown"`` ends the reverse thrust as it was flown. The script's RVT state (12)
+        began at the vehicle's EV_RVT and left for HOLD (13) at the end of the ramp
+        (``reflex.reverse_ramp_ms``), so the thrust was held until that time less the ramp;
+        leaving RVT for another state (a disarm, the emergency stop) stopped the outputs at
+        once. A flight handed to the pilot ends before the script's HOLD is heard: then the ramp
+        began when the companion ended the thrust (its SETTLED state, within a few ms of the
+        script's ramp in the flights). Held past ``reflex.reverse_max_ms``, the script's own
+        bound ended it: held to the bound, then its ramp until RVT was left (a ramp cut short
+        reads as a steeper one). An RVT seen to end neither way is held.
+        ``thrust="held"`` keeps it on to the model's horizon, as the maps and the table assume."""
+        from slopelander.model.conditions import MAX_REVERSE_DURATION, LandingConditions
+
+        if thrust not in ("flown", "held"):
+            raise ValueError(f"thrust must be 'flown' or 'held', not {thrust!r}")
         c = self.contact
         if c is None:
             raise RigError("no contact reported: nothing to compare")
         pct = float(self.cfg["reflex.reverse_thrust_pct"])
         rvt = self.track.event_times("EV_RVT", c["t"] - 0.001)
         delay = min(5.0, rvt[0] - c["t"]) if (pct > 0 and rvt) else 0.0
+        duration, ramp = math.inf, 0.0
+        if pct > 0 and rvt and thrust == "flown":
+            full_ramp = float(self.cfg["reflex.reverse_ramp_ms"]) / 1000.0
+            # the script's states from contact on (RVT begins within ms of it; its SL_STATE
+            # times are in ms), and the first state it went to after RVT
+            after = [(t, code) for t, code in self.track.script if t >= c["t"] - 0.01]
+            i = next((n for n, (_, code) in enumerate(after) if code == 12), None)
+            left = (
+                next(((t, code) for t, code in after[i + 1 :] if code != 12), None) if i is not None else None
+            )
+            settled = next((h["t"] for h in self.history if h["to"] == "SETTLED" and h["t"] >= rvt[0]), None)
+            ramp_start = None
+            if left is not None:
+                ramp = full_ramp if left[1] == 13 else 0.0
+                ramp_start = left[0] - ramp
+            elif settled is not None:
+                ramp, ramp_start = full_ramp, settled
+            if ramp_start is not None:
+                held = ramp_start - rvt[0]
+                bound = float(self.cfg["reflex.reverse_max_ms"]) / 1000.0
+                if held > bound + 0.05:  # the script's own bound ended it, and its ramp ran until left
+                    ramp = min(full_ramp, max(0.0, ramp_start + ramp - rvt[0] - bound))
+                    held = bound
+                if held <= 0.0:  # ended within the reversal: what was left of the ramp ran
+                    ramp, held = max(0.0, ramp + held), 1e-3
+                duration = min(MAX_REVERSE_DURATION, held)
         return LandingConditions(
             slope_deg=c["slope"],
             speed=max(0.0, c["vz"]),
@@ -149,6 +188,8 @@ class Flight:
             angle_down_deg=self.leg_angles_deg[1],
             reverse_percent=pct if rvt else 0.0,
             reverse_delay=max(0.0, delay),
+            reverse_duration=duration,
+            reverse_ramp=ramp,
         )
 
     @property

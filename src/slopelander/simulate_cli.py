@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 from pathlib import Path
 
 from slopelander.errors import SlopelanderError
@@ -36,6 +37,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--rvt", action="store_true", help="100 %% reverse thrust commanded at impact")
     p.add_argument("--rvt-percent", type=float, default=None, help="reverse thrust percent (implies --rvt)")
     p.add_argument("--rvt-delay", type=float, default=0.0, help="seconds from impact to the command")
+    p.add_argument(
+        "--rvt-duration",
+        type=float,
+        default=math.inf,
+        help="seconds the reverse thrust is held from its command, then ended (default: held to the "
+        "end; the landing is judged after the thrust)",
+    )
+    p.add_argument(
+        "--rvt-ramp",
+        type=float,
+        default=0.0,
+        help="seconds over which it then ramps to zero (default 0: a step)",
+    )
     p.add_argument("--rigid", action="store_true", help="stock rigid landing gear instead of FSA legs")
     p.add_argument("--params", type=Path, help="model parameter file (YAML)")
     p.add_argument("--without", nargs="+", default=[], metavar="EFFECT", help="switch effects off")
@@ -78,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
         angle_down_deg=args.angle_down,
         reverse_percent=pct,
         reverse_delay=args.rvt_delay,
+        reverse_duration=args.rvt_duration,
+        reverse_ramp=args.rvt_ramp,
     )
     model = build_model(args)
     tr = simulate(cond, model, dt=args.dt)
@@ -85,7 +101,11 @@ def run(args: argparse.Namespace) -> int:
         gear = f"rigid gear (legs locked at {cond.angle_up_deg:g}/{cond.angle_down_deg:g} deg)"
     else:
         gear = f"FSA legs, tau up/down {cond.tau_up:g}/{cond.tau_down:g} N*m"
-    print(f"landing: {cond.slope_deg:g} deg slope, {cond.speed:g} m/s, {gear}, reverse thrust {pct:g} %")
+    end = ""
+    if cond.thrust_ends:
+        ramp = f"ramped to zero over {cond.reverse_ramp:g} s" if cond.reverse_ramp else "then stopped"
+        end = f" held {cond.reverse_duration:g} s, {ramp}"
+    print(f"landing: {cond.slope_deg:g} deg slope, {cond.speed:g} m/s, {gear}, reverse thrust {pct:g} %{end}")
     print(tr.summary())
     if args.plot:
         from slopelander.plots.landing import plot_landing

@@ -58,3 +58,33 @@ def test_the_main_command_lists_map_and_table(capsys):
     sub = next(a for a in parser._actions if a.dest == "command")
     assert sub.choices["map"].get_default("handler") is envelope_cli.run_map
     assert sub.choices["table"].get_default("handler") is envelope_cli.run_table
+
+
+def test_a_table_with_the_thrust_ended_records_it_and_lands_fewer_steep_cells(tmp_path, capsys):
+    held, ended = tmp_path / "held.yaml", tmp_path / "ended.yaml"
+    grid = ["--slope-min", "30", "--slope-max", "50", "--slope-step", "10", "--speed-step", "1.0", "--quiet"]
+    grid += ["--speed-min", "1.0"]
+    assert main(["table", "--out", str(held), *grid]) == 0
+    assert main(["table", "--out", str(ended), *grid, "--reverse-duration", "0.6"]) == 0
+    h, e = LookupTable.load(held), LookupTable.load(ended)
+    assert "reverse_duration" not in h.strategy  # held: the files read as before
+    assert e.strategy["reverse_duration"] == 0.6 and e.strategy["reverse_ramp"] == 0.0
+    assert "held 0.6 s, then stopped" in e.strategy["description"]
+    landed = ("ideal", "under_used", "end_of_travel")
+    # 50 deg: held by the thrust it lands; once a step ends the thrust it cannot (tan 50 > mu_k)
+    assert all(o in landed for o in h.cells["outcome"][2])
+    assert not any(o in landed for o in e.cells["outcome"][2])
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--reverse-ramp", "1"], "--reverse-ramp needs --reverse-duration"),
+        (["--reverse-duration", "0"], "reverse_duration"),
+        (["--reverse-duration", "0.6", "--reverse-ramp", "-1"], "reverse_ramp"),
+    ],
+)
+def test_a_bad_thrust_end_is_an_error_message_before_any_work(extra, message, tmp_path, capsys):
+    assert main(["table", "--out", str(tmp_path / "t.yaml"), *GRID, *extra]) == 1
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "t.yaml").exists()

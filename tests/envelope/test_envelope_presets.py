@@ -122,3 +122,19 @@ def test_rigid_gear_flies_the_locked_joint_model(model, small_axes):
     m = choose_presets(model, small_axes, "rigid", progress=False)
     assert "rigid_gear" in m.meta["model"]["effects"]
     assert m.meta["landings_simulated"] == small_axes.size
+
+
+def test_a_strategy_may_end_its_reverse_thrust_and_says_so():
+    from slopelander.envelope.presets import STRATEGIES, StrategyError
+
+    held = STRATEGIES["rvt"]
+    assert "reverse_duration" not in held.to_dict()  # held: the files read as before
+    ended = held.with_options(reverse_duration=0.6, reverse_ramp=1.0)
+    assert ended.to_dict()["reverse_duration"] == 0.6 and ended.to_dict()["reverse_ramp"] == 1.0
+    assert "held 0.6 s, ramped to zero over 1 s" in ended.describe()
+    # a strategy without reverse thrust has nothing to end: unchanged
+    assert STRATEGIES["angle"].with_options(reverse_duration=0.6) == STRATEGIES["angle"]
+    with pytest.raises(StrategyError, match="reverse_duration"):
+        held.with_options(reverse_duration=-1.0)
+    with pytest.raises(StrategyError, match="reverse_ramp"):
+        held.with_options(reverse_duration=0.6, reverse_ramp=20.0)

@@ -211,6 +211,8 @@ def test_condition_indices_follow_the_landing_conditions_fields() -> None:
         "K_Q_DOWN": "angle_down_deg",
         "K_REV": "reverse_percent",
         "K_REVDLY": "reverse_delay",
+        "K_REVDUR": "reverse_duration",
+        "K_REVRAMP": "reverse_ramp",
     }
     assert set(_constants("K_")) == set(expected)
     assert {n: CONDITION_FIELDS[getattr(k, n)] for n in expected} == expected

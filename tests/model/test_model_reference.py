@@ -14,8 +14,27 @@ from slopelander.model.reference import ReferenceLanding
         LandingConditions(
             slope_deg=35.0, speed=2.0, tau_up=1.1, tau_down=2.3, angle_up_deg=27.0, reverse_percent=100.0
         ),
+        LandingConditions(
+            slope_deg=35.0,
+            speed=2.0,
+            tau_up=1.1,
+            tau_down=2.3,
+            angle_up_deg=27.0,
+            reverse_percent=100.0,
+            reverse_duration=0.5,
+            reverse_ramp=0.3,
+        ),
+        LandingConditions(
+            slope_deg=40.0,
+            speed=2.0,
+            tau_up=1.1,
+            tau_down=1.7,
+            angle_up_deg=23.0,
+            reverse_percent=100.0,
+            reverse_duration=0.5,
+        ),
     ],
-    ids=["20deg", "level-3ms", "35deg-rvt"],
+    ids=["20deg", "level-3ms", "35deg-rvt", "35deg-rvt-ramped-end", "40deg-rvt-step-end"],
 )
 def test_kernel_agrees_with_solve_ivp(model, cond):
     kr = simulate(cond, model, full_horizon=False).result

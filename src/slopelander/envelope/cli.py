@@ -32,6 +32,21 @@ def _common(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="search the uphill leg angle instead of the paper's linear rule",
     )
+    g = p.add_argument_group("reverse thrust (strategies with reverse thrust)")
+    g.add_argument(
+        "--reverse-duration",
+        type=float,
+        metavar="S",
+        help="end the reverse thrust this long after its command (default: held to the model's "
+        "horizon); the companion holds it at least reflex.reverse_thrust_ms, then until still",
+    )
+    g.add_argument(
+        "--reverse-ramp",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="then ramp it to zero over this long (default 0: a step; the script's reflex.reverse_ramp_ms)",
+    )
     p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -79,6 +94,24 @@ def register(subparsers) -> None:
     t.set_defaults(handler=run_table)
 
 
+def thrust_end(args) -> dict:
+    """The strategy options for ``--reverse-duration``/``--reverse-ramp``, checked before any work."""
+    from slopelander.envelope.presets import StrategyError
+    from slopelander.model.conditions import ConditionError, LandingConditions
+
+    if args.reverse_duration is None:
+        if args.reverse_ramp:
+            raise StrategyError("--reverse-ramp needs --reverse-duration (a held thrust never ramps)")
+        return {}
+    try:
+        LandingConditions(
+            reverse_percent=100.0, reverse_duration=args.reverse_duration, reverse_ramp=args.reverse_ramp
+        ).validate()
+    except ConditionError as e:
+        raise StrategyError(f"--reverse-duration / --reverse-ramp: {e}") from None
+    return {"reverse_duration": args.reverse_duration, "reverse_ramp": args.reverse_ramp}
+
+
 def _setup(args):
     from slopelander.envelope.axes import MapAxes
     from slopelander.model import Model
@@ -115,6 +148,7 @@ def run_map(args) -> int:
     from slopelander.envelope.reports import make_map
 
     check_output_dir(args.out, "--out")
+    ends = thrust_end(args)
     axes, model, client, progress = _setup(args)
     t0 = time.perf_counter()
     started = time.time() - 1.0  # file times may be rounded to the second
@@ -126,6 +160,7 @@ def run_map(args) -> int:
             axes=axes,
             refine=args.refine,
             optimal_angle=args.optimal_angle,
+            thrust_end=ends,
             config=args.config,
             sets=args.sets,
             seed=args.seed,
@@ -148,8 +183,11 @@ def run_table(args) -> int:
     from slopelander.envelope.table import build_table, write_table
 
     check_output(args.out, "--out")
+    ends = thrust_end(args)
     axes, model, client, progress = _setup(args)
-    strategy = STRATEGIES[args.strategy].with_options(refine=args.refine, optimal_angle=args.optimal_angle)
+    strategy = STRATEGIES[args.strategy].with_options(
+        refine=args.refine, optimal_angle=args.optimal_angle, **ends
+    )
     command = "slopelander " + shlex.join(sys.argv[1:]) if sys.argv[1:] else None
     t0 = time.perf_counter()
     try:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,7 @@ import numpy as np
 from slopelander.envelope.axes import MapAxes
 from slopelander.envelope.sweep import run_sweep
 from slopelander.errors import SlopelanderError
-from slopelander.model import CONDITION_DTYPE, RESULT_FIELDS, Model, Outcome
+from slopelander.model import RESULT_FIELDS, Model, Outcome, default_conditions
 
 PRESET_FIELDS = ("tau_up", "tau_down", "angle_up_deg", "angle_down_deg")
 
@@ -159,13 +160,17 @@ def summary(m: LandingMap) -> dict[str, float]:
 def preset_conditions(m: LandingMap, **fixed: float) -> np.ndarray:
     """The conditions that fly each cell's preset at its own (slope, speed)."""
     n_s, n_v = m.axes.shape
-    grid = np.zeros(n_s * n_v, dtype=CONDITION_DTYPE)
+    grid = default_conditions(n_s * n_v)
     grid["slope_deg"] = np.repeat(m.axes.slopes, n_v)
     grid["speed"] = np.tile(m.axes.speeds, n_s)
     for name in PRESET_FIELDS:
         grid[name] = m.fields[name].ravel()
+    strategy = m.meta.get("strategy", {})
     for name in ("reverse_percent", "reverse_delay"):
-        grid[name] = float(m.meta.get("strategy", {}).get(name, 0.0))
+        grid[name] = float(strategy.get(name, 0.0))
+    if grid["reverse_percent"].any():  # a thrust that ends; files without it: held
+        grid["reverse_duration"] = float(strategy.get("reverse_duration", math.inf))
+        grid["reverse_ramp"] = float(strategy.get("reverse_ramp", 0.0))
     for name, value in fixed.items():
         grid[name] = value
     return grid

@@ -21,6 +21,7 @@ compass search on continuous torques.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, replace
 from itertools import product
 
@@ -30,7 +31,7 @@ from slopelander.envelope.axes import MapAxes
 from slopelander.envelope.maps import PRESET_FIELDS, LandingMap, model_record, results_to_fields
 from slopelander.envelope.sweep import run_sweep
 from slopelander.errors import SlopelanderError
-from slopelander.model import CONDITION_DTYPE, Model, Outcome
+from slopelander.model import ConditionError, LandingConditions, Model, Outcome, default_conditions
 
 TORQUE_LEVELS: tuple[float, ...] = (0.56, 1.1, 1.7, 2.3)
 """Per-joint friction torque levels of Sec. V-B, N*m."""
@@ -66,6 +67,10 @@ class Strategy:
     reverse_percent: float = 0.0
     reverse_delay: float = 0.0
     rigid: bool = False
+    reverse_duration: float = math.inf
+    """s the reverse thrust is held before it ends (inf: to the horizon, the maps' default)."""
+    reverse_ramp: float = 0.0
+    """s over which it then falls to zero (0: a step)."""
 
     def __post_init__(self) -> None:
         if self.torques not in ("fixed", "levels", "refined"):
@@ -74,6 +79,15 @@ class Strategy:
             raise StrategyError(f"angle must be max, linear or optimal, got {self.angle!r}")
         if not 0 <= self.reverse_percent <= 100:
             raise StrategyError(f"reverse_percent must lie within 0..100, got {self.reverse_percent}")
+        try:
+            LandingConditions(
+                reverse_percent=self.reverse_percent,
+                reverse_delay=self.reverse_delay,
+                reverse_duration=self.reverse_duration,
+                reverse_ramp=self.reverse_ramp,
+            ).validate()
+        except ConditionError as e:
+            raise StrategyError(f"strategy {self.name!r}: {e}") from None
 
     def describe(self) -> str:
         gear = "rigid gear" if self.rigid else "FSA legs"
@@ -97,19 +111,37 @@ class Strategy:
             if self.reverse_percent
             else ", no thrust"
         )
+        if self.reverse_percent and math.isfinite(self.reverse_duration):
+            end = f"ramped to zero over {self.reverse_ramp:g} s" if self.reverse_ramp else "then stopped"
+            rvt += f" held {self.reverse_duration:g} s, {end}"
         return gear + legs + angle + rvt
 
     def to_dict(self) -> dict:
+        """The strategy as a file records it; a thrust held to the horizon (the default) leaves
+        out its end, so such files read as before the thrust could end."""
         d = asdict(self)
         d["levels"] = list(self.levels)
+        if not math.isfinite(self.reverse_duration):
+            del d["reverse_duration"], d["reverse_ramp"]
         return d
 
-    def with_options(self, *, refine: bool = False, optimal_angle: bool = False) -> Strategy:
+    def with_options(
+        self,
+        *,
+        refine: bool = False,
+        optimal_angle: bool = False,
+        reverse_duration: float | None = None,
+        reverse_ramp: float = 0.0,
+    ) -> Strategy:
+        """Variants: refined torques, the best uphill angle, a reverse thrust that ends after
+        ``reverse_duration`` s with a ``reverse_ramp`` s ramp (strategies with reverse thrust only)."""
         s = self
         if refine and s.torques == "levels":
             s = replace(s, torques="refined")
         if optimal_angle and s.angle == "linear":
             s = replace(s, angle="optimal")
+        if reverse_duration is not None and s.reverse_percent > 0:
+            s = replace(s, reverse_duration=reverse_duration, reverse_ramp=reverse_ramp)
         return s
 
 
@@ -171,13 +203,16 @@ def _candidates(strategy: Strategy, axes: MapAxes, model: Model) -> np.ndarray:
 def _grid(axes: MapAxes, presets: np.ndarray, strategy: Strategy) -> np.ndarray:
     """Conditions for presets of shape (n_slopes, n_speeds, n_candidates, 4)."""
     n_s, n_v, n_c, _ = presets.shape
-    grid = np.zeros(n_s * n_v * n_c, dtype=CONDITION_DTYPE)
+    grid = default_conditions(n_s * n_v * n_c)
     grid["slope_deg"] = np.broadcast_to(axes.slopes[:, None, None], (n_s, n_v, n_c)).ravel()
     grid["speed"] = np.broadcast_to(axes.speeds[None, :, None], (n_s, n_v, n_c)).ravel()
     for f, name in enumerate(PRESET_FIELDS):
         grid[name] = presets[..., f].ravel()
     grid["reverse_percent"] = strategy.reverse_percent
     grid["reverse_delay"] = strategy.reverse_delay
+    if strategy.reverse_percent > 0:
+        grid["reverse_duration"] = strategy.reverse_duration
+        grid["reverse_ramp"] = strategy.reverse_ramp
     return grid
 
 

@@ -27,8 +27,8 @@ from slopelander.model import Model
 MAP_KINDS = ("symmetric", "asymmetric", "angle", "rvt", "rigid", "uncertainty", "robustness")
 
 
-def _strategy(name: str, refine: bool, optimal_angle: bool) -> Strategy:
-    return STRATEGIES[name].with_options(refine=refine, optimal_angle=optimal_angle)
+def _strategy(name: str, refine: bool, optimal_angle: bool, thrust_end: dict | None = None) -> Strategy:
+    return STRATEGIES[name].with_options(refine=refine, optimal_angle=optimal_angle, **(thrust_end or {}))
 
 
 def _write(m: LandingMap, out: Path, stem: str | None = None, *, presets_figure: bool = False) -> dict:
@@ -53,6 +53,7 @@ def make_map(
     axes: MapAxes | None = None,
     refine: bool = False,
     optimal_angle: bool = False,
+    thrust_end: dict | None = None,
     config: str = "rvt",
     sets: int = 3,
     seed: int = 0,
@@ -64,7 +65,9 @@ def make_map(
 
     ``config`` names the presets that the uncertainty and robustness maps fly (a key of
     :data:`~slopelander.envelope.presets.STRATEGIES`); ``sets`` and ``seed`` shape the
-    parameter sets; ``draws`` is the robustness draws per cell.
+    parameter sets; ``draws`` is the robustness draws per cell. ``thrust_end``
+    (``reverse_duration``, ``reverse_ramp``: s) ends the reverse thrust of the strategies that
+    have one; without it the thrust is held to the model's horizon.
     """
     if kind not in MAP_KINDS:
         raise ValueError(f"unknown map {kind!r}; known: {', '.join(MAP_KINDS)}")
@@ -81,7 +84,7 @@ def make_map(
     }
 
     if kind in ("symmetric", "asymmetric", "angle", "rvt"):
-        m = choose_presets(model, axes, _strategy(kind, refine, optimal_angle), **kw)
+        m = choose_presets(model, axes, _strategy(kind, refine, optimal_angle, thrust_end), **kw)
         result.update(
             _write(m, out, presets_figure=kind != "symmetric"),
             description=m.meta["description"],
@@ -94,11 +97,15 @@ def make_map(
     if kind == "rigid":
         maps = {
             "rigid gear (LG)": choose_presets(model, axes, "rigid", **kw),
-            "rigid gear + RVT (LG+RVT)": choose_presets(model, axes, "rigid_rvt", **kw),
-            "FSA (asym. torques + uphill angle)": choose_presets(
-                model, axes, _strategy("angle", refine, optimal_angle), **kw
+            "rigid gear + RVT (LG+RVT)": choose_presets(
+                model, axes, _strategy("rigid_rvt", False, False, thrust_end), **kw
             ),
-            "FSA + RVT": choose_presets(model, axes, _strategy("rvt", refine, optimal_angle), **kw),
+            "FSA (asym. torques + uphill angle)": choose_presets(
+                model, axes, _strategy("angle", refine, optimal_angle, thrust_end), **kw
+            ),
+            "FSA + RVT": choose_presets(
+                model, axes, _strategy("rvt", refine, optimal_angle, thrust_end), **kw
+            ),
         }
         for label, m in maps.items():
             result[label] = _write(m, out, f"envelope_{m.kind}")
@@ -115,7 +122,9 @@ def make_map(
     if kind == "uncertainty":
         params = parameter_sets(model.params, sets, seed)
         result["parameter_files"] = [str(p) for p in write_parameter_sets(params, out)]
-        nominal, maps = uncertainty_maps(model, axes, _strategy(config, refine, optimal_angle), params, **kw)
+        nominal, maps = uncertainty_maps(
+            model, axes, _strategy(config, refine, optimal_angle, thrust_end), params, **kw
+        )
         result["nominal"] = _write(nominal, out, f"uncertainty_{config}_nominal")
         for i, m in enumerate(maps, 1):
             result[f"set{i}"] = {k: v for k, v in _write(m, out).items()}
@@ -128,7 +137,7 @@ def make_map(
         return _finish(out, kind, result)
 
     # robustness
-    presets = choose_presets(model, axes, _strategy(config, refine, optimal_angle), **kw)
+    presets = choose_presets(model, axes, _strategy(config, refine, optimal_angle, thrust_end), **kw)
     r = robustness_map(presets, model, draws=draws, seed=seed, **kw)
     npz, csv_path = r.save(out, "robustness")
     png = plots.plot_robustness(r, out / "robustness.png")

@@ -26,7 +26,7 @@ from slopelander.envelope.axes import MapAxes
 from slopelander.envelope.maps import PRESET_FIELDS, LandingMap, preset_conditions
 from slopelander.envelope.presets import STRATEGIES, Strategy, StrategyError, choose_presets
 from slopelander.envelope.sweep import run_sweep
-from slopelander.model import CONDITION_DTYPE, Model, Outcome
+from slopelander.model import Model, Outcome, default_conditions
 
 NEIGHBOURS = tuple((di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj)
 
@@ -56,7 +56,7 @@ def neighbour_margin(
         g["speed"] = presets.axes.speeds[jj + dj]
         rows.append(g.ravel())
         owners.append(np.ravel_multi_index((ii.ravel(), jj.ravel()), (n_s, n_v)))
-    grid = np.concatenate(rows) if rows else np.zeros(0, CONDITION_DTYPE)
+    grid = np.concatenate(rows) if rows else default_conditions(0)
     owner = np.concatenate(owners) if owners else np.zeros(0, int)
     res = run_sweep(grid, flown, client=client, progress=progress, desc="margins")
     ok = res["outcome"].astype(int) <= Outcome.END_OF_TRAVEL

@@ -98,7 +98,7 @@ def write_drop(drop: Drop, folder: str | Path) -> Path:
             w.writerow([f"{ti:.6f}", *(f"{v:.7g}" for v in row)])
     meta = {
         "schema": SCHEMA,
-        "conditions": drop.conditions.as_dict(),
+        "conditions": drop.conditions.as_file_dict(),
         "outcome": drop.outcome.name.lower() if drop.outcome is not None else None,
         "source": drop.source,
         **({"meta": drop.meta} if drop.meta else {}),

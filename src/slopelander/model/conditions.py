@@ -13,6 +13,9 @@ import numpy as np
 
 from slopelander.errors import SlopelanderError
 
+MAX_REVERSE_DURATION = 30.0  # s: longer than any landing's horizon
+MAX_REVERSE_RAMP = 10.0  # s
+
 
 class ConditionError(SlopelanderError, ValueError):
     """A landing condition is outside what the model can represent."""
@@ -49,12 +52,33 @@ class LandingConditions:
     """Reverse thrust commanded from impact, percent of full reverse; 0 = rotors stay off."""
     reverse_delay: float = 0.0
     """Seconds between impact and the reverse-thrust command (detection latency)."""
+    reverse_duration: float = math.inf
+    """Seconds the full reverse command is held from that command before it ends; ``inf`` (the
+    default, and what the maps assume) holds it to the end of the horizon."""
+    reverse_ramp: float = 0.0
+    """Seconds over which the command then falls linearly to zero; 0 = a step (the on-board
+    script's ramp, ``reflex.reverse_ramp_ms``). Needs a finite ``reverse_duration``."""
+
+    @property
+    def thrust_ends(self) -> bool:
+        """True if the rotors are commanded to zero again within the landing."""
+        return self.reverse_percent > 0.0 and math.isfinite(self.reverse_duration)
+
+    @property
+    def thrust_off_time(self) -> float:
+        """Seconds after first contact at which the reverse command has reached zero for good;
+        0 when there is no thrust that ends (none, or held): the landing is judged from there."""
+        if not self.thrust_ends:
+            return 0.0
+        return self.reverse_delay + self.reverse_duration + self.reverse_ramp
 
     def validate(self, angle_min_deg: float = 0.0, angle_max_deg: float = 37.5) -> None:
         """Raise :class:`ConditionError` naming the first field that makes no sense."""
         for f in fields(self):
             v = getattr(self, f.name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
+            if not isinstance(v, (int, float)) or math.isnan(v):
+                raise ConditionError(f.name, v, "must be a number")
+            if f.name != "reverse_duration" and not math.isfinite(v):
                 raise ConditionError(f.name, v, "must be a finite number")
         if not -75.0 <= self.slope_deg <= 75.0:
             raise ConditionError("slope_deg", self.slope_deg, "must lie within -75..75 deg")
@@ -79,13 +103,47 @@ class LandingConditions:
             raise ConditionError("reverse_percent", self.reverse_percent, "must lie within 0..100")
         if not 0.0 <= self.reverse_delay <= 5.0:
             raise ConditionError("reverse_delay", self.reverse_delay, "must lie within 0..5 s")
+        d = self.reverse_duration
+        if not (0.0 < d <= MAX_REVERSE_DURATION or d == math.inf):
+            raise ConditionError(
+                "reverse_duration",
+                d,
+                f"must lie within 0..{MAX_REVERSE_DURATION:g} s (above 0: a thrust held 0 s is "
+                "reverse_percent 0), or be inf (held to the horizon)",
+            )
+        if not 0.0 <= self.reverse_ramp <= MAX_REVERSE_RAMP:
+            raise ConditionError(
+                "reverse_ramp", self.reverse_ramp, f"must lie within 0..{MAX_REVERSE_RAMP:g} s"
+            )
+        if self.reverse_ramp > 0.0 and d == math.inf:
+            raise ConditionError(
+                "reverse_ramp", self.reverse_ramp, "a ramp needs a finite reverse_duration to end from"
+            )
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
 
+    def as_file_dict(self) -> dict[str, float]:
+        """The fields for a file: a thrust held to the horizon leaves its end out, so that JSON
+        holds no ``Infinity`` and files read as before the thrust could end."""
+        d = asdict(self)
+        if not math.isfinite(self.reverse_duration):
+            del d["reverse_duration"], d["reverse_ramp"]
+        return d
+
 
 CONDITION_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(LandingConditions))
 CONDITION_DTYPE = np.dtype([(name, np.float64) for name in CONDITION_FIELDS])
+_DURATION_COLUMN = CONDITION_FIELDS.index("reverse_duration")
+
+
+def default_conditions(n: int) -> np.ndarray:
+    """``n`` rows of :data:`CONDITION_DTYPE` holding the defaults (a zero-filled array would
+    say a reverse thrust held for 0 s, which the model refuses)."""
+    out = np.empty(n, dtype=CONDITION_DTYPE)
+    for name, value in asdict(LandingConditions()).items():
+        out[name] = value
+    return out
 
 
 def conditions_array(conditions: list[LandingConditions] | np.ndarray) -> np.ndarray:
@@ -97,7 +155,10 @@ def conditions_array(conditions: list[LandingConditions] | np.ndarray) -> np.nda
         out = np.empty(conditions.shape[0], dtype=CONDITION_DTYPE)
         for n in CONDITION_FIELDS:
             out[n] = conditions[n]
-        bad = ~np.isfinite(out.view((np.float64, len(CONDITION_FIELDS)))).all(axis=1)
+        flat = out.view((np.float64, len(CONDITION_FIELDS)))
+        # every column finite, but for the held thrust's +inf duration
+        ok = np.isfinite(flat) | ((flat == np.inf) & (np.arange(flat.shape[1]) == _DURATION_COLUMN))
+        bad = ~ok.all(axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise ConditionError("row", i, "contains a non-finite value")

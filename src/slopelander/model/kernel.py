@@ -923,7 +923,9 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
 # --- whole landings -------------------------------------------------------------------------
 # conditions row (LandingConditions field order)
 K_SLOPE, K_SPEED, K_VX, K_PITCH, K_RATE, K_TAU_UP, K_TAU_DOWN, K_Q_UP, K_Q_DOWN, K_REV, K_REVDLY = range(11)
-N_COND = 11
+K_REVDUR = 11  # s the reverse command is held (inf: to the horizon)
+K_REVRAMP = 12  # s it then falls linearly to zero over (0: a step)
+N_COND = 13
 # criteria (OutcomeCriteria field order)
 R_HORIZON, R_SLIDE, R_UNDER, R_FLIP, R_SPEED, R_RATE, R_SETTLE = range(7)
 # result row (RESULT_FIELDS order)
@@ -1047,6 +1049,32 @@ def _slide(ctx, st):
 
 
 @njit(cache=True)
+def reverse_command(cond, since):
+    """Rotor command ``since`` s after first contact: 0 before the delay, full reverse held for
+    the duration, then a linear ramp to zero (or a step), then 0."""
+    full = -cond[K_REV] / 100.0
+    if full == 0.0 or since < cond[K_REVDLY]:
+        return 0.0
+    held = since - cond[K_REVDLY]
+    if held < cond[K_REVDUR]:
+        return full
+    ramp = cond[K_REVRAMP]
+    if ramp <= 0.0:
+        return 0.0
+    left = 1.0 - (held - cond[K_REVDUR]) / ramp
+    return full * left if left > 0.0 else 0.0
+
+
+@njit(cache=True)
+def thrust_off_time(cond):
+    """Seconds after first contact when a reverse command that ends has reached zero; 0 if
+    there is none or it is held (LandingConditions.thrust_off_time)."""
+    if cond[K_REV] <= 0.0 or not math.isfinite(cond[K_REVDUR]):
+        return 0.0
+    return cond[K_REVDLY] + cond[K_REVDUR] + cond[K_REVRAMP]
+
+
+@njit(cache=True)
 def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, up, res):
     """Simulate one landing from first contact; fill ``res``; return the samples recorded.
 
@@ -1065,35 +1093,36 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, up, res):
     settled = False
     frozen = False
     slid = False
-    cmd = -cond[K_REV] / 100.0
+    t_off = thrust_off_time(cond)
+    horizon = t_off + crit[R_HORIZON]
     k = 0
     res[O_TSETTLE] = np.nan
     res[O_SLIDE] = 0.0
     while True:
         t = st[S_T]
         u = 0.0
-        if cmd != 0.0 and st[S_TIMP] >= 0.0 and t >= st[S_TIMP] + cond[K_REVDLY]:
-            u = cmd
+        if st[S_TIMP] >= 0.0:
+            u = reverse_command(cond, t - st[S_TIMP])
         step(p, fl, ctx, st, h, u, u, ws, up)
         k += 1
         if rec_every > 0 and k % rec_every == 0 and n_rec < rec.shape[0]:
             rec[n_rec, :] = st
             n_rec += 1
         if frozen:
-            if st[S_T] - max(st[S_TIMP], 0.0) >= crit[R_HORIZON]:
+            if st[S_T] - max(st[S_TIMP], 0.0) >= horizon:
                 break
             continue
         sl = _slide(ctx, st)
         if abs(sl) > crit[R_SLIDE]:
             slid = True
-        if _at_rest(st, crit):
+        if _at_rest(st, crit) and st[S_TIMP] >= 0.0 and st[S_T] - st[S_TIMP] >= t_off:
             st[S_REST] += h
         else:
             st[S_REST] = 0.0
         if st[S_REST] >= crit[R_SETTLE] and st[S_TIMP] >= 0.0:
             settled = True
         flip = max(-st[S_PMIN], st[S_PMAX]) > crit[R_FLIP] * DEG
-        over = st[S_T] - max(st[S_TIMP], 0.0) >= crit[R_HORIZON]
+        over = st[S_T] - max(st[S_TIMP], 0.0) >= horizon
         if settled or flip or slid or over:
             classify(p, fl, ctx, st, crit, settled, slid, res)
             res[O_SLIDE] = sl

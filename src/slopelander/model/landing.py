@@ -9,7 +9,12 @@ import numba
 import numpy as np
 
 from slopelander.model import kernel as k
-from slopelander.model.conditions import LandingConditions, conditions_array
+from slopelander.model.conditions import (
+    MAX_REVERSE_DURATION,
+    MAX_REVERSE_RAMP,
+    LandingConditions,
+    conditions_array,
+)
 from slopelander.model.effects import (
     BUILTIN_EFFECTS,
     EffectError,
@@ -292,7 +297,7 @@ def simulate(
     model, h = _prepare(model, dt)
     row = _cond_row(conditions, model)
     every = max(1, round(1.0 / (sample_rate * h)))
-    n_max = int(model.criteria.horizon / (every * h)) + 8
+    n_max = int((model.criteria.horizon + conditions.thrust_off_time) / (every * h)) + 8
     rec = np.zeros((n_max, k.N_STATE))
     res = np.zeros(k.N_RESULT)
     km, up = model.kernel()
@@ -366,6 +371,15 @@ def _validate_rows(arr: np.ndarray, model: Model) -> None:
         & (arr["tau_down"] >= 0)
         & (arr["reverse_percent"] >= 0)
         & (arr["reverse_percent"] <= 100)
+        & (arr["reverse_delay"] >= 0)
+        & (arr["reverse_delay"] <= 5)
+        & (
+            ((arr["reverse_duration"] > 0) & (arr["reverse_duration"] <= MAX_REVERSE_DURATION))
+            | (arr["reverse_duration"] == np.inf)
+        )
+        & (arr["reverse_ramp"] >= 0)
+        & (arr["reverse_ramp"] <= MAX_REVERSE_RAMP)
+        & ((arr["reverse_ramp"] == 0) | (arr["reverse_duration"] < np.inf))
     )
     if not ok.all():
         i = int(np.flatnonzero(~ok)[0])

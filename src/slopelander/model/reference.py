@@ -210,11 +210,18 @@ class ReferenceLanding:
     def _rotor_target(self, t: float) -> float:
         if self.t_impact is None or self.cond.reverse_percent == 0.0:
             return 0.0
-        t_cmd = self.t_impact + self.cond.reverse_delay
+        c = self.cond
+        t_cmd = self.t_impact + c.reverse_delay
         delay = self.p[k.P_DELAY] if self.fl[k.F_REV_DELAY] else 0.0
+        full = -c.reverse_percent / 100.0
         if t < t_cmd + delay:
             return 0.0
-        return -self.cond.reverse_percent / 100.0
+        t_end = t_cmd + c.reverse_duration  # the command ends; inf: held
+        if t < t_end:
+            return full
+        if c.reverse_ramp <= 0.0:
+            return 0.0
+        return full * max(0.0, 1.0 - (t - t_end) / c.reverse_ramp)
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         e = self._eval(t, y)
@@ -419,9 +426,13 @@ class ReferenceLanding:
     def _time_breaks(self):
         if self.t_impact is None or self.cond.reverse_percent == 0.0:
             return []
-        t_cmd = self.t_impact + self.cond.reverse_delay
+        c = self.cond
+        t_cmd = self.t_impact + c.reverse_delay
         delay = self.p[k.P_DELAY] if self.fl[k.F_REV_DELAY] else 0.0
-        return [t_cmd, t_cmd + delay]
+        out = [t_cmd, t_cmd + delay]
+        if c.thrust_ends:  # the right-hand side kinks where the ramp begins and ends
+            out += [t_cmd + c.reverse_duration, t_cmd + c.reverse_duration + c.reverse_ramp]
+        return out
 
     def _track(self, sol):
         ys = sol.y
