@@ -252,7 +252,7 @@ class Rig:
         scn = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "seed": seed}
         scn.update(scenario or {})
         self.scenario = scn
-        self.board = start_legboard(speed=speed)
+        self.board = start_legboard(speed=speed, clock="external")
         self.vehicle = None
         self.link: Link | None = None
         self.legs: LegBoard | None = None

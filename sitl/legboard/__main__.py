@@ -7,7 +7,7 @@ import signal
 import sys
 
 from sitl.legboard.physics import LegBoardPhysics
-from sitl.legboard.server import FAULT_KINDS, BoardServer, FaultSpec
+from sitl.legboard.server import CLOCKS, FAULT_KINDS, BoardServer, FaultSpec
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -18,6 +18,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--link", help="symlink the pty's slave device here")
     parser.add_argument("--control", help="control socket path (default: LINK.ctl)")
     parser.add_argument("--speed", type=float, default=1.0, help="board seconds per wall second (default 1)")
+    parser.add_argument(
+        "--clock",
+        choices=CLOCKS,
+        default="wall",
+        help="board time: wall = --speed x wall time (default); external = only the times a "
+        "simulated vehicle sends over the control socket (op advance); it stands still without them",
+    )
     parser.add_argument("--seed", type=int, default=0, help="noise seed")
     parser.add_argument(
         "--status-ms", type=int, default=100, help="status period in board ms when HELLO asks for 0"
@@ -48,6 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         angle_stop=not args.no_angle_stop,
         faults=faults,
         seed=args.seed,
+        clock=args.clock,
     )
 
     def stop(_signum: int, _frame: object) -> None:
@@ -58,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     pty = server.open()
     print(
         f"legboard ready pty={pty} link={server.link or ''} "
-        f"control={server.control_path or ''} speed={args.speed:g}",
+        f"control={server.control_path or ''} speed={args.speed:g} clock={args.clock}",
         flush=True,
     )
     try:

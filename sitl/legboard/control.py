@@ -7,6 +7,8 @@ read back the friction torques, and the one tests use to inject faults at run ti
         ctl.set_joint_angles([30.0, 30.5, None, None])   # degrees; None = leave alone
         torques = ctl.friction_torques()                  # N·m per leg
         ctl.inject("overcurrent", leg=2)
+
+A board started with ``--clock external`` stands still until ``advance`` feeds it time.
 """
 
 from __future__ import annotations
@@ -63,6 +65,10 @@ class BoardControl:
     def state(self) -> dict:
         """Board time and, per leg: state, fault, angle, friction torque, current, travel."""
         return self.request(op="state")
+
+    def advance(self, to_s: float) -> dict:
+        """Step an external-clock board's time up to ``to_s`` (s), then its :meth:`state`."""
+        return self.request(op="advance", to_s=float(to_s))
 
     def set_joint_angles(self, angles_deg: Sequence[float | None]) -> float:
         """Set joint angles (degrees, 0 = fully compressed … 37.5 = extended); board time."""

@@ -1,9 +1,14 @@
 """The simulated board as a process: a pseudo-terminal speaking the leg protocol.
 
-It owns the pty master, advances :class:`LegBoardPhysics` in board time (``speed`` × wall
-time), answers commands with the shared codec, sends STATUS periodically and serves the
-control channel (a UNIX socket, JSON lines) through which tests inject faults and the
-vehicle simulator feeds joint angles.
+It owns the pty master, advances :class:`LegBoardPhysics` in board time, answers commands
+with the shared codec, sends STATUS periodically and serves the control channel (a UNIX
+socket, JSON lines) through which tests inject faults and the vehicle simulator feeds joint
+angles.
+
+Board time follows one of two clocks. ``wall`` (the default, for a board used on its own):
+``speed`` × wall time. ``external`` (a board a simulated vehicle drives): only the times the
+vehicle sends (control op ``advance``), so board and vehicle cannot drift apart under machine
+load; a board fed no time stands still, sends no STATUS and only answers commands.
 """
 
 from __future__ import annotations
@@ -11,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import math
 import os
 import random
 import select
@@ -28,6 +34,8 @@ from slopelander.legs.messages import Capability, NakCode, legs_in
 IO_FAULTS = ("silent", "corrupt", "unplug")
 LEG_FAULTS = ("stuck", "slip", "overcurrent")
 FAULT_KINDS = LEG_FAULTS + IO_FAULTS
+CLOCKS = ("wall", "external")
+MAX_ADVANCE_S = 10.0  # board seconds one ``advance`` may step (a guard against a runaway time)
 
 
 @dataclass(frozen=True)
@@ -66,7 +74,12 @@ class BoardServer:
         angle_stop: bool = True,
         faults: tuple[FaultSpec, ...] = (),
         seed: int = 0,
+        clock: str = "wall",
     ) -> None:
+        if clock not in CLOCKS:
+            raise ValueError(f"unknown clock {clock!r}; one of {', '.join(CLOCKS)}")
+        self.clock = clock
+        self.clock_s: float | None = None  # the newest time fed to an external clock
         self.physics = physics or LegBoardPhysics(seed=seed)
         self.link = Path(link) if link else None
         self.control_path = Path(control) if control else (Path(f"{self.link}.ctl") if self.link else None)
@@ -127,6 +140,11 @@ class BoardServer:
 
     def serve_forever(self) -> None:
         self.running = True
+        if self.clock == "external":
+            while self.running:
+                self._status_due()  # the first report after a HELLO; later ones come from advance()
+                self._wait_io(0.05)
+            return
         wall0 = time.monotonic()
         board0 = self.physics.time_s
         max_steps = max(1, int(0.05 * self.speed / self.dt))
@@ -200,6 +218,38 @@ class BoardServer:
         self._last_status_wall = now
         self._next_status = self.physics.time_s + self._period_s
         self._send_status()
+
+    def _status_due(self) -> None:
+        """External clock: a STATUS whenever board time reaches the next report time (no wall
+        throttle, so the reports are the same whatever the machine's load)."""
+        if self._hello and self.physics.time_s >= self._next_status - 1e-9:
+            self._next_status = self.physics.time_s + self._period_s
+            self._send_status()
+
+    def advance(self, to_s: float) -> float:
+        """External clock: step board time up to ``to_s`` (faults and STATUS fall due on the
+        way); a time behind the board's holds it. Returns the board time."""
+        if self.clock != "external":
+            raise ValueError(
+                "the board runs on the wall clock; start it with --clock external to feed it time"
+            )
+        to_s = float(to_s)
+        if not math.isfinite(to_s):
+            raise ValueError(f"advance: time must be a finite number of seconds, got {to_s!r}")
+        ahead = to_s - self.physics.time_s
+        if ahead > MAX_ADVANCE_S:
+            raise ValueError(
+                f"advance: {to_s:g} s is {ahead:g} s ahead of board time {self.physics.time_s:g} s "
+                f"(at most {MAX_ADVANCE_S:g} s per request)"
+            )
+        if self.clock_s is None or to_s > self.clock_s:
+            self.clock_s = to_s
+        self._status_due()
+        while self.physics.time_s + self.dt <= to_s + 1e-9:
+            self.physics.step(self.dt)
+            self._run_scheduled()
+            self._status_due()
+        return self.physics.time_s
 
     def _send_status(self) -> None:
         self._send(
@@ -335,6 +385,9 @@ class BoardServer:
         op = req["op"]
         if op == "state":
             return {"ok": True, **self.state()}
+        if op == "advance":
+            self.advance(req["to_s"])
+            return {"ok": True, **self.state()}
         if op == "set_angles":
             for i, deg in enumerate(req["deg"]):
                 if deg is not None:
@@ -371,6 +424,8 @@ class BoardServer:
         return {
             "time_s": ph.time_s,
             "speed": self.speed,
+            "clock": self.clock,
+            "clock_s": self.clock_s,
             "silent": self.silent,
             "corrupt_rate": self.corrupt_rate,
             "unplugged": self.unplugged,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 from pathlib import Path
@@ -30,6 +31,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--scenario", type=Path, default=None, help="scenario YAML (docs/simulated-vehicle.md)")
     ap.add_argument(
         "--legboard-control", type=Path, default=None, help="simulated leg board's control socket"
+    )
+    ap.add_argument(
+        "--legboard-period-ms",
+        type=float,
+        default=20.0,
+        help="vehicle ms between exchanges with the leg board (default 20)",
     )
     ap.add_argument(
         "--speed", type=float, default=1.0, help="simulated seconds per wall second; 0 = as fast as possible"
@@ -71,13 +78,15 @@ def main(argv: list[str] | None = None) -> int:
     sysid = params["MAV_SYSID"]
     if sysid != int(sysid) or not 1 <= sysid <= 255:
         return fail(f"{params_path}: MAV_SYSID {sysid:g} must be an integer 1..255")
+    if not (a.legboard_period_ms > 0 and math.isfinite(a.legboard_period_ms)):
+        return fail(f"--legboard-period-ms {a.legboard_period_ms} must be a positive number")
     legs = None
     if a.legboard_control is not None:
         from sitl.legboard.control import ControlError
         from sitl.vehicle.legs_link import LegsLink
 
         try:
-            legs = LegsLink(a.legboard_control)
+            legs = LegsLink(a.legboard_control, period_s=a.legboard_period_ms / 1000.0)
         except ControlError as exc:
             return fail(f"leg board: {exc}")
     try:

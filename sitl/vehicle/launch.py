@@ -72,6 +72,7 @@ def start_vehicle(
     speed: float = 1.0,
     lockstep: bool = False,
     legboard_control: Path | None = None,
+    legboard_period_ms: float | None = None,
     extra_endpoints: list[str] | None = None,
     timeout: float = 60.0,
 ) -> VehicleProcess:
@@ -108,6 +109,8 @@ def start_vehicle(
         cmd.append("--lockstep")
     if legboard_control is not None:
         cmd += ["--legboard-control", str(legboard_control)]
+    if legboard_period_ms is not None:
+        cmd += ["--legboard-period-ms", str(legboard_period_ms)]
     err = open(Path(tmp.name) / "stderr.txt", "w+")  # noqa: SIM115 - read back on failure
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True, env=child_env(), cwd=REPO)
     deadline = time.monotonic() + timeout
@@ -128,16 +131,24 @@ def start_vehicle(
 
 class LegboardProcess:
     def __init__(
-        self, proc: subprocess.Popen, pty: str, control: Path, tmp: tempfile.TemporaryDirectory
+        self,
+        proc: subprocess.Popen,
+        pty: str,
+        control: Path,
+        tmp: tempfile.TemporaryDirectory,
+        clock: str = "wall",
     ) -> None:
         self.proc, self.pty, self.control, self._tmp = proc, pty, control, tmp
+        self.clock = clock
 
     def stop(self, timeout: float = 5.0) -> int:
         return stop_process(self.proc, self._tmp, timeout)
 
 
-def start_legboard(speed: float = 1.0, timeout: float = 30.0) -> LegboardProcess:
-    """Start ``python -m sitl.legboard`` with a control socket in a temporary directory."""
+def start_legboard(speed: float = 1.0, clock: str = "wall", timeout: float = 30.0) -> LegboardProcess:
+    """Start ``python -m sitl.legboard`` with a control socket in a temporary directory.
+    ``clock="external"``: board time follows the vehicle given its control socket (and stands
+    still until that vehicle runs); ``speed`` then does not matter."""
     tmp = tempfile.TemporaryDirectory(prefix="sl-legs-")
     link, ctl = Path(tmp.name) / "legs", Path(tmp.name) / "legs.ctl"
     cmd = [
@@ -150,6 +161,8 @@ def start_legboard(speed: float = 1.0, timeout: float = 30.0) -> LegboardProcess
         str(ctl),
         "--speed",
         str(speed),
+        "--clock",
+        clock,
     ]
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=child_env(), cwd=REPO
@@ -159,7 +172,7 @@ def start_legboard(speed: float = 1.0, timeout: float = 30.0) -> LegboardProcess
         line = proc.stdout.readline()
         if line.startswith("legboard ready"):
             fields = dict(f.split("=", 1) for f in line.split()[2:] if "=" in f)
-            return LegboardProcess(proc, fields.get("link") or fields["pty"], ctl, tmp)
+            return LegboardProcess(proc, fields.get("link") or fields["pty"], ctl, tmp, clock)
         if not line and proc.poll() is not None:
             break
     proc.kill()

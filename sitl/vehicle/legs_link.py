@@ -6,10 +6,16 @@ while well clear of the surface (5 cm) the board's joint angles become the legs'
 springs reset them); while in contact the Stepper's joint angles are written back to the board.
 Between the two (a foot bouncing off during a landing) neither: resetting the legs then would
 cut into the landing the physics is computing.
+
+A board started with ``--clock external`` runs on the vehicle's clock: each exchange first
+advances it to the vehicle's time (one round trip, the vehicle waits for the reply), so board
+and vehicle time stay together whatever the machine's load. A board on the wall clock is only
+read and written, as before.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Protocol
 
@@ -32,17 +38,26 @@ class LegsHost(Protocol):
 
 
 class LegsLink:
-    def __init__(self, control_path: Path) -> None:
+    def __init__(self, control_path: Path, period_s: float = PERIOD_S) -> None:
+        if not (period_s > 0 and math.isfinite(period_s)):
+            raise ValueError(f"leg board period must be a positive number of seconds, got {period_s!r}")
         self.ctl = BoardControl(control_path)
+        self.period_s = period_s
+        try:
+            #: whether the board follows the vehicle's clock (``--clock external``)
+            self.external = self.ctl.state().get("clock") == "external"
+        except BaseException:
+            self.ctl.close()
+            raise
         self.next_t = 0.0
         self.error: str | None = None
 
     def update(self, v: LegsHost) -> None:
         if v.t < self.next_t or self.error is not None:
             return
-        self.next_t = v.t + PERIOD_S
+        self.next_t = v.t + self.period_s
         try:
-            legs = self.ctl.state()["legs"]
+            legs = (self.ctl.advance(v.t) if self.external else self.ctl.state())["legs"]
             tau = [float(lg["torque_nm"]) for lg in legs]
             up = 0.5 * (tau[0] + tau[1])
             down = 0.5 * (tau[2] + tau[3])

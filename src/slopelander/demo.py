@@ -211,7 +211,7 @@ def run_demo(
         f"starting the simulated leg board and vehicle ({speed:g}x real time; the first run after an "
         "install compiles the model, about half a minute) ..."
     )
-    board = start_legboard(speed=speed)
+    board = start_legboard(speed=speed, clock="external")
     vehicle = None
     link = None
     legs = None

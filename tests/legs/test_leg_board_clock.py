@@ -1,0 +1,122 @@
+"""The simulated board on an external clock: board time is only what the vehicle feeds it.
+
+In-process on a real pty (no wall-clock timing), plus one board process that is fed no time.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import select
+import time
+
+import pytest
+
+from sitl.legboard.control import BoardControl, ControlError
+from sitl.legboard.server import MAX_ADVANCE_S, BoardServer, FaultSpec
+from slopelander.legs import codec, messages
+
+
+def _external(**kw) -> BoardServer:
+    return BoardServer(clock="external", **kw)
+
+
+def test_board_time_follows_the_times_fed_and_never_goes_back():
+    srv = _external()
+    assert srv.control({"op": "state"})["time_s"] == 0.0
+    reply = srv.control({"op": "advance", "to_s": 1.25})
+    assert reply["ok"] and reply["clock"] == "external" and reply["clock_s"] == 1.25
+    # the physics steps in dt = 4 ms: board time is the last step not past the time fed
+    assert 1.25 - srv.dt < reply["time_s"] <= 1.25 + 1e-9
+    assert len(reply["legs"]) == messages.N_LEGS
+    held = srv.control({"op": "advance", "to_s": 0.5})  # a time behind the board's holds it
+    assert held["time_s"] == reply["time_s"] and held["clock_s"] == 1.25
+    assert srv.advance(1.25) == reply["time_s"]
+
+
+@pytest.mark.parametrize(
+    "to_s, error",
+    [
+        (math.nan, "finite"),
+        (math.inf, "finite"),
+        ("soon", "could not convert"),
+        (MAX_ADVANCE_S + 1.0, "ahead of board time"),
+    ],
+)
+def test_bad_times_are_refused_with_a_reason_and_leave_the_board_alone(to_s, error):
+    srv = _external()
+    with pytest.raises(ValueError, match=error):
+        srv.advance(to_s)
+    assert srv.physics.time_s == 0.0 and srv.clock_s is None
+
+
+def test_a_wall_clock_board_refuses_to_be_fed_time():
+    srv = BoardServer()
+    with pytest.raises(ValueError, match="--clock external"):
+        srv.advance(1.0)
+    with pytest.raises(ValueError, match="unknown clock"):
+        BoardServer(clock="vehicle")
+
+
+def test_scheduled_faults_fall_due_in_fed_time():
+    srv = _external(faults=(FaultSpec.parse("stuck:1@0.5"),))
+    srv.advance(0.49)
+    assert not srv.physics.legs[1].stuck
+    srv.advance(0.51)
+    assert srv.physics.legs[1].stuck and not srv.physics.legs[0].stuck
+
+
+def _frames(fd: int, want: int, decoder: codec.Decoder) -> list:
+    """Frames from the pty until ``want`` have arrived (bytes the board already wrote; the
+    deadline only ends a failing test)."""
+    got: list = []
+    deadline = time.monotonic() + 10.0
+    while len(got) < want and time.monotonic() < deadline:
+        ready, _, _ = select.select([fd], [], [], 0.5)
+        if ready:
+            got += [f.message for f in decoder.feed(os.read(fd, 4096))]
+    return got
+
+
+def test_status_reports_come_at_the_fed_board_times_and_stop_when_time_stands_still():
+    srv = _external()
+    srv.open()
+    fd = os.open(srv.slave_path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+        os.write(fd, codec.encode(messages.Hello(messages.PROTOCOL_VERSION, 100), 1))
+        deadline = time.monotonic() + 10.0
+        while not srv._hello and time.monotonic() < deadline:
+            srv._wait_io(0.5)
+        dec = codec.Decoder()
+        first = _frames(fd, 1, dec)
+        assert isinstance(first[0], messages.HelloReply), first
+        srv.advance(1.0)
+        reports = _frames(fd, 11, dec)
+        assert [r.board_time_ms for r in reports] == list(range(0, 1001, 100)), reports
+        srv.advance(1.0)  # the same time again: nothing new is due
+        srv._wait_io(0.0)
+        assert _frames_now(fd, dec) == []
+    finally:
+        os.close(fd)
+        srv.close()
+
+
+def _frames_now(fd: int, decoder: codec.Decoder) -> list:
+    ready, _, _ = select.select([fd], [], [], 0.2)
+    return [f.message for f in decoder.feed(os.read(fd, 4096))] if ready else []
+
+
+def test_a_board_process_fed_no_time_stands_still(sim_board):
+    board = sim_board("--clock", "external")
+    with BoardControl(board.control) as ctl:
+        before = ctl.state()
+        assert before["clock"] == "external" and before["clock_s"] is None
+        # the observation window is wall time; on the wall clock at 20x this would be 10 s of board time
+        time.sleep(0.5)
+        after = ctl.state()
+        assert after["time_s"] == before["time_s"] == 0.0
+        reply = ctl.advance(0.2)
+        assert 0.2 - 0.004 < reply["time_s"] <= 0.2 + 1e-9
+        with pytest.raises(ControlError, match="finite"):
+            ctl.advance(math.nan)
+        assert ctl.state()["time_s"] == reply["time_s"]

@@ -1,0 +1,63 @@
+"""In a flight the simulated leg board runs on the vehicle's clock (``--clock external``).
+
+The rig's real processes: board, lock-stepped vehicle and the companion. After a flight
+segment the vehicle is frozen (SIGSTOP), every message it sent is read, and the board's time is
+compared with the vehicle's: the bounds are in vehicle time, so machine load cannot move them.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+from sitl.legboard.control import BoardControl
+from sitl.rig import Rig
+from sitl.vehicle.legs_link import PERIOD_S
+
+TICK_S = 1.0 / 400  # the vehicle's control tick
+IMU_PERIOD_S = 1.0 / 200  # the rig's RAW_IMU stream: the newest stamp lags the vehicle by at most this
+DT_S = 0.004  # the board's physics step
+
+
+def _drain(rig: Rig) -> float:
+    """Read everything the (stopped) vehicle sent; its newest time (s)."""
+    last, quiet = rig.now, 0
+    while quiet < 50:  # the bytes are already on the loopback socket; 50 empty reads in a row
+        rig.link.poll()
+        quiet = quiet + 1 if rig.now == last else 0
+        last = rig.now
+        time.sleep(0.002)
+    return last
+
+
+def test_the_board_keeps_the_vehicles_time_and_stands_still_without_it():
+    with Rig(slope_deg=20.0, seed=5) as rig:
+        assert rig.board.clock == "external"
+        rig.set_legs(1.5, 1.5)
+        rig.take_off(2.0)
+        rig.wait(3.0)
+        pid = rig.vehicle.proc.pid
+        os.kill(pid, signal.SIGSTOP)
+        try:
+            seen = _drain(rig)
+            assert seen > 5.0, seen
+            with BoardControl(rig.board.control) as ctl:
+                st = ctl.state()
+                # the vehicle fed the board its time at its last exchange, at most one exchange
+                # period (+ a tick) before its newest time; the companion saw that newest time
+                # to within one IMU period
+                clock = st["clock_s"]
+                assert seen - PERIOD_S - TICK_S - 1e-6 <= clock <= seen + IMU_PERIOD_S + TICK_S, (seen, clock)
+                assert clock - DT_S - 1e-9 < st["time_s"] <= clock + 1e-9, (clock, st["time_s"])
+                # no vehicle time, no board time: the window is wall time, 4 s of a wall board at 8x
+                time.sleep(0.5)
+                assert ctl.state()["time_s"] == st["time_s"]
+        finally:
+            os.kill(pid, signal.SIGCONT)
+        rig.vehicle.stop()
+        rig.vehicle = None
+        with BoardControl(rig.board.control) as ctl:
+            held = ctl.state()["time_s"]
+            time.sleep(0.3)
+            assert ctl.state()["time_s"] == held  # the vehicle gone: the board holds its time
