@@ -82,7 +82,7 @@ def run(clock: str, period_ms: float, speed: float, presets: int) -> dict:
                 raise SystemExit(f"{clock}: preset {i} did not settle in 120 wall s")
             results = op.result()
             vehicle_s.append(link.clock.now() - ts)
-            board_s.append(max(r.board_seconds or 0.0 for r in results))
+            board_s.append(max(r.board_seconds or 0.0 for r in results.values()))
         wall = time.monotonic() - wall0
         dv = link.clock.now() - t0
         db = legs.status.board_time_s - b0
