@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import time
 
 from sitl.legboard.control import BoardControl
 from sitl.rig import Rig
+from sitl.vehicle.launch import REPO, child_env
 from sitl.vehicle.legs_link import PERIOD_S
 
 TICK_S = 1.0 / 400  # the vehicle's control tick
@@ -61,3 +64,16 @@ def test_the_board_keeps_the_vehicles_time_and_stands_still_without_it():
             held = ctl.state()["time_s"]
             time.sleep(0.3)
             assert ctl.state()["time_s"] == held  # the vehicle gone: the board holds its time
+
+
+def test_a_bad_exchange_period_is_refused_by_name():
+    for bad in ("0", "-5", "nan"):
+        r = subprocess.run(
+            [sys.executable, "-m", "sitl.vehicle", "--legboard-period-ms", bad],
+            capture_output=True,
+            text=True,
+            env=child_env(),
+            cwd=REPO,
+            timeout=60,
+        )
+        assert r.returncode == 2 and "--legboard-period-ms" in r.stderr, (bad, r.returncode, r.stderr)
