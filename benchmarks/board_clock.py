@@ -10,7 +10,10 @@ driver sees it in vehicle time and as the board reports it in board time, how fa
 from vehicle time over the run, and the vehicle's speed against the wall clock. ``--load N``
 runs N busy processes meanwhile (the drift a loaded machine causes is the point).
 
-    python3 benchmarks/board_clock.py [--speed 8] [--presets 4] [--load 0]
+First it times, in board seconds, the pilot's angle-changing preset switch of the flight tests on
+an external-clock board alone (``--switch-only``: just that, a few seconds).
+
+    python3 benchmarks/board_clock.py [--speed 8] [--presets 4] [--load 0] [--switch-only]
         [--settings wall:20,external:20,external:5]
 """
 
@@ -30,12 +33,53 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
+from sitl.legboard.control import BoardControl  # noqa: E402
 from sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 from slopelander.controller.link import Link  # noqa: E402
 from slopelander.legs import LegBoard  # noqa: E402
 
 PRESETS = ((1.2, 1.2), (2.0, 2.0))  # N*m, uphill and downhill pair; alternated
 TOLERANCE_NM = 0.15
+
+
+def switch_times(step_s: float = 0.02) -> list[tuple[str, float]]:
+    """Board seconds of each step of the pilot's angle-changing preset switch (as in
+    tests/controller/test_flight_safety.py): an external-clock board process fed ``step_s`` at a
+    time over its control socket, the driver on the same clock."""
+    board = start_legboard(clock="external")
+    legs = None
+    try:
+        legs = LegBoard.open(board.pty)  # the board answers HELLO whatever its time
+        now = [0.0]
+        legs.set_clock(lambda: now[0])
+        out = []
+        with BoardControl(board.control) as ctl:
+            for what, start in (
+                (
+                    "legs set 1.7 / 2.3 N*m from loose",
+                    lambda: legs.start_presets(1.7, 2.3, tolerance_nm=0.15, timeout=60),
+                ),
+                (
+                    "uphill legs re-angled 37.5 -> 25 deg",
+                    lambda: legs.start_angles({0: 25.0, 1: 25.0}, timeout=60),
+                ),
+                (
+                    "all four clamped at 2.5 N*m",
+                    lambda: legs.start_presets(2.5, 2.5, tolerance_nm=0.15, timeout=60),
+                ),
+            ):
+                op, t0 = start(), now[0]
+                while not op.done:
+                    now[0] += step_s
+                    ctl.advance(now[0])
+                    legs.poll()
+                op.result()  # raises if it failed
+                out.append((what, now[0] - t0))
+        return out
+    finally:
+        if legs is not None:
+            legs.close()
+        board.stop()
 
 
 def pump(link: Link, legs: LegBoard, wall_s: float = 0.001) -> None:
@@ -107,6 +151,7 @@ def main() -> None:
     ap.add_argument("--speed", type=float, default=8.0, help="vehicle (and wall board) speed, as the rig")
     ap.add_argument("--presets", type=int, default=4)
     ap.add_argument("--load", type=int, default=0, help="busy processes to run meanwhile")
+    ap.add_argument("--switch-only", action="store_true", help="only time the preset switch")
     ap.add_argument("--settings", default="wall:20,external:20,external:5", help="CLOCK:PERIOD_MS,...")
     a = ap.parse_args()
     settings = [(c, float(p)) for c, p in (s.split(":") for s in a.settings.split(","))]
@@ -117,6 +162,16 @@ def main() -> None:
             f"{PRESETS[0]} / {PRESETS[1]} N*m (tolerance {TOLERANCE_NM} N*m), {a.load} busy processes, "
             f"load average {os.getloadavg()[0]:.1f}"
         )
+        steps = switch_times()
+        total = sum(t for _, t in steps[1:])
+        print(
+            "the pilot's angle-changing preset switch on the vehicle's clock, board s: "
+            + "; ".join(f"{w} {t:.2f}" for w, t in steps[1:])
+            + f"; switch total {total:.2f} (before it, {steps[0][0]}: {steps[0][1]:.2f})",
+            flush=True,
+        )
+        if a.switch_only:
+            return
         print(
             "clock     period    settle as the driver sees it, vehicle s | as the board reports it, board s"
             " | board - vehicle time over the run | vehicle x real time"
