@@ -11,19 +11,11 @@ import math
 
 import numpy as np
 import pytest
+from model_helpers import ROOF
 
 from slopelander.model import LandingConditions, Model
 from slopelander.model.thrust_end import ThrustEnd, land_and_end_thrust
 
-ROOF = LandingConditions(
-    slope_deg=42.0,
-    speed=2.25,
-    tau_up=1.1,
-    tau_down=1.7,
-    angle_up_deg=22.3125,
-    angle_down_deg=37.5,
-    reverse_percent=100.0,
-)
 UP, DOWN = 0, 1
 
 

@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from model_helpers import ROOF
 
 from slopelander.model import (
     ConditionError,
@@ -26,16 +27,6 @@ from slopelander.model import (
     simulate_batch,
 )
 from slopelander.model.thrust_end import ThrustEnd, land_and_end_thrust
-
-ROOF = LandingConditions(
-    slope_deg=42.0,
-    speed=2.25,
-    tau_up=1.1,
-    tau_down=1.7,
-    angle_up_deg=22.3125,
-    angle_down_deg=37.5,
-    reverse_percent=100.0,
-)
 
 
 @pytest.fixture(scope="module", params=[0.0, 1.0], ids=["step", "ramp-1s"])
