@@ -74,20 +74,26 @@ def test_with_reverse_thrust_it_stops_on_the_roof_and_a_slide_after_it_is_not_di
     assert ended["to"] == "SETTLED" and "still under reverse thrust" in ended["reason"], ended
     rig.wait(1.5)  # the ramp may still be running when the landing ends: let it finish
     rvt = rig.track.event_times("EV_RVT", c["t"] - 0.001)
-    stop = rig.track.event_times("EV_STOP", c["t"])
-    assert rvt and rvt[0] - c["t"] < 0.01 and stop, (flight.history[-2:], rig.track.script[-3:], rvt, rig.now)
+    assert rvt and rvt[0] - c["t"] < 0.01, (rvt, c)
     shortest, longest = cfg["reflex.reverse_thrust_ms"] / 1000.0, cfg["reflex.reverse_max_ms"] / 1000.0
     ramp = cfg["reflex.reverse_ramp_ms"] / 1000.0
     assert shortest < ended["t"] - c["t"] < longest, ended["t"] - c["t"]
-    # the outputs reach the stop once the ramp that followed the decision is over
-    assert ended["t"] + 0.9 * ramp <= stop[0] <= ended["t"] + ramp + 0.2, (ended["t"], stop[0])
+    held = [t for t, state in rig.track.script if state == 13 and t > c["t"]]  # the script's HOLD
+    if held:  # the ramp ran out: the outputs reached the stop once it was over
+        stop = rig.track.event_times("EV_STOP", c["t"])
+        assert stop and ended["t"] + 0.9 * ramp <= stop[0] <= ended["t"] + ramp + 0.2, (ended["t"], stop)
+        thrust_over = stop[0]
+    else:  # the slide was seen while the ramp still ran: handed to the pilot then, the script released
+        assert flight.states[-1] == "ABORTED" and flight.history[-1]["t"] < ended["t"] + ramp + 0.1
+        assert flight.history[-1]["t"] >= ended["t"] + 0.3 * ramp, flight.history[-1]
+        thrust_over = flight.history[-1]["t"]
     # the controller's own window: it read "still" for the hold time before it ended the thrust
     # (the vehicle's EV_STOP comes a command's latency later, so it does not mark that window)
     hold = cfg["reflex.reverse_still_s"]
     decided = ended["t"]
-    assert decided <= stop[0]
+    assert decided <= thrust_over
     under = [p for p in rig.track.pos if decided - hold + 0.02 <= p[0] <= decided]
-    pitch = [a for t, a in rig.track.pitch if c["t"] <= t <= stop[0]]
+    pitch = [a for t, a in rig.track.pitch if c["t"] <= t <= thrust_over]
     assert under and max(speed(p) for p in under) <= cfg["settle.still_speed_mps"], under
     assert min(pitch) > -80.0  # upright
     end = flight.history[-1]

@@ -116,9 +116,13 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         """With nothing changing any more, no waiting state lasts for ever."""
         if not hasattr(self, "m"):
             return
-        for _ in range(300):  # 30 s at 10 Hz
+        # longer than the longest wait the configuration allows (the legs' ready timeout, the
+        # take-off's), so a state that waits on its timeout must have ended
+        cfg = self.m.ctx.cfg
+        horizon = 10.0 + max(30.0, cfg["legs.ready_timeout_s"], cfg["settle.timeout_s"])
+        for _ in range(int(horizon / 0.1)):
             self._step(0.1)
-        assert self.m.name in MAY_PERSIST, f"still in {self.m.name} after 30 s of unchanging inputs"
+        assert self.m.name in MAY_PERSIST, f"still in {self.m.name} after {horizon:g} s of unchanging inputs"
 
 
 LandingUnderRandomEvents.TestCase.settings = settings(
