@@ -10,17 +10,17 @@ process is the companion: the MAVLink link, the leg driver and the landing state
 DESCEND to the cut (the descent from 2.8 m above a 20 deg roof, about 5 s each) with
 ``time.process_time()`` (user + system CPU of this process, all threads), against the vehicle
 time that passed. At --speed 1 the vehicle runs in real time, so the per-second costs of the
-controller's 1 kHz poll loop count as they would on the vehicle; faster speeds give less.
-Streams: the two IMU messages, DISTANCE_SENSOR, HEARTBEAT at 5 Hz and LOCAL_POSITION_NED at
-50 Hz (the rig flies the vehicle over the roof with it); ``--telemetry`` adds what the flight
-tests record. Most of the CPU is pymavlink decoding messages in Python (about 600 a second).
+controller's poll loop count as they would on the vehicle; faster speeds give less.
+Streams: the two IMU messages, DISTANCE_SENSOR, HEARTBEAT, LOCAL_POSITION_NED (the rig flies the
+vehicle over the roof with it), and what the simulated vehicle streams by default (ATTITUDE,
+SERVO_OUTPUT_RAW, RC_CHANNELS); ``--telemetry`` adds what the flight tests record.
 
 Each descent is flown twice in the same run, in turn: "before", the controller as it was until
 2026-11-23 (every message decoded by pymavlink's own reader, ``Link(decode=None)``, and the loop
-woken by every datagram, ``link.poll_period_s: 0``), and "after", as ``slopelander land`` runs now
-(the frames the landing does not read dropped by message id before decoding,
-``decode=LANDING_MESSAGES`` plus what the rig's recorder reads, and the shipped
-``link.poll_period_s``); the landing reads RAW_IMU, so the HIGHRES_IMU frames are dropped.
+woken by every datagram, ``link.poll_period_s: 0``), and "after", as ``slopelander land`` runs now:
+only the frames the landing reads are decoded (``decode=LANDING_MESSAGES``; the others, HIGHRES_IMU
+among them, are dropped by message id first), the loop wakes at most every ``link.poll_period_s``
+(``--poll-period`` to try another), and every RAW_IMU sample still reaches the impact detector.
 """
 
 from __future__ import annotations
@@ -37,7 +37,8 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from sitl.rig import TRACK_MESSAGES, Rig, config  # noqa: E402
+from sitl.rig import Rig, config  # noqa: E402
+from slopelander.controller.link import LANDING_MESSAGES  # noqa: E402
 from slopelander.controller.runner import Lander  # noqa: E402
 
 
@@ -50,10 +51,17 @@ def main() -> None:
         action="store_true",
         help="also stream what the test rig records (position, attitude, outputs at 50 Hz, RC)",
     )
+    ap.add_argument(
+        "--poll-period",
+        type=float,
+        default=None,
+        help="the 'after' loop's link.poll_period_s (default: the shipped setting)",
+    )
     a = ap.parse_args()
+    after_link = {} if a.poll_period is None else {"poll_period_s": a.poll_period}
     cfgs = {
         "before": config(reflex={"arm_height_m": 0.5}, link={"poll_period_s": 0.0}),
-        "after": config(reflex={"arm_height_m": 0.5}),
+        "after": config(reflex={"arm_height_m": 0.5}, link=after_link),
     }
     with Rig(
         slope_deg=20.0,
@@ -67,7 +75,7 @@ def main() -> None:
         totals = {"before": [0.0, 0.0], "after": [0.0, 0.0]}
         for i in range(2 * a.descents):
             mode = "before" if i % 2 == 0 else "after"
-            rig.link.set_decode(None if mode == "before" else TRACK_MESSAGES)
+            rig.link.set_decode(None if mode == "before" else LANDING_MESSAGES)
             cfg = cfgs[mode]
             rig.go_over_roof(2.8)
             rig.set_legs(1.7, 2.3)

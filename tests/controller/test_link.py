@@ -275,3 +275,41 @@ def test_lander_over_the_link_aborts_without_a_leg_board(pair, tmp_path):
     assert not [m for m in got + peer.received if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
     assert (tmp_path / "t.jsonl").read_text().count("\n") == len(lander.machine.history)
     assert any("SL ABORTED" in m.text for m in peer.received if m.get_type() == "STATUSTEXT")
+
+
+def test_every_imu_sample_is_kept_for_a_reader_that_polls_seldom(pair):
+    from slopelander.controller.link import RECENT_LEN
+
+    link, peer, _ = pair
+    found(link, peer)
+    seen = link.received.get("RAW_IMU", 0)
+    for i in range(7):
+        peer.conn.mav.raw_imu_send(1_000_000 + i * 5000, i, 0, -1000, 0, 0, 0, 0, 0, 0)
+    settle(link, peer)
+    msgs, seen = link.since("RAW_IMU", seen)
+    assert [m.xacc for m in msgs] == list(range(7))
+    assert link.since("RAW_IMU", seen) == ([], seen)
+    for i in range(RECENT_LEN + 10):  # more than the link keeps: the newest, in order
+        peer.conn.mav.raw_imu_send(2_000_000 + i * 5000, i, 0, -1000, 0, 0, 0, 0, 0, 0)
+    settle(link, peer)
+    msgs, seen2 = link.since("RAW_IMU", seen)
+    assert seen2 - seen == RECENT_LEN + 10
+    assert [m.xacc for m in msgs] == list(range(10, RECENT_LEN + 10))
+
+
+def test_an_impact_between_two_wakes_of_the_loop_is_detected(pair):
+    """The spike is neither the first nor the last sample read in one poll: the detector still
+    gets it (it was given only the newest sample once, and a loop waking every 10 ms missed it)."""
+    from slopelander.controller.config import load_config
+    from slopelander.controller.runner import Lander
+
+    link, peer, _ = pair
+    found(link, peer)
+    lander = Lander(link, load_config(), (0.8, 1.5), legs=None)
+    lander.detector.arm_after_cut(0.5)
+    for i in range(6):  # free fall, one spike of 4 g, then free fall again, all in one batch
+        peer.conn.mav.raw_imu_send(1_000_000 + i * 5000, 0, 0, 4000 if i == 2 else 50, 0, 0, 0, 0, 0, 0)
+    time.sleep(0.05)
+    lander.poll()
+    assert lander.detector.impact is not None
+    assert lander.detector.impact.t == pytest.approx(1.010)

@@ -99,10 +99,17 @@ class Config:
         self.source = source
         self.doc = doc
         self.rc_presets = _validate(doc, source)
+        # read in the landing loop's every wake: one dict lookup, not a split and two
+        self._flat = {
+            f"{s}.{k}": v for s, sec in doc.items() if isinstance(sec, dict) for k, v in sec.items()
+        }
 
     def __getitem__(self, dotted: str) -> Any:
-        section, key = dotted.split(".", 1)
-        return self.doc[section][key]
+        try:
+            return self._flat[dotted]
+        except KeyError:
+            section, key = dotted.split(".", 1)
+            return self.doc[section][key]
 
     def __getattr__(self, section: str) -> dict[str, Any]:
         try:

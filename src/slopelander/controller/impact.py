@@ -8,9 +8,11 @@ newer than the previous one (a repeated or reordered packet never counts twice).
 Latency budget from contact to the companion's decision (RAW_IMU at 200 Hz):
   autopilot 20 Hz low-pass filter (first order, time constant 1/(2*pi*20 Hz))  ~ 8 ms to rise
   sample interval of the stream (1/200 Hz)                                     <= 5 ms
-  serial/UDP transit and the companion's poll period (1 ms loop)               ~ 1-3 ms
+  serial/UDP transit                                                           ~ 1-3 ms
+  the companion's loop period (``link.poll_period_s``, 10 ms; every sample
+  received in between is still fed, in order)                                  <= 10 ms
   decision (one comparison)                                                    < 0.1 ms
-so about 15 ms, against about 2-3 ms for the on-board script that runs the same rule at the
+so about 15-25 ms, against about 2-3 ms for the on-board script that runs the same rule at the
 loop rate with no link in between. That is why the reflex lives on board; the companion's detector
 is the backstop and the record, and what it measures is reported by benchmarks/landing_latency.py.
 """

@@ -61,6 +61,10 @@ LANDING_MESSAGES = frozenset(
         "RC_CHANNELS",
     }
 )
+#: messages every one of which a reader needs, not only the newest (the impact detector reads every
+#: IMU sample, however seldom the landing loop wakes): the link keeps the last few of each
+KEEP_RECENT = ("RAW_IMU", "HIGHRES_IMU")
+RECENT_LEN = 64
 #: the largest read from the link per call (a UDP read returns one datagram whatever this is)
 RECV_BYTES = 4096
 
@@ -193,6 +197,9 @@ class Link:
         #: vehicle time at which telemetry resumed after the last gap (-inf: none yet)
         self.resumed_at = -math.inf
         self._listeners: list[Callable[[object], None]] = []
+        self._recent: dict[str, deque] = {k: deque(maxlen=RECENT_LEN) for k in KEEP_RECENT}
+        #: messages received per type since the link opened (what :meth:`since` counts from)
+        self.received: dict[str, int] = {}
 
     # ---------------------------------------------------------------- receiving
     def set_decode(self, names: Iterable[str] | None) -> None:
@@ -202,6 +209,16 @@ class Link:
     def add_listener(self, fn: Callable[[object], None]) -> None:
         """Call ``fn(msg)`` for every message from the autopilot (e.g. the impact detector)."""
         self._listeners.append(fn)
+
+    def since(self, mtype: str, count: int) -> tuple[list, int]:
+        """The messages of ``mtype`` (one of :data:`KEEP_RECENT`) received after the first ``count``,
+        oldest first, and the new count: at most :data:`RECENT_LEN` of them, the newest."""
+        total = self.received.get(mtype, 0)
+        new = total - count
+        if new <= 0:
+            return [], total
+        recent = self._recent[mtype]
+        return list(recent)[-min(new, len(recent)) :], total
 
     def wait_readable(self, timeout_s: float, extra_fds: tuple[int, ...] = ()) -> None:
         """Sleep until the autopilot's link (or one of ``extra_fds``) has bytes to read, at most
@@ -280,6 +297,10 @@ class Link:
             return
         self.last[mtype] = msg
         self._last_rx = now
+        self.received[mtype] = self.received.get(mtype, 0) + 1
+        recent = self._recent.get(mtype)
+        if recent is not None:
+            recent.append(msg)
         self._rates.setdefault(mtype, _Rate()).add(now)
         for fn in self._listeners:
             fn(msg)

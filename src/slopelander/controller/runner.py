@@ -74,6 +74,9 @@ class Lander:
         self.start_angle_deg = uphill_angle_deg
         self.switch = PresetSwitch(cfg, link.last.get("RC_CHANNELS"))
         self._legs_t: float | None = None
+        self._board_silent_s = cfg["legs.board_silent_s"]
+        #: RAW_IMU messages already given to the detector (the count of :meth:`Link.since`)
+        self._imu_seen = link.received.get("RAW_IMU", 0)
 
     def inputs(self) -> Inputs:
         """The snapshot the machine steps on."""
@@ -136,14 +139,19 @@ class Lander:
         )
 
     def poll(self) -> str:
-        """Read everything waiting, step the machine if vehicle time moved (or the link is lost)."""
-        self.link.poll()
-        imu = self.link.last.get("RAW_IMU")
-        if imu is not None:
-            self.detector.feed_msg(imu)
+        """Read everything waiting, step the machine if vehicle time moved (or the link is lost).
+
+        Every IMU sample received since the last poll reaches the impact detector, so the
+        detector does not depend on how often the loop wakes. The snapshot is built only when the
+        machine steps: a wake with nothing newer from the autopilot costs only the reads."""
+        link = self.link
+        link.poll()
+        msgs, self._imu_seen = link.since("RAW_IMU", self._imu_seen)
+        for msg in msgs:
+            self.detector.feed_msg(msg)
         if self.legs is not None:
-            t = self.link.clock.now()
-            if self._legs_t is not None and t - self._legs_t > self.cfg["legs.board_silent_s"]:
+            t = link.clock.now()
+            if self._legs_t is not None and t - self._legs_t > self._board_silent_s:
                 # the autopilot's clock jumped (it stood still while the link was lost): the
                 # board was not watched in between, which says nothing about the board
                 self.legs.unobserved(t - self._legs_t)
@@ -160,10 +168,9 @@ class Lander:
             self.act.advance()
         else:
             self._legs_back()
-        inp = self.inputs()
-        if self._pilot_switch(inp):
-            inp = self.inputs()  # the legs were just given another preset: read them again
-        if inp.t > self._last_t or not inp.link_ok:
+        self._pilot_switch()
+        if link.clock.now() > self._last_t or link.lost:
+            inp = self.inputs()
             self._last_t = inp.t
             before = self.machine.name
             self.machine.step(inp)
@@ -198,7 +205,7 @@ class Lander:
         self._legs_t = None
         self.act.statustext("SL leg board reconnected")
 
-    def _pilot_switch(self, inp: Inputs) -> bool:
+    def _pilot_switch(self) -> bool:
         """Apply a change of the pilot's preset switch (see :mod:`pilot_switch`); True when the
         legs were given another preset."""
         changed, sel = self.switch.update(self.link.last.get("RC_CHANNELS"))
@@ -228,6 +235,7 @@ class Lander:
         self.act.set_legs(*preset, angle)
         self.act.statustext(f"SL {what}"[:50])
         if self.machine._started and name in WAIT_AGAIN:
+            inp = self.inputs()
             if name == "DESCEND":  # stop the descent now, not after GUID_TIMEOUT
                 self.act._last_descent = -1.0
                 self.act.descend(0.0)
