@@ -8,6 +8,8 @@ import signal
 import sys
 from pathlib import Path
 
+from sitl.parent_watch import watch_parent
+
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sitl.json_physics", description=__doc__)
@@ -66,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    watch_parent()  # a launcher that dies takes its simulator with it
     print(
         f"json_physics ready udp={a.host}:{server.port} slope_deg={scenario.slope_deg} "
         f"start_on={scenario.start_on} legs={a.legs or 'none'}",

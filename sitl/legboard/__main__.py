@@ -8,6 +8,7 @@ import sys
 
 from sitl.legboard.physics import LegBoardPhysics
 from sitl.legboard.server import CLOCKS, FAULT_KINDS, BoardServer, FaultSpec
+from sitl.parent_watch import watch_parent
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -63,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    watch_parent()  # a launcher that dies takes its simulator with it
     pty = server.open()
     print(
         f"legboard ready pty={pty} link={server.link or ''} "

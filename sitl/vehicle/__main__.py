@@ -8,6 +8,8 @@ import signal
 import sys
 from pathlib import Path
 
+from sitl.parent_watch import watch_parent
+
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_PARAMS = REPO / "firmware_params" / "sitl.parm"
 DEFAULT_SCRIPT = REPO / "firmware_params" / "scripts" / "slopelander.lua"
@@ -109,6 +111,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    watch_parent()  # a launcher that dies takes its simulator with it
     print(
         f"vehicle ready endpoints={','.join(a.endpoint or ['tcpin:127.0.0.1:5760'])} speed={a.speed} "
         f"script={script or 'none'} slope_deg={scenario.slope_deg}",

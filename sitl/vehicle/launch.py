@@ -16,6 +16,8 @@ from pathlib import Path
 
 import yaml
 
+from sitl.parent_watch import ENV
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -26,7 +28,10 @@ def free_port() -> int:
 
 
 def child_env() -> dict[str, str]:
+    """The environment of a simulator this process starts: it finds the repository's packages, and
+    it ends when this process does (:mod:`sitl.parent_watch`)."""
     env = dict(os.environ)
+    env[ENV] = str(os.getpid())
     env["PYTHONPATH"] = os.pathsep.join(
         [str(REPO / "src"), str(REPO)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else [])
     )
