@@ -43,6 +43,7 @@ Telemetry lost in a cut is not seen; the end state after the link is back is.
 from __future__ import annotations
 
 import argparse
+import bisect
 import json
 import math
 import os
@@ -155,10 +156,12 @@ class Soak:
         self.scenario_faults: list[dict] = []
         self.restarts: Counter = Counter()
         self.row: dict = {}
+        self._pos_sorted: tuple | None = None  # (key, the rig's positions in time order)
 
     # ---------------------------------------------------------------- vehicle life cycle
     def new_rig(self) -> None:
         self.close_rig()
+        self._pos_sorted = None
         slope = float(self.rng.uniform(15.0, 45.0))
         seed = int(self.rng.integers(1 << 30))
         span = 60.0 * self.a.per_vehicle + 200.0
@@ -360,16 +363,22 @@ class Soak:
 
     # --------------------------------------------------------------------------- checks
     def clearance(self, t: float) -> float:
-        """Height (m) of the body above the roof below it at vehicle time ``t`` (nearest sample)."""
+        """Height (m) of the body above the roof below it at vehicle time ``t``, interpolated
+        between the position samples around it. The samples are put in time order first: the
+        recorder keeps them in arrival order, which a link that reorders frames shuffles (a
+        binary search over them once gave a sample from before the climb)."""
         pos = self.rig.track.pos
-        lo, hi = 0, len(pos) - 1
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if pos[mid][0] < t:
-                lo = mid + 1
-            else:
-                hi = mid
-        _, x, z, _, _ = pos[lo]
+        key = (id(pos), len(pos))
+        if self._pos_sorted is None or self._pos_sorted[0] != key:
+            self._pos_sorted = (key, sorted(pos))
+        ordered = self._pos_sorted[1]
+        i = bisect.bisect_left(ordered, (t,))
+        if i == 0 or i == len(ordered):
+            _, x, z, _, _ = ordered[min(i, len(ordered) - 1)]
+            return z - self.rig.surface_z(x)
+        (t0, x0, z0, _, _), (t1, x1, z1, _, _) = ordered[i - 1], ordered[i]
+        w = 0.0 if t1 <= t0 else (t - t0) / (t1 - t0)
+        x, z = x0 + w * (x1 - x0), z0 + w * (z1 - z0)
         return z - self.rig.surface_z(x)
 
     def check(self, row: dict, t0: float, cfg, lander) -> list[str]:
@@ -394,9 +403,10 @@ class Soak:
                 bad.append(f"disarmed_in_air:{h:.2f}m")
         if "LANDED" in row["states"] and row.get("legs_on_ground") and "LOOSE" in row["legs_on_ground"]:
             bad.append("legs_loose_on_ground")
-        t_reset = next((e["t"] for e in lander.machine.history if e["to"] == "RESET"), None)
-        if t_reset is not None and self.clearance(t_reset) < cfg["takeoff.clear_height_m"] - 0.1:
-            bad.append(f"legs_loosened_low:{self.clearance(t_reset):.2f}m")
+        reset = next((e for e in lander.machine.history if e["to"] == "RESET"), None)
+        if reset is not None and self.clearance(reset["t"]) < cfg["takeoff.clear_height_m"] - 0.1:
+            # with what the machine believed: "clear of the ground at <range> m"
+            bad.append(f"legs_loosened_low:{self.clearance(reset['t']):.2f}m ({reset['reason']})")
         return bad
 
 

@@ -25,6 +25,13 @@ from pymavlink import mavutil
 from sitl.linkfault.faults import FaultConfigError, LinkFaults, decide
 
 
+def _no_delay(sock: socket.socket) -> None:
+    """Send each frame at once. With Nagle's algorithm a small frame waits for the peer's delayed
+    ACK (up to 40 ms on Linux): a lock-stepped vehicle behind the relay then ran at about real time
+    whatever its ``--speed`` (pymavlink's own TCP links set this too)."""
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+
 def parse_address(url: str) -> tuple[str, str, int]:
     """``tcp:HOST:PORT`` or ``udp:HOST:PORT`` -> (kind, host, port), with a clear error."""
     parts = url.split(":")
@@ -280,6 +287,7 @@ class Relay:
     def _upstream(self) -> socket.socket:
         if self.to_kind == "tcp":
             u = socket.create_connection(self.to_addr, timeout=5.0)
+            _no_delay(u)
         else:
             u = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             u.connect(self.to_addr)
@@ -310,6 +318,8 @@ class Relay:
             except OSError:
                 return
             client.settimeout(0.2)
+            _no_delay(client)
+            self._socks.append(client)  # closed by stop() too
             try:
                 up = self._upstream()
             except OSError:

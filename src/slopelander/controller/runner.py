@@ -30,6 +30,9 @@ SCRIPT_ESTOP = 20
 #: the longest the landing loop waits for input between polls: the leg board's queued writes and
 #: the descent setpoint's re-sends still go out at 200 Hz or more
 POLL_WAIT_S = 0.005
+#: how fast the loop's estimate of the vehicle's speed (vehicle per local seconds) follows a change
+RATE_GAIN = 0.2
+MAX_RATE = 50.0
 #: a leg board that failed is reconnected only between landings: in a landing the failure policy
 #: (docs/failsafes.md) applies, and a fresh handshake must not reset legs under load
 RECONNECT_IN = ("LANDED", "READY", "ABORTED", "ESTOP")
@@ -248,10 +251,15 @@ class Lander:
         """Poll until an ending state (or ``timeout_s`` local seconds: then abort); returns the state.
         Between polls it waits for the link or the leg board to have bytes (at most
         ``POLL_WAIT_S``), or calls ``sleep`` when one is given (tests). Polls are at least
-        ``link.poll_period_s`` apart: the IMU, range and position frames of one autopilot cycle
-        arrive as separate datagrams, and one wake-up for all of them is most of the CPU saved."""
+        ``link.poll_period_s`` of vehicle time apart: the IMU, range and position frames of one
+        autopilot cycle arrive as separate datagrams, and one wake-up for all of them is most of
+        the CPU saved. On a real vehicle that is the same in local time; a simulated one running
+        faster than real time is woken for that much faster (a lock-stepped simulator waits for
+        the loop, and would otherwise be held to about five times real time)."""
         t0 = self.link.monotonic()
         period = self.cfg["link.poll_period_s"]
+        rate = 1.0  # vehicle seconds per local second, smoothed; never taken below real time
+        last_w, last_v = time.monotonic(), self.link.clock.now()
         while True:
             started = time.monotonic()
             name = self.poll()
@@ -265,7 +273,12 @@ class Lander:
             if sleep is not None:
                 sleep(0.001)
             else:
-                rest = period - (time.monotonic() - started)
+                v = self.link.clock.now()
+                if started > last_w:
+                    r = (v - last_v) / (started - last_w)  # a jump after a gap is not a speed
+                    rate += RATE_GAIN * (min(max(1.0, r), MAX_RATE) - rate)
+                last_w, last_v = started, v
+                rest = period / rate - (time.monotonic() - started)
                 if rest > 0:
                     time.sleep(rest)  # a rate limit, not a synchronisation: the wait below follows
                 legs = self.legs.fileno() if self.legs is not None else None
