@@ -355,7 +355,8 @@ class Soak:
         )
         self.rig_landings += 1
         if fault in ("pilot_estop", "leg_unplug") or end in ("ESTOP", "hang"):
-            self.restarts[fault if fault in ("pilot_estop", "leg_unplug") else end] += 1
+            row["restart"] = fault if fault in ("pilot_estop", "leg_unplug") else end
+            self.restarts[row["restart"]] += 1
             self.close_rig()
         elif fault.startswith("leg_") or lander.legs is None:
             self.reopen_legs()
@@ -422,11 +423,29 @@ def main() -> None:
     ap.add_argument("--speed", type=float, default=8.0, help="vehicle's most simulated s per wall s")
     ap.add_argument("--minutes", type=float, default=math.inf, help="start no landing after this (wall)")
     ap.add_argument("--log", type=Path, default=None, help="write one JSON line per landing here")
+    ap.add_argument(
+        "--report",
+        type=Path,
+        nargs="+",
+        default=None,
+        help="print the tables of earlier runs' logs (several: one table; each run's growth on its own)",
+    )
     a = ap.parse_args()
     if a.landings < 1 or a.per_vehicle < 1:
         ap.error("--landings and --per-vehicle must be at least 1")
+    if a.report:
+        runs = []
+        for path in a.report:
+            try:
+                runs.append(
+                    (str(path), [json.loads(ln) for ln in path.read_text().splitlines() if ln.strip()])
+                )
+            except (OSError, ValueError) as exc:
+                ap.error(f"{path}: cannot read the soak log: {exc}")
+        report(runs)
+        return
     soak = Soak(a)
-    rows, samples = [], []
+    rows = []
     log = open(a.log, "w") if a.log else None  # noqa: SIM115
     wall0 = time.monotonic()
 
@@ -451,14 +470,16 @@ def main() -> None:
                         "end": "rig error",
                         "reason": f"{type(exc).__name__}: {exc}",
                         "unsafe": ["hang"] if isinstance(exc, HangError) else [],
+                        "restart": "rig error",
                     }
                 )
                 soak.restarts["rig error"] += 1
                 soak.close_rig()
             finally:
                 signal.alarm(0)
+            row["resources"] = resources()
+            row["wall_t"] = round(time.monotonic() - wall0, 1)
             rows.append(row)
-            samples.append((i, time.monotonic() - wall0, resources()))
             if log:
                 log.write(json.dumps(row) + "\n")
                 log.flush()
@@ -466,12 +487,22 @@ def main() -> None:
         soak.close_rig()
         if log:
             log.close()
-    report(rows, samples, soak, time.monotonic() - wall0)
+    report([(str(a.log or "this run"), rows)])
 
 
-def report(rows: list[dict], samples: list, soak: Soak, wall: float) -> None:
+def report(runs: list[tuple[str, list[dict]]]) -> None:
+    """The outcome table over every run's landings; each run's process growth on its own."""
+    rows = [r for _, rs in runs for r in rs]
     n = len(rows)
-    print(f"\n{n} landings on {soak.rig_count} vehicles in {wall:.0f} s wall ({wall / n:.1f} s per landing)")
+    if not n:
+        print("no landings")
+        return
+    wall = sum(max((r.get("wall_t", 0.0) for r in rs), default=0.0) for _, rs in runs)
+    rigs = sum(len({r.get("rig") for r in rs}) for _, rs in runs)
+    print(
+        f"\n{n} landings on {rigs} vehicles in {len(runs)} run(s), {wall:.0f} s wall in all "
+        f"({wall / n:.1f} s per landing)"
+    )
     ends = sorted({r["end"] for r in rows})
     print(f"\n{'fault':<16} {'n':>4}  " + "  ".join(f"{e:>9}" for e in ends) + "  unsafe")
     for fault in [*FAULTS, "-"]:
@@ -492,9 +523,10 @@ def report(rows: list[dict], samples: list, soak: Soak, wall: float) -> None:
     print("abort / error reasons:")
     for k, v in reasons.most_common():
         print(f"  {v:4d}  {k}")
+    restarts = Counter(r["restart"] for r in rows if r.get("restart"))
     print(
         "vehicle restarts besides the scheduled ones: "
-        + (", ".join(f"{k} {v}" for k, v in soak.restarts.items()) or "none")
+        + (", ".join(f"{k} {v}" for k, v in restarts.items()) or "none")
     )
     unsafe = [r for r in rows if r["unsafe"]]
     hangs = [r for r in rows if "hang" in r["unsafe"]]
@@ -504,12 +536,16 @@ def report(rows: list[dict], samples: list, soak: Soak, wall: float) -> None:
             f"  landing {r['i']}: {r['fault']} in {r.get('hit_state')}: {r['unsafe']} "
             f"({r['end']}: {r['reason']})"
         )
-    xs = [s[0] for s in samples]
-    print("\ncompanion process (this one)  first   last   slope per 100 landings (second half)")
-    half = len(samples) // 2
-    for k in ("rss_mb", "threads", "fds"):
-        ys = [s[2][k] for s in samples]
-        print(f"  {k:<26} {ys[0]:6.1f} {ys[-1]:6.1f}   {100 * fit_slope(xs[half:], ys[half:]):+.2f}")
+    for name, rs in runs:
+        samples = [(r["i"], r["resources"]) for r in rs if "resources" in r]
+        if len(samples) < 3:
+            continue
+        xs = [i for i, _ in samples]
+        half = len(samples) // 2
+        print(f"\ncompanion process of {name}  first   last   slope per 100 landings (second half)")
+        for k in ("rss_mb", "threads", "fds"):
+            ys = [res[k] for _, res in samples]
+            print(f"  {k:<26} {ys[0]:6.1f} {ys[-1]:6.1f}   {100 * fit_slope(xs[half:], ys[half:]):+.2f}")
 
 
 if __name__ == "__main__":
