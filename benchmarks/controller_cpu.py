@@ -71,6 +71,9 @@ def main() -> None:
         telemetry=a.telemetry,
     ) as rig:
         rig.wait_command(rig.link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200), "RAW_IMU")
+        # ATTITUDE at the rate `slopelander land` asks for (the simulated vehicle sends 50 Hz unasked)
+        att_hz = cfgs["after"]["link.attitude_hz"]
+        rig.wait_command(rig.link.request_stream(mavlink.MAVLINK_MSG_ID_ATTITUDE, att_hz), "ATTITUDE")
         rig.take_off(3.0)
         totals = {"before": [0.0, 0.0], "after": [0.0, 0.0]}
         for i in range(2 * a.descents):
@@ -86,7 +89,10 @@ def main() -> None:
             if end != "CUT":
                 print(lander.machine.history[-3:], flush=True)
             cpu, vt, wall = time.process_time() - c0, rig.now - t0, time.monotonic() - w0
-            hz = {k: round(rig.link.rate_hz(k)) for k in ("HIGHRES_IMU", "RAW_IMU", "DISTANCE_SENSOR")}
+            hz = {
+                k: round(rig.link.rate_hz(k))
+                for k in ("HIGHRES_IMU", "RAW_IMU", "DISTANCE_SENSOR", "ATTITUDE")
+            }
             print(
                 f"descent {i // 2 + 1} {mode:>6} (to {end}): {vt:.2f} s vehicle time ({wall:.2f} s wall), "
                 f"CPU {cpu:.3f} s = {100 * cpu / vt:.2f} % of one core; decoded rates {hz} Hz",

@@ -58,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
         link.request_stream(132, cfg["link.range_hz"])  # DISTANCE_SENSOR
         link.request_stream(65, 10)  # RC_CHANNELS
         link.request_stream(32, cfg["link.position_hz"])  # LOCAL_POSITION_NED
+        link.request_stream(30, cfg["link.attitude_hz"])  # ATTITUDE
         preset, speed = plan_landing(
             cfg["descent.rate_mps"],
             cfg["reflex.cut_height_m"],

@@ -514,6 +514,30 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
     assert seen_at is not None and seen_at >= HOLD_S  # believed as a new chain after a hold
 
 
+@pytest.mark.parametrize("tilt", [20.0, None])
+def test_a_range_read_with_the_body_tilted_does_not_loosen_the_legs(tilt):
+    """Found by the soak: leaving a 40 deg roof the body swung 20-25 deg and the tilted beam read
+    0.84-1.14 m over the slope with the body 0.56-0.67 m above it; the legs were loosened there.
+    Readings above the clear height count only with the body level (a missing attitude is not)."""
+    m, t = _to_takeoff()
+    rng = 0.1
+    for _ in range(100):  # climbing at 1 m/s through and past the clear height, tilted
+        t += 0.02
+        rng += 0.02
+        m.step(replace(OK, t=t, range_m=rng, tilt_deg=tilt))
+    assert m.name == "TAKEOFF", m.history[-1]
+    level_at = t
+    for _ in range(100):  # the body levels at 2.1 m: clear after the hold
+        t += 0.02
+        if m.step(replace(OK, t=t, range_m=rng, tilt_deg=4.0)) != "TAKEOFF":
+            break
+    assert (
+        m.history[-1]["to"] in ("RESET", "READY")
+        and "clear of the ground" in m.history[-2 if m.name == "READY" else -1]["reason"]
+    )
+    assert t - level_at >= HOLD_S
+
+
 def test_takeoff_without_a_trustworthy_range_ends_with_the_legs_clamped():
     """Found by the soak: the vehicle climbed out of the rangefinder's reach during a dropout and
     TAKEOFF waited for ever. The legs stay clamped (safe in the air) and the pilot is told."""

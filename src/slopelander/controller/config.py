@@ -29,6 +29,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.min_delivered_fraction": (0.0, 1.0, False),
     "link.poll_period_s": (0.0, 0.05, False),
     "link.position_hz": (1, 200, False),
+    "link.attitude_hz": (1, 200, False),
     "descent.rate_mps": (0.1, 3.0, False),
     "descent.resend_hz": (5, 50, False),
     "reflex.cut_height_m": (0.10, 2.00, False),
@@ -57,6 +58,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "settle.slide_m": (0.01, 2.0, False),
     "settle.velocity_max_age_s": (0.01, 5.0, False),
     "takeoff.clear_height_m": (0.2, 10.0, False),
+    "takeoff.max_tilt_deg": (1.0, 45.0, False),
+    "takeoff.attitude_max_age_s": (0.01, 5.0, False),
     "rc_presets.channel": (1, 18, True),
 }
 RC_PRESET_LIMITS = {

@@ -58,6 +58,7 @@ LANDING_MESSAGES = frozenset(
         "RAW_IMU",
         "DISTANCE_SENSOR",
         "LOCAL_POSITION_NED",
+        "ATTITUDE",
         "RC_CHANNELS",
     }
 )

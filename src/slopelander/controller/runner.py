@@ -106,6 +106,12 @@ class Lander:
             position = (pos.x, pos.y, pos.z)
             if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
                 speed = position = None
+        att = ln.last.get("ATTITUDE")
+        tilt = None
+        if att is not None and ln.age(att.time_boot_ms / 1000.0) <= cfg["takeoff.attitude_max_age_s"]:
+            c = math.cos(att.roll) * math.cos(att.pitch)  # the body's z axis against the vertical
+            if math.isfinite(c):
+                tilt = math.degrees(math.acos(max(-1.0, min(1.0, c))))
         op = self.act.leg_op
         legs_fault = None if self.legs is not None else "no leg board connected"
         legs_fault = self.ctx.marks.get("legs_error") or legs_fault
@@ -137,6 +143,7 @@ class Lander:
             accel_mps2=accel,
             speed_mps=speed,
             position_m=position,
+            tilt_deg=tilt,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,
         )

@@ -57,6 +57,8 @@ class Inputs:
     speed_mps: float | None = 0.0
     #: the vehicle's position (m, north-east-down) from the same message; None when unknown
     position_m: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
+    #: the body's tilt from level (deg) from ATTITUDE; None when none arrived recently
+    tilt_deg: float | None = 0.0
     impact: bool = False
     takeoff_request: bool = False
 

@@ -21,7 +21,11 @@ GIVE_UP_S = 15.0
 class Takeoff(State):
     """Releases the script, takes off, and moves on once the range shows the vehicle clear: a
     chain of readings that each follow the last (no spike, no jump) above the clear height for
-    ``HOLD_S`` (found by the soak benchmark: one spike on the ground loosened the legs)."""
+    ``HOLD_S`` (found by the soak benchmark: one spike on the ground loosened the legs), each read
+    with the body within ``takeoff.max_tilt_deg`` of level. The rangefinder points along the
+    body: leaving a 40 deg roof the body swings 20-25 deg the other way, and the tilted beam then
+    reads 1.3-1.7 times the height over the slope (found by the soak: legs loosened 0.5-0.7 m
+    above the roof on readings of 0.84-1.14 m). An attitude that is old or missing is not level."""
 
     name = "TAKEOFF"
 
@@ -64,7 +68,8 @@ class Takeoff(State):
         m["takeoff_disagree"] = None
         m["takeoff_range"] = (inp.t, inp.range_m)
         clear = ctx.cfg["takeoff.clear_height_m"]
-        if inp.range_m < clear:
+        level = inp.tilt_deg is not None and inp.tilt_deg <= ctx.cfg["takeoff.max_tilt_deg"]
+        if inp.range_m < clear or not level:
             m["takeoff_clear"] = None
             return None
         if m.get("takeoff_clear") is None:
