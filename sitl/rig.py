@@ -73,6 +73,17 @@ class Track:
     ranges: list[tuple[float, float]] = field(default_factory=list)  # t, downward range (m)
     statustext: list[str] = field(default_factory=list)
 
+    def trim(self, before: float) -> None:
+        """Forget the samples older than vehicle time ``before`` (s): a long run (the soak) keeps
+        only what it still reads, so the recorder does not grow with the vehicle's life. The
+        status texts are kept: they are read by position."""
+        self.pos = [p for p in self.pos if p[0] >= before]
+        self.pitch = [p for p in self.pitch if p[0] >= before]
+        self.servo = [p for p in self.servo if p[0] >= before]
+        self.ranges = [p for p in self.ranges if p[0] >= before]
+        self.script = [p for p in self.script if p[0] >= before]
+        self.events = [e for e in self.events if e[1] >= before]
+
     def listen(self, msg: Any) -> None:
         kind = msg.get_type()
         if kind == "LOCAL_POSITION_NED":
