@@ -29,8 +29,10 @@ Faults, one drawn per landing (weights in ``FAULTS``):
 Checks per landing ("unsafe" = any of these):
 - ``hang``: no ending (LANDED→READY, ABORTED, ESTOP, READY) within 150 s of vehicle time or 300 s
   of wall time;
-- ``stop_high``: the outputs stopped (vehicle event EV_STOP) while the body was more than the cut
-  height + 0.25 m above the roof, except after the pilot's emergency stop;
+- ``stop_high``: the outputs stopped (vehicle event EV_STOP) before the landing's first contact
+  while the body was more than the cut height + 0.25 m above the roof, except after the pilot's
+  emergency stop. A stop after a contact (a vehicle that flipped and tumbles down the roof, whose
+  clearance the check cannot read) is listed in the row as ``stops_after_contact``, not as unsafe;
 - ``reverse_in_air``: reverse thrust (EV_RVT) with no contact in the 2 s before it and the body
   more than 0.3 m above the roof;
 - ``armed_stopped_in_air``/``disarmed_in_air``: at the end, more than 0.3 m above the roof, armed
@@ -394,9 +396,13 @@ class Soak:
         if row["end"] == "hang":
             bad.append("hang")
         contacts = tr.event_times("EV_CONTACT", t0)
+        first_contact = min(contacts, default=math.inf)
         for t in tr.event_times("EV_STOP", t0):
             if not estop and self.clearance(t) > row["cut"] + 0.25:
-                bad.append(f"stop_high@{t:.2f}:{self.clearance(t):.2f}m")
+                if t < first_contact:
+                    bad.append(f"stop_high@{t:.2f}:{self.clearance(t):.2f}m")
+                else:
+                    row.setdefault("stops_after_contact", []).append(f"{t:.2f}:{self.clearance(t):.2f}m")
         for t in tr.event_times("EV_RVT", t0):
             if not any(t - 2.0 <= c <= t + 0.01 for c in contacts) and self.clearance(t) > 0.3:
                 bad.append(f"reverse_in_air@{t:.2f}")

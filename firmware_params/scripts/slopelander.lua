@@ -30,7 +30,13 @@ local ANNOUNCE_MS = 200 -- SL_STATE at 5 Hz
 local VERSION_MS = 1000
 local CUT_READINGS = 3 -- consecutive trusted readings at or below the cut height
 local READING_MS = 10 -- readings counted at most this often
-local MAX_JUMP_M = 0.25 -- a trusted reading differs from the previous one by at most this
+local MAX_JUMP_M = 0.25 -- a trusted reading differs from the last believed one by at most this
+local MAX_RATE_MPS = 3.0 -- ...plus this much per second since it (a fast descent, a dropout)
+-- readings that disagree with the believed one for this long are a real change of the ground
+-- (a new chain); shorter, a glitch. A chain that starts at or below the cut height counts only
+-- after this long too. Found by the soak: a 0.2-0.5 s low spike was followed reading by reading
+-- and cut the motors 1.07 m above the roof.
+local RESEED_MS = 600
 local MISSED_IMPACT_MS = 1000
 
 local IDLE, STOP, REVERSE, ARMED, CUT, RVT, HOLD, ESTOP = 0, 1, 2, 10, 11, 12, 13, 20
@@ -40,7 +46,8 @@ local valid_until = 0
 local reverse_pct = 0
 local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from}
 local entered_ms = 0
-local below, last_range, last_count_ms = 0, nil, 0
+local below, last_count_ms = 0, 0
+local believed, believed_ms, disagree_ms, seed_ms, seed_d = nil, 0, nil, 0, 0
 local last_announce, last_version = -ANNOUNCE_MS, -VERSION_MS
 
 local function now() return millis():toint() end
@@ -134,7 +141,7 @@ local function arm_reflex(p, t)
   end
   if state == CUT or state == HOLD then return ACCEPTED end -- a refresh
   reflex = { cut_m = p[2], impact = p[3], pct = p[4], dur_ms = p[5], ramp_ms = p[7], ramp_from = nil }
-  below, last_range = 0, nil
+  below, believed, disagree_ms = 0, nil, nil
   enter(ARMED, t)
   return ACCEPTED
 end
@@ -167,14 +174,31 @@ local function run_reflex(t)
       return
     end
     local d = trusted_range()
-    if d == nil or (last_range ~= nil and math.abs(d - last_range) > MAX_JUMP_M) then
-      below, last_range = 0, d
+    if d == nil then
+      below = 0
+      return
+    end
+    -- the allowance grows over time without readings (a dropout), not while readings keep
+    -- coming and disagree: a lasting spike must not grow into agreement
+    local since = (disagree_ms or t) - believed_ms
+    if believed ~= nil and math.abs(d - believed) > MAX_JUMP_M + MAX_RATE_MPS * since / 1000 then
+      disagree_ms = disagree_ms or t
+      if t - disagree_ms < RESEED_MS then
+        below = 0
+        return
+      end
+      believed = nil -- a lasting change: a new chain
+    end
+    disagree_ms = nil
+    if believed == nil then seed_ms, seed_d = t, d end
+    believed, believed_ms = d, t
+    if seed_d <= reflex.cut_m and t - seed_ms < RESEED_MS then
+      below = 0
       return
     end
     if t - last_count_ms >= READING_MS then
       last_count_ms = t
       if d <= reflex.cut_m then below = below + 1 else below = 0 end
-      last_range = d
     end
     if below >= CUT_READINGS then enter(CUT, t) end
   elseif state == CUT then

@@ -124,6 +124,53 @@ def test_no_cut_on_a_noisy_descent_above_the_cut_height(bench: Bench) -> None:
     assert all(pwm is None for _, _, pwm in trace)
 
 
+@pytest.mark.parametrize("spike_ms", [60, 200, 500])
+def test_no_cut_on_a_lasting_low_spike_high_above_the_roof(bench: Bench, spike_ms: int) -> None:
+    """Found by the soak: a low spike of a few hundred ms was followed reading by reading (each
+    close to the one before) and cut the motors 1.07 m above the roof. A reading is now compared
+    with the last believed one; only a disagreement lasting RESEED_MS (600 ms) starts a new chain."""
+    bench.io.range = good(1.2)
+    arm(bench)
+    t0 = bench.io.now_ms
+
+    def spiky(h: float) -> RangeReading:
+        return good(0.15 if 200 <= bench.io.now_ms - t0 < 200 + spike_ms else h)
+
+    trace = descend(bench, 1.2, 0.5, 2000, reading=spiky)
+    assert all(pwm is None for _, h, pwm in trace if h > CUT_M)
+    cut = next((t, h) for t, h, pwm in trace if pwm == 1500)
+    assert cut[1] <= CUT_M  # the real cut still comes, at the cut height
+
+
+def test_a_lasting_change_of_the_ground_is_believed(bench: Bench) -> None:
+    """The ground really comes 0.4 m closer (a step under the vehicle): believed after RESEED_MS
+    of readings that agree with each other, then the cut follows at the cut height as usual."""
+    bench.io.range = good(1.2)
+    arm(bench)
+    t0 = bench.io.now_ms
+
+    def step(h: float) -> RangeReading:
+        return good(h - 0.4 if bench.io.now_ms - t0 >= 100 else h)
+
+    trace = descend(bench, 1.2, 0.5, 1400, reading=step)
+    cut = next((t, h) for t, h, pwm in trace if pwm == 1500)
+    assert cut[0] - t0 >= 100 + 600
+    assert cut[1] - 0.4 <= CUT_M and cut[1] - 0.4 >= CUT_M - 0.03  # at the cut height, as read
+
+
+def test_a_chain_that_starts_below_the_cut_height_counts_only_once_it_lasts(bench: Bench) -> None:
+    """Armed while a low spike lasts: the first reading seen is the spike; it is not enough."""
+    bench.io.range = good(0.12)
+    arm(bench)
+    t0 = bench.io.now_ms
+    for _ in range(150):  # the spike lasts 150 ms after the arm
+        bench.run(1)
+    assert bench.outputs() == [None] * 4 and bench.io.state() == ARMED
+    trace = descend(bench, 1.0, 0.5, 500)  # the true range
+    assert all(pwm is None for _, _, pwm in trace)
+    assert bench.io.now_ms - t0 > 600
+
+
 def cut_now(bench: Bench, validity_ms: float = 3000) -> None:
     bench.io.range = good(0.5)
     arm(bench, validity_ms)
