@@ -145,6 +145,14 @@ class LegBoardPhysics:
         lg.fault = FaultCode.NONE
         if lg.state is LegState.LOOSE:
             return None
+        if lg.state is LegState.FAULT and lg.travel <= self.params.clearance and not lg.stuck:
+            # the nut still in its free clearance (a leg that faulted before it clamped): it is
+            # loose already, and driving it back to the stop at once would read as a jam, so a
+            # faulted leg could never be loosened (found by the soak)
+            lg.travel = 0.0
+            self._enter(lg, LegState.LOOSENING)
+            self._at_back_stop(lg)
+            return None
         if lg.state is not LegState.LOOSENING:
             self._enter(lg, LegState.LOOSENING)
         return None

@@ -85,6 +85,36 @@ def test_injected_drive_faults_are_detected_by_the_firmware(kind, fault):
     assert board.legs[2].fault is fault
 
 
+@pytest.mark.parametrize("kind", ["stuck", "overcurrent", "slip"])
+def test_a_faulted_leg_is_loosened_once_the_fault_is_gone_and_then_takes_a_preset(kind):
+    """The board answers a preset on a faulted leg "loosen it first"; loosening must work, also
+    for a leg that faulted before its nut moved (it is at the back stop: reaching the stop at once
+    is not a jam). It did not: the leg faulted "stuck" again, and every later landing was refused
+    (found by the soak)."""
+    board = LegBoardPhysics()
+    board.inject(kind, 1)
+    board.set_friction(1, 1500)
+    run_until(board, lambda: board.legs[1].state is LegState.FAULT, 30)
+    assert board.legs[1].state is LegState.FAULT
+    board.clear_faults()  # the mechanic's fix
+    board.loosen(1)
+    run_until(board, lambda: board.legs[1].state is LegState.LOOSE, 10)
+    assert board.legs[1].state is LegState.LOOSE and board.legs[1].fault is FaultCode.NONE
+    assert board.set_friction(1, 1500) is None
+    run_until(board, lambda: board.legs[1].state is LegState.HOLDING, 30)
+    assert board.legs[1].state is LegState.HOLDING
+
+
+def test_a_leg_still_jammed_faults_again_when_loosened():
+    board = LegBoardPhysics()
+    board.inject("stuck", 3)
+    board.set_friction(3, 1500)
+    run_until(board, lambda: board.legs[3].state is LegState.FAULT, 30)
+    board.loosen(3)  # not cleared: the screw is still jammed
+    run_until(board, lambda: board.legs[3].state is LegState.FAULT, 10)
+    assert board.legs[3].state is LegState.FAULT and board.legs[3].fault is FaultCode.STUCK
+
+
 def test_slipping_drive_times_out_on_the_board():
     board = LegBoardPhysics()
     board.inject("slip", 0)
