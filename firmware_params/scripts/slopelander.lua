@@ -141,6 +141,10 @@ local function arm_reflex(p, t)
   end
   if state == CUT or state == HOLD then return ACCEPTED end -- a refresh
   reflex = { cut_m = p[2], impact = p[3], pct = p[4], dur_ms = p[5], ramp_ms = p[7], ramp_from = nil }
+  -- a refresh while armed keeps the chain of readings: restarting it every 300 ms, a chain that
+  -- had to start below the cut height (the ground came closer during a stuck reading) never
+  -- lasted RESEED_MS, and the vehicle sat powered on the roof (found by the soak)
+  if state == ARMED then return ACCEPTED end
   below, believed, disagree_ms = 0, nil, nil
   enter(ARMED, t)
   return ACCEPTED
@@ -187,10 +191,10 @@ local function run_reflex(t)
         below = 0
         return
       end
-      believed = nil -- a lasting change: a new chain
+      believed = nil -- a lasting change: a new chain, seen since the disagreement began
     end
+    if believed == nil then seed_ms, seed_d = disagree_ms or t, d end
     disagree_ms = nil
-    if believed == nil then seed_ms, seed_d = t, d end
     believed, believed_ms = d, t
     if seed_d <= reflex.cut_m and t - seed_ms < RESEED_MS then
       below = 0

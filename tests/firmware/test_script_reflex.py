@@ -171,6 +171,27 @@ def test_a_chain_that_starts_below_the_cut_height_counts_only_once_it_lasts(benc
     assert bench.io.now_ms - t0 > 600
 
 
+def test_the_companions_refresh_does_not_restart_the_chain_of_readings(bench: Bench) -> None:
+    """Found by the soak: the range stuck at 0.9 m while the vehicle came down to the roof; the
+    readings once back (0.2 m) started a new chain below the cut height, which counts only after
+    600 ms, and the companion's refresh every 300 ms restarted it: no cut, the vehicle sat powered
+    on the roof until the soak gave up."""
+    bench.io.range = good(1.5)
+    arm(bench)
+    t0 = bench.io.now_ms
+    cut = None
+    for k in range(20):  # 6 s in 300 ms steps, each ended by the companion's refresh
+        trace = descend(
+            bench, max(0.2, 1.5 - 0.15 * k), 0.5, 300,
+            reading=lambda h: good(0.9 if 1000 <= bench.io.now_ms - t0 < 3500 else max(h, 0.2)),
+        )  # fmt: skip
+        cut = cut or next((t for t, _, pwm in trace if pwm == 1500), None)
+        if bench.io.state() != ARMED:
+            break
+        assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000).result == ACCEPTED
+    assert cut is not None and 3500 + 600 <= cut - t0 <= 3500 + 600 + 60
+
+
 def cut_now(bench: Bench, validity_ms: float = 3000) -> None:
     bench.io.range = good(0.5)
     arm(bench, validity_ms)
@@ -236,7 +257,9 @@ def test_accel_noise_below_the_threshold_does_not_fire(bench: Bench) -> None:
     bench.run(20)
     assert bench.io.state() == ARMED and bench.outputs() == [None] * 4
     bench.io.accel_body = (0.0, 0.0, -9.81)
-    cut_now(bench)
+    descend(bench, 1.0, 0.5, 1450)  # the vehicle comes down through the cut height
+    assert bench.io.state() == CUT
+    bench.io.range = good(0.2)
 
     def mild(t: int) -> None:
         bench.io.accel_body = (rng.uniform(-8, 8), rng.uniform(-8, 8), -9.81 + rng.uniform(-8, 8))
