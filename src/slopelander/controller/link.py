@@ -64,7 +64,7 @@ LANDING_MESSAGES = frozenset(
 )
 #: messages every one of which a reader needs, not only the newest (the impact detector reads every
 #: IMU sample, however seldom the landing loop wakes): the link keeps the last few of each
-KEEP_RECENT = ("RAW_IMU", "HIGHRES_IMU")
+KEEP_RECENT = ("RAW_IMU",)  # what the landing reads; HIGHRES_IMU is not
 RECENT_LEN = 64
 #: the largest read from the link per call (a UDP read returns one datagram whatever this is)
 RECV_BYTES = 4096

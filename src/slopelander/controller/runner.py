@@ -77,7 +77,6 @@ class Lander:
         self.start_angle_deg = uphill_angle_deg
         self.switch = PresetSwitch(cfg, link.last.get("RC_CHANNELS"))
         self._legs_t: float | None = None
-        self._board_silent_s = cfg["legs.board_silent_s"]
         #: RAW_IMU messages already given to the detector (the count of :meth:`Link.since`)
         self._imu_seen = link.received.get("RAW_IMU", 0)
 
@@ -161,7 +160,7 @@ class Lander:
             self.detector.feed_msg(msg)
         if self.legs is not None:
             t = link.clock.now()
-            if self._legs_t is not None and t - self._legs_t > self._board_silent_s:
+            if self._legs_t is not None and t - self._legs_t > self.cfg["legs.board_silent_s"]:
                 # the autopilot's clock jumped (it stood still while the link was lost): the
                 # board was not watched in between, which says nothing about the board
                 self.legs.unobserved(t - self._legs_t)
