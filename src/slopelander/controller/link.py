@@ -64,10 +64,19 @@ LANDING_MESSAGES = frozenset(
 )
 #: messages every one of which a reader needs, not only the newest (the impact detector reads every
 #: IMU sample, however seldom the landing loop wakes): the link keeps the last few of each
-KEEP_RECENT = ("RAW_IMU",)  # what the landing reads; HIGHRES_IMU is not
+#: and the attitude a range reading was taken with is looked up among the recent ATTITUDEs
+KEEP_RECENT = ("RAW_IMU", "ATTITUDE")  # what the landing reads; HIGHRES_IMU is not
 RECENT_LEN = 64
 #: the largest read from the link per call (a UDP read returns one datagram whatever this is)
 RECV_BYTES = 4096
+
+
+def _stamp_usec(msg, fld: str) -> int | None:
+    """The autopilot's time on ``msg`` in microseconds (None: not stamped, 0 or less)."""
+    v = int(getattr(msg, fld))
+    if v <= 0:
+        return None
+    return v if fld == "time_usec" else v * 1000
 
 
 def message_ids(names) -> frozenset[int]:
@@ -195,6 +204,9 @@ class Link:
         self._last_timesync_usec = 0
         self._script_seen_at: float | None = None
         self.script_state: int | None = None
+        self._script_stamp = -1  # vehicle time (us) of the SL_STATE in script_state
+        #: vehicle time (us) of the message in ``last`` per type
+        self._stamps: dict[str, int] = {}
         #: vehicle time at which telemetry resumed after the last gap (-inf: none yet)
         self.resumed_at = -math.inf
         self._listeners: list[Callable[[object], None]] = []
@@ -220,6 +232,14 @@ class Link:
             return [], total
         recent = self._recent[mtype]
         return list(recent)[-min(new, len(recent)) :], total
+
+    def near(self, mtype: str, t_s: float, window_s: float) -> list:
+        """The recent messages of ``mtype`` (one of :data:`KEEP_RECENT`) stamped within ``window_s``
+        of vehicle time ``t_s``: what the autopilot saw at the moment another message was taken,
+        however the link delayed or reordered the two."""
+        fld = _USEC_FIELDS[mtype]
+        lo, hi = (t_s - window_s) * 1e6, (t_s + window_s) * 1e6
+        return [m for m in self._recent[mtype] if lo <= (_stamp_usec(m, fld) or -1) <= hi]
 
     def wait_readable(self, timeout_s: float, extra_fds: tuple[int, ...] = ()) -> None:
         """Sleep until the autopilot's link (or one of ``extra_fds``) has bytes to read, at most
@@ -296,7 +316,14 @@ class Link:
             self.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
         if not self._from_autopilot(msg):
             return
-        self.last[mtype] = msg
+        fld = _USEC_FIELDS.get(mtype)
+        stamp = _stamp_usec(msg, fld) if fld is not None else None
+        if stamp is None or stamp >= self._stamps.get(mtype, -1):
+            # a reordered, older message never replaces a newer one (found by the soak: a late
+            # range reading, paired with a newer attitude, loosened the legs low)
+            self.last[mtype] = msg
+            if stamp is not None:
+                self._stamps[mtype] = stamp
         self._last_rx = now
         self.received[mtype] = self.received.get(mtype, 0) + 1
         recent = self._recent.get(mtype)
@@ -305,13 +332,9 @@ class Link:
         self._rates.setdefault(mtype, _Rate()).add(now)
         for fn in self._listeners:
             fn(msg)
-        fld = _USEC_FIELDS.get(mtype)
-        if fld is not None:
+        if stamp is not None:
             before = self.clock.usec if self.clock.known else None
-            if fld == "time_usec":
-                self.clock.observe_usec(getattr(msg, fld))
-            else:
-                self.clock.observe_boot_ms(getattr(msg, fld))
+            self.clock.observe_usec(stamp)
             if before is not None and self.clock.usec - before > GAP_S * 1e6:
                 self.resumed_at = self.clock.now()
         if mtype == "HEARTBEAT":
@@ -335,7 +358,9 @@ class Link:
             name = msg.name.rstrip("\x00") if isinstance(msg.name, str) else msg.name
             if name == "SL_STATE":
                 self._script_seen_at = self.clock.now()
-                self.script_state = int(msg.value)
+                if stamp is None or stamp >= self._script_stamp:  # a late, older state is history
+                    self._script_stamp = stamp if stamp is not None else self._script_stamp
+                    self.script_state = int(msg.value)
             elif name == "SL_VER" and self.info is not None:
                 self.info.script_version = float(msg.value)
                 self._script_seen_at = self.clock.now()
