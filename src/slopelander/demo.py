@@ -311,6 +311,7 @@ def run_demo(
                 record=rec,
                 next_preset=(up, down),
                 uphill_angle_deg=preset.angle_up_deg,
+                slope_deg=slope_deg,
             )
             end = lander.run(120 / speed + 60)
             if end == "LANDED":

@@ -82,7 +82,13 @@ def run(args: argparse.Namespace) -> int:
             link.send_statustext(f"SL set uphill legs to {preset.angle_up_deg:.1f} deg")
         with Path(args.record).open("w") as rec:
             lander = Lander(
-                link, cfg, (up, down), legs=legs, record=rec, uphill_angle_deg=preset.angle_up_deg
+                link,
+                cfg,
+                (up, down),
+                legs=legs,
+                record=rec,
+                uphill_angle_deg=preset.angle_up_deg,
+                slope_deg=args.slope,
             )
             end = lander.run(args.timeout)
         for h in lander.machine.history:

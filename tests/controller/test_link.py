@@ -313,3 +313,52 @@ def test_an_impact_between_two_wakes_of_the_loop_is_detected(pair):
     lander.poll()
     assert lander.detector.impact is not None
     assert lander.detector.impact.t == pytest.approx(1.010)
+
+
+def _range(peer: Peer, ms: int, cm: int) -> None:
+    peer.conn.mav.distance_sensor_send(ms, 10, 800, cm, 0, 0, mavlink.MAV_SENSOR_ROTATION_PITCH_270, 0)
+
+
+def test_a_late_older_message_does_not_replace_a_newer_one(pair):
+    """Found by the soak under link noise: a reordered range reading from before became 'the
+    newest', and a script state from before could undo a newer one."""
+    link, peer, _ = pair
+    found(link, peer)
+    _range(peer, 2000, 120)
+    peer.conn.mav.named_value_float_send(2000, b"SL_STATE", 12)
+    settle(link, peer)
+    _range(peer, 1900, 80)  # the older ones arrive last
+    peer.conn.mav.named_value_float_send(1900, b"SL_STATE", 11)
+    settle(link, peer)
+    assert link.received["DISTANCE_SENSOR"] == 2
+    assert link.last["DISTANCE_SENSOR"].current_distance == 120
+    assert link.script_state == 12
+    _range(peer, 2100, 110)  # a newer one still replaces it
+    settle(link, peer)
+    assert link.last["DISTANCE_SENSOR"].current_distance == 110
+
+
+@pytest.mark.parametrize(
+    "sent, want",
+    [
+        ([(990, 0.35), (1200, 0.0)], 20.05),  # tilted then, level by the time the range arrives
+        ([(1000, 0.0), (1300, 0.35)], 0.0),  # level then: a later swing is not this reading's
+        ([(1090, 0.1), (950, 0.35)], 20.05),  # every attitude near it counts, in any order
+        ([(1300, 0.0)], None),  # none near it: not level
+    ],
+)
+def test_the_take_off_judges_a_range_reading_by_the_attitude_of_its_own_moment(pair, sent, want):
+    """The rangefinder looks along the body; a level attitude from after a tilted reading must not
+    make that reading a height (it loosened the legs 0.6-0.7 m above the roof under link noise)."""
+    from slopelander.controller.config import load_config
+    from slopelander.controller.runner import Lander
+
+    link, peer, _ = pair
+    found(link, peer)
+    lander = Lander(link, load_config(), (0.8, 1.5), legs=None)
+    _range(peer, 1000, 90)
+    for ms, roll in sent:
+        peer.conn.mav.attitude_send(ms, roll, 0.0, 0.0, 0.0, 0.0, 0.0)
+    settle(link, peer)
+    tilt = lander.inputs().tilt_deg
+    assert tilt == (None if want is None else pytest.approx(want, abs=0.05))

@@ -59,7 +59,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "settle.velocity_max_age_s": (0.01, 5.0, False),
     "takeoff.clear_height_m": (0.2, 10.0, False),
     "takeoff.max_tilt_deg": (1.0, 45.0, False),
-    "takeoff.attitude_max_age_s": (0.01, 5.0, False),
+    "takeoff.attitude_window_s": (0.01, 1.0, False),
+    "takeoff.unknown_slope_deg": (0.0, 80.0, False),
     "rc_presets.channel": (1, 18, True),
 }
 RC_PRESET_LIMITS = {

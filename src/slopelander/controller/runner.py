@@ -40,6 +40,19 @@ RECONNECT_IN = ("LANDED", "READY", "ABORTED", "ESTOP")
 HANDSHAKE_S = 0.5
 
 
+def tilt_at(attitudes: list) -> float | None:
+    """The largest tilt from level (deg) among ``attitudes`` (ATTITUDE messages); None when there
+    are none or one is not finite: an unknown attitude is not level."""
+    worst = None
+    for att in attitudes:
+        c = math.cos(att.roll) * math.cos(att.pitch)  # the body's z axis against the vertical
+        if not math.isfinite(c):
+            return None
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, c))))
+        worst = tilt if worst is None else max(worst, tilt)
+    return worst
+
+
 class Lander:
     """Wires a link, the legs and the settings to a :class:`Machine`."""
 
@@ -52,13 +65,19 @@ class Lander:
         record: IO[str] | None = None,
         next_preset: tuple[float, float] | None = None,
         uphill_angle_deg: float | None = None,
+        slope_deg: float | None = None,
     ) -> None:
         self.link = link
         self.cfg = cfg
         self.legs = legs
         self.act = MavActions(link, cfg, legs)
         self.ctx = Context(
-            cfg=cfg, act=self.act, preset=preset, next_preset=next_preset, uphill_angle_deg=uphill_angle_deg
+            cfg=cfg,
+            act=self.act,
+            preset=preset,
+            next_preset=next_preset,
+            uphill_angle_deg=uphill_angle_deg,
+            slope_deg=slope_deg,
         )
         self.machine = Machine(self.ctx, record)
         self.detector = ImpactDetector(cfg["reflex.impact_threshold_mps2"])
@@ -105,12 +124,11 @@ class Lander:
             position = (pos.x, pos.y, pos.z)
             if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
                 speed = position = None
-        att = ln.last.get("ATTITUDE")
         tilt = None
-        if att is not None and ln.age(att.time_boot_ms / 1000.0) <= cfg["takeoff.attitude_max_age_s"]:
-            c = math.cos(att.roll) * math.cos(att.pitch)  # the body's z axis against the vertical
-            if math.isfinite(c):
-                tilt = math.degrees(math.acos(max(-1.0, min(1.0, c))))
+        if ds is not None:
+            # the body's tilt at the reading's own moment: the beam looks along the body, and a
+            # newer attitude says nothing of an older reading (found by the soak under link noise)
+            tilt = tilt_at(ln.near("ATTITUDE", ds.time_boot_ms / 1000.0, cfg["takeoff.attitude_window_s"]))
         op = self.act.leg_op
         legs_fault = None if self.legs is not None else "no leg board connected"
         legs_fault = self.ctx.marks.get("legs_error") or legs_fault

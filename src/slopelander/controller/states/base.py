@@ -57,7 +57,8 @@ class Inputs:
     speed_mps: float | None = 0.0
     #: the vehicle's position (m, north-east-down) from the same message; None when unknown
     position_m: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
-    #: the body's tilt from level (deg) from ATTITUDE; None when none arrived recently
+    #: the body's largest tilt from level (deg) by the ATTITUDEs stamped near the range reading's
+    #: own moment; None when none was
     tilt_deg: float | None = 0.0
     impact: bool = False
     takeoff_request: bool = False
@@ -80,6 +81,9 @@ class Context:
     #: the uphill legs' angle the landing needs (deg), None when any angle will do
     uphill_angle_deg: float | None = None
     next_preset: tuple[float, float] | None = None
+    #: the landing site's slope (deg), None when unknown (the take-off then assumes
+    #: ``takeoff.unknown_slope_deg``)
+    slope_deg: float | None = None
     entered_at: float = 0.0
     #: the state the machine was in before the current one (None at the start)
     previous: str | None = None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from slopelander.controller.states.base import Context, Inputs, State
 
 #: a reading is believed only when it follows the last believed one within this jump plus what the
@@ -18,6 +20,19 @@ RESEED_S = 1.0
 GIVE_UP_S = 15.0
 
 
+def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> float:
+    """The height (m) of the body over the slope below it that a reading of ``range_m`` along a body
+    tilted ``tilt_deg`` from level guarantees. The tilt is taken downhill, where the beam reads
+    longest: ``range * cos(slope + tilt) / cos(slope)`` (a 10 deg tilt over a 44 deg roof reads
+    1.22 times the height; the soak found legs loosened 0.61-0.69 m above the roof on readings of
+    0.85-0.87 m). 0 when the beam could run along the slope."""
+    a, t = math.radians(slope_deg), math.radians(tilt_deg)
+    c = math.cos(a + t)
+    if c <= 0.05:
+        return 0.0
+    return range_m * c / math.cos(a)
+
+
 class Takeoff(State):
     """Releases the script, takes off, and moves on once the range shows the vehicle clear: a
     chain of readings that each follow the last (no spike, no jump) above the clear height for
@@ -25,7 +40,9 @@ class Takeoff(State):
     with the body within ``takeoff.max_tilt_deg`` of level. The rangefinder points along the
     body: leaving a 40 deg roof the body swings 20-25 deg the other way, and the tilted beam then
     reads 1.3-1.7 times the height over the slope (found by the soak: legs loosened 0.5-0.7 m
-    above the roof on readings of 0.84-1.14 m). An attitude that is old or missing is not level."""
+    above the roof on readings of 0.84-1.14 m). The attitude is the one of the reading's own
+    moment; none is not level. Within the tilt allowed, the reading is still turned into a height
+    over the slope (:func:`height_over_slope`) before it is compared with the clear height."""
 
     name = "TAKEOFF"
 
@@ -67,13 +84,22 @@ class Takeoff(State):
             m["takeoff_clear"] = None  # a new chain: the hold starts again
         m["takeoff_disagree"] = None
         m["takeoff_range"] = (inp.t, inp.range_m)
-        clear = ctx.cfg["takeoff.clear_height_m"]
-        level = inp.tilt_deg is not None and inp.tilt_deg <= ctx.cfg["takeoff.max_tilt_deg"]
-        if inp.range_m < clear or not level:
+        cfg = ctx.cfg
+        level = inp.tilt_deg is not None and inp.tilt_deg <= cfg["takeoff.max_tilt_deg"]
+        if not level:
+            m["takeoff_clear"] = None
+            return None
+        slope = ctx.slope_deg if ctx.slope_deg is not None else cfg["takeoff.unknown_slope_deg"]
+        height = height_over_slope(inp.range_m, inp.tilt_deg, slope)
+        if height < cfg["takeoff.clear_height_m"]:
             m["takeoff_clear"] = None
             return None
         if m.get("takeoff_clear") is None:
             m["takeoff_clear"] = inp.t
         if inp.t - m["takeoff_clear"] >= HOLD_S:
-            return ("RESET", f"clear of the ground at {inp.range_m:.2f} m")
+            return (
+                "RESET",
+                f"clear of the ground at {height:.2f} m over the {slope:g} deg slope "
+                f"(range {inp.range_m:.2f} m, tilt {inp.tilt_deg:.0f} deg)",
+            )
         return None
