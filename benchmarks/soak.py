@@ -30,15 +30,20 @@ Checks per landing ("unsafe" = any of these):
 - ``hang``: no ending (LANDED→READY, ABORTED, ESTOP, READY) within 150 s of vehicle time or 300 s
   of wall time;
 - ``stop_high``: the outputs stopped (vehicle event EV_STOP) before the landing's first contact
-  while the body was more than the cut height + 0.25 m above the roof, except after the pilot's
+  while the body's range height was more than the cut height + 0.25 m, except after the pilot's
   emergency stop. A stop after a contact (a vehicle that flipped and tumbles down the roof, whose
   clearance the check cannot read) is listed in the row as ``stops_after_contact``, not as unsafe;
 - ``reverse_in_air``: reverse thrust (EV_RVT) with no contact in the 2 s before it and the body
   more than 0.3 m above the roof;
 - ``armed_stopped_in_air``/``disarmed_in_air``: at the end, more than 0.3 m above the roof, armed
   with all four outputs in the stop band, or disarmed (except after an emergency stop);
-- ``legs_loose_on_ground``: LANDED with a leg LOOSE, or the legs loosened (RESET entered) less than
-  ``takeoff.clear_height_m`` − 0.1 m above the roof.
+- ``legs_loose_on_ground``: LANDED with a leg LOOSE, or the legs loosened (RESET entered) with the
+  body's range height under ``takeoff.clear_height_m`` − 0.1 m.
+Heights over the roof are the vehicle's (LOCAL_POSITION_NED, counted from home, 0.15 m above its
+pad) less the roof's height below it. The checks against a range threshold (the cut, the clear height)
+add the height of home over the pad (``Rig.home_range_m``, 0.15 m): the *range height*,
+the rangefinder's reading were the body level. An earlier version did not, and flagged legs
+loosened at a range height of 0.76-0.84 m as loosened at 0.61-0.69 m.
 Telemetry lost in a cut is not seen; the end state after the link is back is.
 """
 
@@ -294,7 +299,9 @@ class Soak:
             row["noise"] = noise
         from slopelander.controller.runner import Lander
 
-        self.lander = lander = Lander(rig.link, cfg, (p.tau_up, p.tau_down), legs=rig.legs)
+        self.lander = lander = Lander(
+            rig.link, cfg, (p.tau_up, p.tau_down), legs=rig.legs, slope_deg=rig.slope_deg
+        )
         self.forever_until = None
         t0 = rig.now
         said0 = len(rig.track.statustext)
@@ -389,6 +396,11 @@ class Soak:
         x, z = x0 + w * (x1 - x0), z0 + w * (z1 - z0)
         return z - self.rig.surface_z(x)
 
+    def range_height(self, t: float) -> float:
+        """What a level body's rangefinder reads at vehicle time ``t``: the height over the roof plus
+        home's height over the pad. The cut and the take-off's clear height are range thresholds."""
+        return self.clearance(t) + self.rig.home_range_m
+
     def check(self, row: dict, t0: float, cfg, lander) -> list[str]:
         rig, tr = self.rig, self.rig.track
         bad = []
@@ -398,11 +410,11 @@ class Soak:
         contacts = tr.event_times("EV_CONTACT", t0)
         first_contact = min(contacts, default=math.inf)
         for t in tr.event_times("EV_STOP", t0):
-            if not estop and self.clearance(t) > row["cut"] + 0.25:
+            if not estop and self.range_height(t) > row["cut"] + 0.25:
                 if t < first_contact:
-                    bad.append(f"stop_high@{t:.2f}:{self.clearance(t):.2f}m")
+                    bad.append(f"stop_high@{t:.2f}:{self.range_height(t):.2f}m")
                 else:
-                    row.setdefault("stops_after_contact", []).append(f"{t:.2f}:{self.clearance(t):.2f}m")
+                    row.setdefault("stops_after_contact", []).append(f"{t:.2f}:{self.range_height(t):.2f}m")
         for t in tr.event_times("EV_RVT", t0):
             if not any(t - 2.0 <= c <= t + 0.01 for c in contacts) and self.clearance(t) > 0.3:
                 bad.append(f"reverse_in_air@{t:.2f}")
@@ -416,9 +428,9 @@ class Soak:
         if "LANDED" in row["states"] and row.get("legs_on_ground") and "LOOSE" in row["legs_on_ground"]:
             bad.append("legs_loose_on_ground")
         reset = next((e for e in lander.machine.history if e["to"] == "RESET"), None)
-        if reset is not None and self.clearance(reset["t"]) < cfg["takeoff.clear_height_m"] - 0.1:
-            # with what the machine believed: "clear of the ground at <range> m"
-            bad.append(f"legs_loosened_low:{self.clearance(reset['t']):.2f}m ({reset['reason']})")
+        if reset is not None and self.range_height(reset["t"]) < cfg["takeoff.clear_height_m"] - 0.1:
+            # with what the machine believed: "clear of the ground at <height> m ..."
+            bad.append(f"legs_loosened_low:{self.range_height(reset['t']):.2f}m ({reset['reason']})")
         return bad
 
 

@@ -16,6 +16,7 @@ contact, outputs stopped, outputs reversed) are collected in :attr:`Rig.track`.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -376,7 +377,22 @@ class Rig:
         return None if hb is None else hb.custom_mode
 
     def height(self) -> float:
+        """The newest height (m) from LOCAL_POSITION_NED: counted from home (:attr:`home_range_m`
+        above the pad)."""
         return self.track.pos[-1][2] if self.track.pos else 0.0
+
+    @functools.cached_property
+    def home_range_m(self) -> float:
+        """The height (m) of home, where LOCAL_POSITION_NED counts from, over the pad: add it to a
+        height over the roof to get what a level body's rangefinder (at the body's origin) reads,
+        to compare with a range threshold (the cut, the take-off's clear height). Home is where
+        the vehicle's model settled on the pad before its legs were set; standing with the legs
+        set the body rests lower (the height is then negative)."""
+        from sitl.vehicle.scenario import scenario_from_dict
+        from sitl.vehicle.world import beam_range, start_on_ground
+
+        scn = scenario_from_dict({**self.scenario, "start_on": "pad", "start_x": 0.0}, "rig")
+        return beam_range(start_on_ground(scn)[0])
 
     def surface_z(self, x: float) -> float:
         if x < ROOF_X_M:
@@ -460,7 +476,9 @@ class Rig:
         cfg = cfg or load_config()
         t0 = self.now
         angles = self.leg_angles()
-        lander = lander or Lander(self.link, cfg, preset, legs=self.legs, next_preset=next_preset)
+        lander = lander or Lander(
+            self.link, cfg, preset, legs=self.legs, next_preset=next_preset, slope_deg=self.slope_deg
+        )
         end = lander.run(timeout_s, until=until)
         if end not in ("ABORTED", "ESTOP"):
             self.wait(rest_s, tick=lander.poll)
