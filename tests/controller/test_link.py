@@ -355,10 +355,14 @@ def test_the_take_off_judges_a_range_reading_by_the_attitude_of_its_own_moment(p
 
     link, peer, _ = pair
     found(link, peer)
+    from slopelander.controller.machine import Machine
+
     lander = Lander(link, load_config(), (0.8, 1.5), legs=None)
     _range(peer, 1000, 90)
     for ms, roll in sent:
         peer.conn.mav.attitude_send(ms, roll, 0.0, 0.0, 0.0, 0.0, 0.0)
     settle(link, peer)
+    assert lander.inputs().tilt_deg is None  # read in TAKEOFF only: not looked up before
+    lander.machine = Machine(lander.ctx, None, "TAKEOFF")
     tilt = lander.inputs().tilt_deg
     assert tilt == (None if want is None else pytest.approx(want, abs=0.05))

@@ -58,7 +58,7 @@ class Inputs:
     #: the vehicle's position (m, north-east-down) from the same message; None when unknown
     position_m: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
     #: the body's largest tilt from level (deg) by the ATTITUDEs stamped near the range reading's
-    #: own moment; None when none was
+    #: own moment; None when none was (and outside TAKEOFF, the one state that reads it)
     tilt_deg: float | None = 0.0
     impact: bool = False
     takeoff_request: bool = False
