@@ -69,6 +69,7 @@ from tqdm import tqdm  # noqa: E402
 
 from sitl.legboard.control import BoardControl  # noqa: E402
 from sitl.rig import Rig, RigError, config  # noqa: E402
+from sitl.vehicle.wind import MAX_RANDOM_GUSTS as MAX_GUSTS  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
 from slopelander.legs.driver import LegBoard  # noqa: E402
@@ -106,6 +107,19 @@ CONTACT_OFFSET_M = 0.06
 VEHICLE_LIMIT_S = 150.0
 WALL_LIMIT_S = 300.0
 FOREVER_WALL_S = 8.0
+
+
+def vehicle_span_s(per_vehicle: int) -> float:
+    """Vehicle seconds a vehicle's background faults and gusts are drawn over."""
+    return 60.0 * per_vehicle + 200.0
+
+
+def gust_count(per_vehicle: int) -> int:
+    """One random gust per 20 s of the vehicle's span."""
+    return max(1, int(vehicle_span_s(per_vehicle) / 20.0))
+
+
+MAX_PER_VEHICLE = max(n for n in range(1, 2000) if gust_count(n) <= MAX_GUSTS)
 
 
 class HangError(Exception):
@@ -171,14 +185,14 @@ class Soak:
         self._pos_sorted = None
         slope = float(self.rng.uniform(15.0, 45.0))
         seed = int(self.rng.integers(1 << 30))
-        span = 60.0 * self.a.per_vehicle + 200.0
+        span = vehicle_span_s(self.a.per_vehicle)
         self.scenario_faults = background_faults(self.rng, span)
         scenario = {
             "rc": [{"t": 0.0, "channels": {3: 1500}}],  # throttle centred: LOITER holds after an abort
             "faults": self.scenario_faults,
             "wind": {
                 "random_gusts": {
-                    "count": max(1, int(span / 20.0)),
+                    "count": gust_count(self.a.per_vehicle),
                     "max_n": 2.0,
                     "from_s": 0.0,
                     "to_s": span,
@@ -456,6 +470,9 @@ def main() -> None:
     a = ap.parse_args()
     if a.landings < 1 or a.per_vehicle < 1:
         ap.error("--landings and --per-vehicle must be at least 1")
+    if gust_count(a.per_vehicle) > MAX_GUSTS:
+        # else every vehicle refuses its scenario and each landing is a rig error
+        ap.error(f"--per-vehicle: at most {MAX_PER_VEHICLE} (a vehicle's scenario holds {MAX_GUSTS} gusts)")
     if a.report:
         runs = []
         for path in a.report:
