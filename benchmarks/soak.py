@@ -1,7 +1,9 @@
 """Soak: many simulated landings across the envelope with random faults, by the companion's
 controller against the simulated vehicle and leg board (real processes, lock-step, the link
 through the fault-injecting relay). Prints the outcome table, the safety checks and the growth of
-the companion process (this one: it runs the controller) in memory, threads and open files.
+the companion process (this one: it runs the controller) in memory, threads and open files. With
+glibc, memory is also split into the C heap's bytes in use and the freed bytes the allocator keeps
+(``heap_used_mb``, ``heap_kept_free_mb``): resident memory can grow by the second alone.
 
     python3 benchmarks/soak.py [--landings 1000] [--seed 1] [--per-vehicle 25] [--speed 8]
                                [--minutes M] [--log soak.jsonl]
@@ -51,6 +53,8 @@ from __future__ import annotations
 
 import argparse
 import bisect
+import ctypes
+import gc
 import json
 import math
 import os
@@ -134,8 +138,38 @@ def contact_range(slope_deg: float) -> float:
     )
 
 
+class _MallInfo2(ctypes.Structure):
+    _fields_ = [
+        ("arena", ctypes.c_size_t),
+        ("ordblks", ctypes.c_size_t),
+        ("smblks", ctypes.c_size_t),
+        ("hblks", ctypes.c_size_t),
+        ("hblkhd", ctypes.c_size_t),
+        ("usmblks", ctypes.c_size_t),
+        ("fsmblks", ctypes.c_size_t),
+        ("uordblks", ctypes.c_size_t),
+        ("fordblks", ctypes.c_size_t),
+        ("keepcost", ctypes.c_size_t),
+    ]
+
+
+def _mallinfo():
+    """glibc's ``mallinfo2`` (2.33 and later), or None where there is none."""
+    try:
+        fn = ctypes.CDLL("libc.so.6").mallinfo2
+    except (OSError, AttributeError):
+        return None
+    fn.restype = _MallInfo2
+    return fn
+
+
+_MALLINFO = _mallinfo()
+
+
 def resources() -> dict[str, float]:
-    """This process's resident memory (MB), threads and open file descriptors."""
+    """This process's resident memory (MB), threads and open file descriptors; with glibc, also
+    the C heap's bytes in use and the freed bytes it keeps (MB): resident memory that grows while
+    the bytes in use do not is the allocator keeping what was freed, not a leak."""
     rss = threads = 0.0
     with open("/proc/self/status") as f:
         for line in f:
@@ -143,7 +177,13 @@ def resources() -> dict[str, float]:
                 rss = int(line.split()[1]) / 1024.0
             elif line.startswith("Threads:"):
                 threads = int(line.split()[1])
-    return {"rss_mb": rss, "threads": threads, "fds": len(os.listdir("/proc/self/fd"))}
+    out = {"rss_mb": rss, "threads": threads, "fds": len(os.listdir("/proc/self/fd"))}
+    if _MALLINFO is not None:
+        gc.collect()
+        m = _MALLINFO()
+        out["heap_used_mb"] = round((m.uordblks + m.hblkhd) / 2**20, 3)
+        out["heap_kept_free_mb"] = round(m.fordblks / 2**20, 3)
+    return out
 
 
 def background_faults(rng: np.random.Generator, span_s: float) -> list[dict]:
@@ -583,7 +623,9 @@ def report(runs: list[tuple[str, list[dict]]]) -> None:
         xs = [i for i, _ in samples]
         half = len(samples) // 2
         print(f"\ncompanion process of {name}  first   last   slope per 100 landings (second half)")
-        for k in ("rss_mb", "threads", "fds"):
+        for k in ("rss_mb", "heap_used_mb", "heap_kept_free_mb", "threads", "fds"):
+            if not all(k in res for _, res in samples):  # logs from before it was recorded
+                continue
             ys = [res[k] for _, res in samples]
             print(f"  {k:<26} {ys[0]:6.1f} {ys[-1]:6.1f}   {100 * fit_slope(xs[half:], ys[half:]):+.2f}")
 
