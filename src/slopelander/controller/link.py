@@ -319,8 +319,8 @@ class Link:
         fld = _USEC_FIELDS.get(mtype)
         stamp = _stamp_usec(msg, fld) if fld is not None else None
         if stamp is None or stamp >= self._stamps.get(mtype, -1):
-            # a reordered, older message never replaces a newer one (found by the soak: a late
-            # range reading, paired with a newer attitude, loosened the legs low)
+            # a reordered, older message never replaces a newer one: a link that reorders would
+            # hand the take-off an older range reading, or undo a newer script state, for a step
             self.last[mtype] = msg
             if stamp is not None:
                 self._stamps[mtype] = stamp

@@ -24,8 +24,8 @@ def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> floa
     """The height (m) of the body over the slope below it that a reading of ``range_m`` along a body
     tilted ``tilt_deg`` from level guarantees. The tilt is taken downhill, where the beam reads
     longest: ``range * cos(slope + tilt) / cos(slope)`` (a 10 deg tilt over a 44 deg roof reads
-    1.22 times the height; the soak found legs loosened 0.61-0.69 m above the roof on readings of
-    0.85-0.87 m). 0 when the beam could run along the slope."""
+    1.22 times the height, so a reading of 0.8 m there guarantees only 0.65 m). 0 when the beam
+    could run along the slope."""
     a, t = math.radians(slope_deg), math.radians(tilt_deg)
     c = math.cos(a + t)
     if c <= 0.05:
@@ -39,7 +39,7 @@ class Takeoff(State):
     ``HOLD_S`` (found by the soak benchmark: one spike on the ground loosened the legs), each read
     with the body within ``takeoff.max_tilt_deg`` of level. The rangefinder points along the
     body: leaving a 40 deg roof the body swings 20-25 deg the other way, and the tilted beam then
-    reads 1.3-1.7 times the height over the slope (found by the soak: legs loosened 0.5-0.7 m
+    reads up to 1.5 times the height over the slope (found by the soak: legs loosened 0.66-0.84 m
     above the roof on readings of 0.84-1.14 m). The attitude is the one of the reading's own
     moment; none is not level. Within the tilt allowed, the reading is still turned into a height
     over the slope (:func:`height_over_slope`) before it is compared with the clear height."""
