@@ -46,6 +46,11 @@ def test_a_beam_along_the_slope_is_no_height():
     assert height_over_slope(3.0, 40.0, 60.0) == 0.0
 
 
+@pytest.mark.parametrize("args", [(3.0, 5.0, math.nan), (3.0, math.nan, 30.0)])
+def test_a_height_from_a_number_that_is_not_finite_is_none(args):
+    assert height_over_slope(*args) == 0.0
+
+
 def _climb(slope, tilt, reading):
     """Climb at 1 m/s from the roof to ``reading`` and hover there, the body tilted ``tilt``."""
     m, t = _to_takeoff()

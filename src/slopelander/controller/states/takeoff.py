@@ -25,10 +25,10 @@ def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> floa
     tilted ``tilt_deg`` from level guarantees. The tilt is taken downhill, where the beam reads
     longest: ``range * cos(slope + tilt) / cos(slope)`` (a 10 deg tilt over a 44 deg roof reads
     1.22 times the height, so a reading of 0.8 m there guarantees only 0.65 m). 0 when the beam
-    could run along the slope."""
+    could run along the slope, or when a number is not finite (never "clear" by accident)."""
     a, t = math.radians(slope_deg), math.radians(tilt_deg)
     c = math.cos(a + t)
-    if c <= 0.05:
+    if not c > 0.05:  # also NaN
         return 0.0
     return range_m * c / math.cos(a)
 
