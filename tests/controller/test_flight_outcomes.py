@@ -41,6 +41,10 @@ def contact_range(slope_deg: float) -> float:
     )
 
 
+#: a model prediction whose pitch comes within this of the flip line (deg) may go either way
+BOUNDARY_DEG = 2.0
+
+
 def model_class(outcome: Outcome) -> str:
     if outcome.success:
         return "landed"
@@ -108,7 +112,12 @@ def check_against_the_model(rig: Rig, fall_m: float) -> None:
     assert cond.reverse_ramp == cfg["reflex.reverse_ramp_ms"] / 1000.0
     predicted = simulate(cond).result
     flown, figures = flight.classify(rig.slope_deg)
-    assert flown == model_class(predicted.outcome), (source, cond, figures, predicted.summary())
+    expected = {model_class(predicted.outcome)}
+    if abs(predicted.pitch_margin_deg()) < BOUNDARY_DEG:
+        # the model's own call sits on its flip line (it once predicted -80.1 deg against the 80 deg
+        # line, from a contact state that the flight's timing varies run to run): either class
+        expected |= {"landed", "flipped"}
+    assert flown in expected, (source, cond, figures, predicted.summary())
     if flown == "landed":
         assert abs(figures["slide_m"] - predicted.slide) < 0.15, (figures, predicted.summary())
 
