@@ -411,3 +411,96 @@ def test_a_ramp_out_of_range_is_denied(bench: Bench) -> None:
     for bad in (-1.0, 3001.0, float("nan")):
         assert bench.command(REFLEX, Reflex.SETUP, bad, DESCENT).result == 2
     assert any("reverse ramp out of 0..3000 ms" in t for t in bench.io.sl_texts())
+
+
+# -- contract 4: distinct samples, reverse only near the ground, leaving the roof -------------------
+
+
+def test_one_low_sample_does_not_cut_however_often_the_script_reads_it(bench: Bench) -> None:
+    """Issue 20: ArduCopter updates the rangefinder at 20 Hz, the script reads it every 2-10 ms;
+    counting readings, one low sample (read over its whole 50 ms) made a cut. Only distinct
+    samples (a new driver reading time) count now: one low glitch never cuts."""
+    bench.io.range = good(0.45)
+    arm(bench)
+    t0 = bench.io.now_ms
+
+    def glitch(h: float) -> RangeReading:  # one 20 Hz sample reads 0.28 m at ~0.40 m: close
+        return good(0.28 if 100 <= bench.io.now_ms - t0 < 150 else h)  # enough to agree with the chain
+
+    trace = descend(bench, 0.45, 0.5, 250, reading=glitch)
+    assert any(abs(h - 0.40) < 0.03 for _, h, _ in trace)
+    assert all(pwm is None for _, _, pwm in trace) and bench.io.state() == ARMED
+
+
+def test_a_sample_read_many_times_counts_once(bench: Bench) -> None:
+    """The driver stops producing new samples (its reading time stands still) while its last
+    value is at the cut height: however long the script reads it, no cut."""
+    bench.io.range = good(0.5)
+    arm(bench)
+    descend(bench, 0.5, 0.5, 360)  # the last sample before this ends reads about 0.32 m
+    bench.io.range_period_ms = 10**9  # no new sample any more
+    bench.io.range = good(0.29)
+    bench.run(500)
+    assert bench.io.state() == ARMED and bench.outputs() == [None] * 4
+
+
+def test_no_reverse_thrust_on_an_impact_with_the_range_above_the_cut_height(bench: Bench) -> None:
+    """Reverse thrust drives the vehicle down: an acceleration spike after the cut with the
+    newest range sample above the cut height (a false cut, a bump in the air) is not an impact."""
+    cut_now(bench)
+    bench.io.range = good(0.6)
+    bench.run(SAMPLE_MS + 5)
+    bench.io.accel_body = (0.0, 0.0, -60.0)
+    bench.run(20)
+    assert bench.io.state() == CUT and bench.outputs() == [1500] * 4
+    bench.io.range = good(0.2)  # down on the ground: now it is one
+    bench.run(SAMPLE_MS + 5)
+    assert bench.io.state() == RVT
+
+
+def test_too_close_to_measure_is_on_the_ground(bench: Bench) -> None:
+    """A reading below the sensor's minimum (status OutOfRangeLow) after the cut is the ground."""
+    cut_now(bench)
+    bench.io.range = RangeReading(0.05, 2, 100, 0.1, 3.0)
+    bench.run(SAMPLE_MS + 5)
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    assert bench.io.state() == RVT
+
+
+def impact(bench: Bench) -> None:
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    assert bench.io.state() == RVT
+
+
+@pytest.mark.parametrize("reading", [good(2.5), RangeReading(3.5, 3, 100, 0.1, 3.0)], ids=["far", "beyond"])
+def test_reverse_thrust_ends_when_the_vehicle_leaves_the_roof(bench: Bench, reading) -> None:
+    """Issue 21: reverse thrust kept on through a slide off an edge. Two distinct samples farther
+    than the cut height plus 0.3 m (or beyond the sensor): the motors go back to the autopilot,
+    which is armed in its flying mode and can fly; stopped or reversed they would drop it."""
+    cut_now(bench)
+    impact(bench)
+    bench.run(50)
+    bench.io.range = reading
+    bench.run(2 * SAMPLE_MS + 5)
+    assert bench.io.state() == IDLE
+    bench.run(40)
+    assert bench.outputs() == [None] * 4 and bench.io.armed
+    assert "SL: left the roof: motors released" in bench.io.sl_texts()
+
+
+def test_one_far_sample_on_the_roof_keeps_the_motors_held(bench: Bench) -> None:
+    cut_now(bench)
+    impact(bench)
+    bench.run(int(DUR_MS) + 20)
+    assert bench.io.state() == HOLD
+    bench.io.range = good(2.5)
+    bench.run(SAMPLE_MS)
+    bench.io.range = good(0.2)
+    bench.run(200)
+    assert bench.io.state() == HOLD and bench.outputs() == [1500] * 4
+    bench.io.range = RangeReading(3.5, 3, 100, 0.1, 3.0)  # off the edge from HOLD too
+    bench.run(2 * SAMPLE_MS + 5)
+    assert bench.io.state() == IDLE
