@@ -56,6 +56,8 @@ def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
         if m.name == "REVERSE" and t - m.ctx.entered_at > 0.3:
             script = 13
         inp = replace(base, t=t, range_m=rng, script_state=script)
+        if m.name == "SETTLED" and "disarm_asked" in m.ctx.marks:
+            inp = replace(inp, armed=False)  # the script's disarm, seen in the HEARTBEAT
         if m.name == "LANDED" and t - m.ctx.entered_at > 0.5:
             inp = replace(inp, armed=False, takeoff_request=True)
         if m.name in ("TAKEOFF",):
@@ -239,7 +241,8 @@ def test_link_back_after_contact_judges_rest_instead_of_releasing_the_script(los
         assert "release" not in sent and "set_mode" not in sent, sent
         if expect == "SETTLED":  # at rest: disarmed deliberately, as after any landing
             for i in range(1, 200):
-                m.step(replace(back, t=back.t + 0.02 * i))
+                asked = "disarm_asked" in m.ctx.marks  # then the HEARTBEAT says disarmed
+                m.step(replace(back, t=back.t + 0.02 * i, armed=not asked))
                 if m.name != "SETTLED":
                     break
             assert m.name == "LANDED" and "disarm" in [c[0] for c in act.calls[before:]]
@@ -300,8 +303,9 @@ def test_a_vehicle_that_never_comes_still_is_disarmed_after_the_settle_timeout()
     m.step(replace(OK, t=t + timeout - 0.1, range_m=0.2, script_state=13, accel_mps2=30.0))
     assert m.name == "SETTLED"
     m.step(replace(OK, t=t + timeout + 0.1, range_m=0.2, script_state=13, accel_mps2=30.0))
+    assert m.name == "SETTLED" and "disarm" in [c[0] for c in act.calls]  # asked, not yet made
+    m.step(replace(OK, t=t + timeout + 0.2, range_m=0.2, script_state=13, accel_mps2=30.0, armed=False))
     assert m.name == "LANDED" and "timeout" in m.history[-1]["reason"]
-    assert "disarm" in [c[0] for c in act.calls]
 
 
 @pytest.mark.parametrize("bad", [None, -1.0, float("nan"), float("inf")])
@@ -422,7 +426,9 @@ def test_creeping_below_the_slide_speed_is_not_still_either():
         assert m.name == "SETTLED", dt
     m.step(replace(creep, t=t + 3.1, speed_mps=0.0))
     m.step(replace(creep, t=t + 3.1 + m.ctx.cfg["settle.still_s"], speed_mps=0.0))
-    assert m.name == "LANDED" and m.history[-1]["reason"].startswith("still")
+    assert m.name == "SETTLED" and m.ctx.marks["disarm_asked"].startswith("still")
+    m.step(replace(creep, t=t + 3.2 + m.ctx.cfg["settle.still_s"], speed_mps=0.0, armed=False))
+    assert m.name == "LANDED" and "HEARTBEAT" in m.history[-1]["reason"]
 
 
 def test_without_a_velocity_the_vehicle_is_not_disarmed_nor_the_landing_started():
@@ -453,7 +459,9 @@ def test_the_legs_rebound_when_the_thrust_stops_is_not_a_slide():
     rest = replace(OK, range_m=0.2, script_state=13, speed_mps=0.0, position_m=(0.03, 0, 0))
     m.step(replace(rest, t=t + 0.2))
     m.step(replace(rest, t=t + 0.2 + m.ctx.cfg["settle.still_s"]))
-    assert m.name == "LANDED" and "disarm" in act.names()
+    assert m.name == "SETTLED" and "disarm" in act.names()  # asked; LANDED once it is seen made
+    m.step(replace(rest, t=t + 0.3 + m.ctx.cfg["settle.still_s"], armed=False))
+    assert m.name == "LANDED"
 
 
 def test_armed_ends_when_the_autopilot_disarms_before_the_cut():
@@ -579,4 +587,6 @@ def test_still_is_not_disarmed_while_the_script_ramps_the_reverse_thrust_down():
     m.step(replace(rest, t=t + still_s + 0.1, script_state=12))  # still long enough, but ramping
     assert m.name == "SETTLED" and "disarm" not in act.names()
     m.step(replace(rest, t=t + still_s + 0.2, script_state=13))  # the ramp is over: HOLD
-    assert m.name == "LANDED" and "disarm" in act.names()
+    assert m.name == "SETTLED" and "disarm" in act.names()  # asked; LANDED once it is seen made
+    m.step(replace(rest, t=t + still_s + 0.3, script_state=13, armed=False))
+    assert m.name == "LANDED"

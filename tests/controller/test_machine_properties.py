@@ -18,8 +18,11 @@ from slopelander.controller.machine import STATES, Machine
 from slopelander.controller.states.base import Context, Inputs
 
 CFG = load_config()
-# states the machine may stay in while nothing changes: the autopilot flies, or it is over
-MAY_PERSIST = {"DESCEND", "ARMED", "TAKEOFF", "LANDED", "READY", "ABORTED", "ESTOP", "LINK_LOST"}
+# states the machine may stay in while nothing changes: the autopilot flies, or it is over, or
+# (SETTLED) the vehicle is armed on the ground with the motors held by the script and the disarm
+# asked for until the HEARTBEAT says it was made: a landing does not end on a command sent
+MAY_PERSIST = {"DESCEND", "ARMED", "TAKEOFF", "LANDED", "READY", "ABORTED", "ESTOP", "LINK_LOST", "SETTLED"}
+AFTER_CONTACT = {"CUT", "REVERSE", "SETTLED", "LANDED"}
 MOTOR_STOPPERS = {"disarm", "reverse"}
 # readings at the thresholds that matter, and the ones a broken sensor gives
 RANGES = [None, -1.0, 0.0, 0.29, 0.3, 0.31, 0.79, 0.8, 1.5, 1.51, 5.0, 50.0, float("nan"), float("inf")]
@@ -40,10 +43,15 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         self.inp = replace(self.inp, t=self.inp.t + dt, **changes)
         if self.inp.impact or self.inp.script_state in (12, 13):
             self.impact_seen = True
-        n = len(self.act.calls)
+        n, before = len(self.act.calls), self.m.name
         self.m.step(self.inp)  # must never raise
         new = self.act.calls[n:]
         names = [c[0] for c in new]
+        if self.m.name == "LANDED" and before != "LANDED":
+            assert not self.inp.armed, f"LANDED entered from {before} with the vehicle armed"
+        if before in AFTER_CONTACT and self.m.name in AFTER_CONTACT and self.inp.armed:
+            # after contact, armed: the script keeps the motors; only a take-off gives them back
+            assert not {"release", "reflex_abort"} & set(names), f"{names} in {self.m.name}, armed"
         if not self.impact_seen:
             assert not MOTOR_STOPPERS & set(names), f"{names} before any impact, in {self.m.name}"
         if "reflex_arm" in names:

@@ -1,5 +1,7 @@
-"""SETTLED: the stock land detector is slow and may never fire on a slope, so the companion disarms,
-but only a vehicle at rest: one sliding at a steady speed reads 1 g like one standing still."""
+"""SETTLED: the stock land detector is slow and may never fire on a slope, so the companion has the
+vehicle disarmed, but only at rest (one sliding at a steady speed reads 1 g like one standing
+still), and the landing ends only when the autopilot's HEARTBEAT says disarmed: a disarm sent is
+not a disarm made (ArduCopter refuses a ground station's before its land detector fires)."""
 
 from __future__ import annotations
 
@@ -17,9 +19,21 @@ def _moved(ctx: Context, inp: Inputs) -> float | None:
     return math.dist(start, inp.position_m)
 
 
+#: how often (vehicle s) an unanswered or refused disarm request is sent again
+DISARM_RETRY_S = 0.5
+
+
+def request_disarm(ctx: Context, inp: Inputs) -> None:
+    """Ask the on-board script to disarm (it does while it holds the motors stopped and the
+    vehicle is still: docs/onboard-script.md), at most every :data:`DISARM_RETRY_S`."""
+    if inp.t - ctx.marks.get("disarm_sent", -1e9) >= DISARM_RETRY_S:
+        ctx.act.disarm()
+        ctx.marks["disarm_sent"] = inp.t
+
+
 class Settled(State):
-    """Disarms once the vehicle has been still (:func:`still`: accel 1 g and speed low) for
-    ``settle.still_s``. A slide (faster than ``settle.slide_speed_mps`` and more than
+    """Has the vehicle disarmed once it has been still (:func:`still`: accel 1 g and speed low)
+    for ``settle.still_s``, and moves to LANDED when the HEARTBEAT shows it disarmed. A slide (faster than ``settle.slide_speed_mps`` and more than
     ``settle.slide_m`` from where SETTLED began) is not disarmed: the landing is aborted to the
     pilot, armed, in LOITER (docs/failsafes.md)."""
 
@@ -27,13 +41,20 @@ class Settled(State):
     reflex_owns = True
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
-        ctx.marks.pop("still_since", None)
-        ctx.marks.pop("settle_pos", None)
+        for k in ("still_since", "settle_pos", "disarm_sent", "disarm_asked"):
+            ctx.marks.pop(k, None)
         _moved(ctx, inp)
         return None
 
     def step(self, ctx: Context, inp: Inputs):
         cfg = ctx.cfg
+        if not inp.armed:
+            how = ctx.marks.get("disarm_asked", "by the autopilot")
+            return ("LANDED", f"disarmed ({how}): seen in the HEARTBEAT")
+        if "disarm_asked" in ctx.marks:  # asked: the motors stay held until the HEARTBEAT says so
+            keep_reflex(ctx, inp, thrust_ended=True)
+            request_disarm(ctx, inp)
+            return None
         speed, moved = inp.speed_mps, _moved(ctx, inp)
         fast = speed is not None and speed > cfg["settle.slide_speed_mps"]
         if fast and moved is not None and moved > cfg["settle.slide_m"]:
@@ -46,8 +67,8 @@ class Settled(State):
             since = ctx.marks.setdefault("still_since", inp.t)
             # not while the script still ramps the reverse thrust down: the legs are unbending
             if inp.t - since >= cfg["settle.still_s"] and inp.script_state != SCRIPT_RVT:
-                ctx.act.disarm()
-                return ("LANDED", "still: motors stopped, disarming")
+                ctx.marks["disarm_asked"] = "still, motors held stopped"
+                request_disarm(ctx, inp)
         else:
             ctx.marks.pop("still_since", None)
         if inp.t - ctx.entered_at >= cfg["settle.timeout_s"]:
@@ -57,6 +78,6 @@ class Settled(State):
                 return ("ABORTED", f"still moving at {speed:.2f} m/s at the settle timeout: not disarmed")
             # not moving but the accelerometer keeps shaking (a vibrating sensor): the motors
             # are stopped either way, and it must not stay armed for ever
-            ctx.act.disarm()
-            return ("LANDED", "not still within the settle timeout but not moving: disarming anyway")
+            ctx.marks["disarm_asked"] = "not still within the settle timeout but not moving"
+            request_disarm(ctx, inp)
         return None
