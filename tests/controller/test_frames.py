@@ -187,3 +187,13 @@ def test_noise_bytes_between_good_frames_never_lose_a_good_frame(parts, cuts, le
         out.append(f.feed(bytes(wire[i : i + step])))
         i, c = i + step, c + 1
     assert b"".join(out) == b"".join(want)
+
+
+def test_without_fastcrc_pymavlinks_python_crc_gives_the_same_frames(monkeypatch):
+    from pymavlink.generator import mavcrc
+
+    fr = frames(mav2)
+    wire = b"\xfd\x07" + b"".join(b for _, b in fr)
+    fast = FrameFilter(KEEP).feed(wire)
+    monkeypatch.setattr(mavcrc, "mcrf4xx", None)  # what pymavlink does when fastcrc is missing
+    assert FrameFilter(KEEP).feed(wire) == fast == b"".join(b for i, b in fr if i in KEEP)

@@ -20,10 +20,11 @@ rest arrives, unless a complete checked frame starts inside it (then the held st
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Mapping
 
 from pymavlink.dialects.v20 import ardupilotmega as _dialect
-from pymavlink.generator.mavcrc import x25crc
+from pymavlink.generator import mavcrc
 
 STX_V2 = 0xFD
 STX_V1 = 0xFE
@@ -33,6 +34,18 @@ _CRC = 2
 _IFLAG_SIGNED = 0x01
 #: the CRC_EXTRA byte of every message the dialect knows (the last byte the CRC takes in)
 CRC_EXTRA: dict[int, int] = {msgid: cls.crc_extra for msgid, cls in _dialect.mavlink_map.items()}
+_MAGIC = re.compile(b"[\xfd\xfe]")
+
+
+def _crc(data: bytes, extra: int) -> int:
+    """The MAVLink CRC of ``data`` then ``extra``: pymavlink's own (its C ``fastcrc`` binding when
+    installed, as pymavlink uses it, else its pure-Python ``x25crc_slow``)."""
+    fast = mavcrc.mcrf4xx
+    if fast is not None:
+        return fast(bytes((extra,)), fast(data, 0xFFFF))
+    crc = mavcrc.x25crc_slow(data)
+    crc.accumulate(bytes((extra,)))
+    return crc.crc
 
 
 class FrameFilter:
@@ -72,9 +85,7 @@ class FrameFilter:
             return None
         if n - i < body + _CRC:
             return False
-        crc = x25crc(buf[i + 1 : i + body])
-        crc.accumulate(bytes((extra,)))
-        if crc.crc != (buf[i + body] | buf[i + body + 1] << 8):
+        if _crc(buf[i + 1 : i + body], extra) != (buf[i + body] | buf[i + body + 1] << 8):
             return None
         if n - i < size:
             return False
@@ -82,7 +93,12 @@ class FrameFilter:
 
     def _checked_frame_after(self, buf: bytes, i: int, n: int) -> bool:
         """Whether a complete checked frame starts after ``i``: then what starts at ``i`` is noise."""
-        return any(buf[j] in (STX_V2, STX_V1) and self._frame_at(buf, j, n) for j in range(i + 1, n))
+        m = _MAGIC.search(buf, i + 1)
+        while m is not None:
+            if self._frame_at(buf, m.start(), n):
+                return True
+            m = _MAGIC.search(buf, m.start() + 1)
+        return False
 
     def feed(self, data: bytes) -> bytes:
         """The kept frames of ``held + data``; an incomplete last frame is held for the next call."""
@@ -93,9 +109,8 @@ class FrameFilter:
         while i < n:
             b = buf[i]
             if b != STX_V2 and b != STX_V1:  # noise up to the next magic byte
-                j = i + 1
-                while j < n and buf[j] != STX_V2 and buf[j] != STX_V1:
-                    j += 1
+                m = _MAGIC.search(buf, i + 1)
+                j = n if m is None else m.start()
                 self.noise += j - i
                 i = j
                 continue
