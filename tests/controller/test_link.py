@@ -293,7 +293,7 @@ def test_no_timesync_stream_to_an_autopilot_that_does_not_wait_for_it(pair):
     second of vehicle time)."""
     link, peer, clk = pair
     found(link, peer)
-    for i in range(50):  # one second of a free-running vehicle's 50 Hz stream
+    for i in range(60):  # 1.2 s of a free-running vehicle's 50 Hz stream
         _imu(peer, 1_000_000 + i * 20_000)
         clk.advance(0.02)
         settle(link, peer, 1)
@@ -302,23 +302,24 @@ def test_no_timesync_stream_to_an_autopilot_that_does_not_wait_for_it(pair):
     assert len(ts) == 1 and link.timesync_sent == 1
 
 
-def test_a_vehicle_that_stops_at_the_probe_gets_the_echo_it_waits_for(pair):
+@pytest.mark.parametrize("waits_at_us", [1_052_500, 1_500_000])  # its lead past the echo; far ahead
+def test_a_vehicle_that_stops_at_the_probe_gets_the_echo_it_waits_for(pair, waits_at_us):
     link, peer, clk = pair
     found(link, peer)
     _imu(peer, 1_000_000)
     settle(link, peer, 1)
     assert link.timesync_sent == 1  # the probe, at 1.0 s
-    _imu(peer, 1_052_500)  # runs 52.5 ms past the echo and waits there
+    _imu(peer, waits_at_us)  # runs past the echo, says where it waits, and falls silent
     settle(link, peer, 1)
     clk.advance(0.35)
     settle(link, peer, 1)
     assert link.lockstep is True
     for i in range(1, 11):  # every echo lets it run on: echoes follow its time
-        _imu(peer, 1_052_500 + i * 20_000)
+        _imu(peer, waits_at_us + i * 20_000)
         clk.advance(0.02)
         settle(link, peer, 1)
     ts = [m.ts1 for m in peer.received if m.get_type() == "TIMESYNC"]
-    assert len(ts) >= 10 and ts[-1] == 1_252_500_000
+    assert len(ts) >= 10 and ts[-1] == (waits_at_us + 200_000) * 1000
 
 
 def test_an_autopilot_reboot_is_link_loss_though_heartbeats_go_on(pair):

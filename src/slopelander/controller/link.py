@@ -36,10 +36,10 @@ HEARTBEAT_PERIOD_S = 1.0
 #: ArduPilot sends its HEARTBEAT at 1 Hz on every MAVLink channel (GCS_MAVLINK::update_send)
 AUTOPILOT_HEARTBEAT_S = 1.0
 TIMESYNC_PERIOD_S = 0.02
-#: the lock-step probe (see :meth:`Link._timesync`): a vehicle whose clock stops less than
-#: ``PROBE_FREE_S`` past the one echo and stays there for ``PROBE_STALL_S`` of local time waits
-#: for the echo; one that runs on past ``PROBE_FREE_S`` does not. Undecided: probe again.
-PROBE_FREE_S = 0.2
+#: the lock-step probe (see :meth:`Link._timesync`): a vehicle that, after the one echo, moves its
+#: clock on and then falls silent for ``PROBE_STALL_S`` of local time waits for the echo; one whose
+#: clock runs on ``PROBE_FREE_S`` past it does not. Undecided after ``PROBE_AGAIN_S``: probe again.
+PROBE_FREE_S = 1.0
 PROBE_STALL_S = 0.3
 PROBE_AGAIN_S = 2.0
 #: a reboot: this many messages in a row stamped more than ``REBOOT_BACK_S`` before the newest
@@ -459,8 +459,10 @@ class Link:
         depend on how fast the machine runs the companion. ArduPilot has no use for it: it drops a
         TIMESYNC answer whose ts1 is not its own request (GCS_MAVLINK::handle_timesync), so 50 Hz
         of them only cost a real vehicle's serial link. Which one is at the other end is found by
-        asking: one echo of the newest vehicle time (the probe); a lock-stepped vehicle stops its
-        clock just past it and waits, any other runs on."""
+        asking: one echo of the newest vehicle time (the probe); a lock-stepped vehicle runs to
+        its lead past it, says the time it waits at (SYSTEM_TIME) and falls silent; any other runs
+        on. A link that stalls just after the probe looks the same: the echoes it then starts are
+        dropped by ArduPilot and ignored by a free-running simulator."""
         if not self.clock.known or self.lockstep is False:
             return
         if self.lockstep:
@@ -473,7 +475,8 @@ class Link:
             if ran > PROBE_FREE_S * 1e6:
                 self.lockstep = False
                 return
-            if ran > 0 and self.clock.local_age() >= PROBE_STALL_S:
+            silent = self._last_rx is None or now - self._last_rx >= PROBE_STALL_S
+            if ran > 0 and silent:
                 self.lockstep = True
                 self._echo()
                 return
