@@ -594,3 +594,23 @@ def test_the_take_off_judges_a_range_reading_by_the_attitude_of_its_own_moment(p
     lander.machine = Machine(lander.ctx, None, "TAKEOFF")
     tilt = lander.inputs().tilt_deg
     assert tilt == (None if want is None else pytest.approx(want, abs=0.05))
+
+
+def test_a_streams_rate_counts_from_when_the_autopilot_took_the_request(pair):
+    """A request answered late (queued behind another, or its ACK lost once) holds from its ACK:
+    the time before it says nothing about the rate asked for."""
+    from slopelander.controller.link import stream_refusal
+
+    link, peer, _ = pair
+    found(link, peer)
+    _imu(peer, 1_000_000)
+    settle(link, peer)
+    h = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 100)
+    peer.conn.mav.system_time_send(0, 2000)  # a second of vehicle time before the answer
+    settle(link, peer)
+    peer.conn.mav.command_ack_send(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_RESULT_ACCEPTED)
+    settle(link, peer)
+    assert h.ok
+    _stream_at(peer, link, 100, 2.0, 1.0)
+    assert link.delivered_hz("RAW_IMU") == pytest.approx(100.0)
+    assert stream_refusal(link, 0.9) is None

@@ -509,6 +509,11 @@ class Link:
             h.sent_at = now  # being worked on: not lost, do not re-send yet
             return
         h.state = "accepted" if msg.result == mavlink.MAV_RESULT_ACCEPTED else "rejected"
+        if h.ok and h.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
+            cls = mavlink.mavlink_map.get(int(h.params[0]))
+            stream = self.streams.get(cls.msgname) if cls is not None else None
+            if stream is not None:  # the new rate holds from now: measure it from here
+                stream.since = max(stream.since, self.clock.now())
         self._settle_commands()
 
     def _watch_reboot(self, stamp_us: int) -> None:
