@@ -7,6 +7,8 @@ import socket
 import time
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pymavlink import mavutil
 from pymavlink.dialects.v10 import ardupilotmega as mav1
 from pymavlink.dialects.v20 import ardupilotmega as mav2
@@ -80,21 +82,37 @@ def test_frames_cut_anywhere_across_reads_come_out_the_same(module):
         assert out == expected, step
 
 
-def test_noise_passes_on_and_the_decoder_still_finds_the_frame_after_it():
+def test_noise_is_dropped_and_counted_and_the_frame_after_it_decodes():
     fr = frames(mav2)
     noise = b"\x00\x11hello\x22"
-    out = FrameFilter(KEEP).feed(noise + fr[1][1])
-    assert out == noise + fr[1][1]
-    types = [m.get_type() for m in decode(mav2, out)]
-    assert types[-1] == "RAW_IMU" and "BAD_DATA" in types
+    f = FrameFilter(KEEP)
+    out = f.feed(noise + fr[1][1])
+    assert out == fr[1][1] and f.noise == len(noise)
+    assert [m.get_type() for m in decode(mav2, out)] == ["RAW_IMU"]
 
 
-def test_a_kept_frame_with_a_bad_crc_is_still_refused_by_the_decoder():
-    raw = bytearray(frames(mav2)[1][1])
+@pytest.mark.parametrize("module", [mav2, mav1])
+@pytest.mark.parametrize("noise", [b"\xfd", b"\xfe", b"\xfd\xff", b"\xfe\x40\x00", b"\x00\xfd\x30\x00\x00"])
+def test_one_magic_byte_of_noise_does_not_swallow_the_good_frames_after_it(module, noise):
+    """A lone start byte (a serial line's noise) followed by a length byte: trusting that length
+    skipped the good frames that followed; the CRC says it is no frame."""
+    fr = frames(module)
+    f = FrameFilter(KEEP)
+    out = f.feed(noise + b"".join(b for _, b in fr))
+    got = [m.get_msgbuf() for m in decode(module, out) if m.get_type() != "BAD_DATA"]
+    assert got == [b for i, b in fr if i in KEEP]  # every good frame decodes
+    assert out == b"".join(b for i, b in fr if i in KEEP)  # and nothing but them is passed on
+    assert f.noise == len(noise)
+
+
+def test_a_kept_frame_with_a_bad_crc_is_noise_and_the_next_frame_still_passes():
+    fr = frames(mav2)
+    raw = bytearray(fr[1][1])
     raw[-1] ^= 0xFF
-    out = FrameFilter(KEEP).feed(bytes(raw))
-    assert out == bytes(raw)
-    assert [m.get_type() for m in decode(mav2, out)] == ["BAD_DATA"]
+    f = FrameFilter(KEEP)
+    out = f.feed(bytes(raw) + fr[3][1])
+    assert out == fr[3][1] and f.noise == len(raw)
+    assert [m.get_type() for m in decode(mav2, out)] == ["DISTANCE_SENSOR"]
 
 
 def test_a_signed_kept_frame_with_a_wrong_key_is_refused():
@@ -138,3 +156,44 @@ def test_udp_link_decodes_only_the_landing_messages():
     finally:
         link.close()
         peer.close()
+
+
+_GOOD = frames(mav2) + frames(mav2, signed=True) + frames(mav1)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(range(len(_GOOD))), st.binary(max_size=12)),
+        min_size=1,
+        max_size=12,
+    ),
+    st.lists(st.integers(min_value=1, max_value=64), min_size=1, max_size=8),
+    st.binary(min_size=1, max_size=4).map(lambda b: b"\xfd" + b),  # a start byte begins the noise
+)
+def test_noise_bytes_between_good_frames_never_lose_a_good_frame(parts, cuts, lead):
+    """Any bytes between good frames (start bytes among them), read in any pieces: every kept
+    good frame comes out, whole and in order, and nothing else."""
+    wire, want = bytearray(lead), []
+    for k, noise in parts:
+        msgid, raw = _GOOD[k]
+        wire += raw + noise
+        if msgid in KEEP:
+            want.append(raw)
+    f = FrameFilter(KEEP)
+    out, i, c = [], 0, 0
+    while i < len(wire):
+        step = cuts[c % len(cuts)]
+        out.append(f.feed(bytes(wire[i : i + step])))
+        i, c = i + step, c + 1
+    assert b"".join(out) == b"".join(want)
+
+
+def test_without_fastcrc_pymavlinks_python_crc_gives_the_same_frames(monkeypatch):
+    from pymavlink.generator import mavcrc
+
+    fr = frames(mav2)
+    wire = b"\xfd\x07" + b"".join(b for _, b in fr)
+    fast = FrameFilter(KEEP).feed(wire)
+    monkeypatch.setattr(mavcrc, "mcrf4xx", None)  # what pymavlink does when fastcrc is missing
+    assert FrameFilter(KEEP).feed(wire) == fast == b"".join(b for i, b in fr if i in KEEP)

@@ -7,6 +7,7 @@ import time
 
 import pytest
 from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mav2
 
 from slopelander.controller.clock import ManualClock
 from slopelander.controller.link import COMPANION_COMPONENT, Link, LinkError
@@ -181,11 +182,238 @@ def test_a_slow_vehicle_is_not_lost_but_one_without_heartbeats_is(pair):
             peer.heartbeat()
         settle(link, peer, 1)
         assert not link.lost, i
-    # its clock moves on 1.6 s past the last HEARTBEAT (at 1.5 s) with no new one: lost
-    for us in range(2_050_000, 3_150_001, 50_000):
+    # its clock moves on 3.1 s past the last HEARTBEAT (at 1.5 s) with no new one: three missed
+    for us in range(2_050_000, 4_650_001, 50_000):
         peer.conn.mav.raw_imu_send(us, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
     settle(link, peer, 1)
     assert link.lost
+
+
+def test_one_lost_heartbeat_is_not_link_loss_but_the_configured_count_is(pair):
+    """A dropped 1 Hz HEARTBEAT on a noisy link left 1.5 s without one: that was link loss."""
+    link, peer, _ = pair
+    peer.conn.mav.system_time_send(0, 1000)
+    found(link, peer)  # its HEARTBEAT at 1.0 s of vehicle time
+    ms = 1000
+    for beat in range(1, 4):  # the ones at 2 s and 3 s are lost
+        for _ in range(21):
+            ms += 50
+            peer.conn.mav.raw_imu_send(ms * 1000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+        settle(link, peer, 1)
+        assert link.lost == (beat == 3), beat  # 1.05, 2.1 s after it: not lost; 3.15 s: lost
+    peer.heartbeat()
+    settle(link, peer, 1)
+    assert not link.lost
+    link.heartbeats_missed = 1  # the setting (link.heartbeats_missed) says how many
+    for _ in range(22):
+        ms += 50
+        peer.conn.mav.raw_imu_send(ms * 1000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+    settle(link, peer, 1)
+    assert link.lost
+
+
+def _acks_for(peer: Peer, got: list, answer) -> None:
+    for m in got:
+        is_request = m.get_type() == "COMMAND_LONG" and m.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+        if is_request and answer(m):
+            peer.conn.mav.command_ack_send(m.command, mavlink.MAV_RESULT_ACCEPTED)
+
+
+def test_five_stream_requests_are_each_tracked_until_each_is_answered(pair):
+    """A newer SET_MESSAGE_INTERVAL used to supersede the pending one: of five, only the last was
+    re-sent. Here the autopilot ignores every first try: each request is re-sent and answered."""
+    link, peer, clk = pair
+    found(link, peer)
+    ids = [27, 132, 65, 32, 30]
+    handles = [link.request_stream(i, 10) for i in ids]
+    tries: dict[int, int] = {}
+
+    def second_try_only(m) -> bool:
+        tries[int(m.param1)] = tries.get(int(m.param1), 0) + 1
+        return tries[int(m.param1)] >= 2
+
+    for _ in range(40):
+        _acks_for(peer, settle(link, peer, 2), second_try_only)
+        if all(h.done for h in handles):
+            break
+        clk.advance(0.3)
+    assert [h.state for h in handles] == ["accepted"] * 5
+    assert tries == dict.fromkeys(ids, 2)  # each re-sent once, none sent again once answered
+
+
+def ack2(peer: Peer, command: int, result: int, request: int) -> None:
+    """A MAVLink 2 COMMAND_ACK carrying ``request`` in result_param2 (MAVLink 1 has no such field)."""
+    enc = mav2.MAVLink(None, srcSystem=7, srcComponent=1)
+    peer.conn.write(mav2.MAVLink_command_ack_message(command, result, 0, request, 0, 0).pack(enc))
+
+
+def test_an_ack_answers_the_request_it_carries_the_number_of(pair):
+    """With a request number (echoed in COMMAND_ACK.result_param2) two commands of one id are in
+    flight at once, and each ACK answers its own, whatever order they come in."""
+    link, peer, _ = pair
+    found(link, peer)
+    a = link.command(mavlink.MAV_CMD_USER_1, 1, 0, 500, request=41)
+    b = link.command(mavlink.MAV_CMD_USER_1, 0, 0, 500, request=42)
+    sent = [m for m in settle(link, peer) if m.get_type() == "COMMAND_LONG" and m.command == 31010]
+    assert len(sent) == 2  # sent at once, not queued
+    ack2(peer, 31010, mavlink.MAV_RESULT_ACCEPTED, 99)  # nobody's
+    ack2(peer, 31010, mavlink.MAV_RESULT_DENIED, 42)
+    settle(link, peer)
+    assert b.state == "rejected" and not a.done
+    ack2(peer, 31010, mavlink.MAV_RESULT_ACCEPTED, 41)
+    settle(link, peer)
+    assert a.ok
+    with pytest.raises(LinkError, match="request number"):
+        link.command(mavlink.MAV_CMD_USER_1, 1, request=1.5)
+
+
+def test_without_a_request_number_one_command_of_an_id_is_in_flight_at_a_time(pair):
+    """An ACK without a request number says only its command id: the second command waits, so
+    the first ACK cannot be taken for the second's answer."""
+    link, peer, _ = pair
+    found(link, peer)
+    a = link.command(mavlink.MAV_CMD_USER_2, 1)
+    b = link.command(mavlink.MAV_CMD_USER_2, 0)
+    sent = [m for m in settle(link, peer) if m.get_type() == "COMMAND_LONG" and m.command == 31011]
+    assert [m.param1 for m in sent] == [1] and b.tries == 0
+    peer.conn.mav.command_ack_send(31011, mavlink.MAV_RESULT_ACCEPTED)
+    sent = [m for m in settle(link, peer) if m.get_type() == "COMMAND_LONG" and m.command == 31011]
+    assert a.ok and not b.done and [m.param1 for m in sent] == [0]
+    peer.conn.mav.command_ack_send(31011, mavlink.MAV_RESULT_FAILED)
+    settle(link, peer)
+    assert b.state == "rejected"
+
+
+def _imu(peer: Peer, us: int) -> None:
+    peer.conn.mav.raw_imu_send(us, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+
+
+def test_no_timesync_stream_to_an_autopilot_that_does_not_wait_for_it(pair):
+    """ArduPilot drops TIMESYNC answers it did not ask for: one probe, then none (there were 50 a
+    second of vehicle time)."""
+    link, peer, clk = pair
+    found(link, peer)
+    for i in range(60):  # 1.2 s of a free-running vehicle's 50 Hz stream
+        _imu(peer, 1_000_000 + i * 20_000)
+        clk.advance(0.02)
+        settle(link, peer, 1)
+    ts = [m for m in peer.received if m.get_type() == "TIMESYNC"]
+    assert link.lockstep is False
+    assert len(ts) == 1 and link.timesync_sent == 1
+
+
+@pytest.mark.parametrize("waits_at_us", [1_052_500, 1_500_000])  # its lead past the echo; far ahead
+def test_a_vehicle_that_stops_at_the_probe_gets_the_echo_it_waits_for(pair, waits_at_us):
+    link, peer, clk = pair
+    found(link, peer)
+    _imu(peer, 1_000_000)
+    settle(link, peer, 1)
+    assert link.timesync_sent == 1  # the probe, at 1.0 s
+    _imu(peer, waits_at_us)  # runs past the echo, says where it waits, and falls silent
+    settle(link, peer, 1)
+    clk.advance(0.35)
+    settle(link, peer, 1)
+    assert link.lockstep is True
+    for i in range(1, 11):  # every echo lets it run on: echoes follow its time
+        _imu(peer, waits_at_us + i * 20_000)
+        clk.advance(0.02)
+        settle(link, peer, 1)
+    ts = [m.ts1 for m in peer.received if m.get_type() == "TIMESYNC"]
+    assert len(ts) >= 10 and ts[-1] == (waits_at_us + 200_000) * 1000
+
+
+def test_an_autopilot_reboot_is_link_loss_though_heartbeats_go_on(pair):
+    """After a reboot its clock starts again from zero: the link's clock stood still while
+    HEARTBEATs kept the link 'up', and the machine was no longer stepped."""
+    link, peer, _ = pair
+    found(link, peer)
+    for ms in range(9000, 10_001, 100):
+        peer.conn.mav.system_time_send(0, ms)
+    settle(link, peer)
+    peer.conn.mav.system_time_send(0, 7000)  # one late frame is not a reboot
+    peer.conn.mav.system_time_send(0, 10_100)
+    settle(link, peer)
+    assert not link.rebooted and not link.lost
+    for ms in range(2000, 2500, 100):  # booted again: heartbeats and a clock from 2 s
+        peer.heartbeat()
+        peer.conn.mav.system_time_send(0, ms)
+        settle(link, peer, 1)
+    assert link.rebooted and link.lost
+    assert "from 10.1 s to 2.4 s" in link.reboot_note
+
+
+def test_the_landing_takes_a_reboot_for_link_loss(pair):
+    from slopelander.controller.config import load_config
+    from slopelander.controller.machine import Machine
+    from slopelander.controller.runner import Lander
+
+    link, peer, _ = pair
+    found(link, peer)
+    lander = Lander(link, load_config(), (0.8, 1.5), legs=None)
+    lander.machine = Machine(lander.ctx, None, "TAKEOFF")  # link loss is all its row acts on
+    for ms in range(9000, 10_001, 100):
+        peer.conn.mav.system_time_send(0, ms)
+    settle(link, peer)
+    lander.poll()
+    assert lander.machine.name == "TAKEOFF"
+    for ms in range(2000, 2500, 100):
+        peer.heartbeat()
+        peer.conn.mav.system_time_send(0, ms)
+        time.sleep(0.01)
+        lander.poll()
+    assert lander.machine.name == "LINK_LOST"
+
+
+def _stream_at(peer: Peer, link: Link, hz: float, t0_s: float, span_s: float) -> None:
+    n = round(hz * span_s)
+    for i in range(1, n + 1):
+        _imu(peer, int((t0_s + i / hz) * 1e6))
+        if i % 20 == 0:
+            settle(link, peer, 1)
+    settle(link, peer)
+
+
+def test_a_stream_delivering_less_than_its_share_is_refused_with_its_rates(pair):
+    from slopelander.controller.link import stream_refusal
+
+    link, peer, _ = pair
+    found(link, peer)
+    _imu(peer, 1_000_000)
+    settle(link, peer)
+    h = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 100)
+    settle(link, peer)
+    peer.conn.mav.command_ack_send(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_RESULT_ACCEPTED)
+    _stream_at(peer, link, 40, 1.0, 0.2)
+    assert h.ok
+    assert "not measured yet" in stream_refusal(link, 0.5)  # 0.2 s of vehicle time is too little
+    _stream_at(peer, link, 40, 1.2, 1.0)
+    why = stream_refusal(link, 0.5)
+    assert why == "stream RAW_IMU delivers 40.0 Hz of 100 Hz requested (less than 50%)"
+    assert stream_refusal(link, 0.3) is None
+    _stream_at(peer, link, 100, 2.2, 2.0)
+    assert link.delivered_hz("RAW_IMU") == pytest.approx(100.0)
+    assert stream_refusal(link, 0.5) is None
+    assert stream_refusal(None, 0.5) is None
+
+
+def test_checks_refuse_a_short_stream(pair):
+    """CHECKS reads link.min_delivered_fraction: everything else fine, a stream at 40 % aborts."""
+    from slopelander.controller.config import load_config
+    from slopelander.controller.machine import Machine
+    from slopelander.controller.runner import Lander
+    from slopelander.controller.states.base import Inputs
+
+    link, peer, _ = pair
+    found(link, peer)
+    _imu(peer, 1_000_000)
+    settle(link, peer)
+    link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 100)
+    _stream_at(peer, link, 40, 1.0, 1.0)
+    lander = Lander(link, load_config(), (0.8, 1.5), legs=None)
+    lander.machine = Machine(lander.ctx, None, "CHECKS")
+    lander.machine.step(Inputs(t=2.0, range_m=5.0, range_ok=True, legs_ready=True))
+    assert lander.machine.name == "ABORTED"
+    assert "stream RAW_IMU delivers 40.0 Hz of 100 Hz" in lander.machine.history[-1]["reason"]
 
 
 def test_stream_rate_measured(pair):
@@ -368,3 +596,23 @@ def test_the_take_off_judges_a_range_reading_by_the_attitude_of_its_own_moment(p
     lander.machine = Machine(lander.ctx, None, "TAKEOFF")
     tilt = lander.inputs().tilt_deg
     assert tilt == (None if want is None else pytest.approx(want, abs=0.05))
+
+
+def test_a_streams_rate_counts_from_when_the_autopilot_took_the_request(pair):
+    """A request answered late (queued behind another, or its ACK lost once) holds from its ACK:
+    the time before it says nothing about the rate asked for."""
+    from slopelander.controller.link import stream_refusal
+
+    link, peer, _ = pair
+    found(link, peer)
+    _imu(peer, 1_000_000)
+    settle(link, peer)
+    h = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 100)
+    peer.conn.mav.system_time_send(0, 2000)  # a second of vehicle time before the answer
+    settle(link, peer)
+    peer.conn.mav.command_ack_send(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_RESULT_ACCEPTED)
+    settle(link, peer)
+    assert h.ok
+    _stream_at(peer, link, 100, 2.0, 1.0)
+    assert link.delivered_hz("RAW_IMU") == pytest.approx(100.0)
+    assert stream_refusal(link, 0.9) is None

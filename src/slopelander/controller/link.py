@@ -1,15 +1,18 @@
 """The companion's MAVLink link to the autopilot: non-blocking, polled by the state machine.
 
 One :class:`Link` owns the connection. :meth:`Link.poll` drains every waiting message without
-blocking, keeps the vehicle clock, sends the companion's heartbeat (1 Hz) and the TIMESYNC echo
-(about 50 Hz of vehicle time; a lock-stepped simulator waits on it), re-sends commands that were
-not acknowledged and expires the ones that ran out of tries. Commands return a
-:class:`CommandHandle` that the caller polls instead of waiting.
+blocking, keeps the vehicle clock, sends the companion's heartbeat (1 Hz) and, to a lock-stepped
+simulator only, the TIMESYNC echo it waits on; re-sends commands that were not acknowledged and
+expires the ones that ran out of tries. Commands return a :class:`CommandHandle` that the caller
+polls instead of waiting; every command is tracked until its own answer (see :meth:`Link.command`).
+It measures each requested stream's delivered rate in vehicle time (:func:`stream_refusal`) and
+notices an autopilot that rebooted under it (:attr:`Link.rebooted`).
 """
 
 from __future__ import annotations
 
 import math
+import os
 import select
 import struct
 import time
@@ -17,6 +20,9 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
+# The MAVLink 2 message set, whatever was imported before: only it has COMMAND_ACK.result_param2,
+# the request number the on-board script echoes (a MAVLink 1 peer is still understood).
+os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
 from slopelander.controller.clock import VehicleClock
@@ -27,7 +33,22 @@ mavlink = mavutil.mavlink
 
 COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
 HEARTBEAT_PERIOD_S = 1.0
+#: ArduPilot sends its HEARTBEAT at 1 Hz on every MAVLink channel (GCS_MAVLINK::update_send)
+AUTOPILOT_HEARTBEAT_S = 1.0
 TIMESYNC_PERIOD_S = 0.02
+#: the lock-step probe (see :meth:`Link._timesync`): a vehicle that, after the one echo, moves its
+#: clock on and then falls silent for ``PROBE_STALL_S`` of local time waits for the echo; one whose
+#: clock runs on ``PROBE_FREE_S`` past it does not. Undecided after ``PROBE_AGAIN_S``: probe again.
+PROBE_FREE_S = 1.0
+PROBE_STALL_S = 0.3
+PROBE_AGAIN_S = 2.0
+#: a reboot: this many messages in a row stamped more than ``REBOOT_BACK_S`` before the newest
+#: vehicle time (one reordered or late frame is not; a relay holds back one frame at a time)
+REBOOT_BACK_S = 1.0
+REBOOT_RUN = 5
+#: the shortest stretch of vehicle time a stream's delivered rate is measured over, and the longest
+STREAM_MIN_SPAN_S = 0.5
+STREAM_WINDOW_S = 2.0
 SCRIPT_SILENT_S = 1.0  # vehicle seconds without SL_STATE: the script is silent
 #: a jump in the newest vehicle time larger than this (s) is a telemetry gap (a 200 Hz IMU stream
 #: normally advances it by 5 ms): ages of what the link holds are counted from where it resumed
@@ -96,12 +117,19 @@ class LinkError(SlopelanderError):
 
 @dataclass
 class CommandHandle:
-    """One COMMAND_LONG in flight: poll ``state`` ('pending', 'accepted', 'rejected', 'timeout')."""
+    """One COMMAND_LONG: poll ``state`` ('pending', 'accepted', 'rejected', 'timeout').
+
+    ``request``: a number the autopilot echoes in COMMAND_ACK.result_param2 (the on-board script
+    does), so the ACK is matched to this request alone. Without one, the ACK carries nothing but
+    the command id (ArduPilot's ACK of SET_MESSAGE_INTERVAL echoes neither the message id nor the
+    interval), so requests of the same id are sent one at a time, in order: ``tries`` stays 0
+    while one is queued behind another."""
 
     command: int
     params: tuple[float, ...]
     retries: int
     timeout_s: float
+    request: int | None = None
     state: str = "pending"
     result: int | None = None
     tries: int = 0
@@ -142,6 +170,16 @@ class AutopilotInfo:
 
 
 @dataclass
+class _Stream:
+    """One requested stream: what was asked, since when (vehicle s), the stamps delivered since."""
+
+    name: str
+    hz: float
+    since: float
+    stamps: deque = field(default_factory=lambda: deque(maxlen=1024))
+
+
+@dataclass
 class _Rate:
     """Arrival rate of one message type over a sliding window of local time."""
 
@@ -160,7 +198,8 @@ class Link:
 
     ``url`` is any pymavlink connection string (``udpin:0.0.0.0:14550``, ``tcp:host:5760``,
     ``/dev/ttyACM0,921600``). :attr:`lost` becomes true after ``link_loss_s`` with nothing from the
-    autopilot (local time), or with its messages but no HEARTBEAT for ``link_loss_s`` of vehicle time.
+    autopilot (local time), with its messages but ``heartbeats_missed`` of its 1 Hz HEARTBEATs
+    missed (vehicle time), or once it rebooted.
     ``decode``: the message names to decode (e.g. :data:`LANDING_MESSAGES`); frames of any other
     message are dropped unread (see :mod:`slopelander.controller.frames`). None decodes everything
     through pymavlink's own reader.
@@ -171,6 +210,7 @@ class Link:
         url: str,
         *,
         link_loss_s: float = 1.5,
+        heartbeats_missed: int = 3,
         monotonic: Callable[[], float] = time.monotonic,
         decode: Iterable[str] | None = None,
     ) -> None:
@@ -178,6 +218,9 @@ class Link:
             raise LinkError("connection string is empty (expected e.g. udpin:0.0.0.0:14550)")
         if not (link_loss_s > 0 and math.isfinite(link_loss_s)):
             raise LinkError(f"link_loss_s must be a positive number of seconds, got {link_loss_s!r}")
+        whole = isinstance(heartbeats_missed, int) and not isinstance(heartbeats_missed, bool)
+        if not whole or heartbeats_missed < 1:
+            raise LinkError(f"heartbeats_missed must be a whole number >= 1, got {heartbeats_missed!r}")
         self.filter = None if decode is None else FrameFilter(message_ids(decode))
         try:
             self.conn = mavutil.mavlink_connection(
@@ -192,6 +235,7 @@ class Link:
         self.monotonic = monotonic
         self.clock = VehicleClock(monotonic)
         self.link_loss_s = link_loss_s
+        self.heartbeats_missed = heartbeats_missed
         self.info: AutopilotInfo | None = None
         self.last: dict[str, object] = {}
         self.statustext: deque[str] = deque(maxlen=50)
@@ -202,6 +246,16 @@ class Link:
         self._last_rx: float | None = None  # local time of the newest message from the autopilot
         self._last_heartbeat_tx = -math.inf
         self._last_timesync_usec = 0
+        #: whether the vehicle waits for the companion's TIMESYNC echo (None: not known yet)
+        self.lockstep: bool | None = None
+        self._probe: tuple[int, float] | None = None  # (vehicle us, local s) of the probe's echo
+        self.timesync_sent = 0
+        #: the autopilot rebooted under the link (its clock went back): lost for this landing
+        self.rebooted = False
+        self.reboot_note: str | None = None
+        self._behind = 0
+        #: requested streams by message name (see :meth:`delivered_hz`)
+        self.streams: dict[str, _Stream] = {}
         self._script_seen_at: float | None = None
         self.script_state: int | None = None
         self._script_stamp = -1  # vehicle time (us) of the SL_STATE in script_state
@@ -318,6 +372,8 @@ class Link:
             return
         fld = _USEC_FIELDS.get(mtype)
         stamp = _stamp_usec(msg, fld) if fld is not None else None
+        if stamp is not None and self.clock.known:
+            self._watch_reboot(stamp)
         if stamp is None or stamp >= self._stamps.get(mtype, -1):
             # a reordered, older message never replaces a newer one: a link that reorders would
             # hand the take-off an older range reading, or undo a newer script state, for a step
@@ -337,18 +393,19 @@ class Link:
             self.clock.observe_usec(stamp)
             if before is not None and self.clock.usec - before > GAP_S * 1e6:
                 self.resumed_at = self.clock.now()
+            if self._last_heartbeat_rx is not None and self._last_heartbeat_vt is None:
+                # a HEARTBEAT came before any vehicle time: count the missed ones from the first
+                self._last_heartbeat_vt = self.clock.now()
+        stream = self.streams.get(mtype)
+        if stream is not None:
+            t = stamp / 1e6 if stamp is not None else self.clock.now()
+            if not stream.stamps or t > stream.stamps[-1]:  # a duplicate or late frame is not a sample
+                stream.stamps.append(t)
         if mtype == "HEARTBEAT":
             self._last_heartbeat_rx = now
             self._last_heartbeat_vt = self.clock.now() if self.clock.known else None
         elif mtype == "COMMAND_ACK":
-            for h in self._commands:
-                if h.command == msg.command and not h.done:
-                    h.result = msg.result
-                    if msg.result == mavlink.MAV_RESULT_IN_PROGRESS:
-                        continue
-                    h.state = "accepted" if msg.result == mavlink.MAV_RESULT_ACCEPTED else "rejected"
-                    break
-            self._commands = [h for h in self._commands if not h.done]
+            self._ack(msg, now)
         elif mtype == "STATUSTEXT":
             self.statustext.append(msg.text)
         elif mtype == "AUTOPILOT_VERSION" and self.info is not None:
@@ -377,20 +434,101 @@ class Link:
                 0,
                 mavlink.MAV_STATE_ACTIVE,
             )
-        if self.clock.known and self.clock.usec - self._last_timesync_usec >= TIMESYNC_PERIOD_S * 1e6:
-            self._last_timesync_usec = self.clock.usec
-            # tc1 != 0 makes this an answer, not a request (tc1 == 0 asks the autopilot for its
-            # time): a lock-stepped simulator reads ts1 as the newest vehicle time seen, and
-            # ArduPilot drops answers whose ts1 is not one of its own requests.
-            self.conn.mav.timesync_send(max(1, int(self.monotonic() * 1e9)), self.clock.usec * 1000)
+        self._timesync(now)
         for h in self._commands:
-            if h.done or now - h.sent_at < h.timeout_s:
+            if h.done or h.tries == 0 or now - h.sent_at < h.timeout_s:
                 continue
             if h.tries > h.retries:
                 h.state = "timeout"
             else:
                 self._transmit(h)
+        self._settle_commands()
+
+    def _echo(self) -> None:
+        # tc1 != 0 makes this an answer, not a request (tc1 == 0 asks the autopilot for its time):
+        # a lock-stepped simulator reads ts1 as the newest vehicle time seen
+        self._last_timesync_usec = self.clock.usec
+        self.timesync_sent += 1
+        self.conn.mav.timesync_send(max(1, int(self.monotonic() * 1e9)), self.clock.usec * 1000)
+
+    def _timesync(self, now: float) -> None:
+        """The lock-step echo, to a vehicle that waits for it and to no other.
+
+        Why it exists: the project's simulated vehicle (``sitl.vehicle --lockstep``) runs at most
+        50 ms of its time ahead of the newest time the companion echoed, so a flight does not
+        depend on how fast the machine runs the companion. ArduPilot has no use for it: it drops a
+        TIMESYNC answer whose ts1 is not its own request (GCS_MAVLINK::handle_timesync), so 50 Hz
+        of them only cost a real vehicle's serial link. Which one is at the other end is found by
+        asking: one echo of the newest vehicle time (the probe); a lock-stepped vehicle runs to
+        its lead past it, says the time it waits at (SYSTEM_TIME) and falls silent; any other runs
+        on. A link that stalls just after the probe looks the same: the echoes it then starts are
+        dropped by ArduPilot and ignored by a free-running simulator."""
+        if not self.clock.known or self.lockstep is False:
+            return
+        if self.lockstep:
+            if self.clock.usec - self._last_timesync_usec >= TIMESYNC_PERIOD_S * 1e6:
+                self._echo()
+            return
+        if self._probe is not None:
+            at_us, at_local = self._probe
+            ran = self.clock.usec - at_us
+            if ran > PROBE_FREE_S * 1e6:
+                self.lockstep = False
+                return
+            silent = self._last_rx is None or now - self._last_rx >= PROBE_STALL_S
+            if ran > 0 and silent:
+                self.lockstep = True
+                self._echo()
+                return
+            if now - at_local < PROBE_AGAIN_S:
+                return
+        self._probe = (self.clock.usec, now)
+        self._echo()
+
+    def _settle_commands(self) -> None:
+        """Forget answered commands; send the next of each id queued behind one that was answered."""
         self._commands = [h for h in self._commands if not h.done]
+        busy = {h.command for h in self._commands if h.request is None and h.tries > 0}
+        for h in self._commands:
+            if h.request is None and h.tries == 0 and h.command not in busy:
+                busy.add(h.command)
+                self._transmit(h)
+
+    def _ack(self, msg, now: float) -> None:
+        """Mark the one request this COMMAND_ACK answers: by its request number when the ACK
+        carries one we sent (result_param2), else the one request of that id in flight."""
+        sent = [h for h in self._commands if h.command == msg.command and not h.done and h.tries > 0]
+        param2 = getattr(msg, "result_param2", 0)  # a MAVLink 1 ACK has no extension fields
+        h = next((h for h in sent if h.request is not None and h.request == param2), None)
+        if h is None:
+            h = next((h for h in sent if h.request is None), None)
+        if h is None:
+            return  # a late answer to a request that already timed out or was answered
+        h.result = msg.result
+        if msg.result == mavlink.MAV_RESULT_IN_PROGRESS:
+            h.sent_at = now  # being worked on: not lost, do not re-send yet
+            return
+        h.state = "accepted" if msg.result == mavlink.MAV_RESULT_ACCEPTED else "rejected"
+        if h.ok and h.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
+            cls = mavlink.mavlink_map.get(int(h.params[0]))
+            stream = self.streams.get(cls.msgname) if cls is not None else None
+            if stream is not None:  # the new rate holds from now: measure it from here
+                stream.since = max(stream.since, self.clock.now())
+        self._settle_commands()
+
+    def _watch_reboot(self, stamp_us: int) -> None:
+        """The autopilot rebooted when its messages keep coming stamped far before the newest
+        vehicle time: its clock started again from zero (one late frame is not a reboot)."""
+        if stamp_us < self.clock.usec - REBOOT_BACK_S * 1e6:
+            self._behind += 1
+            if self._behind >= REBOOT_RUN and not self.rebooted:
+                self.rebooted = True
+                self.reboot_note = (
+                    f"autopilot rebooted: its clock went back from {self.clock.now():.1f} s "
+                    f"to {stamp_us / 1e6:.1f} s"
+                )
+        else:
+            self._behind = 0
 
     def _transmit(self, h: CommandHandle) -> None:
         if self.info is None:
@@ -403,21 +541,33 @@ class Link:
         h.sent_at = self.monotonic()
 
     def command(
-        self, command: int, *params: float, retries: int = 2, timeout_s: float = 0.5
+        self,
+        command: int,
+        *params: float,
+        retries: int = 2,
+        timeout_s: float = 0.5,
+        request: int | None = None,
     ) -> CommandHandle:
-        """Send COMMAND_LONG now; re-sent up to ``retries`` times ``timeout_s`` apart until answered."""
+        """Send COMMAND_LONG; re-sent up to ``retries`` times ``timeout_s`` apart until answered.
+
+        No command replaces another: each is tracked until its own answer or its last try. With
+        ``request`` (a number the autopilot echoes in COMMAND_ACK.result_param2; the caller puts
+        it in the parameter the receiver reads it from) it is sent at once and only an ACK
+        carrying that number answers it. Without one, an ACK says only which command id it
+        answers, so a command whose id already has one in flight waits its turn."""
         if self.info is None:
             raise LinkError("no autopilot found yet: wait_autopilot() before sending commands")
         if len(params) > 7:
             raise LinkError(f"COMMAND_LONG takes at most 7 parameters, got {len(params)}")
-        h = CommandHandle(command, tuple(float(x) for x in params), retries, timeout_s)
-        # A newer command of the same id supersedes an older one still pending.
-        for old in self._commands:
-            if old.command == command and not old.done:
-                old.state = "timeout"
-        self._commands = [c for c in self._commands if not c.done]
-        self._transmit(h)
+        if request is not None and (isinstance(request, bool) or not isinstance(request, int)):
+            raise LinkError(f"a request number must be a whole number, got {request!r}")
+        if request is not None and not (-(2**31) <= request < 2**31):
+            raise LinkError(f"a request number must fit COMMAND_ACK.result_param2 (int32), got {request}")
+        h = CommandHandle(command, tuple(float(x) for x in params), retries, timeout_s, request)
+        busy = any(c.command == command and c.request is None and not c.done for c in self._commands)
         self._commands.append(h)
+        if request is not None or not busy:
+            self._transmit(h)
         return h
 
     def request_message(self, msg_id: int) -> None:
@@ -441,6 +591,10 @@ class Link:
         """Ask for ``msg_id`` at ``hz`` (MAV_CMD_SET_MESSAGE_INTERVAL; 0 < hz <= 200)."""
         if not (0 < hz <= 200):
             raise LinkError(f"stream rate must be in (0, 200] Hz, got {hz!r}")
+        name = mavlink.mavlink_map[msg_id].msgname if msg_id in mavlink.mavlink_map else None
+        if name is not None and (self.filter is None or msg_id in self.filter.keep):
+            # a stream the link does not decode is not read, so its rate is not checked
+            self.streams[name] = _Stream(name, float(hz), self.clock.now())
         return self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz)
 
     def send_statustext(self, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
@@ -453,20 +607,36 @@ class Link:
         r = self._rates.get(mtype)
         return 0.0 if r is None else r.hz(self.monotonic(), window)
 
+    def delivered_hz(self, name: str) -> float | None:
+        """The rate a requested stream delivers (distinct samples per vehicle second) over the last
+        :data:`STREAM_WINDOW_S` since it was requested and since telemetry last resumed; None when
+        less than :data:`STREAM_MIN_SPAN_S` of vehicle time has passed."""
+        s = self.streams[name]
+        now = self.clock.now()
+        start = max(s.since, self.resumed_at, now - STREAM_WINDOW_S)
+        span = now - start
+        if span < STREAM_MIN_SPAN_S:
+            return None
+        return sum(1 for t in s.stamps if start < t <= now) / span
+
     @property
     def lost(self) -> bool:
-        """The autopilot silent for ``link_loss_s`` local seconds, or talking without a HEARTBEAT
-        for ``link_loss_s`` of its own time (true before the first HEARTBEAT).
+        """The autopilot silent for ``link_loss_s`` local seconds, talking but with
+        ``heartbeats_missed`` of its 1 Hz HEARTBEATs missed in its own time, or rebooted (true
+        before the first HEARTBEAT).
 
-        Silence is measured locally, since a silent vehicle's clock stands still; a missing
-        HEARTBEAT is measured in vehicle time, so a simulated vehicle slowed by a loaded machine
-        (its 1 Hz heartbeat further apart in local time) is not taken for a lost one."""
+        Silence is measured locally, since a silent vehicle's clock stands still; missing
+        HEARTBEATs are counted in vehicle time, so a simulated vehicle slowed by a loaded machine
+        (its 1 Hz heartbeat further apart in local time) is not taken for a lost one. One lost
+        HEARTBEAT (a dropped frame on a noisy link) is not link loss."""
+        if self.rebooted:
+            return True
         if self._last_heartbeat_rx is None or self._last_rx is None:
             return True
         if self.monotonic() - self._last_rx > self.link_loss_s:
             return True
         hb = self._last_heartbeat_vt
-        return hb is not None and self.age(hb) > self.link_loss_s
+        return hb is not None and self.age(hb) > self.heartbeats_missed * AUTOPILOT_HEARTBEAT_S
 
     def age(self, stamp_s: float) -> float:
         """Vehicle seconds since ``stamp_s``, counted from where telemetry resumed if it had a gap
@@ -495,3 +665,20 @@ class Link:
     def close(self) -> None:
         """Close the connection."""
         self.conn.close()
+
+
+def stream_refusal(link: Link | None, min_fraction: float) -> str | None:
+    """Why the requested streams cannot carry a landing, or None: the first stream delivering less
+    than ``min_fraction`` of its requested rate in vehicle time (a refused request delivers
+    nothing), or one not measured yet. None without a link (a machine stepped without one)."""
+    if link is None or not isinstance(link, Link):
+        return None
+    for name, s in link.streams.items():
+        got = link.delivered_hz(name)
+        if got is None:
+            return f"stream {name} not measured yet ({STREAM_MIN_SPAN_S:g} s of vehicle time needed)"
+        if got < min_fraction * s.hz:
+            return (
+                f"stream {name} delivers {got:.1f} Hz of {s.hz:g} Hz requested (less than {min_fraction:.0%})"
+            )
+    return None

@@ -69,6 +69,7 @@ class Lander:
         slope_deg: float | None = None,
     ) -> None:
         self.link = link
+        link.heartbeats_missed = cfg["link.heartbeats_missed"]  # the link's loss rule, from the settings
         self.cfg = cfg
         self.legs = legs
         self.act = MavActions(link, cfg, legs)

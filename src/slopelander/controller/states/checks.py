@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from slopelander.controller.link import stream_refusal
 from slopelander.controller.states.base import SCRIPT_CONTRACT, Context, Inputs, State
 
 
@@ -48,6 +49,8 @@ class Checks(State):
 
     def step(self, ctx: Context, inp: Inputs):
         why = refusal(inp) or angle_refusal(ctx, inp)
+        # the streams the landing reads deliver at least link.min_delivered_fraction of their rate
+        why = why or stream_refusal(getattr(ctx.act, "link", None), ctx.cfg["link.min_delivered_fraction"])
         if why is not None:
             return ("ABORTED", f"check failed: {why}")
         return ("DESCEND", "checks passed")
