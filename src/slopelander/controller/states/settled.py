@@ -33,7 +33,8 @@ def request_disarm(ctx: Context, inp: Inputs) -> None:
 
 class Settled(State):
     """Has the vehicle disarmed once it has been still (:func:`still`: accel 1 g and speed low)
-    for ``settle.still_s``, and moves to LANDED when the HEARTBEAT shows it disarmed. A slide (faster than ``settle.slide_speed_mps`` and more than
+    for ``settle.still_s``, and moves to LANDED when the HEARTBEAT shows it disarmed. A slide
+    (faster than ``settle.slide_speed_mps`` and more than
     ``settle.slide_m`` from where SETTLED began) is not disarmed: the landing is aborted to the
     pilot, armed, in LOITER (docs/failsafes.md)."""
 
