@@ -2,30 +2,44 @@
 
 Each part owns a ``cli`` module with ``register(subparsers)``; the handler it
 installs calls a function a user could call from Python.
+
+A command must answer at once: these modules import only the standard library, yaml and the
+leg protocol at module level; the model, numba, scipy, matplotlib and tqdm are imported inside
+the handlers that need them (tests/cli/test_cli_latency.py checks it, benchmarks/cli_latency.py
+measures it).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import sys
 
 from slopelander import __version__
 from slopelander.errors import SlopelanderError
 
+SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa")
+"""The importable names the ``sim`` extra installs (pyproject.toml)."""
+
 # Modules that add subcommands, in the order they appear in ``--help``, with the subcommands
-# each adds: on a companion computer that installed only the core, the simulation's are listed
-# but say which extra they need.
+# each adds and whether they need the ``sim`` extra: on a companion computer that installed only
+# the core, the simulation's are listed but say which extra they need.
 SUBCOMMAND_MODULES = {
-    "slopelander.demo_cli": ("demo",),
-    "slopelander.land_cli": ("land",),
-    "slopelander.legs.cli": ("legs",),
-    "slopelander.simulate_cli": ("simulate",),
-    "slopelander.params_cli": ("params",),
-    "slopelander.envelope.cli": ("map", "table"),
-    "slopelander.lookup_cli": ("lookup",),
-    "slopelander.ident.cli": ("synth", "compare", "fit", "diagnose", "steps"),
+    "slopelander.demo_cli": (("demo",), True),
+    "slopelander.land_cli": (("land",), False),
+    "slopelander.legs.cli": (("legs",), False),
+    "slopelander.simulate_cli": (("simulate",), True),
+    "slopelander.params_cli": (("params",), True),
+    "slopelander.envelope_cli": (("map", "table"), True),
+    "slopelander.lookup_cli": (("lookup",), False),
+    "slopelander.ident.cli": (("synth", "compare", "fit", "diagnose", "steps"), True),
 }
+
+
+def missing_sim_module() -> str | None:
+    """The first module of the ``sim`` extra that is not installed (found without importing it)."""
+    return next((m for m in SIM_EXTRA if importlib.util.find_spec(m) is None), None)
 
 
 class _DefaultsFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -54,7 +68,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"slopelander {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for module, names in SUBCOMMAND_MODULES.items():
+    missing = missing_sim_module()
+    for module, (names, needs_sim) in SUBCOMMAND_MODULES.items():
+        if needs_sim and missing:
+            _needs_extra(subparsers, names, missing)
+            continue
         try:
             importlib.import_module(module).register(subparsers)
         except ModuleNotFoundError as exc:
@@ -87,6 +105,15 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.handler(args) or 0)
     except SlopelanderError as exc:
         print(f"slopelander {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except ModuleNotFoundError as exc:
+        if (exc.name or "").split(".")[0] not in SIM_EXTRA:
+            raise
+        print(
+            f"slopelander {args.command}: error: needs the simulation extra ({exc.name} is not "
+            "installed): pip install 'slopelander[sim]'",
+            file=sys.stderr,
+        )
         return 1
     except KeyboardInterrupt:
         # Commands that write files as they go (map) say what they wrote themselves.

@@ -5,6 +5,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from slopelander.outputs import check_output_dir
+
+
+class _RenamedSpeed(argparse.Action):
+    """``demo --speed`` was the simulation rate, while ``--speed`` is the impact speed in
+    ``simulate`` and ``lookup``: refused with the new name rather than read two ways."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[override]
+        parser.error(
+            f"--speed {values}: the simulation rate is now --time-scale {values} (simulated seconds per "
+            "wall second); the impact speed of the demo follows from --slope and the lookup table"
+        )
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -16,7 +29,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "transitions and a picture of the flight.",
     )
     p.add_argument("--slope", type=float, default=35.0, help="roof slope, deg (0..60)")
-    p.add_argument("--speed", type=float, default=2.0, help="simulated seconds per wall second")
+    p.add_argument(
+        "--time-scale", type=float, default=2.0, metavar="X", help="simulated seconds per wall second"
+    )
+    p.add_argument("--speed", action=_RenamedSpeed, help=argparse.SUPPRESS)
     p.add_argument("--table", type=Path, default=None, help="lookup table (default: the shipped one)")
     p.add_argument("--out", type=Path, default=Path("slopelander-demo"), help="output folder")
     p.add_argument("--no-plot", action="store_true", help="skip the picture")
@@ -24,10 +40,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_output_dir(args.out, "--out")
     from slopelander.demo import run_demo
 
     result = run_demo(
-        out=args.out, slope_deg=args.slope, speed=args.speed, table=args.table, plot=not args.no_plot
+        out=args.out, slope_deg=args.slope, speed=args.time_scale, table=args.table, plot=not args.no_plot
     )
     print(result.summary())
     return 0 if result.outcome == "LANDED_AND_RESET" else 3

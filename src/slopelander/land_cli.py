@@ -1,32 +1,153 @@
-"""``slopelander land``: one landing on a real (or simulated) vehicle from the companion."""
+"""``slopelander land``: one landing on a real (or simulated) vehicle from the companion.
+
+Every argument is checked before the autopilot is contacted: the connection string's form, the
+slope against the lookup table, the output file, the calibration, and the leg board itself (it is
+opened once and asked what it is: a real board flies only with a measured calibration). The state
+changes are printed as they happen.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import re
+import sys
 from pathlib import Path
+from typing import IO
 
 from slopelander.errors import SlopelanderError
+from slopelander.outputs import check_output
+
+NETWORK_SCHEMES = ("tcp", "tcpin", "udp", "udpin", "udpout", "udpbcast")
+"""pymavlink's network connection strings (``mavutil.mavlink_connection``): SCHEME:HOST:PORT."""
+
+CONNECT_FORMS = (
+    "tcp:HOST:PORT, tcpin:HOST:PORT, udpin:HOST:PORT, udpout:HOST:PORT, udpbcast:HOST:PORT, "
+    "udp:HOST:PORT (= udpin), or a serial device such as /dev/ttyACM0 (with --baud)"
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("land", help="land on a slope: preset the legs, descend, reflex, disarm")
-    p.add_argument("--connect", required=True, help="MAVLink connection string, e.g. udpin:0.0.0.0:14550")
+    p.add_argument(
+        "--connect",
+        required=True,
+        help="MAVLink connection: tcp:HOST:PORT, tcpin:HOST:PORT, udpin:HOST:PORT, udpout:HOST:PORT "
+        "or a serial device (/dev/ttyACM0, with --baud)",
+    )
+    p.add_argument("--baud", type=int, help="baud rate of a serial --connect device (default 115200)")
     p.add_argument("--legs", required=True, help="leg board serial port, e.g. /dev/ttyACM1")
-    p.add_argument("--slope", required=True, type=float, help="slope of the landing site, deg (0..89)")
+    p.add_argument(
+        "--slope",
+        required=True,
+        type=float,
+        help="slope of the landing site, deg (within the lookup table's slopes: 0..60 for the shipped one)",
+    )
     p.add_argument("--table", help="lookup table file (YAML); default: the shipped table")
     p.add_argument("--config", help="controller settings overriding the shipped defaults")
     p.add_argument(
-        "--record", default="landing.jsonl", help="transitions as JSON lines (default landing.jsonl)"
+        "--calibration",
+        metavar="FILE",
+        help="the leg board's measured current-to-torque calibration (YAML, docs/leg-protocol.md); "
+        "required for a real board, the simulated board may fly the shipped assumed curve",
     )
+    p.add_argument("--record", metavar="FILE", help="also write the state changes here, as JSON lines")
     p.add_argument(
         "--timeout", type=float, default=120.0, help="give up (abort) after this many s (default 120)"
     )
     p.set_defaults(handler=run)
 
 
+def connection_string(text: str, baud: int | None) -> str:
+    """The pymavlink string for ``--connect``/``--baud``, or a one-line error naming the forms."""
+    text = text.strip()
+    bad = SlopelanderError(f"--connect {text!r} is not a MAVLink connection; use {CONNECT_FORMS}")
+    scheme, _, rest = text.partition(":")
+    if scheme in NETWORK_SCHEMES or re.fullmatch(r"[\w.-]+:\d+", text):
+        host, _, port = (rest if scheme in NETWORK_SCHEMES else text).rpartition(":")
+        if not host or not port.isdigit() or not 0 < int(port) < 65536:
+            raise bad
+        if baud is not None:
+            raise SlopelanderError(f"--baud is for a serial device, not for --connect {text}")
+        return text
+    device, comma, rate = text.partition(",")
+    if not (device.startswith("/dev/") or re.fullmatch(r"COM\d+", device, re.IGNORECASE)):
+        raise bad
+    if comma and (not rate.isdigit() or baud is not None):
+        raise SlopelanderError(f"--connect {text!r}: give the baud rate with --baud only")
+    speed = baud if baud is not None else int(rate) if comma else None
+    if speed is not None and speed <= 0:
+        raise SlopelanderError(f"--baud must be a positive number, got {speed}")
+    if device.startswith("/dev/") and not Path(device).exists():
+        raise SlopelanderError(f"--connect {device}: no such device")
+    return device if speed is None else f"{device},{speed}"
+
+
+class LiveTransitions:
+    """Where the state machine writes each transition (a JSON line): printed at once, and copied
+    to the ``--record`` file when there is one."""
+
+    def __init__(self, record: IO[str] | None = None, out: IO[str] | None = None) -> None:
+        self.record = record
+        self.out = out or sys.stdout
+
+    def write(self, text: str) -> int:
+        if self.record is not None:
+            self.record.write(text)
+        for line in text.splitlines():
+            with_keys = json.loads(line) if line.strip() else {}
+            if "to" in with_keys:
+                print(format_transition(with_keys), file=self.out, flush=True)
+        return len(text)
+
+    def flush(self) -> None:
+        if self.record is not None:
+            self.record.flush()
+
+
+def format_transition(h: dict) -> str:
+    return f"{h['t']:9.3f} s  {h['from'] or '-':>9} -> {h['to']:<9} {h['reason']}"
+
+
 def run(args: argparse.Namespace) -> int:
+    if not (math.isfinite(args.slope) and 0 <= args.slope < 90):
+        raise SlopelanderError(f"--slope must be within 0..89 deg, got {args.slope:g}")
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise SlopelanderError(f"--timeout must be a positive number of seconds, got {args.timeout:g}")
+    url = connection_string(args.connect, args.baud)
+    check_output(args.record, "--record")
+
     from slopelander.controller.config import load_config
+    from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+    from slopelander.legs.calibration import load_calibration
+    from slopelander.legs.driver import LegBoard
+
+    cfg = load_config(args.config)
+    table = LookupTable.load(args.table or DEFAULT_TABLE)
+    lo, hi = table.slope_range
+    if not lo <= args.slope <= hi:
+        raise SlopelanderError(
+            f"--slope {args.slope:g} is outside the lookup table's slopes {lo:g}..{hi:g} deg "
+            f"({args.table or 'the shipped table'})"
+        )
+    if "://" not in args.legs and not Path(args.legs).exists():  # pyserial also takes URLs
+        raise SlopelanderError(f"--legs {args.legs}: no such device (is the leg board plugged in?)")
+    calibration = load_calibration(args.calibration)
+    with LegBoard.open(args.legs, calibration=calibration) as probe:  # what board is it?
+        simulated = probe.info is not None and probe.info.simulated
+    if not simulated and (args.calibration is None or calibration.assumed):
+        why = "no --calibration given" if args.calibration is None else f"{args.calibration} is assumed"
+        raise SlopelanderError(
+            f"a real leg board flies only with a measured calibration ({why}): "
+            "measure the current-to-torque curve and pass it with --calibration FILE"
+        )
+    if calibration.assumed:
+        print(f"(simulated leg board: torques through the ASSUMED calibration {calibration.source})")
+    return _fly(args, url, cfg, table, calibration)
+
+
+def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
     from slopelander.controller.landing import (
         angle_instruction,
         cut_dynamics,
@@ -36,21 +157,11 @@ def run(args: argparse.Namespace) -> int:
     from slopelander.controller.link import LANDING_MESSAGES, Link
     from slopelander.controller.rc_presets import preset_for
     from slopelander.controller.runner import Lander
-    from slopelander.controller.table import LookupTable
-    from slopelander.legs.calibration import load_calibration
     from slopelander.legs.driver import LegBoard
 
-    if not (math.isfinite(args.slope) and 0 <= args.slope < 90):
-        raise SlopelanderError(f"--slope must be within 0..89 deg, got {args.slope:g}")
-    if not (math.isfinite(args.timeout) and args.timeout > 0):
-        raise SlopelanderError(f"--timeout must be a positive number of seconds, got {args.timeout:g}")
-    cfg = load_config(args.config)
-    from slopelander.controller.table import DEFAULT_TABLE
-
-    table = LookupTable.load(args.table or DEFAULT_TABLE)
-    calibration = load_calibration()
-    link = Link(args.connect, link_loss_s=cfg["link.link_loss_s"], decode=LANDING_MESSAGES)
+    link = Link(url, link_loss_s=cfg["link.link_loss_s"], decode=LANDING_MESSAGES)
     legs = None
+    rec = None
     try:
         info = link.wait_autopilot(timeout_s=10.0)
         print(f"autopilot: {info.describe()}")
@@ -80,22 +191,24 @@ def run(args: argparse.Namespace) -> int:
         if todo is not None:
             print(todo)
             link.send_statustext(f"SL set uphill legs to {preset.angle_up_deg:.1f} deg")
-        with Path(args.record).open("w") as rec:
-            lander = Lander(
-                link,
-                cfg,
-                (up, down),
-                legs=legs,
-                record=rec,
-                uphill_angle_deg=preset.angle_up_deg,
-                slope_deg=args.slope,
-            )
-            end = lander.run(args.timeout)
-        for h in lander.machine.history:
-            print(f"{h['t']:9.3f} s  {h['from'] or '-':>9} -> {h['to']:<9} {h['reason']}")
-        print(f"outcome: {end}")
+        rec = Path(args.record).open("w") if args.record else None  # noqa: SIM115 (closed below)
+        lander = Lander(
+            link,
+            cfg,
+            (up, down),
+            legs=legs,
+            record=LiveTransitions(rec),
+            uphill_angle_deg=preset.angle_up_deg,
+            slope_deg=args.slope,
+        )
+        end = lander.run(args.timeout)
+        print(f"outcome: {end}", flush=True)
+        if args.record:
+            print(f"transitions: {args.record}")
         return 0 if end == "LANDED" else 3
     finally:
+        if rec is not None:
+            rec.close()
         if legs is not None:
             legs.close()
         link.close()

@@ -31,14 +31,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from slopelander.model import ModelParams
-    from slopelander.model.parameters import SPECS, commented_yaml
-
     if args.dump not in (None, "-"):
         out = Path(args.dump)
         check_output(out, "--dump")
         if out.exists():
             raise SlopelanderError(f"--dump {out} exists; remove it or choose another name")
+    from slopelander.model import ModelParams
+    from slopelander.model.parameters import SPECS, commented_yaml
+
     params = ModelParams.load(args.params) if args.params else ModelParams.default()
     if args.dump is None:
         for spec in SPECS:

@@ -6,12 +6,28 @@ import argparse
 import csv
 import math
 from pathlib import Path
+from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 from slopelander.errors import SlopelanderError
-from slopelander.model import LandingConditions, Model, Trajectory, load_effects, simulate
 from slopelander.outputs import check_output
 
-_D = LandingConditions()
+if TYPE_CHECKING:
+    from slopelander.model import Model, Trajectory
+
+# ``LandingConditions()``'s defaults, written out so that ``--help`` and argument errors answer
+# without importing the model (numba); tests/cli/test_cli_latency.py keeps them equal.
+_D = SimpleNamespace(
+    slope_deg=0.0,
+    speed=2.0,
+    horizontal_speed=0.0,
+    pitch_deg=0.0,
+    pitch_rate_dps=0.0,
+    tau_up=1.7,
+    tau_down=1.7,
+    angle_up_deg=37.5,
+    angle_down_deg=37.5,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -61,6 +77,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def build_model(args: argparse.Namespace) -> Model:
+    from slopelander.model import Model, load_effects
+
     model = Model.from_file(str(args.params)) if args.params else Model.default()
     if args.rigid:
         model = model.rigid()
@@ -75,6 +93,8 @@ def build_model(args: argparse.Namespace) -> Model:
 def run(args: argparse.Namespace) -> int:
     check_output(args.plot, "--plot")
     check_output(args.csv, "--csv")
+    from slopelander.model import LandingConditions, simulate
+
     pct = args.rvt_percent if args.rvt_percent is not None else (100.0 if args.rvt else 0.0)
     if pct > 0 and "rotors" in args.without:
         raise SlopelanderError(

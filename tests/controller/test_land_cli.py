@@ -47,8 +47,12 @@ def test_bad_input_is_one_clear_line(args, message):
 
 
 def test_no_autopilot_is_reported():
-    out = land(
-        "--connect", f"udpin:127.0.0.1:{port()}", "--legs", "/nonexistent/tty", "--slope", "20", timeout=30
-    )
+    from sitl.vehicle.launch import start_legboard
+
+    board = start_legboard()  # the leg board is checked first, before the autopilot is waited for
+    try:
+        out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs", board.pty, "--slope", "20", timeout=30)
+    finally:
+        board.stop()
     assert out.returncode == 1 and "no autopilot heartbeat within 10 s" in out.stderr
     assert "Traceback" not in out.stderr

@@ -23,7 +23,7 @@ def _env() -> dict[str, str]:
 def demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[subprocess.CompletedProcess, Path]:
     out = tmp_path_factory.mktemp("demo") / "out"
     proc = subprocess.run(
-        [sys.executable, "-m", "slopelander.cli", "demo", "--out", str(out), "--speed", "3"],
+        [sys.executable, "-m", "slopelander.cli", "demo", "--out", str(out), "--time-scale", "3"],
         capture_output=True,
         text=True,
         timeout=400,

@@ -13,6 +13,8 @@ import time
 from collections.abc import Callable
 from typing import IO
 
+from pymavlink import mavutil
+
 from slopelander.controller.actions import MODES, MavActions
 from slopelander.controller.config import Config
 from slopelander.controller.impact import ImpactDetector, raw_imu_accel
@@ -23,7 +25,9 @@ from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.base import Context, Inputs
 from slopelander.legs.errors import LegBoardError
 
-MODE_NAMES = {v: k for k, v in MODES.items()}
+#: ArduCopter's mode numbers by name (pymavlink's table of ArduCopter/mode.h), so that a refusal
+#: reads "mode STABILIZE, GUIDED needed"; a number it does not know reads as "number N"
+MODE_NAMES = {**mavutil.mode_mapping_acm, **{v: k for k, v in MODES.items()}}
 ENDINGS = ("LANDED", "ABORTED", "ESTOP", "READY")
 SCRIPT_ESTOP = ScriptState.ESTOP
 
@@ -106,7 +110,7 @@ class Lander:
         ln, cfg = self.link, self.cfg
         t = ln.clock.now()
         hb = ln.last.get("HEARTBEAT")
-        mode = MODE_NAMES.get(hb.custom_mode, f"mode {hb.custom_mode}") if hb else "unknown"
+        mode = MODE_NAMES.get(hb.custom_mode, f"number {hb.custom_mode}") if hb else "unknown"
         armed = bool(hb and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
         ds = ln.last.get("DISTANCE_SENSOR")
         range_m, range_ok = None, False

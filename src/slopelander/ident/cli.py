@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from slopelander.errors import SlopelanderError
-from slopelander.model import Model, ParameterError, load_effects
+from slopelander.outputs import check_output, check_output_dir
+
+if TYPE_CHECKING:
+    from slopelander.model import Model
 
 
 class IdentCliError(SlopelanderError):
@@ -23,6 +27,8 @@ def _model_args(p: argparse.ArgumentParser, what: str) -> None:
 
 def build_model(args: argparse.Namespace) -> Model:
     """The model the options describe: a parameter file, effects off, user effects, overrides."""
+    from slopelander.model import Model, ParameterError, load_effects
+
     model = Model.from_file(str(args.params)) if args.params else Model.default()
     if args.without:
         model = model.without(*args.without)
@@ -75,11 +81,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_synth(args: argparse.Namespace) -> int:
+    check_output_dir(args.out, "--out")
     from slopelander.ident.recording import write_dataset
     from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesize
-    from slopelander.outputs import check_output_dir
 
-    check_output_dir(args.out, "--out")
     if args.out.exists() and any(args.out.glob("*.csv")):
         raise IdentCliError(f"--out {args.out} already holds drops; choose an empty folder")
     if not 1 <= args.drops <= 1000:
@@ -138,12 +143,11 @@ def register_compare(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_compare(args: argparse.Namespace) -> int:
+    check_output_dir(args.report, "--report")
     from slopelander.ident.compare import compare
     from slopelander.ident.recording import STATES, load_dataset
     from slopelander.ident.report import write_report
-    from slopelander.outputs import check_output_dir
 
-    check_output_dir(args.report, "--report")
     drops = load_dataset(args.dataset)
     model = build_model(args)
     c = compare(model, drops)
@@ -261,11 +265,10 @@ def register_fit(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_fit(args: argparse.Namespace) -> int:
+    check_output(args.out, "--out")
     from slopelander.ident.fit import FitError, fit_subsets, resolve_params
     from slopelander.ident.recording import load_dataset
-    from slopelander.outputs import check_output
 
-    check_output(args.out, "--out")
     drops = load_dataset(args.dataset)
     model = build_model(args)
     names, bounds = _fit_spec(args.fit)
@@ -324,6 +327,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from slopelander.ident.diagnose import diagnose
     from slopelander.ident.fit import FitError
     from slopelander.ident.recording import load_dataset
+    from slopelander.model import load_effects
 
     drops = load_dataset(args.dataset)
     model = build_model(args)
@@ -374,13 +378,13 @@ def register_steps(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_steps_cmd(args: argparse.Namespace) -> int:
+    check_output(args.plot, "--plot")
     from slopelander.ident.diagnose import BUILTIN_CANDIDATES, Candidate
     from slopelander.ident.fit import FitError
     from slopelander.ident.recording import load_dataset
     from slopelander.ident.steps import run_steps
-    from slopelander.outputs import check_output
+    from slopelander.model import load_effects
 
-    check_output(args.plot, "--plot")
     users = {e.name: e for e in load_effects(args.candidates)} if args.candidates else {}
     effects = []
     for name in args.add:

@@ -214,27 +214,55 @@ def check_types(effect: UserEffect) -> None:
 def compiling_notice(
     what: str = "the model", dispatcher: object = None, after: float = 3.0
 ) -> Iterator[None]:
-    """Say on stderr that compiling is under way if a first call takes more than ``after`` s.
+    """Say on stderr that compiling is under way once numba has been compiling for ``after`` s.
 
-    Loading the compiled code from the cache takes up to about 2 s on a busy machine, compiling
-    about half a minute. With ``dispatcher`` (a numba function), say nothing once it holds
-    compiled code: a long batch of landings is work, not compiling.
+    Only a real compilation counts (numba's ``numba:compile`` event, which a cache hit does not
+    raise): loading the cached code can take a few seconds on a busy machine, and a slow start
+    is then not announced as a half-minute compile. With ``dispatcher`` (a numba function), say
+    nothing once it holds compiled code: a long batch of landings is work, not compiling.
     """
     if getattr(dispatcher, "signatures", None):
         yield
         return
-    timer = threading.Timer(
-        after,
-        lambda: print(
+    from numba.core import event
+
+    lock = threading.Lock()
+    state = {"depth": 0, "said": False, "timer": None}
+
+    def say() -> None:
+        with lock:
+            state["timer"] = None
+            if state["said"] or state["depth"] <= 0:
+                return  # the compile it was armed for is over: the next one arms it again
+            state["said"] = True
+        print(
             f"slopelander: compiling {what} (first run after an install or an effect change, "
             "about half a minute; later runs use the cache)...",
             file=sys.stderr,
             flush=True,
-        ),
-    )
-    timer.daemon = True
-    timer.start()
+        )
+
+    class Compiles(event.Listener):
+        def on_start(self, ev: object) -> None:
+            with lock:
+                state["depth"] += 1
+                if state["said"] or state["timer"] is not None:
+                    return
+                timer = threading.Timer(after, say)
+                timer.daemon = True
+                state["timer"] = timer
+            timer.start()
+
+        def on_end(self, ev: object) -> None:
+            with lock:
+                state["depth"] -= 1
+
     try:
-        yield
+        with event.install_listener("numba:compile", Compiles()):
+            yield
     finally:
-        timer.cancel()
+        with lock:
+            state["said"] = True  # nothing more after the block
+            timer = state["timer"]
+        if timer is not None:
+            timer.cancel()

@@ -1,0 +1,104 @@
+"""How long the command line takes to answer: ``--help``, ``--version``, each subcommand's
+``--help`` and an argument error of each, ``legs status`` against the simulated leg board, and a
+second ``simulate`` (the model's compiled code already cached).
+
+Each figure is the median wall time of several runs of a fresh process, printed beside the
+median of ``python -c pass`` (the interpreter's own start) and their ratio, with the load average.
+Goal (issue 23): under 0.5 s each, a second ``simulate`` under 1.5 s, on a quiet machine.
+
+    python3 benchmarks/cli_latency.py [--runs 7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO / "src"), str(REPO)])}
+CLI = [sys.executable, "-m", "slopelander.cli"]
+
+CASES: list[tuple[str, list[str]]] = [
+    ("--help", ["--help"]),
+    ("--version", ["--version"]),
+    ("simulate --help", ["simulate", "--help"]),
+    ("map --help", ["map", "--help"]),
+    ("fit --help", ["fit", "--help"]),
+    ("demo --slope x", ["demo", "--slope", "x"]),
+    ("land (no --connect)", ["land", "--legs", "/dev/null", "--slope", "35"]),
+    ("land --slope 70", ["land", "--connect", "tcp:127.0.0.1:9", "--legs", "/dev/null", "--slope", "70"]),
+    (
+        "land --connect garbage:foo",
+        ["land", "--connect", "garbage:foo", "--legs", "/dev/null", "--slope", "35"],
+    ),
+    ("legs status (no --port)", ["legs", "status"]),
+    ("simulate --slope x", ["simulate", "--slope", "x"]),
+    ("lookup --speed x", ["lookup", "--slope", "35", "--speed", "x"]),
+    ("params --dump /proc/p.yaml", ["params", "--dump", "/proc/p.yaml"]),
+    ("map rvt --out /proc/maps", ["map", "rvt", "--out", "/proc/maps"]),
+    ("table --out /proc/t.yaml", ["table", "--out", "/proc/t.yaml"]),
+    ("synth --drops x", ["synth", "--out", "/tmp/x", "--drops", "x"]),
+    ("compare (no dataset)", ["compare"]),
+]
+
+
+def median_seconds(argv: list[str], runs: int, env: dict[str, str] = ENV) -> float:
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        subprocess.run(argv, env=env, cwd=REPO, capture_output=True, timeout=300)
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def legs_status_seconds(runs: int) -> float:
+    """``legs status`` against the simulated leg board on a pseudo-terminal (started once)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        link = Path(tmp) / "legboard"
+        board = subprocess.Popen(
+            [sys.executable, "-m", "sitl.legboard", "--link", str(link)],
+            env=ENV,
+            cwd=REPO,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        try:
+            deadline = time.monotonic() + 30
+            while not link.exists() and time.monotonic() < deadline:
+                time.sleep(0.05)
+            ok = subprocess.run([*CLI, "legs", "status", "--port", str(link)], env=ENV, capture_output=True)
+            if ok.returncode != 0:
+                raise SystemExit(f"legs status failed: {ok.stderr.decode()[-500:]}")
+            return median_seconds([*CLI, "legs", "status", "--port", str(link)], runs)
+        finally:
+            board.terminate()
+            board.wait(10)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=7, help="runs per figure (median)")
+    args = ap.parse_args()
+    subprocess.run([*CLI, "simulate"], env=ENV, cwd=REPO, capture_output=True)  # fill the cache
+    base = median_seconds([sys.executable, "-c", "pass"], args.runs)
+    print(f"{time.strftime('%Y-%m-%d %H:%M')}  load {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(f"{'python -c pass':32s} {base:6.3f} s  (baseline)")
+    rows = [(name, median_seconds([*CLI, *argv], args.runs)) for name, argv in CASES]
+    rows.append(("legs status (simulated board)", legs_status_seconds(args.runs)))
+    rows.append(("simulate (second run)", median_seconds([*CLI, "simulate"], args.runs)))
+    for name, s in rows:
+        goal = 1.5 if name.startswith("simulate (") else 0.5
+        print(
+            f"{name:32s} {s:6.3f} s  {s / base:4.1f}x baseline  {'ok' if s < goal else 'OVER'} (< {goal} s)"
+        )
+    print(f"load after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()

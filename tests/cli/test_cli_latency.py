@@ -1,0 +1,99 @@
+"""The command line answers at once because parsing imports no science: checked by what a fresh
+process has imported, not by a clock (benchmarks/cli_latency.py measures the times)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("numpy", "numba", "scipy", "matplotlib", "tqdm", "cma", "lupa", "slopelander.model")
+
+PARSE = """
+import json, sys
+import slopelander.cli
+parser = slopelander.cli.build_parser()
+for argv in json.loads(sys.argv[1]):
+    try:
+        parser.parse_args(argv)
+    except SystemExit:
+        pass
+print(json.dumps(sorted(m for m in sys.modules if m.split(".")[0] in {heavy} or m in {heavy})))
+"""
+
+ARGVS = [
+    ["--help"],
+    ["--version"],
+    ["demo", "--slope", "20"],
+    ["land", "--connect", "tcp:127.0.0.1:5760", "--legs", "/tmp/legboard", "--slope", "35"],
+    ["legs", "status", "--port", "/dev/ttyACM0"],
+    ["simulate", "--slope", "35", "--rvt"],
+    ["simulate", "--slope", "x"],
+    ["params"],
+    ["map", "rvt", "--out", "maps"],
+    ["table", "--out", "t.yaml"],
+    ["lookup", "--slope", "35", "--speed", "1.5"],
+    ["synth", "--out", "drops"],
+    ["compare", "drops"],
+    ["fit", "drops", "--fit", "ground_damping"],
+    ["diagnose", "drops"],
+    ["steps", "drops", "--add", "leg_flex"],
+    ["map", "--help"],
+    ["fit", "--help"],
+]
+
+
+def _fresh(code: str, *args: str) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    return subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, env=env, timeout=120
+    )
+
+
+def test_importing_the_cli_and_parsing_every_command_imports_no_science() -> None:
+    done = _fresh(PARSE.format(heavy=set(HEAVY)), json.dumps(ARGVS))
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == []
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["land", "--connect", "tcp:127.0.0.1:9", "--legs", "/nonexistent/port", "--slope", "35"],
+        ["land", "--connect", "tcp:127.0.0.1:9", "--legs", "/dev/null", "--slope", "70"],
+        ["land", "--connect", "garbage:foo", "--legs", "/dev/null", "--slope", "35"],
+        ["legs", "status", "--port", "/nonexistent/port"],
+        ["lookup", "--slope", "75", "--speed", "1.5"],
+    ],
+    ids=lambda a: " ".join(a[:2]),
+)
+def test_the_refusals_of_the_flying_commands_import_no_science(argv: list[str]) -> None:
+    science = set(HEAVY) - {"numpy"}  # the lookup table is numpy, and so is the controller
+    code = (
+        "import sys; from slopelander.cli import main; rc = main(sys.argv[1:]); "
+        f"print(sorted(m for m in sys.modules if m.split('.')[0] in {science!r} or m in {science!r})); "
+        "sys.exit(rc)"
+    )
+    done = _fresh(code, *argv)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "Traceback" not in done.stderr and done.stderr.count("\n") == 1, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_the_simulate_defaults_written_out_are_the_models() -> None:
+    from slopelander.model import LandingConditions
+    from slopelander.simulate_cli import _D
+
+    model = dataclasses.asdict(LandingConditions())
+    assert vars(_D) == {k: model[k] for k in vars(_D)}
+
+
+def test_the_map_kinds_written_out_are_the_reports() -> None:
+    from slopelander.envelope.reports import MAP_KINDS
+    from slopelander.envelope_cli import MAP_KINDS as CLI_KINDS
+
+    assert CLI_KINDS == MAP_KINDS

@@ -1,0 +1,255 @@
+"""``slopelander land``: every argument checked before the autopilot is contacted, a real leg board
+flown only with a measured calibration, the state changes printed as they happen, nothing
+written unasked -- against real processes (the simulated vehicle and leg board, and a board that
+answers as a real one does)."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import socket
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT)])}
+
+
+def land(*args: str, cwd: Path | None = None, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "slopelander.cli", "land", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=ENV,
+        cwd=cwd,
+    )
+
+
+def free_udp() -> str:
+    """A UDP port nobody sends to: an autopilot that never answers (the wait for it is 10 s)."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return f"udpin:127.0.0.1:{port}"
+
+
+def one_line(out: subprocess.CompletedProcess[str]) -> str:
+    assert out.returncode == 1, out.stdout + out.stderr
+    assert "Traceback" not in out.stderr and out.stderr.count("\n") == 1, out.stderr
+    return out.stderr
+
+
+@pytest.mark.parametrize(
+    ("connect", "named"),
+    [
+        ("garbage:foo", "tcp:HOST:PORT"),
+        ("tcp:127.0.0.1", "tcp:HOST:PORT"),
+        ("udpin:0.0.0.0:99999", "udpin:HOST:PORT"),
+        ("/dev/no-such-tty", "no such device"),
+    ],
+)
+def test_a_connection_string_of_no_known_form_names_the_forms(connect: str, named: str) -> None:
+    err = one_line(land("--connect", connect, "--legs", "/dev/null", "--slope", "35"))
+    assert named in err and "invalid literal" not in err
+
+
+def test_baud_is_for_a_serial_device_only() -> None:
+    err = one_line(
+        land("--connect", "tcp:127.0.0.1:5760", "--baud", "57600", "--legs", "/dev/null", "--slope", "35")
+    )
+    assert "--baud is for a serial device" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--slope", "70"], "--slope 70 is outside the lookup table's slopes 0..60 deg"),
+        (["--slope", "35", "--record", "nope/x.jsonl"], "folder nope does not exist"),
+        (["--slope", "35", "--record", "/proc/x.jsonl"], "folder /proc is not writable"),
+    ],
+)
+def test_arguments_are_refused_before_the_autopilot_is_waited_for(args: list[str], message: str) -> None:
+    t0 = time.monotonic()
+    err = one_line(land("--connect", free_udp(), "--legs", "/dev/null", *args))
+    assert message in err
+    assert time.monotonic() - t0 < 8.0  # the wait for an autopilot alone is 10 s
+
+
+def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> None:
+    err = one_line(land("--connect", free_udp(), "--legs", "/dev/no-such-legboard", "--slope", "35"))
+    assert "--legs /dev/no-such-legboard: no such device" in err
+
+
+# A board that answers exactly as the simulated one does, except that it does not say it is
+# simulated: what a real leg board's HELLO_REPLY looks like.
+REAL_BOARD = textwrap.dedent(
+    """
+    import sys
+    from sitl.legboard.server import BoardServer
+    from slopelander.legs.messages import Capability
+    server = BoardServer(link=sys.argv[1])
+    server.capabilities = Capability.ANGLE_STOP
+    server.open()
+    print("ready", flush=True)
+    try:
+        server.serve_forever()
+    finally:
+        server.close()
+    """
+)
+
+
+@pytest.fixture
+def real_board(tmp_path: Path):
+    link = tmp_path / "legs"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", REAL_BOARD, str(link)], env=ENV, stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        yield link
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+def test_a_real_leg_board_without_a_measured_calibration_is_refused_before_the_autopilot(
+    real_board: Path, tmp_path: Path
+) -> None:
+    err = one_line(land("--connect", free_udp(), "--legs", str(real_board), "--slope", "35"))
+    assert "a real leg board flies only with a measured calibration (no --calibration given)" in err
+    # the shipped curve passed by name is still the assumed one
+    from slopelander.legs.calibration import default_calibration_path
+
+    err = one_line(
+        land(
+            "--connect",
+            free_udp(),
+            "--legs",
+            str(real_board),
+            "--slope",
+            "35",
+            "--calibration",
+            str(default_calibration_path()),
+        )
+    )
+    assert "is assumed" in err
+
+
+def test_a_real_leg_board_with_a_measured_calibration_goes_on_to_the_autopilot(
+    real_board: Path, tmp_path: Path
+) -> None:
+    from slopelander.legs.calibration import default_calibration_path
+
+    measured = tmp_path / "measured.yaml"
+    text = default_calibration_path().read_text()
+    assert "provenance: assumed" in text
+    measured.write_text(text.replace("provenance: assumed", "provenance: measured"))
+    out = land(
+        "--connect", free_udp(), "--legs", str(real_board), "--slope", "35", "--calibration", str(measured)
+    )
+    assert out.returncode == 1 and "no autopilot heartbeat within 10 s" in out.stderr, out.stderr
+
+
+@pytest.mark.slow
+def test_state_changes_print_as_they_happen_and_nothing_is_written_unasked(tmp_path: Path) -> None:
+    from sitl.vehicle.launch import start_legboard, start_vehicle
+
+    board = start_legboard(clock="external")
+    vehicle = start_vehicle(scenario={"slope_deg": 35.0}, legboard_control=board.control)
+    try:
+        t0 = time.monotonic()
+        args = ["--connect", vehicle.mavlink_url, "--legs", board.pty, "--slope", "35", "--timeout", "6"]
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "slopelander.cli", "land", *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=ENV,
+            cwd=tmp_path,
+        )
+        arrivals: list[tuple[float, str]] = []
+        for line in proc.stdout:
+            arrivals.append((time.monotonic() - t0, line.rstrip()))
+        proc.wait(60)
+        ended = time.monotonic() - t0
+    finally:
+        vehicle.stop()
+        board.stop()
+    lines = [text for _, text in arrivals]
+    assert any("(simulated leg board: torques through the ASSUMED calibration" in t for t in lines), lines
+    first = next(t for t, text in arrivals if "-> PRESET" in text)
+    aborted = next(t for t, text in arrivals if "-> ABORTED" in text and "not finished within 6 s" in text)
+    assert ended - first > 3.0, arrivals  # printed while landing, not all at the end
+    assert aborted - first > 3.0, arrivals
+    assert lines[-1] == "outcome: ABORTED", lines
+    assert list(tmp_path.iterdir()) == []  # no landing.jsonl without --record
+
+
+@pytest.mark.slow
+def test_the_record_holds_the_transitions_printed(tmp_path: Path) -> None:
+    import json
+
+    from sitl.vehicle.launch import start_legboard, start_vehicle
+
+    board = start_legboard(clock="external")
+    vehicle = start_vehicle(scenario={"slope_deg": 35.0}, legboard_control=board.control)
+    record = tmp_path / "flight.jsonl"
+    try:
+        out = land(
+            "--connect",
+            vehicle.mavlink_url,
+            "--legs",
+            board.pty,
+            "--slope",
+            "35",
+            "--timeout",
+            "3",
+            "--record",
+            str(record),
+        )
+    finally:
+        vehicle.stop()
+        board.stop()
+    assert out.returncode == 3, out.stderr
+    entries = [json.loads(x) for x in record.read_text().splitlines()]
+    assert [e["to"] for e in entries][:2] == ["PRESET", "LEGS_WAIT"] and entries[-1]["to"] == "ABORTED"
+    printed = [x for x in out.stdout.splitlines() if " -> " in x]
+    assert len(printed) == len(entries)
+    assert all(e["to"] in p and e["reason"] in p for e, p in zip(entries, printed, strict=True))
+    assert f"transitions: {record}" in out.stdout
+
+
+def test_a_refused_mode_is_named_once() -> None:
+    """CHECKS reads the mode from the vehicle's HEARTBEAT: STABILIZE (0) is a name, not "mode 0"."""
+    from sitl.vehicle.launch import start_vehicle
+    from slopelander.controller.config import load_config
+    from slopelander.controller.link import Link
+    from slopelander.controller.runner import Lander
+    from slopelander.controller.states.checks import refusal
+
+    vehicle = start_vehicle(scenario={"slope_deg": 35.0})
+    try:
+        link = Link(vehicle.mavlink_url)
+        try:
+            link.wait_autopilot(timeout_s=20)
+            assert link.last["HEARTBEAT"].custom_mode == 0  # it starts in STABILIZE
+            inp = Lander(link, load_config(None), (1.0, 1.0)).inputs()
+        finally:
+            link.close()
+    finally:
+        vehicle.stop()
+    from slopelander.controller.states.base import SCRIPT_CONTRACT
+
+    ready = dataclasses.replace(
+        inp, script_present=True, script_version=SCRIPT_CONTRACT, legs_ready=True, range_m=2.0, range_ok=True
+    )
+    ready = dataclasses.replace(ready, speed_mps=0.0)
+    assert refusal(ready) == "mode STABILIZE, GUIDED needed"
