@@ -7,6 +7,7 @@ import math
 import time
 from typing import TYPE_CHECKING
 
+from sitl.vehicle import arducopter_rules as rules
 from sitl.vehicle import modes
 from sitl.vehicle.flight_control import Target
 from sitl.vehicle.mavlink_endpoints import mavlink
@@ -19,7 +20,6 @@ TEMP_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 FAILED = mavlink.MAV_RESULT_FAILED
-MIN_INTERVAL_US = 5000  # 200 Hz at SCHED_LOOP_RATE 400
 AUX_MOTOR_ESTOP = 31
 
 
@@ -42,7 +42,7 @@ def _command_long(v: Vehicle, chan: int, m) -> None:
     p = (m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7)
     fn = _COMMANDS.get(cmd)
     if fn is None:
-        v.ack(cmd, UNSUPPORTED)
+        v.ack(cmd, rules.unknown_command_result())
         return
     if any(math.isnan(x) for x in p[:2]) and cmd != mavlink.MAV_CMD_NAV_TAKEOFF:
         v.ack(cmd, DENIED)
@@ -51,31 +51,26 @@ def _command_long(v: Vehicle, chan: int, m) -> None:
 
 
 def _arm(v: Vehicle, p) -> int:
-    force = int(p[1]) == 21196
-    if p[0] == 1:
-        return ACCEPTED if v.arm(force=force) else FAILED
-    if p[0] == 0:
-        return ACCEPTED if v.disarm() else FAILED
-    return DENIED
+    what, checks = rules.arm_disarm_request(p[0], p[1])
+    if what == "arm":
+        return ACCEPTED if v.arm(force=not checks) else FAILED
+    if what == "disarm":
+        return ACCEPTED if v.disarm(rules.GCS, checks=checks) else FAILED
+    return UNSUPPORTED
 
 
 def _do_set_mode(v: Vehicle, p) -> int:
-    if not int(p[0]) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-        return DENIED
-    return ACCEPTED if v.set_mode(int(p[1])) else DENIED
+    flag_ok = bool(int(p[0]) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+    return rules.set_mode_result(p[0], p[1], flag_ok and v.set_mode(int(p[1])))
 
 
 def _takeoff(v: Vehicle, p) -> int:
-    if v.mode != modes.GUIDED or not v.armed:
-        return FAILED
-    alt = p[6]
-    if not math.isfinite(alt) or alt <= 0:
-        return DENIED
-    b = v._world_body()
-    hz = v.home[1]
-    v.target = Target(x=b.x, z=hz + alt)
-    v.target_is_velocity = False
-    return ACCEPTED
+    return ACCEPTED if v.takeoff(p[6], p[2]) else FAILED
+
+
+def _do_set_servo(v: Vehicle, p) -> int:
+    # the stand-in drives no servo outputs besides the four motors; a free channel is accepted
+    return rules.do_set_servo_result(p[0])
 
 
 def _aux(v: Vehicle, p) -> int:
@@ -92,13 +87,12 @@ def _aux(v: Vehicle, p) -> int:
 
 def _interval(v: Vehicle, p) -> int:
     msgid, interval = int(p[0]), p[1]
-    if msgid not in v.streams.SENDERS:
-        return DENIED
-    if interval > 0 and interval < MIN_INTERVAL_US:
-        v.statustext(
-            f"Rate {1e6 / interval:.0f}Hz too high: increase SCHED_LOOP_RATE", mavlink.MAV_SEVERITY_WARNING
-        )
-        return DENIED
+    result = rules.message_interval_result(interval, v.params["SCHED_LOOP_RATE"], msgid in v.streams.SENDERS)
+    if result != ACCEPTED:
+        if msgid in v.streams.SENDERS:
+            text = f"Rate {1e6 / interval:.0f}Hz too high: increase SCHED_LOOP_RATE"
+            v.statustext(text, mavlink.MAV_SEVERITY_WARNING)
+        return result
     v.streams.set_interval(msgid, None if interval == 0 else (-1.0 if interval < 0 else interval / 1e6))
     return ACCEPTED
 
@@ -139,8 +133,9 @@ def _send_version(v: Vehicle) -> None:
 
 
 def _set_mode_msg(v: Vehicle, chan: int, m) -> None:
-    ok = bool(m.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) and v.set_mode(int(m.custom_mode))
-    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, ACCEPTED if ok else DENIED)
+    flag_ok = bool(m.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+    ok = flag_ok and v.set_mode(int(m.custom_mode))
+    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, rules.set_mode_result(m.base_mode, m.custom_mode, ok))
 
 
 def _param_value(v: Vehicle, name: str) -> None:
@@ -239,6 +234,7 @@ _COMMANDS = {
     mavlink.MAV_CMD_NAV_TAKEOFF: _takeoff,
     mavlink.MAV_CMD_NAV_LAND: _nav_land,
     mavlink.MAV_CMD_DO_AUX_FUNCTION: _aux,
+    mavlink.MAV_CMD_DO_SET_SERVO: _do_set_servo,
     mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: _interval,
     mavlink.MAV_CMD_REQUEST_MESSAGE: _request_message,
     mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: _capabilities,
