@@ -25,6 +25,7 @@ from pymavlink import mavutil
 
 M = mavutil.mavlink
 FORCE_DISARM = 21196  # GCS.h magic_force_arm_disarm_value
+TEXT_AFTER_ACK_S = 0.3
 RESULT_NAMES = {k: e.name.replace("MAV_RESULT_", "") for k, e in M.enums["MAV_RESULT"].items()}
 
 
@@ -71,6 +72,12 @@ class _Client:
             if m.get_type() == "STATUSTEXT":
                 texts.append(m.text)
             elif m.get_type() == "COMMAND_ACK" and m.command == cmd:
+                # ArduPilot queues its texts behind the ACK: gather them for a short while
+                end = time.monotonic() + TEXT_AFTER_ACK_S
+                while time.monotonic() < end:
+                    t = self._recv(0.05)
+                    if t is not None and t.get_type() == "STATUSTEXT":
+                        texts.append(t.text)
                 return Answer(name, cmd, p, int(m.result), texts)
         return Answer(name, cmd, p, None, texts)
 
@@ -143,6 +150,8 @@ def run_sequence(
     rec("interval_ext_state_5hz", interval, M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 200_000)
     rec("interval_attitude_50hz", interval, M.MAVLINK_MSG_ID_ATTITUDE, 20_000)
     rec("interval_imu_200hz", interval, M.MAVLINK_MSG_ID_HIGHRES_IMU, 5_000)
+    rec("interval_imu_250hz", interval, M.MAVLINK_MSG_ID_HIGHRES_IMU, 4_000)
+    rec("interval_imu_333hz", interval, M.MAVLINK_MSG_ID_HIGHRES_IMU, 3_000)
     rec("interval_imu_400hz", interval, M.MAVLINK_MSG_ID_HIGHRES_IMU, 2_500)
     rec("interval_imu_off", interval, M.MAVLINK_MSG_ID_HIGHRES_IMU, -1)
     rec("mode_unknown_99", M.MAV_CMD_DO_SET_MODE, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 99)

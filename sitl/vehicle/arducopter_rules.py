@@ -351,6 +351,44 @@ def guided_target_stale(has_velocity: bool, now_s: float, updated_s: float, guid
     return has_velocity and now_s - updated_s > guid_timeout_s
 
 
+_F = mavlink
+LOCAL_TARGET_FRAMES = {
+    _F.MAV_FRAME_LOCAL_NED,
+    _F.MAV_FRAME_LOCAL_OFFSET_NED,
+    _F.MAV_FRAME_BODY_NED,
+    _F.MAV_FRAME_BODY_OFFSET_NED,
+}
+GLOBAL_TARGET_FRAMES = {
+    _F.MAV_FRAME_GLOBAL,
+    _F.MAV_FRAME_GLOBAL_INT,
+    _F.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    _F.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+    _F.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+    _F.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+}
+
+
+def local_target_is_offset(frame: int) -> bool:
+    """GCS_MAVLINK_Copter::handle_message_set_position_target_local_ned
+    (ArduCopter/GCS_MAVLink_Copter.cpp): LOCAL_NED is from the EKF origin; LOCAL_OFFSET_NED,
+    BODY_NED and BODY_OFFSET_NED are offsets from the current position (BODY frames rotated by
+    yaw first); any other frame stops the vehicle where it is (ModeGuided::init), unanswered.
+    MAVProxy's `position x y z` sends BODY_NED."""
+    return frame != _F.MAV_FRAME_LOCAL_NED
+
+
+def global_target_height(frame: int, alt_m: float, home_amsl_m: float, terrain_height_m: float) -> float:
+    """Height above home (m) of a SET_POSITION_TARGET_GLOBAL_INT altitude.
+    GCS_MAVLINK_Copter::handle_message_set_position_target_global_int: GLOBAL(_INT) is above
+    mean sea level, GLOBAL_RELATIVE_ALT(_INT) above home, GLOBAL_TERRAIN_ALT(_INT) above the
+    terrain (here the surface the rangefinder sees)."""
+    if frame in (_F.MAV_FRAME_GLOBAL, _F.MAV_FRAME_GLOBAL_INT):
+        return alt_m - home_amsl_m
+    if frame in (_F.MAV_FRAME_GLOBAL_TERRAIN_ALT, _F.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT):
+        return terrain_height_m + alt_m
+    return alt_m
+
+
 # ---------------------------------------------------------------------------------------------
 # (g) COMMAND_ACK results of the other commands the companion sends
 # ---------------------------------------------------------------------------------------------
@@ -366,11 +404,14 @@ def set_mode_result(base_mode: float, custom_mode: float, settable: bool) -> int
 def message_interval_result(interval_us: float, loop_hz: float, known_message: bool) -> int:
     """GCS_MAVLINK::handle_command_set_message_interval -> set_message_interval
     (libraries/GCS_MAVLink/GCS_Common.cpp): -1 stops, 0 restores the default; a message the
-    vehicle cannot send is DENIED; an interval shorter than two main-loop periods (faster than
-    half SCHED_LOOP_RATE, e.g. 400 Hz at 400) is DENIED with "increase SCHED_LOOP_RATE"."""
-    if not known_message:
+    vehicle cannot send is DENIED; a request faster than the main loop can send is DENIED with
+    "Requested rate for message ID n too fast. Increase SCHED_LOOP_RATE". The boundary is the
+    one measured on ArduCopter SITL V4.7.0-dev at SCHED_LOOP_RATE 400 (ack_sequence): 2500 us
+    DENIED, 3000, 4000 and 5000 us ACCEPTED, i.e. the interval in whole milliseconds shorter
+    than one loop period is refused."""
+    if not known_message or interval_us < -1:
         return DENIED
-    if 0 < interval_us < 2e6 / loop_hz:
+    if interval_us > 0 and int(interval_us // 1000) * 1000 < 1e6 / loop_hz:
         return DENIED
     return ACCEPTED
 

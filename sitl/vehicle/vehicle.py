@@ -178,7 +178,14 @@ class Vehicle:
 
     # -- messages out --------------------------------------------------------------------------
     def statustext(self, text: str, severity: int = 6) -> None:
-        self.links.send(mavlink.MAVLink_statustext_message(severity, text[:50].encode(), 0, 0))
+        """A STATUSTEXT; a text over 50 characters goes in numbered chunks (GCS::send_textv)."""
+        raw = text.encode()
+        if len(raw) <= 50:
+            self.links.send(mavlink.MAVLink_statustext_message(severity, raw, 0, 0))
+            return
+        self._text_id = getattr(self, "_text_id", 0) % 65535 + 1
+        for seq, i in enumerate(range(0, len(raw), 50)):
+            self.links.send(mavlink.MAVLink_statustext_message(severity, raw[i : i + 50], self._text_id, seq))
 
     def send_named_float(self, name: str, value: float) -> None:
         self.links.send(
@@ -299,7 +306,10 @@ class Vehicle:
                 self.target_is_velocity, self.t, self.target_time, self.params["GUID_TIMEOUT"]
             ):
                 self.target_is_velocity = False
-                self.target = t = Target(x=b.x, z=b.z)  # stale target: stop and hold
+                if t.x is None or t.z is None:
+                    self.target = t = Target(x=b.x, z=b.z)  # stale velocity target: stop and hold
+                else:
+                    self.target = t = Target(x=t.x, z=t.z)  # position kept, its velocity zeroed
             return t
         if m == modes.BRAKE:
             if t.x is None or t.z is None:

@@ -34,8 +34,11 @@ def set_mode(conn, mode: int):
     return command(conn, M.MAV_CMD_DO_SET_MODE, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode)
 
 
+FORCE_ARM = 2989  # ArduPilot's force-arm magic (21196 forces a disarm only)
+
+
 def arm(conn, force: bool = False):
-    return command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196 if force else 0)
+    return command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM if force else 0)
 
 
 def wait_msg(conn, kind: str, cond=lambda m: True, timeout: float = 10.0):
