@@ -46,6 +46,10 @@ STREAMS = (
 )
 
 
+#: the autopilots a rig can fly: the project's simulated vehicle, or real ArduCopter SITL
+#: (``SLOPELANDER_ARDUCOPTER``) behind the same physics
+AUTOPILOTS = ("sim", "ardupilot")
+
 #: what the rig's :class:`Track` reads on top of the landing's messages
 TRACK_MESSAGES = LANDING_MESSAGES | {"ATTITUDE", "SERVO_OUTPUT_RAW"}
 
@@ -258,7 +262,12 @@ class Rig:
         telemetry: bool = True,
         decode: frozenset[str] | None = TRACK_MESSAGES,
         script: bool = True,
+        autopilot: str = "sim",
+        arducopter: str | None = None,
     ) -> None:
+        if autopilot not in AUTOPILOTS:
+            raise ValueError(f"autopilot must be one of {', '.join(AUTOPILOTS)}, not {autopilot!r}")
+        self.autopilot = autopilot
         self.slope_deg = slope_deg
         scn = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "seed": seed}
         scn.update(scenario or {})
@@ -270,19 +279,25 @@ class Rig:
         self.relay: Relay | None = None
         self.track = Track()
         self.last_flight: Flight | None = None  # for callers that fly a sequence of landings
+        self._events_at = 0  # how far the physics' events file (real ArduCopter) has been read
         try:
-            self.vehicle = start_vehicle(
-                scenario=scn,
-                speed=speed,
-                lockstep=True,
-                legboard_control=self.board.control,
-                no_script=not script,
-            )
+            if autopilot == "ardupilot":
+                from sitl.ardupilot import start_arducopter
+
+                self.vehicle = start_arducopter(
+                    scenario=scn, legs=self.board.control, binary=arducopter, script=script
+                )
+            else:
+                self.vehicle = start_vehicle(
+                    scenario=scn,
+                    speed=speed,
+                    lockstep=True,
+                    legboard_control=self.board.control,
+                    no_script=not script,
+                )
             url = self.vehicle.mavlink_url
             if relay:
-                self.relay = Relay(
-                    "tcp:127.0.0.1:0", f"tcp:127.0.0.1:{self.vehicle.port}", lockstep=True
-                ).start()
+                self.relay = Relay("tcp:127.0.0.1:0", url, lockstep=True).start()
                 url = f"tcp:127.0.0.1:{self.relay.port}"
             self.link = Link(url, link_loss_s=load_config()["link.link_loss_s"], decode=decode)
             self.link.add_listener(self.track.listen)
@@ -295,6 +310,14 @@ class Rig:
             for msg_id, hz in streams:
                 self.wait_command(self.link.request_stream(msg_id, hz), f"stream {msg_id}")
             self.calibration = load_calibration()
+            # the board's silence is measured on the vehicle's clock: it must be running first
+            # (ArduCopter's first timestamped message comes after the streams are asked for)
+            end = time.monotonic() + 30.0
+            while not self.link.clock.known and time.monotonic() < end:
+                self.link.poll()
+                time.sleep(0.002)
+            if not self.link.clock.known:
+                raise RigError("the vehicle sent no timestamped message within 30 s")
             self.legs = LegBoard.open(self.board.pty, calibration=self.calibration)
             # the board's silence is judged on the vehicle's clock, as the landing controller does:
             # a loaded machine that slows the lock-stepped simulation is not a silent board
@@ -334,6 +357,17 @@ class Rig:
         self.link.poll()
         if self.legs is not None:
             self.legs.poll()
+        self.read_events()
+
+    def read_events(self) -> None:
+        """Take the physics' new measurement events into :attr:`track` (real ArduCopter has no
+        channel for them: its physics writes them to a file; the simulated vehicle sends them as
+        NAMED_VALUE_FLOAT, which the track hears on the link)."""
+        if self.autopilot == "ardupilot":
+            from sitl.ardupilot.launch import read_events
+
+            events, self._events_at = read_events(self.vehicle.events_path, self._events_at)
+            self.track.events.extend((e["name"], e["t"], e["value"]) for e in events)
 
     def wait_command(self, handle, what: str, wall_s: float = 10.0) -> None:
         end = time.monotonic() + wall_s
@@ -342,6 +376,15 @@ class Rig:
             time.sleep(0.002)
         if not handle.ok:
             raise RigError(f"{what}: {handle.state} (result {handle.result})")
+
+    def _accepted(self, handle, wall_s: float = 10.0) -> bool:
+        end = time.monotonic() + wall_s
+        while time.monotonic() < end and not handle.done:
+            self.poll()
+            time.sleep(0.002)
+        if not handle.ok:
+            self.wait(1.0)
+        return handle.ok
 
     def fly_until(self, cond, vehicle_s: float, what: str, send=None, wall_s: float = 120.0) -> None:
         """Poll (and call ``send`` each loop) until ``cond()``; RigError after ``vehicle_s`` of
@@ -404,8 +447,23 @@ class Rig:
         """GUIDED, arm (``force``: past the pre-arm lean check, e.g. on a roof) and climb to
         ``height_m`` above the pad."""
         L = self.link
-        self.wait_command(L.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4), "GUIDED")
-        self.wait_command(L.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196 if force else 0), "arm")
+        guided = (mavlink.MAV_CMD_DO_SET_MODE, 1, 4)
+        arm = (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196 if force else 0)
+        if self.autopilot == "ardupilot":
+            # ArduCopter's start-up sets its initial mode after a GUIDED asked for too early, and
+            # it refuses to arm in GUIDED until its EKF has an origin (20-40 s of vehicle time
+            # after boot): ask again until its HEARTBEAT shows GUIDED and armed
+            def armed_in_guided() -> bool:
+                if self.mode() != 4:
+                    self._accepted(L.command(*guided))
+                elif not self.armed():
+                    self._accepted(L.command(*arm))
+                return self.mode() == 4 and self.armed()
+
+            self.fly_until(armed_in_guided, 120.0, "arm in GUIDED")
+        else:
+            self.wait_command(L.command(*guided), "GUIDED")
+            self.wait_command(L.command(*arm), "arm")
         self.wait_command(L.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, height_m), "take-off")
         self.fly_until(lambda: self.height() > height_m - 0.3, 30.0, "climb")
 
@@ -476,6 +534,7 @@ class Rig:
         end = lander.run(timeout_s, until=until)
         if end not in ("ABORTED", "ESTOP"):
             self.wait(rest_s, tick=lander.poll)
+        self.read_events()
         return Flight(
             end,
             list(lander.machine.history),

@@ -8,19 +8,31 @@
 -- attitude control, which a real ESC answers with a ~250 ms stop-and-restart; and upstream
 -- ArduCopter does not support reversible motors on copter frames.
 --
--- The companion decides; this script only does what cannot wait for a MAVLink round trip.
+-- The companion decides; this script only does what cannot wait for a MAVLink round trip, and
+-- keeps a landed vehicle's motors stopped until it is disarmed or released level for take-off.
 -- Contract (commands, states, validity rules): docs/onboard-script.md in slopelander.
 
-local VERSION = 3 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 4 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
+-- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
+--    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
+--    actions END_REVERSE 2, TAKEOFF_RELEASE 4 (only level), DISARM 5 (only held and still); the
+--    cut counts distinct rangefinder samples (the driver's reading time), 2 of them; reverse
+--    thrust only with the range at or below the cut height; RVT and HOLD give the motors back
+--    when the range says the vehicle left the roof; the missed-impact bound follows the cut height
+--    and the descent rate; an abort or release during CUT/RVT/HOLD is refused; a silent
+--    companion's HOLD disarms only while still; the impact threshold is at least 2 g.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
+local ACT_RELEASE, ACT_STOP, ACT_REVERSE = 0, 1, 2
+local RFX_ABORT, RFX_ARM, RFX_END_REVERSE, RFX_SETUP, RFX_TAKEOFF_RELEASE, RFX_DISARM = 0, 1, 2, 3, 4, 5
+local REQUEST_MAX = 16777215 -- request numbers: whole numbers a float32 parameter holds exactly
 local MSG_COMMAND_LONG = 76
 local MSG_COMMAND_ACK = 77
 local ACCEPTED, TEMP_REJECTED, DENIED = 0, 1, 2
 local SEV_WARNING, SEV_INFO = 4, 6
 local DOWN = 25 -- rangefinder orientation: pitch 270, facing down
-local RF_GOOD = 4
+local RF_LOW, RF_HIGH, RF_GOOD = 2, 3, 4 -- RangeFinder::Status OutOfRangeLow, OutOfRangeHigh, Good
 local MOTORS = { 0, 1, 2, 3 } -- SERVO1..4, 0-based channel index
 local PWM_STOP = 1500
 local OVERRIDE_MS = 30 -- each override lapses this soon unless refreshed
@@ -28,8 +40,15 @@ local FAST_MS = 2 -- update period while anything is active
 local IDLE_MS = 10 -- update period otherwise (command latency)
 local ANNOUNCE_MS = 200 -- SL_STATE at 5 Hz
 local VERSION_MS = 1000
-local CUT_READINGS = 3 -- consecutive trusted readings at or below the cut height
-local READING_MS = 10 -- readings counted at most this often
+local GRAVITY = 9.80665
+-- The filtered accelerometer reads the thrust over the mass, ~1 g, in the steady descent at the
+-- cut, and falls toward 0 g as the thrust decays: an impact threshold must lie well above 1 g.
+-- 2 g leaves a full g for the controller's corrections and the vibration left after the filter.
+local IMPACT_MIN = 2 * GRAVITY
+-- ArduCopter reads the rangefinder at 20 Hz (ArduCopter/Copter.cpp), this script every 2-10 ms:
+-- only a new sample (a new driver reading time) counts. Two distinct samples at or below the cut
+-- height: one low glitch cannot cut.
+local CUT_SAMPLES = 2
 local MAX_JUMP_M = 0.25 -- a trusted reading differs from the last believed one by at most this
 local MAX_RATE_MPS = 3.0 -- ...plus this much per second since it (a fast descent, a dropout)
 -- readings that disagree with the believed one for this long are a real change of the ground
@@ -37,18 +56,37 @@ local MAX_RATE_MPS = 3.0 -- ...plus this much per second since it (a fast descen
 -- after this long too. Found by the soak: a 0.2-0.5 s low spike was followed reading by reading
 -- and cut the motors 1.07 m above the roof.
 local RESEED_MS = 600
-local MISSED_IMPACT_MS = 1000
+-- the missed-impact bound: the fall from the cut height at the descent speed, plus the rotors'
+-- spin-down (twice the model's 50 ms time constant) and one range sample to judge by
+local THRUST_DECAY_MS = 100
+local RANGE_PERIOD_MS = 50
+-- left the roof (slid off an edge, or high above it): this many distinct samples, each reading
+-- farther than the cut height plus LEAVE_MARGIN_M (or out of range high). The margin covers a
+-- beam tilted by the touchdown's pivot on a steep roof.
+local LEAVE_SAMPLES = 2
+local LEAVE_MARGIN_M = 0.30
+-- still enough to disarm: body rates and the autopilot's velocity estimate both small
+local STILL_GYRO_RADS = math.rad(5)
+local STILL_SPEED_MPS = 0.10
+local TILT_BOUND_MAX_DEG = 30 -- the largest take-off tilt bound a release may ask for
 
 local IDLE, STOP, REVERSE, ARMED, CUT, RVT, HOLD, ESTOP = 0, 1, 2, 10, 11, 12, 13, 20
 
 local state = IDLE
 local valid_until = 0
 local reverse_pct = 0
-local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from}
+local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from, bound_ms}
+local setup = nil -- {ramp_ms, descent_mps}: the landing's settings, sent before ARM
+local armed_cut_m = nil -- the cut height of the last accepted ARM (bounds a commanded reverse)
 local entered_ms = 0
-local below, last_count_ms = 0, 0
+local below = 0
 local believed, believed_ms, disagree_ms, seed_ms, seed_d = nil, 0, nil, 0, 0
+local last_stamp = nil -- the driver's reading time of the newest sample seen
+local last_d = nil -- the newest sample's distance (0: too close, huge: too far), nil before any
+local far_count = 0
+local silent_said = false
 local last_announce, last_version = -ANNOUNCE_MS, -VERSION_MS
+local rf_backend = nil
 
 local function now() return millis():toint() end
 
@@ -76,11 +114,38 @@ end
 
 local function reverse_pwm(pct) return math.floor(PWM_STOP - 5 * pct + 0.5) end
 
-local function ack(chan, command, result, sysid, compid)
-  mavlink:send_chan(chan, MSG_COMMAND_ACK, string.pack("<HBBiBB", command, result, 0, 0, sysid, compid))
+local function ack(chan, command, result, request, sysid, compid)
+  local payload = string.pack("<HBBiBB", command, result, 0, request, sysid, compid)
+  mavlink:send_chan(chan, MSG_COMMAND_ACK, payload)
 end
 
 local function bad(x, lo, hi) return x ~= x or x < lo or x > hi end
+
+local function landing() return state == CUT or state == RVT or state == HOLD end
+
+-- the downward rangefinder's driver, found once it exists
+local function down_backend()
+  if rf_backend == nil then
+    for i = 0, rangefinder:num_sensors() - 1 do
+      ---@type AP_RangeFinder_Backend_ud
+      local backend = rangefinder:get_backend(i)
+      if backend ~= nil and backend:orientation() == DOWN then
+        rf_backend = backend
+        break
+      end
+    end
+  end
+  return rf_backend
+end
+
+-- the driver's reading time of its newest sample (ms), or nil without a downward rangefinder
+local function reading_stamp()
+  local backend = down_backend()
+  if backend == nil then return nil end
+  ---@type RangeFinder_State_ud
+  local sample = backend:get_state()
+  return sample:last_reading():toint()
+end
 
 -- a downward range the cut may rely on, or nil
 local function trusted_range()
@@ -91,56 +156,97 @@ local function trusted_range()
   return d
 end
 
+-- what the range says of the ground after the cut: a distance, 0 when too close to measure,
+-- math.huge when beyond the sensor, nil when it says nothing
+local function ground_range()
+  local status = rangefinder:status_orient(DOWN)
+  if status == RF_LOW then return 0 end
+  if status == RF_HIGH then return math.huge end
+  return trusted_range()
+end
+
+-- moving too much to disarm: why, or nil when still
+local function moving()
+  local g = ins:get_gyro(0):length()
+  if g > STILL_GYRO_RADS then return string.format("turning %.0f deg/s", math.deg(g)) end
+  ---@type Vector3f_ud
+  local v = ahrs:get_velocity_NED()
+  if v == nil then return "velocity unknown" end
+  local speed = v:length()
+  if speed > STILL_SPEED_MPS then return string.format("moving %.2f m/s", speed) end
+  return nil
+end
+
+local function tilt_deg()
+  local c = math.cos(ahrs:get_roll()) * math.cos(ahrs:get_pitch())
+  return math.deg(math.acos(math.max(-1, math.min(1, c))))
+end
+
+local function release(t, why)
+  reflex = nil
+  enter(IDLE, t, why)
+end
+
+-- the free fall from the cut height at the descent speed, plus spin-down and a range sample (ms)
+local function missed_impact_ms(cut_m, descent_mps)
+  local fall_s = (math.sqrt(descent_mps ^ 2 + 2 * GRAVITY * cut_m) - descent_mps) / GRAVITY
+  return math.floor(fall_s * 1000 + THRUST_DECAY_MS + RANGE_PERIOD_MS + 0.5)
+end
+
 -- the actuator command: release, stop, reverse at N %
-local function actuator(p1, p2, p3, t)
-  if p1 ~= 0 and p1 ~= 1 and p1 ~= 2 then return DENIED, "unknown action" end
-  if p1 == 0 then
-    reflex = nil
-    enter(IDLE, t, "released")
+local function actuator(p, t)
+  local action = p[1]
+  if action ~= ACT_RELEASE and action ~= ACT_STOP and action ~= ACT_REVERSE then return DENIED, "unknown action" end
+  if landing() then return TEMP_REJECTED, "motors held: disarm or take-off release" end
+  if action == ACT_RELEASE then
+    release(t, "released")
     return ACCEPTED
   end
-  if bad(p2, 0, 100) then return DENIED, "thrust percent out of 0..100" end
-  if bad(p3, 20, 5000) then return DENIED, "validity out of 20..5000 ms" end
+  if bad(p[2], 0, 100) then return DENIED, "thrust percent out of 0..100" end
+  if bad(p[3], 20, 5000) then return DENIED, "validity out of 20..5000 ms" end
   if not arming:is_armed() then return TEMP_REJECTED, "disarmed" end
   if state == ESTOP then return TEMP_REJECTED, "emergency stop" end
+  if action == ACT_REVERSE and (armed_cut_m == nil or last_d == nil or last_d > armed_cut_m) then
+    return TEMP_REJECTED, "reverse: range above the cut height"
+  end
   reflex = nil
-  reverse_pct = p2
-  valid_until = t + p3
-  enter(p1 == 1 and STOP or REVERSE, t)
+  reverse_pct = p[2]
+  valid_until = t + p[3]
+  enter(action == ACT_STOP and STOP or REVERSE, t)
   return ACCEPTED
 end
 
--- the landing reflex: arm (or refresh) with its settings, or abort
 local function arm_reflex(p, t)
-  if p[1] == 0 then
-    if reflex ~= nil or state == ARMED or state == CUT or state == RVT or state == HOLD then
-      reflex = nil
-      enter(IDLE, t, "reflex aborted")
-    end
-    return ACCEPTED
-  end
-  if p[1] ~= 1 then return DENIED, "unknown reflex action" end
+  local action = p[1]
   if bad(p[2], 0.10, 2.00) then return DENIED, "cut height out of 0.10..2.00 m" end
-  if bad(p[3], 5, 200) then return DENIED, "impact threshold out of 5..200" end
+  if bad(p[3], IMPACT_MIN, 200) then return DENIED, "impact threshold out of 19.6..200" end
   if bad(p[4], 0, 100) then return DENIED, "thrust percent out of 0..100" end
   if bad(p[5], 0, 5000) then return DENIED, "reverse duration out of 0..5000 ms" end
   if bad(p[6], 100, 10000) then return DENIED, "validity out of 100..10000 ms" end
-  if bad(p[7], 0, 3000) then return DENIED, "reverse ramp out of 0..3000 ms" end
   if not arming:is_armed() then return TEMP_REJECTED, "disarmed" end
   if state == ESTOP then return TEMP_REJECTED, "emergency stop" end
+  if action == RFX_END_REVERSE then
+    if not landing() then return TEMP_REJECTED, "no landing under way" end
+    valid_until = t + p[6]
+    if state == RVT and reflex.ramp_from == nil then reflex.dur_ms = 0 end
+    return ACCEPTED
+  end
+  if setup == nil then return TEMP_REJECTED, "reflex not set up" end
+  if down_backend() == nil then return TEMP_REJECTED, "no downward rangefinder" end
   valid_until = t + p[6]
   if state == RVT then
     -- a refresh during reverse thrust sets its duration, counted from the impact: the companion
     -- shortens it once the vehicle is still; a silent companion leaves the armed bound in force.
     -- Once the thrust has begun to ramp down, it only ends: the refresh renews the validity.
-    if reflex.ramp_from == nil then
-      reflex.dur_ms = p[5]
-      reflex.ramp_ms = p[7]
-    end
+    if reflex.ramp_from == nil then reflex.dur_ms = p[5] end
     return ACCEPTED
   end
   if state == CUT or state == HOLD then return ACCEPTED end -- a refresh
-  reflex = { cut_m = p[2], impact = p[3], pct = p[4], dur_ms = p[5], ramp_ms = p[7], ramp_from = nil }
+  reflex = {
+    cut_m = p[2], impact = p[3], pct = p[4], dur_ms = p[5], ramp_ms = setup.ramp_ms, ramp_from = nil,
+    bound_ms = missed_impact_ms(p[2], setup.descent_mps),
+  }
+  armed_cut_m = p[2]
   -- a refresh while armed keeps the chain of readings: restarting it every 300 ms, a chain that
   -- had to start below the cut height (the ground came closer during a stuck reading) never
   -- lasted RESEED_MS, and the vehicle sat powered on the roof (found by the soak)
@@ -150,33 +256,91 @@ local function arm_reflex(p, t)
   return ACCEPTED
 end
 
+local function disarm_request(t)
+  if not arming:is_armed() then return ACCEPTED end
+  if state ~= HOLD and state ~= STOP then return TEMP_REJECTED, "disarm: motors not held stopped" end
+  local why = moving()
+  if why then return TEMP_REJECTED, "disarm: " .. why end
+  arming:disarm()
+  if arming:is_armed() then return TEMP_REJECTED, "disarm: refused by the autopilot" end
+  release(t, "disarmed on the companion's request")
+  return ACCEPTED
+end
+
+local function takeoff_release(p, t)
+  if bad(p[2], 1, TILT_BOUND_MAX_DEG) then return DENIED, "take-off tilt bound out of 1..30 deg" end
+  if state == CUT or state == RVT then return TEMP_REJECTED, "take-off release: landing under way" end
+  if state == HOLD or state == STOP then
+    local tilt = tilt_deg()
+    if tilt > p[2] then return TEMP_REJECTED, string.format("take-off release: tilted %.0f deg", tilt) end
+  end
+  release(t, "released for take-off")
+  return ACCEPTED
+end
+
+-- the landing reflex: set up, arm (or refresh), end the reverse thrust, abort, release, disarm
+local function reflex_command(p, t)
+  local action = p[1]
+  if action == RFX_ABORT then
+    if landing() then return TEMP_REJECTED, "motors held: disarm or take-off release" end
+    if state == ARMED or reflex ~= nil then release(t, "reflex aborted") end
+    return ACCEPTED
+  elseif action == RFX_ARM or action == RFX_END_REVERSE then
+    return arm_reflex(p, t)
+  elseif action == RFX_SETUP then
+    if bad(p[2], 0, 3000) then return DENIED, "reverse ramp out of 0..3000 ms" end
+    if bad(p[3], 0.1, 3.0) then return DENIED, "descent rate out of 0.1..3.0 m/s" end
+    setup = { ramp_ms = p[2], descent_mps = p[3] }
+    return ACCEPTED
+  elseif action == RFX_TAKEOFF_RELEASE then
+    return takeoff_release(p, t)
+  elseif action == RFX_DISARM then
+    return disarm_request(t)
+  end
+  return DENIED, "unknown reflex action"
+end
+
 local function handle(msg, chan, t)
   local msgid = string.unpack("<I3", msg, 10)
   if msgid ~= MSG_COMMAND_LONG then return end
   local sysid, compid = string.unpack("<BB", msg, 8)
   local p1, p2, p3, p4, p5, p6, p7, command, tsys, tcomp = string.unpack("<fffffffHBB", msg, 13)
   if command ~= CMD_ACTUATOR and command ~= CMD_REFLEX then return end
+  local request = 0
   local result, why
   local mysys = param:get("MAV_SYSID") or 1
-  if tsys ~= mysys or (tcomp ~= 0 and tcomp ~= 1) then
-    result, why = DENIED, "command for another vehicle"
-  elseif command == CMD_ACTUATOR then
-    result, why = actuator(p1, p2, p3, t)
+  if bad(p7, 1, REQUEST_MAX) or p7 ~= math.floor(p7) then
+    result, why = DENIED, "bad request number"
   else
-    result, why = arm_reflex({ p1, p2, p3, p4, p5, p6, p7 }, t)
+    request = math.floor(p7)
+    if tsys ~= mysys or (tcomp ~= 0 and tcomp ~= 1) then
+      result, why = DENIED, "command for another vehicle"
+    elseif command == CMD_ACTUATOR then
+      result, why = actuator({ p1, p2, p3 }, t)
+    else
+      result, why = reflex_command({ p1, p2, p3, p4, p5, p6 }, t)
+    end
   end
-  ack(chan, command, result, sysid, compid)
+  ack(chan, command, result, request, sysid, compid)
   if why then say(SEV_WARNING, why) end
 end
 
+-- a new rangefinder sample: the newest ground evidence, and how long it has read off the roof
+local function note_sample(cut_m)
+  local g = ground_range()
+  if g == nil then return end -- no data says nothing: the last evidence stands
+  last_d = g
+  if cut_m ~= nil and g > cut_m + LEAVE_MARGIN_M then far_count = far_count + 1 else far_count = 0 end
+end
+
 -- the reflex: cut on a trusted range at or below the cut height, reverse at impact
-local function run_reflex(t)
+local function run_reflex(t, fresh)
   if state == ARMED then
     if t >= valid_until then
-      reflex = nil
-      enter(IDLE, t, "reflex validity lapsed")
+      release(t, "reflex validity lapsed")
       return
     end
+    if not fresh then return end -- only a new sample says anything new
     local d = trusted_range()
     if d == nil then
       below = 0
@@ -200,21 +364,21 @@ local function run_reflex(t)
       below = 0
       return
     end
-    if t - last_count_ms >= READING_MS then
-      last_count_ms = t
-      if d <= reflex.cut_m then below = below + 1 else below = 0 end
+    if d <= reflex.cut_m then below = below + 1 else below = 0 end
+    if below >= CUT_SAMPLES then
+      far_count = 0
+      enter(CUT, t)
     end
-    if below >= CUT_READINGS then enter(CUT, t) end
   elseif state == CUT then
-    if ins:get_accel(0):length() > reflex.impact then
+    -- reverse thrust only on the ground: an impact with the range at or below the cut height
+    local near = last_d ~= nil and last_d <= reflex.cut_m
+    if near and ins:get_accel(0):length() > reflex.impact then
       enter(RVT, t)
-    elseif t - entered_ms > MISSED_IMPACT_MS then
-      local d = trusted_range()
-      if d ~= nil and d <= reflex.cut_m then
-        enter(HOLD, t, "no impact seen, holding motors stopped")
+    elseif t - entered_ms > reflex.bound_ms then
+      if last_d ~= nil and last_d > reflex.cut_m then
+        release(t, "false cut, motors released")
       else
-        reflex = nil
-        enter(IDLE, t, "false cut, motors released")
+        enter(HOLD, t, "no impact seen, holding motors stopped")
       end
     end
   elseif state == RVT then
@@ -224,10 +388,23 @@ local function run_reflex(t)
     if reflex.ramp_from ~= nil and t - reflex.ramp_from >= reflex.ramp_ms then enter(HOLD, t) end
   elseif state == HOLD then
     if t >= valid_until then
-      arming:disarm()
-      reflex = nil
-      enter(IDLE, t, "companion silent after landing: disarmed")
+      -- a silent companion: disarm, but never a vehicle still moving (a slide, a pivot)
+      local why = moving()
+      if why == nil then
+        arming:disarm()
+        release(t, "companion silent after landing: disarmed")
+      elseif not silent_said then
+        silent_said = true
+        say(SEV_WARNING, "companion silent, " .. why .. ": holding")
+      end
+    else
+      silent_said = false
     end
+  end
+  -- off the roof (an edge, or high above it): stopped or reversed motors would drop it; the
+  -- autopilot, still armed in its flying mode, can fly it
+  if (state == RVT or state == HOLD) and far_count >= LEAVE_SAMPLES then
+    release(t, "left the roof: motors released")
   end
 end
 
@@ -239,19 +416,22 @@ local function update()
   elseif state == ESTOP then
     enter(IDLE, t)
   end
+  local stamp = reading_stamp()
+  local fresh = stamp ~= nil and stamp ~= last_stamp
+  last_stamp = stamp
+  if fresh then note_sample(reflex and reflex.cut_m) end
   while true do
     local msg, chan = mavlink:receive_chan()
     if msg == nil then break end
     handle(msg, chan, t)
   end
   if state ~= IDLE and state ~= ESTOP and not arming:is_armed() then
-    reflex = nil
-    enter(IDLE, t)
+    release(t, nil)
   end
   if (state == STOP or state == REVERSE) and t >= valid_until then
     enter(IDLE, t, "command validity lapsed")
   end
-  if reflex ~= nil then run_reflex(t) end
+  if reflex ~= nil then run_reflex(t, fresh) end
 
   if state == STOP or state == CUT or state == HOLD then
     output(PWM_STOP)

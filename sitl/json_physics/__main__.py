@@ -25,6 +25,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         metavar="CONTROL_SOCKET",
         help="the simulated leg board's control socket (python -m sitl.legboard --control ...)",
     )
+    ap.add_argument(
+        "--events",
+        type=Path,
+        default=None,
+        metavar="JSONL",
+        help="append the measurement events (contact, outputs stopped, outputs reversed; "
+        "sitl/vehicle/events.py) to this file, one JSON object a line, in ArduPilot's boot time",
+    )
     return ap.parse_args(argv)
 
 
@@ -55,8 +63,18 @@ def main(argv: list[str] | None = None) -> int:
             legs = LegsLink(a.legs)
         except ControlError as exc:
             return fail(f"leg board: {exc}")
+    events = None
+    if a.events is not None:
+        try:
+            events_file = open(a.events, "a", buffering=1)  # noqa: SIM115 - open while serving
+        except OSError as exc:
+            return fail(f"--events {a.events}: {exc.strerror}")
+
+        def events(name: str, t: float, value: float) -> None:
+            events_file.write(f'{{"name":"{name}","t":{t!r},"value":{value!r}}}\n')
+
     try:
-        physics = JsonPhysics(scenario, legs)
+        physics = JsonPhysics(scenario, legs, events)
         server = JsonServer(physics, a.port, a.host)
     except ServerError as exc:
         if legs is not None:

@@ -10,12 +10,11 @@ import socket
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import yaml
 
-from sitl.vehicle.launch import REPO, child_env
+from sitl.launching import start_ready_process
 
 
 def free_udp_port() -> int:
@@ -62,7 +61,11 @@ class PhysicsProcess:
 
 
 def start_json_physics(
-    scenario: dict | None = None, legs: Path | None = None, port: int | None = None, timeout: float = 90.0
+    scenario: dict | None = None,
+    legs: Path | None = None,
+    port: int | None = None,
+    timeout: float = 90.0,
+    events: Path | None = None,
 ) -> PhysicsProcess:
     """Start ``python -m sitl.json_physics``; returns once it is ready. Raises RuntimeError with
     its stderr if it fails."""
@@ -75,19 +78,7 @@ def start_json_physics(
         cmd += ["--scenario", str(sp)]
     if legs is not None:
         cmd += ["--legs", str(legs)]
-    err = open(Path(tmp.name) / "stderr.txt", "w")  # noqa: SIM115 - the process writes it
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True, env=child_env(), cwd=REPO)
-    err.close()
-    deadline = time.monotonic() + timeout
-    line = ""
-    while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        if line.startswith("json_physics ready") or (not line and proc.poll() is not None):
-            break
-    if not line.startswith("json_physics ready"):
-        proc.kill()
-        proc.wait()
-        msg = (Path(tmp.name) / "stderr.txt").read_text()
-        tmp.cleanup()
-        raise RuntimeError(f"json physics did not start: {msg.strip()[-2000:]}")
-    return PhysicsProcess(proc, port, line.strip(), tmp)
+    if events is not None:
+        cmd += ["--events", str(events)]
+    proc, line = start_ready_process(cmd, "json_physics ready", tmp, "json physics", timeout)
+    return PhysicsProcess(proc, port, line, tmp)

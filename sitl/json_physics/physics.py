@@ -13,27 +13,34 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
 from sitl.json_physics.protocol import Fdm
 from sitl.vehicle import esc
+from sitl.vehicle.events import Events
 from sitl.vehicle.legs_link import LegsLink
 from sitl.vehicle.scenario import Scenario
 from sitl.vehicle.sensors import Imu, Range
 from sitl.vehicle.world import beam_range, start_on_ground
 
 NO_RETURN_M = 999.0  # beam pointing away from the ground: beyond any rangefinder's maximum
-NO_DATA_M = -1.0  # ArduPilot's SITL rangefinder reads a negative distance as "no data"
+#: what ArduPilot's SITL rangefinder reads as "no data": only a NaN or an infinity
+#: (libraries/AP_RangeFinder/AP_RangeFinder_SITL.cpp); a negative distance reads as 0 m, "too close"
+NO_DATA_M = math.nan
 
 
 class JsonPhysics:
     """One vehicle, stepped frame by frame; ``reset`` puts it back where it booted."""
 
-    def __init__(self, scenario: Scenario, legs: LegsLink | None = None) -> None:
+    def __init__(
+        self, scenario: Scenario, legs: LegsLink | None = None, events: Callable | None = None
+    ) -> None:
         self.scn = scenario
         self.legs = legs
+        self._send_event = events
         self.reset()
 
     def reset(self) -> None:
@@ -44,6 +51,7 @@ class JsonPhysics:
         self.t0 = self.stepper.t
         self.imu = Imu(self.rng, self.scn.accel_noise, self.scn.gyro_noise)
         self.range = Range(0.0, 1, 0)
+        self.events = Events(self._send_event) if self._send_event is not None else None
         if self.legs is not None:
             self.legs.next_t = 0.0
 
@@ -58,6 +66,8 @@ class JsonPhysics:
 
     def step(self, dt: float, pwm: Sequence[int]) -> None:
         """Advance by one frame with the motor outputs (channels 1-4, microseconds)."""
+        if self.events is not None:  # the outputs ArduCopter sent for this frame, at its start
+            self.events.after_outputs(self.t, True, pwm)
         u_left, u_right = esc.planar_rotor_commands(pwm)
         if not self.scn.wind.calm:
             self.stepper.set_external_force(*self.scn.wind.force_at(self.t))
@@ -72,6 +82,10 @@ class JsonPhysics:
         self.range = self.scn.range_fault(self.t, Range(true, status, 100), self.rng)
         if self.legs is not None:
             self.legs.update(self)
+        if self.events is not None:
+            b = self.stepper.body()
+            x, z = self.world.to_world(b.x, b.z)
+            self.events.after_physics_step(self.stepper, self.t, replace(b, x=x, z=z))
 
     def fdm(self) -> Fdm:
         b = self.stepper.body()

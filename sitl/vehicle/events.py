@@ -19,52 +19,51 @@ step), ``time_boot_ms`` the same time in whole milliseconds:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 from sitl.vehicle import esc
 
 if TYPE_CHECKING:
-    from sitl.vehicle.vehicle import Vehicle
+    from slopelander.model.stepper import BodyState as Body
+    from slopelander.model.stepper import Stepper
 
 REARM_CLEARANCE_M = 0.3
 
 
 class Events:
-    def __init__(self) -> None:
+    """Detects the events; ``send(name, t, value)`` reports each one (the simulated vehicle as
+    NAMED_VALUE_FLOAT, the JSON physics into a file: ArduCopter has no channel for them)."""
+
+    def __init__(self, send: Callable[[str, float, float], None]) -> None:
+        self.send = send
         self.clear = False  # the vehicle has been clear of the surface since the last contact
         self.stopped = False
         self.reversing = False
 
-    def _send(self, v: Vehicle, name: str, t: float, value: float) -> None:
-        from sitl.vehicle.mavlink_endpoints import mavlink
-
-        v.links.send(mavlink.MAVLink_named_value_float_message(int(t * 1000), name.encode(), float(value)))
-
-    def after_physics_step(self, v: Vehicle) -> None:
-        """Called after every physics step."""
-        st = v.stepper
+    def after_physics_step(self, stepper: Stepper, t: float, body: Body) -> None:
+        """Called after every physics step with the body in world coordinates."""
+        st = stepper
         if not self.clear:
             self.clear = not st.in_contact() and st.clearance() >= REARM_CLEARANCE_M
             return
         if not st.in_contact():
             return
         self.clear = False
-        t = v.t
-        b = v._world_body()
-        self._send(v, "EV_CONTACT", t, t)
-        self._send(v, "CT_VZ", t, -b.vz)
-        self._send(v, "CT_VX", t, b.vx)
-        self._send(v, "CT_PITCH", t, math.degrees(b.pitch))
-        self._send(v, "CT_RATE", t, math.degrees(b.pitch_rate))
-        self._send(v, "CT_SLOPE", t, st.slope_deg)
+        self.send("EV_CONTACT", t, t)
+        self.send("CT_VZ", t, -body.vz)
+        self.send("CT_VX", t, body.vx)
+        self.send("CT_PITCH", t, math.degrees(body.pitch))
+        self.send("CT_RATE", t, math.degrees(body.pitch_rate))
+        self.send("CT_SLOPE", t, st.slope_deg)
 
-    def after_outputs(self, v: Vehicle, pwm: list[int]) -> None:
+    def after_outputs(self, t: float, armed: bool, pwm: Sequence[int]) -> None:
         """Called once per control tick with the four outputs sent to the ESCs."""
         cmd = [esc.pwm_to_command(p) for p in pwm[:4]]
-        stopped = v.armed and all(c == 0.0 for c in cmd)
-        reversing = v.armed and all(c < 0.0 for c in cmd)
+        stopped = armed and all(c == 0.0 for c in cmd)
+        reversing = armed and all(c < 0.0 for c in cmd)
         if stopped and not self.stopped:
-            self._send(v, "EV_STOP", v.t, v.t)
+            self.send("EV_STOP", t, t)
         if reversing and not self.reversing:
-            self._send(v, "EV_RVT", v.t, v.t)
+            self.send("EV_RVT", t, t)
         self.stopped, self.reversing = stopped, reversing

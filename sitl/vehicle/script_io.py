@@ -10,10 +10,18 @@ if TYPE_CHECKING:
     from sitl.vehicle.vehicle import Vehicle
 
 
+#: ArduCopter reads its rangefinder at 20 Hz (``ArduCopter/Copter.cpp``, the scheduler's
+#: ``read_rangefinder`` entry), not at the loop rate: the script sees a new sample, with a new
+#: driver reading time (``RangeFinder_State.last_reading_ms``), every 50 ms
+RANGEFINDER_PERIOD_MS = 50
+
+
 class ScriptIO:
     def __init__(self, vehicle: Vehicle, range_cls: type) -> None:
         self.v = vehicle
         self._range_cls = range_cls
+        self._sample = None  # the rangefinder sample the script sees, and its reading time (ms)
+        self._sample_ms = -RANGEFINDER_PERIOD_MS
 
     def time_ms(self) -> int:
         return int(self.v.t * 1000)
@@ -47,17 +55,33 @@ class ScriptIO:
         g = self.v.imu.gyro
         return float(g[0]), float(g[1]), float(g[2])
 
+    def attitude(self) -> tuple[float, float, float]:
+        """Roll, pitch, yaw (rad) as ``ahrs:get_roll()`` ... read them (the planar model pitches only)."""
+        return 0.0, float(self.v.stepper.body().pitch), 0.0
+
+    def velocity_ned(self) -> tuple[float, float, float] | None:
+        """The velocity ``ahrs:get_velocity_NED()`` returns (m/s, north-east-down), as the
+        LOCAL_POSITION_NED stream sends it."""
+        b = self.v._world_body()
+        return float(b.vx), 0.0, float(-b.vz)
+
     def rangefinder(self, orientation: int):  # -> RangeReading | None
+        """The newest 20 Hz sample (:data:`RANGEFINDER_PERIOD_MS`), held between samples."""
         if orientation != int(self.v.params["RNGFND1_ORIENT"]):
             return None
-        r = self.v.range
-        return self._range_cls(
-            distance_m=r.distance_m if math.isfinite(r.distance_m) else self.v.range_max,
-            status=r.status,
-            signal_quality_pct=r.quality_pct,
-            min_m=self.v.range_min,
-            max_m=self.v.range_max,
-        )
+        now = self.time_ms()
+        if self._sample is None or now - self._sample_ms >= RANGEFINDER_PERIOD_MS or now < self._sample_ms:
+            r = self.v.range
+            self._sample_ms = now - now % RANGEFINDER_PERIOD_MS
+            self._sample = self._range_cls(
+                distance_m=r.distance_m if math.isfinite(r.distance_m) else self.v.range_max,
+                status=r.status,
+                signal_quality_pct=r.quality_pct,
+                min_m=self.v.range_min,
+                max_m=self.v.range_max,
+                last_reading_ms=self._sample_ms,
+            )
+        return self._sample
 
     def rc_pwm(self, chan: int) -> int | None:
         return self.v.rc(chan) if 1 <= chan <= 16 else None

@@ -23,6 +23,7 @@ MAVLINK_MSG_T_PAYLOAD = 255  # payload bytes the script sees, zero-filled as in 
 INSTRUCTION_LIMIT = 100_000  # Lua VM instructions per callback before the script is stopped
 MEMORY_LIMIT = 1 << 20  # bytes of Lua heap (the prelude included) before the script is stopped
 LUA_ERROR_SEVERITY = 2  # MAV_SEVERITY_CRITICAL
+DOWN = 25  # the one rangefinder's orientation (RNGFND1_ORIENT 25: facing down)
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,9 @@ class RangeReading:
     signal_quality_pct: int  # -1 unknown, 0 worst .. 100 best
     min_m: float
     max_m: float
+    #: the driver's time of this reading (ms), ``RangeFinder_State.last_reading_ms``: a new value
+    #: is a new sample (ArduCopter reads its rangefinder at 20 Hz, ``ArduCopter/Copter.cpp``)
+    last_reading_ms: int = 0
 
 
 class VehicleIO(Protocol):
@@ -49,6 +53,8 @@ class VehicleIO(Protocol):
     def emergency_stop(self) -> bool: ...
     def accel(self) -> tuple[float, float, float]: ...
     def gyro(self) -> tuple[float, float, float]: ...
+    def attitude(self) -> tuple[float, float, float]: ...
+    def velocity_ned(self) -> tuple[float, float, float] | None: ...
     def rangefinder(self, orientation: int) -> RangeReading | None: ...
     def rc_pwm(self, chan: int) -> int | None: ...
     def param(self, name: str) -> float | None: ...
@@ -83,14 +89,14 @@ function uint32_t(v) return u32(num(v or 0)) end
 function millis() return u32(P.millis()) end
 function micros() return u32(P.micros()) end
 
-local V3 = {}
-V3.__index = V3
-function Vector3f() return setmetatable({_x = 0.0, _y = 0.0, _z = 0.0}, V3) end
-local function v3(x, y, z) return setmetatable({_x = x, _y = y, _z = z}, V3) end
-function V3:x(v) if v ~= nil then self._x = v end return self._x end
-function V3:y(v) if v ~= nil then self._y = v end return self._y end
-function V3:z(v) if v ~= nil then self._z = v end return self._z end
-function V3:length() return math.sqrt(self._x ^ 2 + self._y ^ 2 + self._z ^ 2) end
+local Vector3f_ud = {}
+Vector3f_ud.__index = Vector3f_ud
+function Vector3f() return setmetatable({_x = 0.0, _y = 0.0, _z = 0.0}, Vector3f_ud) end
+local function v3(x, y, z) return setmetatable({_x = x, _y = y, _z = z}, Vector3f_ud) end
+function Vector3f_ud:x(v) if v ~= nil then self._x = v end return self._x end
+function Vector3f_ud:y(v) if v ~= nil then self._y = v end return self._y end
+function Vector3f_ud:z(v) if v ~= nil then self._z = v end return self._z end
+function Vector3f_ud:length() return math.sqrt(self._x ^ 2 + self._y ^ 2 + self._z ^ 2) end
 
 gcs = {}
 function gcs:send_text(severity, text) P.send_text(severity, tostring(text)) end
@@ -122,6 +128,43 @@ function rangefinder:distance_orient(o) return P.rf(o, "distance") end
 function rangefinder:min_distance_orient(o) return P.rf(o, "min") end
 function rangefinder:max_distance_orient(o) return P.rf(o, "max") end
 function rangefinder:signal_quality_pct_orient(o) return P.rf(o, "quality") end
+-- one sensor, instance 0 (RNGFND1); its driver and the state it fills, as ArduPilot's
+-- AP_RangeFinder_Backend and RangeFinder::RangeFinder_State (a copy, read when asked)
+local AP_RangeFinder_Backend_ud = {}
+AP_RangeFinder_Backend_ud.__index = AP_RangeFinder_Backend_ud
+local RangeFinder_State_ud = {}
+RangeFinder_State_ud.__index = RangeFinder_State_ud
+local backend0 = setmetatable({}, AP_RangeFinder_Backend_ud)
+function rangefinder:num_sensors() return P.rf_count() end
+function rangefinder:get_backend(instance)
+  if instance == 0 and P.rf_count() > 0 then return backend0 end
+  return nil
+end
+function AP_RangeFinder_Backend_ud:orientation() return P.rf_orient() end
+function AP_RangeFinder_Backend_ud:status() return P.rf(P.rf_orient(), "status") end
+function AP_RangeFinder_Backend_ud:distance() return P.rf(P.rf_orient(), "distance") end
+function AP_RangeFinder_Backend_ud:signal_quality() return P.rf(P.rf_orient(), "quality") end
+function AP_RangeFinder_Backend_ud:get_state()
+  local o = P.rf_orient()
+  return setmetatable({
+    _t = u32(P.rf(o, "stamp")), _status = P.rf(o, "status"), _d = P.rf(o, "distance"),
+    _q = P.rf(o, "quality"),
+  }, RangeFinder_State_ud)
+end
+function RangeFinder_State_ud:last_reading() return self._t end
+function RangeFinder_State_ud:status() return self._status end
+function RangeFinder_State_ud:distance() return self._d end
+function RangeFinder_State_ud:signal_quality() return self._q end
+
+ahrs = {}
+function ahrs:get_roll() local r, p, y = P.attitude(); return r end
+function ahrs:get_pitch() local r, p, y = P.attitude(); return p end
+function ahrs:get_yaw() local r, p, y = P.attitude(); return y end
+function ahrs:get_velocity_NED()
+  local n, e, d = P.velocity()
+  if n == nil then return nil end
+  return v3(n, e, d)
+end
 
 arming = {}
 function arming:is_armed() return P.is_armed() end
@@ -159,7 +202,13 @@ def binding_calls(source: str) -> set[str]:
     """Every call on an ArduPilot binding object in a Lua source, as ``object:method`` or
     ``object.method`` (the dot form is itself a bug for a binding). Comments and strings are
     removed; Lua's own libraries (``string.pack`` ...) and the script's own local tables are not
-    bindings."""
+    bindings. A local holding a binding's userdata is named by the LuaLS annotation ArduPilot's
+    own scripts use, ``---@type AP_RangeFinder_Backend_ud`` on the line before ``local x = ...``:
+    its calls count as calls on that type (``AP_RangeFinder_Backend:get_state``)."""
+    typed = {
+        var: typ.removesuffix("_ud")
+        for typ, var in re.findall(r"---@type\s+([A-Za-z_]\w*)\s*\n\s*local\s+([A-Za-z_]\w*)", source)
+    }
     text = re.sub(r"--\[\[.*?\]\]", "", source, flags=re.S)
     text = re.sub(r"--[^\n]*", "", text)
     text = re.sub(r'"(?:\\.|[^"\\])*"|\'(?:\\.|[^\'\\])*\'', '""', text)
@@ -170,7 +219,7 @@ def binding_calls(source: str) -> set[str]:
     for obj, sep, meth in _BINDING_CALL.findall(text):
         if obj in _LUA_LIBRARIES or (sep == "." and obj in local):
             continue
-        calls.add(f"{obj}{sep}{meth}")
+        calls.add(f"{typed.get(obj, obj)}{sep}{meth}")
     return calls
 
 
@@ -308,7 +357,12 @@ class ScriptHost:
                 "min": r.min_m,
                 "max": r.max_m,
                 "quality": r.signal_quality_pct,
+                "stamp": r.last_reading_ms,
             }[what]
+
+        def velocity() -> tuple | None:
+            v = io.velocity_ned()
+            return None if v is None else tuple(float(x) for x in v)
 
         def mav_init(queue_length: int, num_rx: int) -> None:
             self._queue_len = max(0, int(queue_length))
@@ -353,6 +407,10 @@ class ScriptHost:
             "accel": lambda instance: io.accel(),
             "gyro": lambda instance: io.gyro(),
             "rf": rf,
+            "rf_count": lambda: 1 if io.rangefinder(DOWN) is not None else 0,
+            "rf_orient": lambda: DOWN,
+            "attitude": lambda: tuple(float(x) for x in io.attitude()),
+            "velocity": velocity,
             "is_armed": lambda: bool(io.is_armed()),
             "arm": lambda: bool(io.arm()),
             "disarm": lambda: bool(io.disarm()),

@@ -69,7 +69,7 @@ class Vehicle:
         self.echo_t: float | None = None
         self.echo_wall = 0.0
         self.running = True
-        self.events = Events()  # measurement hooks (docs/simulated-vehicle.md)
+        self.events = Events(self._send_event)  # measurement hooks (docs/simulated-vehicle.md)
         self.host = None
         if script is not None:
             from sitl.vehicle.script_io import ScriptIO
@@ -192,6 +192,9 @@ class Vehicle:
             mavlink.MAVLink_named_value_float_message(int(self.t * 1000), name[:10].encode(), float(value))
         )
 
+    def _send_event(self, name: str, t: float, value: float) -> None:
+        self.links.send(mavlink.MAVLink_named_value_float_message(int(t * 1000), name.encode(), float(value)))
+
     def ack(self, command: int, result: int, progress: int = 0) -> None:
         self.links.send(mavlink.MAVLink_command_ack_message(command, result, progress, 0, 0, 0))
 
@@ -219,7 +222,7 @@ class Vehicle:
                 if o is not None:
                     out[ch] = int(o)
         self.out_pwm = out
-        self.events.after_outputs(self, out)
+        self.events.after_outputs(self.t, self.armed, out)
         u_rear, u_front = esc.planar_rotor_commands(out)
         self.imu.accel_noise = self.scn.accel_noise + self.scn.imu_extra_noise(self.t)
         ca, cg = self.params["INS_ACCEL_FILTER"], self.params["INS_GYRO_FILTER"]
@@ -234,7 +237,7 @@ class Vehicle:
             self.imu.update(
                 1.0 / PHYSICS_HZ, fx, fz, self.stepper.body().pitch_rate, ca, cg, self.scn.imu_spike(self.t)
             )
-            self.events.after_physics_step(self)
+            self.events.after_physics_step(self.stepper, self.t, self._world_body())
         if rules.rangefinder_due(self.ticks, CONTROL_HZ):
             self._update_range()
         self.ticks += 1

@@ -233,9 +233,11 @@ def test_actions_send_the_contracts_commands(pair):
     act.descend(0.5)  # within the re-send period: not sent twice
     act.set_mode("LOITER")
     got = settle(link, peer)
-    arm = [m for m in got if m.get_type() == "COMMAND_LONG" and m.command == 31011]
-    a = arm[0]
+    reflex = [m for m in got if m.get_type() == "COMMAND_LONG" and m.command == 31011]
+    assert [m.param1 for m in reflex] == [3, 1]  # the landing's SETUP first, then ARM (contract 4)
+    a = reflex[1]
     assert (a.param1, a.param2, a.param4, a.param6) == (1, pytest.approx(0.3), 100, 1000)
+    assert (reflex[0].param7, a.param7) == (1, 2)  # each request numbered
     sp = [m for m in got if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
     assert len(sp) == 1 and sp[0].type_mask == 0x0DC7 and sp[0].vz == 0.5 and sp[0].target_system == 7
     mode = [m for m in got if m.get_type() == "COMMAND_LONG" and m.command == mavlink.MAV_CMD_DO_SET_MODE]

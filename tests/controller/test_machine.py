@@ -154,7 +154,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 2.0}, "v2, v3 needed"),
+        ({"script_version": 3.0}, "v3, v4 needed"),  # contract 4 numbers its requests
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 import struct
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import pytest
@@ -47,7 +47,14 @@ class TestVehicle:
     armed: bool = True
     estop: bool = False
     accel_body: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    #: what the sensor reads now; the script sees it as ArduCopter does, sampled every
+    #: ``range_period_ms`` (20 Hz, ArduCopter/Copter.cpp) with the sample's reading time
     range: RangeReading | None = None
+    range_period_ms: int = 50
+    attitude_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gyro_rads: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    velocity: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
+    _sample: RangeReading | None = None
     params: dict[str, float] = field(default_factory=lambda: {"MAV_SYSID": 1.0})
     texts: list[tuple[int, int, str]] = field(default_factory=list)
     named: list[tuple[int, str, float]] = field(default_factory=list)
@@ -83,10 +90,21 @@ class TestVehicle:
         return self.accel_body
 
     def gyro(self) -> tuple[float, float, float]:
-        return (0.0, 0.0, 0.0)
+        return self.gyro_rads
+
+    def attitude(self) -> tuple[float, float, float]:
+        return self.attitude_rad
+
+    def velocity_ned(self) -> tuple[float, float, float] | None:
+        return self.velocity
 
     def rangefinder(self, orientation: int) -> RangeReading | None:
-        return self.range if orientation == 25 else None
+        if orientation != 25 or self.range is None:
+            return None
+        due = self.now_ms - self.now_ms % self.range_period_ms
+        if self._sample is None or self._sample.last_reading_ms != due:
+            self._sample = replace(self.range, last_reading_ms=due)
+        return self._sample
 
     def rc_pwm(self, chan: int) -> int | None:
         return None
@@ -128,6 +146,7 @@ class Bench:
         self.io = vehicle or TestVehicle()
         self.host = ScriptHost(script, self.io)
         self.gcs = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
+        self.request = 0
 
     def run(self, ms: int, each=None) -> None:
         """Advance the vehicle clock by `ms`, 1 ms per tick, the host scheduled every tick;
@@ -141,9 +160,15 @@ class Bench:
     def outputs(self) -> list[int | None]:
         return [self.host.output_override(ch, self.io.now_ms) for ch in range(4)]
 
-    def command(self, command: int, *params: float, target=(1, 1), chan: int = 0, wait_ms: int = 20):
-        """Send a COMMAND_LONG to the script and return its decoded COMMAND_ACK."""
-        p = [*params, *[0.0] * (7 - len(params))]
+    def command(
+        self, command: int, *params: float, target=(1, 1), chan: int = 0, wait_ms: int = 20, request=None
+    ):
+        """Send a COMMAND_LONG to the script and return its decoded COMMAND_ACK; param 7 is the
+        next request number (or ``request``), and the ACK must echo it in result_param2."""
+        if request is None:
+            self.request += 1
+            request = self.request
+        p = [*params, *[0.0] * (6 - len(params)), request]
         msg = mavlink2.MAVLink_command_long_message(target[0], target[1], command, 0, *p)
         msg.pack(self.gcs)
         before = len(self.io.sent)
@@ -153,7 +178,11 @@ class Bench:
         assert len(acks) == 1, f"expected one COMMAND_ACK, got {len(acks)}"
         _, ack_chan, msgid, payload = acks[0]
         assert ack_chan == chan
-        return decode(msgid, payload)
+        ack = decode(msgid, payload)
+        expected = int(request) if request == request and float(request).is_integer() else None
+        if ack.result != 2 and expected is not None:  # DENIED may be for the number itself
+            assert ack.result_param2 == expected, "the ACK must echo the request number"
+        return ack
 
 
 def decode(msgid: int, payload: bytes):

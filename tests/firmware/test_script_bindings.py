@@ -46,5 +46,20 @@ def test_a_dot_call_on_a_binding_is_caught_and_local_tables_are_not(reference: P
 def test_the_host_provides_every_binding_the_script_calls() -> None:
     from sitl.vehicle.scripting import _PRELUDE
 
-    provided = set(re.findall(r"^function\s+(\w+:\w+)\s*\(", _PRELUDE, flags=re.M))
+    provided = {
+        f"{obj.removesuffix('_ud')}:{meth}"
+        for obj, meth in re.findall(r"^function\s+(\w+):(\w+)\s*\(", _PRELUDE, flags=re.M)
+    }
     assert binding_calls(SCRIPT.read_text()) <= provided
+
+
+def test_a_typed_local_counts_as_its_binding_type(reference: Path) -> None:
+    """A local holding a binding's userdata is checked by its LuaLS ``---@type`` annotation, as
+    ArduPilot's own scripts write it; without one its calls are unknown."""
+    typed = "---@type AP_RangeFinder_Backend_ud\nlocal b = rangefinder:get_backend(0)\nb:get_state()\n"
+    assert binding_calls(typed) == {"rangefinder:get_backend", "AP_RangeFinder_Backend:get_state"}
+    assert unknown_calls(typed, reference) == set()
+    wrong = "---@type AP_RangeFinder_Backend_ud\nlocal b = rangefinder:get_backend(0)\nb:last_reading()\n"
+    assert unknown_calls(wrong, reference) == {"AP_RangeFinder_Backend:last_reading"}
+    untyped = "local b = rangefinder:get_backend(0)\nb:get_state()\n"
+    assert unknown_calls(untyped, reference) == {"b:get_state"}

@@ -132,7 +132,7 @@ def test_only_registered_messages_are_queued_up_to_the_queue_length(bench: Bench
 
 def test_a_mavlink1_command_is_understood(bench: Bench) -> None:
     gcs = mavlink1.MAVLink(None, srcSystem=255, srcComponent=190)
-    cmd = mavlink1.MAVLink_command_long_message(1, 1, 31010, 0, 1, 0, 500, 0, 0, 0, 0)
+    cmd = mavlink1.MAVLink_command_long_message(1, 1, 31010, 0, 1, 0, 500, 0, 0, 0, 7)  # request 7
     cmd.pack(gcs)
     assert bench.host.deliver(cmd, 0)
     bench.run(20)

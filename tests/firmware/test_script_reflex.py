@@ -9,20 +9,37 @@ import pytest
 from script_bench import Bench
 
 from sitl.vehicle.scripting import RangeReading
+from slopelander.controller.script_contract import CMD_REFLEX as REFLEX
+from slopelander.controller.script_contract import Reflex, ScriptState
 
-REFLEX = 31011
-ACCEPTED = 0
+ACCEPTED, TEMP_REJECTED = 0, 1
 CUT_M, IMPACT, PCT, DUR_MS = 0.30, 30.0, 80.0, 300.0
-ARMED, CUT, RVT, HOLD, IDLE = 10, 11, 12, 13, 0
+DESCENT = 0.5
+S = ScriptState
+ARMED, CUT, RVT, HOLD, IDLE = S.ARMED, S.CUT, S.RVT, S.HOLD, S.IDLE
 GOOD = 4
+SAMPLE_MS = 50  # ArduCopter's 20 Hz rangefinder (the bench samples as it does)
+# the missed-impact bound for the cut height and descent rate above: the free fall from the cut
+# height at the descent speed, plus 100 ms of spin-down and one 50 ms range sample
+FALL_S = ((DESCENT**2 + 2 * 9.80665 * CUT_M) ** 0.5 - DESCENT) / 9.80665
+BOUND_MS = round(FALL_S * 1000 + 150)
 
 
 def good(d: float, quality: int = 100, lo: float = 0.1, hi: float = 3.0) -> RangeReading:
     return RangeReading(distance_m=d, status=GOOD, signal_quality_pct=quality, min_m=lo, max_m=hi)
 
 
-def arm(bench: Bench, validity_ms: float = 3000) -> None:
-    ack = bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, validity_ms)
+def setup(bench: Bench, ramp_ms: float = 0) -> None:
+    assert bench.command(REFLEX, Reflex.SETUP, ramp_ms, DESCENT).result == ACCEPTED
+
+
+def refresh(bench: Bench, dur_ms: float = DUR_MS, validity_ms: float = 3000):
+    return bench.command(REFLEX, Reflex.ARM, CUT_M, IMPACT, PCT, dur_ms, validity_ms)
+
+
+def arm(bench: Bench, validity_ms: float = 3000, ramp_ms: float = 0) -> None:
+    setup(bench, ramp_ms)
+    ack = refresh(bench, validity_ms=validity_ms)
     assert ack.result == ACCEPTED
     assert bench.io.state() == ARMED
     assert bench.outputs() == [None] * 4
@@ -56,7 +73,9 @@ def test_cut_at_the_set_height_on_a_trusted_descent(bench: Bench) -> None:
     assert bench.io.state() in (CUT, HOLD)
     first_below = next(t for t, h, _ in trace if h <= CUT_M)
     assert cut[1] <= CUT_M  # never before the cut height
-    assert cut[0] - first_below <= 40  # three readings 10 ms apart, then the next update
+    # two distinct 20 Hz samples at or below it: the first up to a sample period after the
+    # crossing, the second one period later, then the next update
+    assert SAMPLE_MS <= cut[0] - first_below <= 2 * SAMPLE_MS + 3
     assert all(pwm is None for t, h, pwm in trace if t < cut[0])
 
 
@@ -155,7 +174,8 @@ def test_a_lasting_change_of_the_ground_is_believed(bench: Bench) -> None:
     trace = descend(bench, 1.2, 0.5, 1400, reading=step)
     cut = next((t, h) for t, h, pwm in trace if pwm == 1500)
     assert cut[0] - t0 >= 100 + 600
-    assert cut[1] - 0.4 <= CUT_M and cut[1] - 0.4 >= CUT_M - 0.03  # at the cut height, as read
+    # at the cut height as read, within two 20 Hz samples of the 0.5 m/s descent
+    assert CUT_M - 0.5 * (2 * SAMPLE_MS + 3) / 1000 <= cut[1] - 0.4 <= CUT_M
 
 
 def test_a_chain_that_starts_below_the_cut_height_counts_only_once_it_lasts(bench: Bench) -> None:
@@ -188,15 +208,17 @@ def test_the_companions_refresh_does_not_restart_the_chain_of_readings(bench: Be
         cut = cut or next((t for t, _, pwm in trace if pwm == 1500), None)
         if bench.io.state() != ARMED:
             break
-        assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000).result == ACCEPTED
-    assert cut is not None and 3500 + 600 <= cut - t0 <= 3500 + 600 + 60
+        assert refresh(bench).result == ACCEPTED
+    assert cut is not None and 3500 + 600 <= cut - t0 <= 3500 + 600 + 2 * SAMPLE_MS + 3
 
 
-def cut_now(bench: Bench, validity_ms: float = 3000) -> None:
+def cut_now(bench: Bench, validity_ms: float = 3000, ramp_ms: float = 0) -> None:
     bench.io.range = good(0.5)
-    arm(bench, validity_ms)
-    descend(bench, 0.32, 0.5, 80)
-    assert bench.io.state() == CUT
+    arm(bench, validity_ms, ramp_ms)
+    trace = descend(bench, 0.32, 0.5, 200)
+    while bench.io.state() != CUT:
+        bench.run(1)
+    assert trace[-1][1] > 0.2
     bench.io.range = good(0.2)
 
 
@@ -222,10 +244,11 @@ def test_a_refresh_during_reverse_thrust_sets_its_duration(bench: Bench) -> None
     bench.run(5)
     assert bench.io.state() == RVT
     bench.io.accel_body = (0.0, 0.0, -9.81)
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 2000, 3000).result == ACCEPTED  # longer
+    assert refresh(bench, dur_ms=2000).result == ACCEPTED  # longer
     bench.run(int(DUR_MS) + 500)
     assert bench.io.state() == RVT and bench.outputs() == [1100] * 4  # past the armed 300 ms
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 0, 3000).result == ACCEPTED  # end it now
+    end = bench.command(REFLEX, Reflex.END_REVERSE, CUT_M, IMPACT, PCT, 0, 3000)
+    assert end.result == ACCEPTED  # end it now
     bench.run(30)
     assert bench.io.state() == HOLD and bench.outputs() == [1500] * 4
     assert bench.io.armed
@@ -236,7 +259,7 @@ def test_reverse_thrust_stays_bounded_when_the_companion_goes_silent(bench: Benc
     bench.io.accel_body = (0.0, 0.0, -45.0)
     bench.run(5)
     bench.io.accel_body = (0.0, 0.0, -9.81)
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 1500, 500).result == ACCEPTED
+    assert refresh(bench, dur_ms=1500, validity_ms=500).result == ACCEPTED
     bench.run(1400)
     assert bench.io.state() == RVT  # the last duration it was given, then no longer
     bench.run(200)
@@ -257,21 +280,29 @@ def test_accel_noise_below_the_threshold_does_not_fire(bench: Bench) -> None:
     bench.run(20)
     assert bench.io.state() == ARMED and bench.outputs() == [None] * 4
     bench.io.accel_body = (0.0, 0.0, -9.81)
-    descend(bench, 1.0, 0.5, 1450)  # the vehicle comes down through the cut height
+    descend(bench, 1.0, 0.5, 1550)  # the vehicle comes down through the cut height
     assert bench.io.state() == CUT
     bench.io.range = good(0.2)
 
     def mild(t: int) -> None:
         bench.io.accel_body = (rng.uniform(-8, 8), rng.uniform(-8, 8), -9.81 + rng.uniform(-8, 8))
 
-    bench.run(500, mild)  # |a| < 9.81 + 8 * sqrt(3) < 30: below the threshold
+    cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
+    bench.run(cut_at + BOUND_MS - bench.io.now_ms - 5, mild)  # |a| < 9.81 + 8 * sqrt(3) < 30
     assert bench.io.state() == CUT
     assert bench.outputs() == [1500] * 4
+    bench.run(10, mild)
+    assert bench.io.state() == HOLD and bench.outputs() == [1500] * 4  # no impact: a soft contact
 
 
 def test_missed_impact_on_the_ground_holds(bench: Bench) -> None:
+    """No impact felt (a soft contact): once the bound derived from the cut height and descent
+    rate is over, a range still near the ground holds the motors stopped."""
     cut_now(bench)
-    bench.run(1050)
+    cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
+    bench.run(cut_at + BOUND_MS - bench.io.now_ms - 5)
+    assert bench.io.state() == CUT
+    bench.run(10)
     assert bench.io.state() == HOLD
     assert bench.outputs() == [1500] * 4
     assert "SL: no impact seen, holding motors stopped" in bench.io.sl_texts()
@@ -280,8 +311,10 @@ def test_missed_impact_on_the_ground_holds(bench: Bench) -> None:
 def test_missed_impact_in_the_air_releases(bench: Bench) -> None:
     cut_now(bench)
     bench.io.range = good(0.8)  # the vehicle is not on the ground: the cut was false
-    bench.run(1080)
+    cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
+    bench.run(cut_at + BOUND_MS + 5 - bench.io.now_ms)
     assert bench.io.state() == IDLE
+    bench.run(40)  # the last override's own timeout
     assert bench.outputs() == [None] * 4
     assert "SL: false cut, motors released" in bench.io.sl_texts()
     assert bench.io.armed
@@ -304,7 +337,7 @@ def test_refresh_extends_the_hold(bench: Bench) -> None:
     cut_now(bench, validity_ms=1500)
     bench.run(1100)
     assert bench.io.state() == HOLD
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 1500).result == ACCEPTED
+    assert refresh(bench, validity_ms=1500).result == ACCEPTED
     bench.run(1000)  # past the first validity, within the refreshed one
     assert bench.io.armed and bench.io.state() == HOLD
 
@@ -317,11 +350,16 @@ def test_armed_reflex_lapses_to_idle(bench: Bench) -> None:
     assert "SL: reflex validity lapsed" in bench.io.sl_texts()
 
 
-def test_abort_releases_a_cut(bench: Bench) -> None:
+def test_abort_and_release_after_the_cut_are_refused(bench: Bench) -> None:
+    """From the cut on, the motors stay held: an abort or a release (a stale companion, a
+    timeout) would hand a vehicle on the roof to the mixer."""
     cut_now(bench)
-    assert bench.command(REFLEX, 0).result == ACCEPTED
-    bench.run(40)
-    assert bench.io.state() == IDLE and bench.outputs() == [None] * 4
+    for cmd in ((REFLEX, Reflex.ABORT), (31010, 0)):
+        ack = bench.command(*cmd)
+        assert ack.result == TEMP_REJECTED
+        assert bench.io.sl_texts()[-1] == "SL: motors held: disarm or take-off release"
+        bench.run(40)
+        assert bench.io.state() in (CUT, HOLD) and bench.outputs() == [1500] * 4
 
 
 def test_emergency_stop_releases_a_cut(bench: Bench) -> None:
@@ -333,10 +371,7 @@ def test_emergency_stop_releases_a_cut(bench: Bench) -> None:
 
 def test_the_reverse_thrust_ramps_down_when_it_ends(bench: Bench) -> None:
     # contract 3: param 7 of the arm ramps the thrust linearly to zero once its duration is over
-    bench.io.range = good(0.5)
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000, 400).result == ACCEPTED
-    descend(bench, 0.32, 0.5, 80)
-    bench.io.range = good(0.2)
+    cut_now(bench, ramp_ms=400)
     bench.io.accel_body = (0.0, 0.0, -45.0)
     bench.run(5)
     assert bench.io.state() == RVT
@@ -356,16 +391,15 @@ def test_the_reverse_thrust_ramps_down_when_it_ends(bench: Bench) -> None:
 
 
 def test_a_refresh_during_the_ramp_does_not_bring_the_thrust_back(bench: Bench) -> None:
-    cut_now(bench)
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000, 1000).result == ACCEPTED
+    cut_now(bench, ramp_ms=1000)
     bench.io.accel_body = (0.0, 0.0, -45.0)
     bench.run(5)
     bench.io.accel_body = (0.0, 0.0, -9.81)
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 0, 3000, 1000).result == ACCEPTED  # end it
+    assert bench.command(REFLEX, Reflex.END_REVERSE, CUT_M, IMPACT, PCT, 0, 3000).result == ACCEPTED
     bench.run(300)
     before = bench.outputs()[0]
     assert bench.io.state() == RVT and 1100 < before < 1500
-    assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, 3000, 3000, 1000).result == ACCEPTED
+    assert refresh(bench, dur_ms=3000).result == ACCEPTED
     bench.run(20)
     assert bench.outputs()[0] >= before  # still falling toward stop, not back to full reverse
     bench.run(800)
@@ -375,5 +409,98 @@ def test_a_refresh_during_the_ramp_does_not_bring_the_thrust_back(bench: Bench) 
 def test_a_ramp_out_of_range_is_denied(bench: Bench) -> None:
     bench.io.range = good(0.5)
     for bad in (-1.0, 3001.0, float("nan")):
-        assert bench.command(REFLEX, 1, CUT_M, IMPACT, PCT, DUR_MS, 3000, bad).result == 2
+        assert bench.command(REFLEX, Reflex.SETUP, bad, DESCENT).result == 2
     assert any("reverse ramp out of 0..3000 ms" in t for t in bench.io.sl_texts())
+
+
+# -- contract 4: distinct samples, reverse only near the ground, leaving the roof -------------------
+
+
+def test_one_low_sample_does_not_cut_however_often_the_script_reads_it(bench: Bench) -> None:
+    """Issue 20: ArduCopter updates the rangefinder at 20 Hz, the script reads it every 2-10 ms;
+    counting readings, one low sample (read over its whole 50 ms) made a cut. Only distinct
+    samples (a new driver reading time) count now: one low glitch never cuts."""
+    bench.io.range = good(0.45)
+    arm(bench)
+    t0 = bench.io.now_ms
+
+    def glitch(h: float) -> RangeReading:  # one 20 Hz sample reads 0.28 m at ~0.40 m: close
+        return good(0.28 if 100 <= bench.io.now_ms - t0 < 150 else h)  # enough to agree with the chain
+
+    trace = descend(bench, 0.45, 0.5, 250, reading=glitch)
+    assert any(abs(h - 0.40) < 0.03 for _, h, _ in trace)
+    assert all(pwm is None for _, _, pwm in trace) and bench.io.state() == ARMED
+
+
+def test_a_sample_read_many_times_counts_once(bench: Bench) -> None:
+    """The driver stops producing new samples (its reading time stands still) while its last
+    value is at the cut height: however long the script reads it, no cut."""
+    bench.io.range = good(0.5)
+    arm(bench)
+    descend(bench, 0.5, 0.5, 360)  # the last sample before this ends reads about 0.32 m
+    bench.io.range_period_ms = 10**9  # no new sample any more
+    bench.io.range = good(0.29)
+    bench.run(500)
+    assert bench.io.state() == ARMED and bench.outputs() == [None] * 4
+
+
+def test_no_reverse_thrust_on_an_impact_with_the_range_above_the_cut_height(bench: Bench) -> None:
+    """Reverse thrust drives the vehicle down: an acceleration spike after the cut with the
+    newest range sample above the cut height (a false cut, a bump in the air) is not an impact."""
+    cut_now(bench)
+    bench.io.range = good(0.6)
+    bench.run(SAMPLE_MS + 5)
+    bench.io.accel_body = (0.0, 0.0, -60.0)
+    bench.run(20)
+    assert bench.io.state() == CUT and bench.outputs() == [1500] * 4
+    bench.io.range = good(0.2)  # down on the ground: now it is one
+    bench.run(SAMPLE_MS + 5)
+    assert bench.io.state() == RVT
+
+
+def test_too_close_to_measure_is_on_the_ground(bench: Bench) -> None:
+    """A reading below the sensor's minimum (status OutOfRangeLow) after the cut is the ground."""
+    cut_now(bench)
+    bench.io.range = RangeReading(0.05, 2, 100, 0.1, 3.0)
+    bench.run(SAMPLE_MS + 5)
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    assert bench.io.state() == RVT
+
+
+def impact(bench: Bench) -> None:
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    assert bench.io.state() == RVT
+
+
+@pytest.mark.parametrize("reading", [good(2.5), RangeReading(3.5, 3, 100, 0.1, 3.0)], ids=["far", "beyond"])
+def test_reverse_thrust_ends_when_the_vehicle_leaves_the_roof(bench: Bench, reading) -> None:
+    """Issue 21: reverse thrust kept on through a slide off an edge. Two distinct samples farther
+    than the cut height plus 0.3 m (or beyond the sensor): the motors go back to the autopilot,
+    which is armed in its flying mode and can fly; stopped or reversed they would drop it."""
+    cut_now(bench)
+    impact(bench)
+    bench.run(50)
+    bench.io.range = reading
+    bench.run(2 * SAMPLE_MS + 5)
+    assert bench.io.state() == IDLE
+    bench.run(40)
+    assert bench.outputs() == [None] * 4 and bench.io.armed
+    assert "SL: left the roof: motors released" in bench.io.sl_texts()
+
+
+def test_one_far_sample_on_the_roof_keeps_the_motors_held(bench: Bench) -> None:
+    cut_now(bench)
+    impact(bench)
+    bench.run(int(DUR_MS) + 20)
+    assert bench.io.state() == HOLD
+    bench.io.range = good(2.5)
+    bench.run(SAMPLE_MS)
+    bench.io.range = good(0.2)
+    bench.run(200)
+    assert bench.io.state() == HOLD and bench.outputs() == [1500] * 4
+    bench.io.range = RangeReading(3.5, 3, 100, 0.1, 3.0)  # off the edge from HOLD too
+    bench.run(2 * SAMPLE_MS + 5)
+    assert bench.io.state() == IDLE

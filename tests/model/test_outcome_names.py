@@ -17,7 +17,7 @@ from slopelander.model import (
     simulate_batch,
 )
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+README = Path(__file__).resolve().parents[2] / "docs" / "commands.md"  # the Python example moved here
 
 
 def test_an_outcome_prints_as_its_name_and_converts_to_its_code() -> None:

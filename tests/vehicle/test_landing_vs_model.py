@@ -48,7 +48,9 @@ def fly_reflex_landing(url: str, cut_m: float) -> tuple[dict[str, float], list]:
             0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0x0DF8, 4.5, 0, -2.5, 0, 0, 0, 0, 0, 0, 0, 0
         )
         wait_msg(conn, "LOCAL_POSITION_NED", lambda m: abs(m.x - 4.5) < 0.2 and abs(m.vx) < 0.2, timeout=20)
-        arm = (1, cut_m, 20, 100, 5000, 5000)  # cut height, impact threshold, 100 % for 5 s, validity
+        arm = (1, cut_m, 20, 100, 5000, 5000, 2)  # cut height, impact threshold, 100 % for 5 s, validity
+        # contract 4: the landing's SETUP (ramp, descent rate) first; param 7 is a request number
+        assert command(conn, USER_2, 3, 0, 0.5, 0, 0, 0, 1).result == M.MAV_RESULT_ACCEPTED
         assert command(conn, USER_2, *arm).result == M.MAV_RESULT_ACCEPTED
         record: dict[str, float] = {}
         t0 = refreshed = time.monotonic()
@@ -56,7 +58,7 @@ def fly_reflex_landing(url: str, cut_m: float) -> tuple[dict[str, float], list]:
             assert time.monotonic() - t0 < 30, f"no landing record; got {sorted(record)}"
             velocity(conn, 0, 0.5)
             if time.monotonic() - refreshed > 1.0:
-                conn.mav.command_long_send(1, 1, USER_2, 0, *arm, 0)  # keep the reflex valid
+                conn.mav.command_long_send(1, 1, USER_2, 0, *arm)  # keep the reflex valid
                 refreshed = time.monotonic()
             m = conn.recv_match(type="NAMED_VALUE_FLOAT", blocking=True, timeout=0.1)
             if m is not None and m.name in FIELDS:

@@ -33,14 +33,16 @@ def test_reflex_landing_on_the_roof(slope_deg, cut_m):
             0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0x0DF8, 4.5, 0, -2.5, 0, 0, 0, 0, 0, 0, 0, 0
         )
         wait_msg(conn, "LOCAL_POSITION_NED", lambda m: abs(m.x - 4.5) < 0.2 and abs(m.vx) < 0.2, timeout=20)
-        assert command(conn, USER_2, 1, cut_m, 20, 100, 500, 5000).result == M.MAV_RESULT_ACCEPTED
+        # contract 4: the landing's SETUP (ramp, descent rate) first; param 7 is a request number
+        assert command(conn, USER_2, 3, 0, 0.5, 0, 0, 0, 1).result == M.MAV_RESULT_ACCEPTED
+        assert command(conn, USER_2, 1, cut_m, 20, 100, 500, 5000, 2).result == M.MAV_RESULT_ACCEPTED
         states, last = [], None
         t0 = refreshed = time.monotonic()
         while time.monotonic() - t0 < 12 and (not states or states[-1] != 13):
             velocity(conn, 0, 0.5)
             if time.monotonic() - refreshed > 1.0 and (not states or states[-1] == 10):
                 # extend the validity: re-send the same arm command
-                conn.mav.command_long_send(1, 1, USER_2, 0, 1, cut_m, 20, 100, 500, 5000, 0)
+                conn.mav.command_long_send(1, 1, USER_2, 0, 1, cut_m, 20, 100, 500, 5000, 3)
                 refreshed = time.monotonic()
             m = conn.recv_match(type=["NAMED_VALUE_FLOAT", "LOCAL_POSITION_NED"], blocking=True, timeout=0.1)
             if m is None:

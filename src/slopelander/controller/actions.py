@@ -8,12 +8,11 @@ from __future__ import annotations
 
 from slopelander.controller.config import Config
 from slopelander.controller.link import CommandHandle, Link, mavlink
+from slopelander.controller.script_contract import ScriptClient, ScriptRequest
 from slopelander.legs.errors import LegBoardError
 
 MODES = {"GUIDED": 4, "LAND": 9, "LOITER": 5, "BRAKE": 17, "RTL": 6}
 DESCENT_TYPE_MASK = 0x0DC7  # velocity only
-USER_1, USER_2 = 31010, 31011
-ACTION_RELEASE, ACTION_STOP, ACTION_REVERSE = 0, 1, 2
 
 
 class MavActions:
@@ -27,8 +26,13 @@ class MavActions:
         #: why the last leg command could not even start (out of range, queue full), else None
         self.leg_error: str | None = None
         self._then: tuple[float, float] | None = None  # torques to set once the angle is set
-        self.pending: dict[str, CommandHandle] = {}
+        self.pending: dict[str, CommandHandle | ScriptRequest] = {}
         self._last_descent = -1.0
+        #: the on-board script's requests, each ACK matched to its own request
+        self.script = ScriptClient(
+            link, retries=int(cfg["link.command_retries"]), timeout_s=cfg["link.command_timeout_s"]
+        )
+        self._setup: ScriptRequest | None = None
 
     def _cmd(self, key: str, command: int, *params: float) -> CommandHandle:
         h = self.link.command(
@@ -133,42 +137,55 @@ class MavActions:
 
     def reflex_arm(self, reverse_ms: float | None = None) -> None:
         """Arm (or refresh) the reflex; the reverse-thrust duration sent is the longest allowed
-        (``reflex.reverse_max_ms``, the script's bound if the companion goes silent)."""
+        (``reflex.reverse_max_ms``, the script's bound if the companion goes silent). The
+        landing's SETUP (ramp, descent rate) goes first until the script has accepted one, and
+        again after an arm it refused (a rebooted script has none)."""
         c = self.cfg.reflex
-        self._cmd(
-            "reflex",
-            USER_2,
-            1,
+        s, arm = self._setup, self.script.last.get("arm")
+        if s is None or (s.done and not s.ok) or (arm is not None and arm.state == "rejected"):
+            self._setup = self.script.setup(c["reverse_ramp_ms"], self.cfg["descent.rate_mps"])
+        self.pending["reflex"] = self.script.arm(
             c["cut_height_m"],
             c["impact_threshold_mps2"],
             c["reverse_thrust_pct"],
             c["reverse_max_ms"] if reverse_ms is None else reverse_ms,
             c["validity_ms"],
-            c["reverse_ramp_ms"],
         )
 
     def reflex_refresh(self) -> None:
         """Renew the script's validity during its landing sequence (the same arm command: in
-        CUT, RVT and HOLD the script only extends the validity)."""
+        CUT and HOLD the script only extends the validity)."""
         self.reflex_arm()
 
     def reflex_end_reverse(self) -> None:
-        """End the script's reverse thrust now: a refresh with duration 0 (script contract 2); the
-        script ramps it down over ``reflex.reverse_ramp_ms`` (contract 3), then holds the motors
-        stopped (HOLD); the refresh renews its validity."""
-        self.reflex_arm(reverse_ms=0)
+        """End the script's reverse thrust now; the script ramps it down over
+        ``reflex.reverse_ramp_ms``, then holds the motors stopped (HOLD); it renews the validity."""
+        c = self.cfg.reflex
+        self.pending["reflex"] = self.script.end_reverse(
+            c["cut_height_m"], c["impact_threshold_mps2"], c["reverse_thrust_pct"], c["validity_ms"]
+        )
 
     def reflex_abort(self) -> None:
-        self._cmd("reflex", USER_2, 0)
+        """Abort an armed reflex; from the cut on the script refuses (it keeps the motors held)."""
+        self.pending["reflex"] = self.script.abort()
 
     def release(self) -> None:
-        self._cmd("actuator", USER_1, ACTION_RELEASE, 0, 1000)
+        """Give commanded outputs back to the autopilot; from the cut on the script refuses."""
+        self.pending["actuator"] = self.script.release()
+
+    def release_for_takeoff(self) -> None:
+        """Give the motors back for a take-off: a held vehicle only when level enough
+        (:data:`~slopelander.controller.script_contract.TAKEOFF_RELEASE_TILT_DEG`)."""
+        self.pending["actuator"] = self.script.release_for_takeoff()
 
     def reverse(self, pct: float, ms: int) -> None:
-        self._cmd("actuator", USER_1, ACTION_REVERSE, pct, max(20, min(5000, int(ms))))
+        self.pending["actuator"] = self.script.reverse(pct, max(20, min(5000, int(ms))))
 
     def disarm(self) -> None:
-        self._cmd("arm", mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+        """Ask the script to disarm the vehicle: it does while it holds the motors stopped and the
+        vehicle is still; ArduCopter does not refuse a script's disarm the way it refuses a ground
+        station's before its land detector fires (docs/onboard-script.md, "Disarm")."""
+        self.pending["disarm"] = self.script.disarm()
 
     def takeoff(self, height_m: float) -> None:
         self.set_mode("GUIDED")

@@ -19,6 +19,11 @@ import yaml
 
 from slopelander.errors import SlopelanderError
 
+#: the on-board script's lower bound on the impact threshold (2 g; docs/onboard-script.md), the
+#: value of ``script_contract.IMPACT_MIN_MPS2`` (tests/firmware/test_script_contract.py holds them
+#: equal; imported by value so that the settings do not depend on the MAVLink modules)
+IMPACT_MIN_MPS2 = 2 * 9.80665
+
 # field -> (low, high, integer?)  (inclusive bounds)
 LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.link_loss_s": (0.2, 30.0, False),
@@ -35,7 +40,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "reflex.cut_height_m": (0.10, 2.00, False),
     "reflex.cut_latency_s": (0.0, 0.5, False),
     "reflex.arm_height_m": (0.2, 20.0, False),
-    "reflex.impact_threshold_mps2": (5, 200, False),
+    # at least IMPACT_MIN_MPS2 (2 g), checked below with its reason
+    "reflex.impact_threshold_mps2": (0, 200, False),
     "reflex.reverse_thrust_pct": (0, 100, False),
     "reflex.reverse_thrust_ms": (0, 5000, True),
     "reflex.reverse_max_ms": (0, 5000, True),
@@ -181,6 +187,14 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
             raise ConfigError(source, field, f"{v!r} is outside {lo:g}..{hi:g}")
     if doc["reflex"]["arm_height_m"] <= doc["reflex"]["cut_height_m"]:
         raise ConfigError(source, "reflex.arm_height_m", "must be above reflex.cut_height_m")
+    if doc["reflex"]["impact_threshold_mps2"] < IMPACT_MIN_MPS2:
+        raise ConfigError(
+            source,
+            "reflex.impact_threshold_mps2",
+            f"{doc['reflex']['impact_threshold_mps2']!r} is below {IMPACT_MIN_MPS2:.2f} (2 g): the filtered "
+            "accelerometer reads about 1 g at the cut, so a lower threshold fires in the air "
+            "(docs/onboard-script.md)",
+        )
     if doc["reflex"]["reverse_max_ms"] < doc["reflex"]["reverse_thrust_ms"]:
         raise ConfigError(source, "reflex.reverse_max_ms", "must not be below reflex.reverse_thrust_ms")
     if doc["settle"]["slide_speed_mps"] < doc["settle"]["still_speed_mps"]:

@@ -11,6 +11,7 @@ import json
 import logging
 from typing import IO
 
+from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.aborted import Aborted
 from slopelander.controller.states.armed import Armed
 from slopelander.controller.states.base import Context, Inputs, State
@@ -52,7 +53,7 @@ STATES: dict[str, type[State]] = {
 }
 PRE_CONTACT = ("PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED")
 #: the on-board script's CUT, RVT and HOLD: once it reports one, the motors are its business
-SCRIPT_HAS_CUT = (11, 12, 13)
+SCRIPT_HAS_CUT = (ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD)
 LINK_EXEMPT = ("LANDED", "ABORTED", "ESTOP", "LINK_LOST", "READY")
 
 

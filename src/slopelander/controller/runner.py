@@ -19,12 +19,13 @@ from slopelander.controller.impact import ImpactDetector, raw_imu_accel
 from slopelander.controller.link import Link, mavlink
 from slopelander.controller.machine import Machine
 from slopelander.controller.pilot_switch import APPLY_IN, WAIT_AGAIN, PresetSwitch
+from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.base import Context, Inputs
 from slopelander.legs.errors import LegBoardError
 
 MODE_NAMES = {v: k for k, v in MODES.items()}
 ENDINGS = ("LANDED", "ABORTED", "ESTOP", "READY")
-SCRIPT_ESTOP = 20
+SCRIPT_ESTOP = ScriptState.ESTOP
 
 
 #: the longest the landing loop waits for input between polls: the leg board's queued writes and
@@ -152,7 +153,7 @@ class Lander:
             range_m=range_m,
             range_ok=range_ok,
             script_present=ln.script_present,
-            script_state=state if state is not None else 0,
+            script_state=state if state is not None else ScriptState.IDLE,
             script_version=ln.info.script_version if ln.info is not None else None,
             legs_ready=legs_ready,
             legs_fault=legs_fault,

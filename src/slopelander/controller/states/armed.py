@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.base import Context, Inputs, State
 
 
@@ -28,8 +29,9 @@ class Armed(State):
         if inp.t - ctx.marks["reflex_sent"] >= ctx.cfg["reflex.refresh_s"]:
             ctx.act.reflex_arm()
             ctx.marks["reflex_sent"] = inp.t
-        if inp.script_state == 11:
+        if inp.script_state == ScriptState.CUT:
             return ("CUT", "on-board script cut the motors")
-        if inp.script_state in (12, 13):  # cut and impact both fell between two steps
+        # cut and impact both fell between two steps
+        if inp.script_state in (ScriptState.RVT, ScriptState.HOLD):
             return ("CUT", "on-board script cut the motors and reports impact")
         return None

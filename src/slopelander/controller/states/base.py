@@ -6,6 +6,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from slopelander.controller import script_contract
+from slopelander.controller.script_contract import ScriptState
+
 
 class Actions(Protocol):
     """What the states may do to the vehicle and the legs (bound to MAVLink in actions.py)."""
@@ -28,9 +31,8 @@ class Actions(Protocol):
     def statustext(self, text: str) -> None: ...
 
 
-#: the on-board script contract this controller speaks (docs/onboard-script.md): 2 ends the
-#: reverse thrust on a refresh, 3 ramps it down (the arm's param 7)
-SCRIPT_CONTRACT = 3
+#: the on-board script contract this controller speaks (docs/onboard-script.md)
+SCRIPT_CONTRACT = script_contract.SCRIPT_CONTRACT
 
 
 @dataclass
@@ -45,7 +47,7 @@ class Inputs:
     range_m: float | None = None
     range_ok: bool = False
     script_present: bool = True
-    script_state: int = 0
+    script_state: int = ScriptState.IDLE
     #: the contract version the on-board script reports (SL_VER); None until it has
     script_version: float | None = SCRIPT_CONTRACT
     legs_ready: bool = False
@@ -92,7 +94,7 @@ class Context:
 
 G = 9.80665
 #: the script's CUT, RVT and HOLD: its landing sequence, where a re-sent arm only renews validity
-SCRIPT_LANDING = (11, 12, 13)
+SCRIPT_LANDING = (ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD)
 
 
 def still(cfg: Any, inp: Inputs) -> bool:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.base import Context, Inputs, State
 
 
@@ -13,7 +14,8 @@ class Descend(State):
 
     def step(self, ctx: Context, inp: Inputs):
         ctx.act.descend(ctx.cfg["descent.rate_mps"])
-        if inp.script_state in (11, 12, 13):  # armed by an earlier landing's command, or a late report
+        # armed by an earlier landing's command, or a late report
+        if inp.script_state in (ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD):
             return ("CUT", "on-board script cut the motors")
         if inp.range_valid and inp.range_m <= ctx.cfg["reflex.arm_height_m"]:
             return ("ARMED", f"range {inp.range_m:.2f} m: arming the reflex")

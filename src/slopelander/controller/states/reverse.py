@@ -11,12 +11,13 @@ must spring back slowly for the feet to hold (docs/model.md).
 
 from __future__ import annotations
 
+from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
 
 #: how long past its longest duration the script may still report reverse thrust before the
 #: companion releases the outputs itself (the script's own bound is the duration plus a tick)
 REVERSE_OVERRUN_S = 1.0
-SCRIPT_RVT = 12
+SCRIPT_RVT = ScriptState.RVT
 
 
 class Reverse(State):

@@ -1,0 +1,249 @@
+"""The companion's side of the on-board script's contract (docs/onboard-script.md), in one place.
+
+The script's state numbers, its command ids, actions and parameter ranges, and :class:`ScriptClient`,
+the one object that sends it requests. Every request carries a request number in COMMAND_LONG
+param 7; the script echoes it in COMMAND_ACK ``result_param2`` (a MAVLink 2 extension field), so
+each ACK answers its own request: an old refresh's ACK can no longer mark a later abort accepted.
+``tests/firmware/test_script_contract.py`` holds this table to the Lua script.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+from slopelander.controller.link import Link, LinkError, mavlink
+
+#: the contract version this companion speaks (the script's SL_VER must be at least this):
+#: 2 ends the reverse thrust on a refresh, 3 ramps it down, 4 numbers every request and adds
+#: SETUP, END_REVERSE, TAKEOFF_RELEASE and DISARM
+SCRIPT_CONTRACT = 4
+
+CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
+CMD_REFLEX = 31011  # MAV_CMD_USER_2
+#: the COMMAND_LONG parameter (1-based) that carries the request number
+REQUEST_PARAM = 7
+#: request numbers are whole numbers 1 .. 2**24 - 1: a float32 parameter holds them exactly
+REQUEST_MAX = (1 << 24) - 1
+G = 9.80665
+#: the smallest impact threshold (m/s²): the filtered accelerometer reads ~1 g in the steady
+#: descent at the cut and less while the thrust decays; 2 g leaves a full g of margin
+IMPACT_MIN_MPS2 = 2 * G
+#: the tilt (deg) within which a take-off release is asked to find the vehicle (the script
+#: accepts bounds of 1..30): below ArduCopter's default ANGLE_MAX (30 deg), so the attitude
+#: controller that gets the motors back can hold the attitude it starts from
+TAKEOFF_RELEASE_TILT_DEG = 25.0
+
+
+class ScriptState(IntEnum):
+    """The script's states, as it announces them in NAMED_VALUE_FLOAT ``SL_STATE``."""
+
+    IDLE = 0  # released: the autopilot's mixer drives the motors
+    STOP = 1  # commanded stop (actuator)
+    REVERSE = 2  # commanded reverse thrust (actuator)
+    ARMED = 10  # reflex armed, watching the range
+    CUT = 11  # motors stopped at the cut height, watching for the impact
+    RVT = 12  # reflex reverse thrust after the impact
+    HOLD = 13  # on the ground, motors held stopped
+    ESTOP = 20  # the pilot's emergency stop: everything released
+
+
+#: the script's landing sequence: from the cut on, it holds the motors and refuses an abort or a
+#: release; only a disarm, a level take-off release, the emergency stop or leaving the roof end it
+LANDING = frozenset({ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD})
+
+
+class Actuator(IntEnum):
+    """``CMD_ACTUATOR`` param 1."""
+
+    RELEASE = 0
+    STOP = 1
+    REVERSE = 2
+
+
+class Reflex(IntEnum):
+    """``CMD_REFLEX`` param 1."""
+
+    ABORT = 0
+    ARM = 1  # also the refresh
+    END_REVERSE = 2
+    SETUP = 3
+    TAKEOFF_RELEASE = 4
+    DISARM = 5
+
+
+_ARM_LIMITS = {
+    2: (0.10, 2.00),  # cut height, m
+    3: (IMPACT_MIN_MPS2, 200.0),  # impact threshold, m/s²
+    4: (0.0, 100.0),  # reverse thrust, %
+    5: (0.0, 5000.0),  # reverse-thrust duration, ms
+    6: (100.0, 10000.0),  # validity, ms
+}
+#: (command, action) -> {param (1-based): (low, high)}: the ranges the script accepts, inclusive;
+#: outside them it answers DENIED. Param 7 is always the request number (1..REQUEST_MAX).
+PARAM_LIMITS: dict[tuple[int, int], dict[int, tuple[float, float]]] = {
+    (CMD_ACTUATOR, Actuator.RELEASE): {},
+    (CMD_ACTUATOR, Actuator.STOP): {2: (0.0, 100.0), 3: (20.0, 5000.0)},
+    (CMD_ACTUATOR, Actuator.REVERSE): {2: (0.0, 100.0), 3: (20.0, 5000.0)},
+    (CMD_REFLEX, Reflex.ABORT): {},
+    (CMD_REFLEX, Reflex.ARM): _ARM_LIMITS,
+    (CMD_REFLEX, Reflex.END_REVERSE): _ARM_LIMITS,
+    (CMD_REFLEX, Reflex.SETUP): {2: (0.0, 3000.0), 3: (0.1, 3.0)},  # ramp ms, descent m/s
+    (CMD_REFLEX, Reflex.TAKEOFF_RELEASE): {2: (1.0, 30.0)},  # tilt bound, deg
+    (CMD_REFLEX, Reflex.DISARM): {},
+}
+
+
+@dataclass
+class ScriptRequest:
+    """One request to the script: poll ``state`` ('pending', 'accepted', 'rejected', 'unanswered')."""
+
+    number: int
+    kind: str
+    command: int
+    params: tuple[float, ...]
+    retries: int
+    timeout_s: float
+    state: str = "pending"
+    #: the ACK's MAV_RESULT (None until answered)
+    result: int | None = None
+    #: the script's STATUSTEXT reason for a refusal ("SL: ..." without the prefix), when it came
+    reason: str | None = None
+    tries: int = 0
+    sent_at: float = 0.0
+
+    @property
+    def done(self) -> bool:
+        """Answered, or out of tries."""
+        return self.state != "pending"
+
+    @property
+    def ok(self) -> bool:
+        """The script accepted it."""
+        return self.state == "accepted"
+
+
+class ScriptClient:
+    """Sends the script's requests and matches each COMMAND_ACK to its own request by number.
+
+    Sending never waits: each call returns a :class:`ScriptRequest` that is re-sent (same number)
+    every ``timeout_s`` until answered, at most ``retries`` times, then marked 'unanswered'. Any
+    number of requests may be in flight at once, of any kind. Retries run from :meth:`poll`,
+    which the client also calls on every message from the autopilot."""
+
+    def __init__(self, link: Link, retries: int = 2, timeout_s: float = 0.5) -> None:
+        self.link = link
+        self.retries = int(retries)
+        self.timeout_s = float(timeout_s)
+        self._next = 1
+        self._pending: list[ScriptRequest] = []
+        #: every request by number, the newest ``KEEP`` of them
+        self.requests: dict[int, ScriptRequest] = {}
+        #: the newest request of each kind ('arm', 'abort', 'disarm', ...)
+        self.last: dict[str, ScriptRequest] = {}
+        self._refused: ScriptRequest | None = None  # the newest refusal still waiting for its reason
+        link.add_listener(self._on_message)
+
+    KEEP = 256
+
+    # ------------------------------------------------------------------ requests
+    def setup(self, ramp_ms: float, descent_mps: float) -> ScriptRequest:
+        """The landing's settings the reflex needs before ARM: the reverse-thrust ramp (ms) and the
+        descent rate (m/s) that bounds the wait for an impact after the cut."""
+        return self._send("setup", CMD_REFLEX, Reflex.SETUP, ramp_ms, descent_mps)
+
+    def arm(
+        self, cut_m: float, impact_mps2: float, pct: float, reverse_ms: float, validity_ms: float
+    ) -> ScriptRequest:
+        """Arm the reflex, or refresh it (in CUT and HOLD a refresh only renews the validity; in
+        RVT it also sets the reverse-thrust duration, counted from the impact)."""
+        return self._send("arm", CMD_REFLEX, Reflex.ARM, cut_m, impact_mps2, pct, reverse_ms, validity_ms)
+
+    def end_reverse(self, cut_m: float, impact_mps2: float, pct: float, validity_ms: float) -> ScriptRequest:
+        """End the reverse thrust now (it ramps down, then HOLD); renews the validity like a refresh."""
+        return self._send("end", CMD_REFLEX, Reflex.END_REVERSE, cut_m, impact_mps2, pct, 0, validity_ms)
+
+    def abort(self) -> ScriptRequest:
+        """Abort an armed reflex (refused from the cut on: the motors stay held)."""
+        return self._send("abort", CMD_REFLEX, Reflex.ABORT)
+
+    def release_for_takeoff(self, max_tilt_deg: float = TAKEOFF_RELEASE_TILT_DEG) -> ScriptRequest:
+        """Give the motors back for a take-off; a held vehicle only within ``max_tilt_deg`` of level."""
+        return self._send("takeoff_release", CMD_REFLEX, Reflex.TAKEOFF_RELEASE, max_tilt_deg)
+
+    def disarm(self) -> ScriptRequest:
+        """Ask the script to disarm: it does while it holds the motors stopped and the vehicle is still."""
+        return self._send("disarm", CMD_REFLEX, Reflex.DISARM)
+
+    def release(self) -> ScriptRequest:
+        """Give commanded outputs back to the autopilot (refused from the cut on)."""
+        return self._send("release", CMD_ACTUATOR, Actuator.RELEASE)
+
+    def stop(self, validity_ms: float) -> ScriptRequest:
+        return self._send("stop", CMD_ACTUATOR, Actuator.STOP, 0, validity_ms)
+
+    def reverse(self, pct: float, validity_ms: float) -> ScriptRequest:
+        return self._send("reverse", CMD_ACTUATOR, Actuator.REVERSE, pct, validity_ms)
+
+    # ------------------------------------------------------------------ answers
+    def status(self, number: int) -> str:
+        """'pending', 'accepted', 'rejected' or 'unanswered' for request ``number`` ('unknown'
+        for a number never sent, or one too old to be kept)."""
+        r = self.requests.get(number)
+        return "unknown" if r is None else r.state
+
+    def poll(self) -> None:
+        """Re-send what is due; mark as 'unanswered' what ran out of tries."""
+        now = self.link.monotonic()
+        for r in self._pending:
+            if r.done or now - r.sent_at < r.timeout_s:
+                continue
+            if r.tries > r.retries:
+                r.state = "unanswered"
+            else:
+                self._transmit(r)
+        self._pending = [r for r in self._pending if not r.done]
+
+    # ------------------------------------------------------------------ internals
+    def _send(self, kind: str, command: int, action: int, *params: float) -> ScriptRequest:
+        if self.link.info is None:
+            raise LinkError("no autopilot found yet: wait_autopilot() before sending commands")
+        number = self._next
+        self._next = 1 if self._next >= REQUEST_MAX else self._next + 1
+        p = [float(action), *(float(x) for x in params)]
+        p += [0.0] * (REQUEST_PARAM - 1 - len(p))
+        r = ScriptRequest(number, kind, command, (*p, float(number)), self.retries, self.timeout_s)
+        self.requests[number] = r
+        if len(self.requests) > self.KEEP:
+            del self.requests[next(iter(self.requests))]
+        self.last[kind] = r
+        self._transmit(r)
+        self._pending.append(r)
+        return r
+
+    def _transmit(self, r: ScriptRequest) -> None:
+        info = self.link.info
+        if info is None:
+            return
+        self.link.conn.mav.command_long_send(
+            info.system, info.component, r.command, min(r.tries, 255), *r.params
+        )
+        r.tries += 1
+        r.sent_at = self.link.monotonic()
+
+    def _on_message(self, msg) -> None:
+        mtype = msg.get_type()
+        if mtype == "COMMAND_ACK" and msg.command in (CMD_ACTUATOR, CMD_REFLEX):
+            r = self.requests.get(int(getattr(msg, "result_param2", 0) or 0))
+            answered = msg.result != mavlink.MAV_RESULT_IN_PROGRESS
+            if r is not None and r.command == msg.command and not r.done and answered:
+                r.result = int(msg.result)
+                r.state = "accepted" if msg.result == mavlink.MAV_RESULT_ACCEPTED else "rejected"
+                self._refused = None if r.ok else r
+        elif mtype == "STATUSTEXT" and self._refused is not None:
+            text = msg.text.rstrip("\x00") if isinstance(msg.text, str) else ""
+            if text.startswith("SL: "):
+                self._refused.reason = text[4:]
+                self._refused = None
+        if self._pending:
+            self.poll()

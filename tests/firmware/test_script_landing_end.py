@@ -1,0 +1,116 @@
+"""How a landing ends, in the real script (real Lua 5.3): from the cut on the motors stay held
+until a disarm (the companion's request, or its silence, only with the vehicle still), a take-off
+release with the vehicle level enough, or the pilot's emergency stop (issue 20 item 4, issue 21)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from script_bench import Bench
+from test_script_reflex import CUT_M, IMPACT, PCT, SAMPLE_MS, cut_now, good, impact
+
+from slopelander.controller.script_contract import CMD_ACTUATOR, CMD_REFLEX, Reflex, ScriptState
+
+ACCEPTED, TEMP_REJECTED = 0, 1
+
+
+def held(bench: Bench, validity_ms: float = 3000) -> None:
+    """Landed: cut, impact, reverse thrust (300 ms, no ramp), then HOLD."""
+    cut_now(bench, validity_ms=validity_ms)
+    impact(bench)
+    bench.run(320)
+    assert bench.io.state() == ScriptState.HOLD and bench.outputs() == [1500] * 4
+
+
+def test_disarm_request_disarms_a_held_still_vehicle(bench: Bench) -> None:
+    held(bench)
+    ack = bench.command(CMD_REFLEX, Reflex.DISARM)
+    assert ack.result == ACCEPTED
+    assert not bench.io.armed and bench.io.state() == ScriptState.IDLE
+    assert bench.command(CMD_REFLEX, Reflex.DISARM).result == ACCEPTED  # already disarmed
+
+
+@pytest.mark.parametrize(
+    ("change", "why"),
+    [
+        ({"gyro_rads": (0.0, math.radians(8), 0.0)}, "SL: disarm: turning 8 deg/s"),
+        ({"velocity": (0.15, 0.0, 0.05)}, "SL: disarm: moving 0.16 m/s"),
+        ({"velocity": None}, "SL: disarm: velocity unknown"),
+    ],
+)
+def test_disarm_request_refused_while_moving(bench: Bench, change: dict, why: str) -> None:
+    """A slide or a pivot is not disarmed: the motors stay held and the companion is told why."""
+    held(bench)
+    for k, v in change.items():
+        setattr(bench.io, k, v)
+    ack = bench.command(CMD_REFLEX, Reflex.DISARM)
+    assert ack.result == TEMP_REJECTED and bench.io.sl_texts()[-1] == why
+    assert bench.io.armed and bench.io.state() == ScriptState.HOLD and bench.outputs() == [1500] * 4
+
+
+def test_disarm_request_refused_without_the_motors_held(bench: Bench) -> None:
+    bench.io.range = good(1.0)
+    assert bench.command(CMD_REFLEX, Reflex.SETUP, 0, 0.5).result == ACCEPTED
+    assert bench.command(CMD_REFLEX, Reflex.ARM, CUT_M, IMPACT, PCT, 300, 3000).result == ACCEPTED
+    ack = bench.command(CMD_REFLEX, Reflex.DISARM)  # in the air, reflex armed
+    assert ack.result == TEMP_REJECTED and bench.io.sl_texts()[-1] == "SL: disarm: motors not held stopped"
+    assert bench.io.armed
+
+
+def test_a_silent_companion_disarms_only_a_still_vehicle(bench: Bench) -> None:
+    """Validity lapsed in HOLD: a vehicle still moving stays armed with its motors held (never
+    released), and is disarmed once it is still."""
+    held(bench, validity_ms=1000)
+    bench.io.velocity = (0.3, 0.0, 0.1)  # sliding
+    bench.run(1500)
+    assert bench.io.armed and bench.io.state() == ScriptState.HOLD and bench.outputs() == [1500] * 4
+    assert "SL: companion silent, moving 0.32 m/s: holding" in bench.io.sl_texts()
+    bench.io.velocity = (0.0, 0.0, 0.0)
+    bench.run(20)
+    assert not bench.io.armed and bench.io.state() == ScriptState.IDLE
+    assert "SL: companion silent after landing: disarmed" in bench.io.sl_texts()
+
+
+@pytest.mark.parametrize("cmd", [(CMD_REFLEX, Reflex.ABORT), (CMD_ACTUATOR, 0), (CMD_ACTUATOR, 1, 0, 100)])
+def test_nothing_but_disarm_take_off_or_estop_releases_a_held_vehicle(bench: Bench, cmd) -> None:
+    """An abort, a release, or a commanded stop (whose own validity would lapse to the mixer)."""
+    held(bench)
+    assert bench.command(*cmd).result == TEMP_REJECTED
+    bench.run(500)
+    assert bench.io.state() == ScriptState.HOLD and bench.outputs() == [1500] * 4
+
+
+def test_take_off_release_only_level_enough(bench: Bench) -> None:
+    held(bench)
+    bench.io.attitude_rad = (0.0, math.radians(35), 0.0)  # on a 35 deg roof
+    ack = bench.command(CMD_REFLEX, Reflex.TAKEOFF_RELEASE, 25)
+    assert ack.result == TEMP_REJECTED and bench.io.sl_texts()[-1] == "SL: take-off release: tilted 35 deg"
+    assert bench.io.state() == ScriptState.HOLD
+    bench.io.attitude_rad = (math.radians(10), math.radians(15), 0.0)  # 18 deg from level
+    assert bench.command(CMD_REFLEX, Reflex.TAKEOFF_RELEASE, 25).result == ACCEPTED
+    bench.run(40)
+    assert bench.io.state() == ScriptState.IDLE and bench.outputs() == [None] * 4 and bench.io.armed
+
+
+def test_take_off_release_refused_during_the_reverse_thrust(bench: Bench) -> None:
+    cut_now(bench)
+    impact(bench)
+    assert bench.command(CMD_REFLEX, Reflex.TAKEOFF_RELEASE, 25).result == TEMP_REJECTED
+    assert bench.io.state() == ScriptState.RVT
+
+
+def test_emergency_stop_releases_a_held_vehicle(bench: Bench) -> None:
+    held(bench)
+    bench.io.estop = True
+    bench.run(40)
+    assert bench.io.state() == ScriptState.ESTOP and bench.outputs() == [None] * 4
+
+
+def test_arm_needs_the_landings_setup(bench: Bench) -> None:
+    """The missed-impact bound needs the descent rate: no ARM before a SETUP."""
+    bench.io.range = good(1.0)
+    bench.run(SAMPLE_MS)
+    ack = bench.command(CMD_REFLEX, Reflex.ARM, CUT_M, IMPACT, PCT, 300, 3000)
+    assert ack.result == TEMP_REJECTED and bench.io.sl_texts()[-1] == "SL: reflex not set up"
+    assert bench.io.state() == ScriptState.IDLE
