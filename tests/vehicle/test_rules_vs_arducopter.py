@@ -24,7 +24,7 @@ def test_stand_in_answers_commands_as_arducopter_does():
         from sitl.ardupilot.launch import start_arducopter
     except ImportError as exc:
         pytest.fail(f"SLOPELANDER_ARDUCOPTER is set but the launcher is missing: {exc}")
-    with start_arducopter() as ap:
+    with start_arducopter(speedup=4.0) as ap:
         conn = mavutil.mavlink_connection(ap.mavlink_url, source_system=255, source_component=190)
         try:
             assert conn.wait_heartbeat(timeout=60) is not None, "no HEARTBEAT from ArduCopter"
