@@ -7,6 +7,7 @@ import math
 import time
 from typing import TYPE_CHECKING
 
+from sitl.vehicle import arducopter_rules as rules
 from sitl.vehicle import modes
 from sitl.vehicle.flight_control import Target
 from sitl.vehicle.mavlink_endpoints import mavlink
@@ -19,8 +20,8 @@ TEMP_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 FAILED = mavlink.MAV_RESULT_FAILED
-MIN_INTERVAL_US = 5000  # 200 Hz at SCHED_LOOP_RATE 400
 AUX_MOTOR_ESTOP = 31
+EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial, as ArduPilot's Location offsets
 
 
 def handle(v: Vehicle, chan: int, m) -> None:
@@ -42,7 +43,7 @@ def _command_long(v: Vehicle, chan: int, m) -> None:
     p = (m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7)
     fn = _COMMANDS.get(cmd)
     if fn is None:
-        v.ack(cmd, UNSUPPORTED)
+        v.ack(cmd, rules.unknown_command_result())
         return
     if any(math.isnan(x) for x in p[:2]) and cmd != mavlink.MAV_CMD_NAV_TAKEOFF:
         v.ack(cmd, DENIED)
@@ -51,31 +52,36 @@ def _command_long(v: Vehicle, chan: int, m) -> None:
 
 
 def _arm(v: Vehicle, p) -> int:
-    force = int(p[1]) == 21196
-    if p[0] == 1:
-        return ACCEPTED if v.arm(force=force) else FAILED
-    if p[0] == 0:
-        return ACCEPTED if v.disarm() else FAILED
-    return DENIED
+    what, checks = rules.arm_disarm_request(p[0], p[1])
+    if what == "arm":
+        return ACCEPTED if v.arm(force=not checks) else FAILED
+    if what == "disarm":
+        return ACCEPTED if v.disarm(rules.GCS, checks=checks) else FAILED
+    return UNSUPPORTED
 
 
 def _do_set_mode(v: Vehicle, p) -> int:
-    if not int(p[0]) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-        return DENIED
-    return ACCEPTED if v.set_mode(int(p[1])) else DENIED
+    flag_ok = bool(int(p[0]) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+    return rules.set_mode_result(p[0], p[1], flag_ok and _enter_mode(v, p[1]))
+
+
+def _enter_mode(v: Vehicle, mode: float) -> bool:
+    if int(mode) not in modes.NAMES:
+        v.statustext(f"No such mode {int(mode)}", mavlink.MAV_SEVERITY_WARNING)  # Copter::set_mode
+        return False
+    return v.set_mode(int(mode))
 
 
 def _takeoff(v: Vehicle, p) -> int:
-    if v.mode != modes.GUIDED or not v.armed:
-        return FAILED
-    alt = p[6]
-    if not math.isfinite(alt) or alt <= 0:
-        return DENIED
-    b = v._world_body()
-    hz = v.home[1]
-    v.target = Target(x=b.x, z=hz + alt)
-    v.target_is_velocity = False
-    return ACCEPTED
+    return ACCEPTED if v.takeoff(p[6], p[2]) else FAILED
+
+
+def _do_set_servo(v: Vehicle, p) -> int:
+    # the stand-in drives no servo outputs besides the four motors; a free channel is accepted
+    result = rules.do_set_servo_result(p[0])
+    if result != ACCEPTED:
+        v.statustext(f"ServoRelayEvent: Channel {int(p[0])} is already in use", mavlink.MAV_SEVERITY_INFO)
+    return result
 
 
 def _aux(v: Vehicle, p) -> int:
@@ -92,13 +98,12 @@ def _aux(v: Vehicle, p) -> int:
 
 def _interval(v: Vehicle, p) -> int:
     msgid, interval = int(p[0]), p[1]
-    if msgid not in v.streams.SENDERS:
-        return DENIED
-    if interval > 0 and interval < MIN_INTERVAL_US:
-        v.statustext(
-            f"Rate {1e6 / interval:.0f}Hz too high: increase SCHED_LOOP_RATE", mavlink.MAV_SEVERITY_WARNING
-        )
-        return DENIED
+    result = rules.message_interval_result(interval, v.params["SCHED_LOOP_RATE"], msgid in v.streams.SENDERS)
+    if result != ACCEPTED:
+        if msgid in v.streams.SENDERS:
+            text = f"Requested rate for message ID {msgid} too fast. Increase SCHED_LOOP_RATE"
+            v.statustext(text, mavlink.MAV_SEVERITY_WARNING)
+        return result
     v.streams.set_interval(msgid, None if interval == 0 else (-1.0 if interval < 0 else interval / 1e6))
     return ACCEPTED
 
@@ -139,8 +144,9 @@ def _send_version(v: Vehicle) -> None:
 
 
 def _set_mode_msg(v: Vehicle, chan: int, m) -> None:
-    ok = bool(m.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) and v.set_mode(int(m.custom_mode))
-    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, ACCEPTED if ok else DENIED)
+    flag_ok = bool(m.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+    ok = flag_ok and _enter_mode(v, m.custom_mode)
+    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, rules.set_mode_result(m.base_mode, m.custom_mode, ok))
 
 
 def _param_value(v: Vehicle, name: str) -> None:
@@ -184,28 +190,77 @@ def _pname(raw) -> str:
 
 
 def _position_target(v: Vehicle, chan: int, m) -> None:
+    """SET_POSITION_TARGET_LOCAL_NED in GUIDED (arducopter_rules.local_target_is_offset)."""
     if v.mode != modes.GUIDED:
         return
-    if m.coordinate_frame not in (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_OFFSET_NED):
-        v.statustext("Guided: only LOCAL_NED targets", mavlink.MAV_SEVERITY_WARNING)
-        return
-    mask = m.type_mask
-    use_pos = mask & 7 != 7
-    use_vel = mask & 56 != 56
-    vals = (m.x, m.y, m.z, m.vx, m.vy, m.vz)
-    if not all(math.isfinite(x) for x in vals):
+    b = v._world_body()
+    if m.coordinate_frame not in rules.LOCAL_TARGET_FRAMES:
+        _hold_here(v, b)
         return
     hx, hz = v.home
+    if rules.local_target_is_offset(m.coordinate_frame):
+        north, up = b.x + m.x, b.z - m.z  # yaw is 0: body x is north
+    else:
+        north, up = hx + m.x, hz - m.z
+    _set_guided_target(v, m.type_mask, (m.x, m.y, m.z, m.vx, m.vy, m.vz), north, up, m.vx, -m.vz)
+
+
+def _position_target_global(v: Vehicle, chan: int, m) -> None:
+    """SET_POSITION_TARGET_GLOBAL_INT in GUIDED: latitude to north of home on the flat earth
+    around home (the planar vehicle cannot move east: longitude is ignored)."""
+    if v.mode != modes.GUIDED:
+        return
+    b = v._world_body()
+    if m.coordinate_frame not in rules.GLOBAL_TARGET_FRAMES:
+        _hold_here(v, b)
+        return
+    hx, hz = v.home
+    lat0 = v.params["SIM_OPOS_LAT"]
+    north = hx + math.radians(m.lat_int / 1e7 - lat0) * EARTH_RADIUS_M
+    terrain = (b.z - v.range_alt.alt_m - hz) if v.range_alt.healthy else 0.0
+    up = hz + rules.global_target_height(m.coordinate_frame, m.alt, v.params["SIM_OPOS_ALT"], terrain)
+    vals = (m.lat_int, m.lon_int, m.alt, m.vx, m.vy, m.vz)
+    _set_guided_target(v, m.type_mask, vals, north, up, m.vx, -m.vz)
+
+
+def _hold_here(v: Vehicle, b) -> None:
+    v.target = Target(x=b.x, z=b.z)
+    v.target_is_velocity = False
+
+
+def _set_guided_target(v: Vehicle, mask: int, vals, north: float, up: float, vn: float, vup: float) -> None:
+    use_pos = mask & 7 != 7
+    use_vel = mask & 56 != 56
+    if not all(math.isfinite(x) for x in vals):
+        return
     t = Target()
     if use_pos:
-        t.x, t.z = hx + m.x, hz - m.z
+        t.x, t.z = north, up
     if use_vel:
-        t.vx, t.vz = m.vx, -m.vz
+        t.vx, t.vz = vn, vup
         if not use_pos:
             t.x = t.z = None
     v.target = t
-    v.target_is_velocity = use_vel and not use_pos
+    v.target_is_velocity = use_vel  # a velocity part lapses after GUID_TIMEOUT (rules (f))
     v.target_time = v.t
+
+
+FTP_NAK, FTP_ERR_FILE_NOT_FOUND = 129, 10
+
+
+def _ftp(v: Vehicle, chan: int, m) -> None:
+    """MAVLink FTP: the stand-in serves no files. Every request is answered at once with a NAK
+    "file not found" (what ArduPilot's FTP server answers for a path it lacks), so a ground
+    station's parameter download by FTP (MAVProxy's @PARAM/param.pck) falls back to
+    PARAM_REQUEST_LIST instead of waiting out its time-outs."""
+    req = bytes(m.payload)
+    seq, session, opcode = req[0] | req[1] << 8, req[2], req[3]
+    reply = bytes([(seq + 1) & 0xFF, ((seq + 1) >> 8) & 0xFF, session, FTP_NAK, 1, opcode, 0, 0])
+    reply += bytes(4) + bytes([FTP_ERR_FILE_NOT_FOUND])
+    payload = list(reply.ljust(251, b"\0"))
+    v.links.send(
+        mavlink.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), payload)
+    )
 
 
 def _timesync(v: Vehicle, chan: int, m) -> None:
@@ -239,6 +294,7 @@ _COMMANDS = {
     mavlink.MAV_CMD_NAV_TAKEOFF: _takeoff,
     mavlink.MAV_CMD_NAV_LAND: _nav_land,
     mavlink.MAV_CMD_DO_AUX_FUNCTION: _aux,
+    mavlink.MAV_CMD_DO_SET_SERVO: _do_set_servo,
     mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: _interval,
     mavlink.MAV_CMD_REQUEST_MESSAGE: _request_message,
     mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: _capabilities,
@@ -251,6 +307,8 @@ _HANDLERS = {
     "PARAM_REQUEST_READ": _param_read,
     "PARAM_SET": _param_set,
     "SET_POSITION_TARGET_LOCAL_NED": _position_target,
+    "SET_POSITION_TARGET_GLOBAL_INT": _position_target_global,
+    "FILE_TRANSFER_PROTOCOL": _ftp,
     "TIMESYNC": _timesync,
     "REQUEST_DATA_STREAM": _data_stream,
     "RC_CHANNELS_OVERRIDE": _rc_override,

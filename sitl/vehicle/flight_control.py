@@ -37,6 +37,7 @@ class Gains:
     max_vxy: float = 5.0
     max_vz_up: float = 2.5
     max_vz_dn: float = 1.5
+    leash_z: float = 1.0  # m: how far a velocity target's moving height may run ahead of the vehicle
 
 
 class FlightControl:
@@ -51,6 +52,10 @@ class FlightControl:
         self.ix = 0.0
         self.iz = 0.0
         self.throttle = 0.0  # collective as a fraction of full thrust, last tick
+        self.demand = 0.0  # the same before the clamp at zero (negative: the controller wants less)
+        self.pitch_target = 0.0  # rad, last tick's attitude target
+        self.vz_desired = 0.0  # m/s, last tick's desired climb rate
+        self.z_moving: float | None = None  # height a vertical velocity target moves (as AC_PosControl)
 
     def update(self, dt: float, b: BodyState, t: Target, angle_max: float) -> tuple[float, float]:
         k = self.gains
@@ -65,17 +70,30 @@ class FlightControl:
             ax = k.vel_xy * ex + self.ix
             pitch_t = -math.atan2(ax, self.g)
         pitch_t = max(-angle_max, min(angle_max, pitch_t))
+        self.pitch_target = pitch_t
         # vertical: position -> velocity -> acceleration -> collective thrust
         c = max(0.5, math.cos(b.pitch))
         if t.throttle is not None:
             collective = 2.0 * self.tmax * t.throttle
         else:
-            vz_t = t.vz if t.z is None else k.pos_z * (t.z - b.z)
+            if t.z is None:
+                # a velocity target moves a height target along (AC_PosControl::input_vel_accel_z),
+                # so a descent blocked by the ground keeps asking for less thrust
+                z0 = b.z if self.z_moving is None else self.z_moving
+                self.z_moving = max(b.z - k.leash_z, min(b.z + k.leash_z, z0 + t.vz * dt))
+                vz_t = t.vz + k.pos_z * (self.z_moving - b.z)
+            else:
+                self.z_moving = None
+                vz_t = k.pos_z * (t.z - b.z)
             vz_t = max(-k.max_vz_dn, min(k.max_vz_up, vz_t))
+            self.vz_desired = vz_t
             ez = vz_t - b.vz
-            self.iz = max(-6.0, min(6.0, self.iz + k.vel_z_i * ez * dt))
+            self.iz = max(-self.g, min(6.0, self.iz + k.vel_z_i * ez * dt))
             az = k.vel_z * ez + self.iz
             collective = self.m * (self.g + az) / c
+        if t.throttle is not None:
+            self.vz_desired = 0.0
+        self.demand = collective / (2.0 * self.tmax)
         collective = max(0.0, min(2.0 * self.tmax, collective))
         # attitude: angle -> rate -> torque -> differential thrust
         rate_t = max(-k.max_rate, min(k.max_rate, k.angle * (pitch_t - b.pitch)))
@@ -89,3 +107,4 @@ class FlightControl:
         """Forget integrators while spooled down on the ground (as ArduCopter's relax on land)."""
         self.ix = 0.0
         self.iz = min(self.iz, 0.0)
+        self.z_moving = None

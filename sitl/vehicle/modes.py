@@ -22,5 +22,7 @@ NAMES = {
 
 # Modes that hold a position or velocity target (the rest take pilot sticks).
 POSITION_MODES = {GUIDED, LOITER, RTL, LAND, BRAKE}
-# Modes ArduCopter lets you arm in (GUIDED needs a position estimate, which this vehicle has).
+# Modes ArduCopter lets you arm in (Mode::allows_arming; GUIDED only from a GCS or a script).
 ARMABLE = {STABILIZE, ALT_HOLD, GUIDED, LOITER}
+# Modes whose throttle is the pilot's stick (Mode::has_manual_throttle).
+MANUAL_THROTTLE = {STABILIZE}

@@ -29,10 +29,14 @@ VEHICLE_DEFAULTS: dict[str, float] = {
     "RNGFND1_ORIENT": 25,
     "RNGFND1_MIN": 0.05,  # m
     "RNGFND1_MAX": 14.0,  # m
+    "WPNAV_RFND_USE": 1,  # GUIDED take-off height over the rangefinder's surface below RNGFND1_MAX
     "DISARM_DELAY": 10,
     "FS_CRASH_CHECK": 1,
     "RTL_ALT": 1500,  # cm
     "SCR_ENABLE": 1,
+    "SIM_OPOS_LAT": 47.3977,  # deg: where home is on the earth (GLOBAL_INT targets), as SITL's --home
+    "SIM_OPOS_LNG": 8.5456,  # deg
+    "SIM_OPOS_ALT": 400.0,  # m above mean sea level
 }
 
 

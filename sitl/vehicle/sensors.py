@@ -58,10 +58,18 @@ def _alpha(dt: float, cutoff_hz: float) -> float:
     return dt / (dt + rc)
 
 
-def range_reading(true_m: float, min_m: float, max_m: float) -> Range:
-    """Status and quality of a healthy sensor for a true distance (still reported below min)."""
-    if not math.isfinite(true_m) or true_m > max_m:
-        return Range(max_m, 3, 0)
-    if true_m < min_m:
-        return Range(true_m, 2, 0)
-    return Range(true_m, 4, 100)
+BEAM_MISS_M = 999.0  # what the beam reads when it meets no surface (the JSON physics sends the same)
+
+
+def range_reading(value_m: float, min_m: float, max_m: float) -> Range:
+    """The reading ArduPilot makes of a rangefinder value (arducopter_rules.sitl_rangefinder):
+    NaN/inf no data, negative 0 m, below RNGFND1_MIN still reported (out of range low), above
+    RNGFND1_MAX out of range high (reported as RNGFND1_MAX)."""
+    from sitl.vehicle.arducopter_rules import GOOD, NO_DATA, OUT_OF_RANGE_HIGH, sitl_rangefinder
+
+    d, status = sitl_rangefinder(value_m, min_m, max_m)
+    if status == NO_DATA:
+        return Range(0.0, NO_DATA, 0)
+    if status == OUT_OF_RANGE_HIGH:
+        return Range(max_m, status, 0)
+    return Range(d, status, 100 if status == GOOD else 0)

@@ -14,6 +14,7 @@ if TYPE_CHECKING:
     from sitl.vehicle.vehicle import Vehicle
 
 M = mavlink
+EARTH_RADIUS_M = 6378137.0
 DEFAULT_INTERVALS = {  # s; what a client sees before asking for anything
     M.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
     M.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
@@ -27,7 +28,7 @@ STREAM_GROUPS = {
     M.MAV_DATA_STREAM_RAW_SENSORS: [M.MAVLINK_MSG_ID_RAW_IMU],
     M.MAV_DATA_STREAM_EXTENDED_STATUS: [M.MAVLINK_MSG_ID_SYS_STATUS],
     M.MAV_DATA_STREAM_RC_CHANNELS: [M.MAVLINK_MSG_ID_RC_CHANNELS, M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW],
-    M.MAV_DATA_STREAM_POSITION: [M.MAVLINK_MSG_ID_LOCAL_POSITION_NED],
+    M.MAV_DATA_STREAM_POSITION: [M.MAVLINK_MSG_ID_LOCAL_POSITION_NED, M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT],
     M.MAV_DATA_STREAM_EXTRA1: [M.MAVLINK_MSG_ID_ATTITUDE],
     M.MAV_DATA_STREAM_EXTRA3: [M.MAVLINK_MSG_ID_DISTANCE_SENSOR, M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE],
 }
@@ -55,7 +56,10 @@ def _sys_status(v: Vehicle):
         | M.MAV_SYS_STATUS_SENSOR_3D_ACCEL
         | M.MAV_SYS_STATUS_SENSOR_LASER_POSITION
     )
-    return M.MAVLink_sys_status_message(sensors, sensors, sensors, 200, 16000, 500, 90, 0, 0, 0, 0, 0, 0)
+    # GCS_MAVLINK::update_sensor_status_flags: the geofence's health bit is set whenever the
+    # fence has not failed, even with no fence (a ground station reads a clear bit as a breach)
+    health = sensors | M.MAV_SYS_STATUS_GEOFENCE
+    return M.MAVLink_sys_status_message(sensors, sensors, health, 200, 16000, 500, 90, 0, 0, 0, 0, 0, 0)
 
 
 def _attitude(v: Vehicle):
@@ -67,6 +71,25 @@ def _local_position(v: Vehicle):
     b = v._world_body()
     hx, hz = v.home
     return M.MAVLink_local_position_ned_message(int(v.t * 1000), b.x - hx, 0.0, -(b.z - hz), b.vx, 0.0, -b.vz)
+
+
+def _global_position(v: Vehicle):
+    """GLOBAL_POSITION_INT on the flat earth around home (SIM_OPOS_*): north is the model's x."""
+    b = v._world_body()
+    hx, hz = v.home
+    lat = v.params["SIM_OPOS_LAT"] + math.degrees((b.x - hx) / EARTH_RADIUS_M)
+    rel = b.z - hz
+    return M.MAVLink_global_position_int_message(
+        int(v.t * 1000),
+        round(lat * 1e7),
+        round(v.params["SIM_OPOS_LNG"] * 1e7),
+        round((v.params["SIM_OPOS_ALT"] + rel) * 1000),
+        round(rel * 1000),
+        round(b.vx * 100),
+        0,
+        round(-b.vz * 100),
+        0,
+    )
 
 
 def _highres_imu(v: Vehicle):
@@ -143,6 +166,7 @@ class Streams:
         M.MAVLINK_MSG_ID_SYS_STATUS: _sys_status,
         M.MAVLINK_MSG_ID_ATTITUDE: _attitude,
         M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: _local_position,
+        M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: _global_position,
         M.MAVLINK_MSG_ID_HIGHRES_IMU: _highres_imu,
         M.MAVLINK_MSG_ID_RAW_IMU: _raw_imu,
         M.MAVLINK_MSG_ID_DISTANCE_SENSOR: _distance,

@@ -9,14 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
+from sitl.vehicle import arducopter_rules as rules
 from sitl.vehicle import esc, landing_record, modes
 from sitl.vehicle.events import Events
 from sitl.vehicle.flight_control import FlightControl, Target
-from sitl.vehicle.land_detector import LandDetector
 from sitl.vehicle.mavlink_endpoints import Endpoints, mavlink
 from sitl.vehicle.params import Params
 from sitl.vehicle.scenario import Scenario
-from sitl.vehicle.sensors import Imu, Range, range_reading
+from sitl.vehicle.sensors import BEAM_MISS_M, Imu, Range, range_reading
 from sitl.vehicle.streams import Streams, system_time
 from sitl.vehicle.world import beam_range, start_on_ground
 from slopelander.model.judge import LandingJudge
@@ -24,7 +24,6 @@ from slopelander.model.judge import LandingJudge
 PHYSICS_HZ = 1200
 CONTROL_HZ = 400
 SUBSTEPS = PHYSICS_HZ // CONTROL_HZ
-FORCE_MAGIC = 21196
 LOCKSTEP_LEAD_S = 0.05
 LOCKSTEP_GIVE_UP_S = 1.0  # wall seconds without a new echo before the vehicle stops waiting
 
@@ -54,7 +53,9 @@ class Vehicle:
         self.t0 = self.stepper.t
         self.imu = Imu(self.rng, scenario.accel_noise, scenario.gyro_noise)
         self.range = Range(0.0, 1, 0)
-        self.land = LandDetector()
+        self.range_alt = rules.RangefinderAlt()
+        self.ticks = 0
+        self.land = rules.LandDetector(CONTROL_HZ)
         self.streams = Streams()
         self.armed = False
         self.estop = False
@@ -97,39 +98,73 @@ class Vehicle:
         return self.scn.rc_at(chan, self.t)
 
     # -- arming and modes ----------------------------------------------------------------------
-    def prearm_failure(self) -> str | None:
-        if self.estop:
-            return "Motors Emergency Stopped"
-        if self.mode not in modes.ARMABLE:
-            return f"Mode not armable ({modes.NAMES[self.mode]})"
-        if self.params["ARMING_CHECK"] != 0:
-            lean = abs(math.degrees(self.stepper.body().pitch))
-            if lean * 100 > self.params["ANGLE_MAX"]:
-                return f"Leaning ({lean:.0f} deg > ANGLE_MAX {self.params['ANGLE_MAX'] / 100:.0f})"
-            if self.mode in (modes.STABILIZE, modes.ALT_HOLD) and self.rc(3) > 1100:
-                return "Throttle too high"
-        return None
+    def arming_failure(self, source: str = rules.GCS) -> str | None:
+        """Why an arming attempt with checks fails now (arducopter_rules.arming_failure)."""
+        return rules.arming_failure(
+            self.mode,
+            source,
+            self.estop,
+            abs(self.stepper.body().pitch),  # planar: roll 0, so acos(cos roll cos pitch) = |pitch|
+            self.params["ANGLE_MAX"],
+            self.params["ARMING_CHECK"],
+            pilot_climb=self.mode in (modes.ALT_HOLD, modes.LOITER) and _stick(self.rc(3)) > 0,
+            throttle_stick_up=self.rc(3) > 1000 + 30,
+        )
 
-    def arm(self, force: bool, source: str = "GCS") -> bool:
+    def arm(self, force: bool, source: str = rules.GCS) -> bool:
+        """Arm; ``force`` skips the checks (ARM_DISARM param2 2989). False with a STATUSTEXT
+        "Arm: <reason>" when a check fails."""
         if self.armed:
             return True
-        why = None if force else self.prearm_failure()
+        why = None if force else self.arming_failure(source)
         if why:
-            self.statustext(f"PreArm: {why}", mavlink.MAV_SEVERITY_CRITICAL)
+            self.statustext(why, mavlink.MAV_SEVERITY_CRITICAL)
             return False
         self.armed = True
         self.fc.reset()
-        self.land.landed = True
-        self.statustext(f"Arming motors ({source})", mavlink.MAV_SEVERITY_INFO)
+        self.land.set_landed(True)
+        self.statustext("Arming motors", mavlink.MAV_SEVERITY_INFO)
         return True
 
-    def disarm(self, source: str = "GCS") -> bool:
-        if self.armed:
-            self.armed = False
-            self.statustext(f"Disarming motors ({source})", mavlink.MAV_SEVERITY_INFO)
+    def disarm(self, source: str = rules.GCS, checks: bool = True) -> bool:
+        """Disarm, unless ArduCopter would refuse it (a ground-station disarm before the land
+        detector has fired; arducopter_rules.disarm_refused). The script's disarm is never refused."""
+        if not self.armed:
+            return True
+        if rules.disarm_refused(source, checks, self.land.landed, self.mode in modes.MANUAL_THROTTLE):
+            return False
+        self.armed = False
+        self.land.set_landed(True)
+        self.statustext("Disarming motors", mavlink.MAV_SEVERITY_INFO)
         return True
 
-    def set_mode(self, mode: int, source: str = "GCS") -> bool:
+    def takeoff(self, height_m: float, param3: float = 0.0) -> bool:
+        """MAV_CMD_NAV_TAKEOFF as ArduCopter takes it (arducopter_rules.takeoff); False: refused."""
+        b = self._world_body()
+        above_home = b.z - self.home[1]
+        ok = self.range_alt.healthy
+        t = rules.takeoff(
+            self.mode,
+            self.armed,
+            self.land.landed,
+            height_m,
+            param3,
+            above_home,
+            ok,
+            self.range_alt.alt_m,
+            self.range_max,
+            self.params["WPNAV_RFND_USE"],
+        )
+        if t is None:
+            return False
+        z = (b.z - self.range_alt.alt_m + t.height_m) if t.above_terrain else self.home[1] + t.height_m
+        self.target = Target(x=b.x, z=z)
+        self.target_is_velocity = False
+        self.land.set_landed(False)
+        self.fc.ix = 0.0
+        return True
+
+    def set_mode(self, mode: int, source: str = rules.GCS) -> bool:
         if mode not in modes.NAMES:
             return False
         b = self._world_body()  # targets are world coordinates (over the roof the model frame is shifted)
@@ -143,7 +178,14 @@ class Vehicle:
 
     # -- messages out --------------------------------------------------------------------------
     def statustext(self, text: str, severity: int = 6) -> None:
-        self.links.send(mavlink.MAVLink_statustext_message(severity, text[:50].encode(), 0, 0))
+        """A STATUSTEXT; a text over 50 characters goes in numbered chunks (GCS::send_textv)."""
+        raw = text.encode()
+        if len(raw) <= 50:
+            self.links.send(mavlink.MAVLink_statustext_message(severity, raw, 0, 0))
+            return
+        self._text_id = getattr(self, "_text_id", 0) % 65535 + 1
+        for seq, i in enumerate(range(0, len(raw), 50)):
+            self.links.send(mavlink.MAVLink_statustext_message(severity, raw[i : i + 50], self._text_id, seq))
 
     def send_named_float(self, name: str, value: float) -> None:
         self.links.send(
@@ -167,6 +209,8 @@ class Vehicle:
         b = self._world_body()
         tgt = self._mode_target(b)
         front, rear = self.fc.update(dt, b, tgt, math.radians(self.params["ANGLE_MAX"] / 100))
+        if self.armed and self.land.landed and self._pilot_takes_off():
+            self.land.set_landed(False)
         self.mixer_pwm = self._mix(front, rear)
         now_ms = int(self.t * 1000)
         if self.host is not None and not self.scn.script_stalled(self.t):
@@ -194,23 +238,46 @@ class Vehicle:
                 1.0 / PHYSICS_HZ, fx, fz, self.stepper.body().pitch_rate, ca, cg, self.scn.imu_spike(self.t)
             )
             self.events.after_physics_step(self.stepper, self.t, self._world_body())
-        self._update_range()
+        if rules.rangefinder_due(self.ticks, CONTROL_HZ):
+            self._update_range()
+        self.ticks += 1
         b = self._world_body()
-        acc = self.stepper._accel
-        floor = self.fc.throttle <= self._spin_min_throttle() + 0.02
-        self.land.update(dt, self.armed, floor, (float(acc[0]), float(acc[1])), b.vz)
-        if self.armed and self.mode == modes.LAND and self.land.landed and self._landing:
-            self.disarm("Land")
+        self._update_land_detector(dt, b)
+        if self.armed and self.land.landed and rules.mode_disarms_on_land(self.mode):
+            self.disarm(rules.LANDED)
         if self.legs is not None:
             self.legs.update(self)
         self.streams.send_due(self)
 
-    @property
-    def _landing(self) -> bool:
-        return self.fc.throttle <= self._spin_min_throttle() + 0.02
+    def _update_land_detector(self, dt: float, b) -> None:
+        acc = self.stepper._accel
+        pitch_err = math.degrees(abs(self.fc.pitch_target - b.pitch))
+        self.land.update(
+            dt,
+            rules.LandInputs(
+                armed=self.armed,
+                throttle_at_lower_limit=self.fc.demand <= self._spin_min_throttle(),
+                angle_target_deg=math.degrees(abs(self.fc.pitch_target)),
+                angle_error_deg=pitch_err,
+                accel_ef=(float(acc[0]), float(acc[1])),
+                climb_rate=b.vz,
+                descent_demanded=self.fc.vz_desired < 0.0,
+                landing_mode=self.mode in (modes.LAND, modes.RTL),
+                rangefinder_alt_ok=self.range_alt.healthy,
+                rangefinder_alt_filt_m=self.range_alt.alt_filt_m,
+            ),
+        )
 
     def _spin_min_throttle(self) -> float:
-        return 0.0
+        """Collective (fraction of full thrust) at MOT_SPIN_MIN: the mixer's floor in flight;
+        a demand at or below it is AP_Motors' limit.throttle_lower."""
+        lo, hi = self.params["MOT_PWM_MIN"], self.params["MOT_PWM_MAX"]
+        u = esc.pwm_to_command(lo + self.params["MOT_SPIN_MIN"] * (hi - lo))
+        return u * u
+
+    def _pilot_takes_off(self) -> bool:
+        thr = min(1.0, max(0.0, (self.rc(3) - 1000) / 1000.0))
+        return rules.pilot_takes_off(self.mode, _stick(self.rc(3)), thr * 0.9, 0.5)
 
     def _world_body(self):
         b = self.stepper.body()
@@ -238,9 +305,14 @@ class Vehicle:
                     self.target = t = Target(x=b.x, z=t.z, vz=t.vz)
             return t
         if m == modes.GUIDED:
-            if self.target_is_velocity and self.t - self.target_time > self.params["GUID_TIMEOUT"]:
+            if rules.guided_target_stale(
+                self.target_is_velocity, self.t, self.target_time, self.params["GUID_TIMEOUT"]
+            ):
                 self.target_is_velocity = False
-                self.target = t = Target(x=b.x, z=b.z)  # stale target: stop and hold
+                if t.x is None or t.z is None:
+                    self.target = t = Target(x=b.x, z=b.z)  # stale velocity target: stop and hold
+                else:
+                    self.target = t = Target(x=t.x, z=t.z)  # position kept, its velocity zeroed
             return t
         if m == modes.BRAKE:
             if t.x is None or t.z is None:
@@ -260,16 +332,12 @@ class Vehicle:
         lo, hi = self.params["MOT_PWM_MIN"], self.params["MOT_PWM_MAX"]
         if not self.armed or self.estop:
             return [int(lo)] * 4
-        spin_arm = lo + self.params["MOT_SPIN_ARM"] * (hi - lo)
         spin_min = lo + self.params["MOT_SPIN_MIN"] * (hi - lo)
-        if self.land.landed and self.fc.throttle < 0.5 and self.mode != modes.STABILIZE:
-            # spooled down on the ground until the mode asks to climb
-            wants_up = (
-                self.target.z is not None and self.target.z > self._world_body().z + 0.05
-            ) or self.target.vz > 0.05
-            if not wants_up:
-                self.fc.settle_on_ground()
-                return [int(spin_arm)] * 4
+        manual_idle = self.mode in modes.MANUAL_THROTTLE and self.land.landed and self.rc(3) <= 1000 + 30
+        if rules.ground_idle(self.armed, self.land.landed, self.mode, self.estop) or manual_idle:
+            # armed on the ground: MOT_SPIN_ARM until the mode takes off (arducopter_rules (e))
+            self.fc.settle_on_ground()
+            return [rules.spin_arm_pwm(lo, hi, self.params["MOT_SPIN_ARM"])] * 4
 
         def pwm(f: float) -> int:
             u = math.sqrt(max(0.0, f) / self.thrust_max)
@@ -279,9 +347,16 @@ class Vehicle:
         return [pf, pr, pf, pr]
 
     def _update_range(self) -> None:
+        """The 20 Hz rangefinder task (arducopter_rules (d)): the beam's distance read as
+        ArduPilot's SITL driver reads a value, then the scenario's faults, then the height the
+        land detector and take-off use."""
         true = beam_range(self.stepper)
-        r = range_reading(true, self.range_min, self.range_max)
-        self.range = self.scn.range_fault(self.t, r, self.rng)
+        raw = Range(true if math.isfinite(true) else BEAM_MISS_M, 4, 100)
+        r = self.scn.range_fault(self.t, raw, self.rng)  # faults act on the value, then ArduPilot reads it
+        value = math.nan if r.status == rules.NO_DATA else r.distance_m
+        self.range = range_reading(value, self.range_min, self.range_max)
+        lean = self.stepper.body().pitch
+        self.range_alt.update(self.range.distance_m, self.range.status, lean, 1.0 / rules.RANGEFINDER_HZ)
 
     # -- MAVLink in ----------------------------------------------------------------------------
     def handle(self, chan: int, m) -> None:

@@ -34,8 +34,11 @@ def set_mode(conn, mode: int):
     return command(conn, M.MAV_CMD_DO_SET_MODE, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode)
 
 
+FORCE_ARM = 2989  # ArduPilot's force-arm magic (21196 forces a disarm only)
+
+
 def arm(conn, force: bool = False):
-    return command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196 if force else 0)
+    return command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM if force else 0)
 
 
 def wait_msg(conn, kind: str, cond=lambda m: True, timeout: float = 10.0):
@@ -63,7 +66,12 @@ def velocity(conn, vx: float, vz_down: float) -> None:
     )
 
 
+HOME_OVER_PAD_M = 0.148  # home is the body's origin as it first settled on the pad
+
+
 def take_off(conn, alt: float) -> None:
+    """GUIDED, arm, MAV_CMD_NAV_TAKEOFF to ``alt``: metres over the surface the rangefinder sees
+    when it is healthy and ``alt`` is below RNGFND1_MAX (ArduCopter's rule), else above home."""
     assert set_mode(conn, 4).result == M.MAV_RESULT_ACCEPTED
     assert arm(conn).result == M.MAV_RESULT_ACCEPTED
     assert command(conn, M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, alt).result == M.MAV_RESULT_ACCEPTED

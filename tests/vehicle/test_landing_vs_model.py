@@ -43,7 +43,7 @@ def fly_reflex_landing(url: str, cut_m: float) -> tuple[dict[str, float], list]:
     try:
         conn.wait_heartbeat(timeout=10)
         take_off(conn, 2.5)
-        wait_msg(conn, "LOCAL_POSITION_NED", lambda m: m.z < -2.4, timeout=20)
+        wait_msg(conn, "LOCAL_POSITION_NED", lambda m: m.z < -2.25, timeout=20)
         conn.mav.set_position_target_local_ned_send(
             0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0x0DF8, 4.5, 0, -2.5, 0, 0, 0, 0, 0, 0, 0, 0
         )

@@ -1,13 +1,16 @@
 """MAVProxy, the ground station users know, connects to the vehicle, sees its mode, changes it,
-arms, reads and sets a parameter."""
+arms, reads and sets a parameter, and flies it with `takeoff` and `position`."""
 
 from __future__ import annotations
 
 import shutil
+import socket
 import subprocess
+import threading
 import time
 
 import pytest
+from pymavlink import mavutil
 
 from sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
@@ -35,7 +38,8 @@ def test_mavproxy_mode_arm_param(tmp_path):
             text=True,
             cwd=tmp_path,
         )
-        time.sleep(4)
+        lines = _reader(p)
+        _wait_for(lines, "Detected vehicle")  # before that MAVProxy maps mode names for another vehicle
         for c in (
             "mode GUIDED",
             "arm throttle",
@@ -46,8 +50,8 @@ def test_mavproxy_mode_arm_param(tmp_path):
             p.stdin.write(c + "\n")
             p.stdin.flush()
             time.sleep(1.5)
-        p.terminate()
-        out, _ = p.communicate(timeout=10)
+        _stop(p)
+        out = "\n".join(ln for _, ln in lines)
     finally:
         assert v.stop() == 0  # SIGTERM ends the vehicle cleanly
     assert "Detected vehicle 1:1" in out
@@ -56,3 +60,93 @@ def test_mavproxy_mode_arm_param(tmp_path):
     assert "COMPONENT_ARM_DISARM: ACCEPTED" in out and "ARMED" in out
     assert "MOT_PWM_MIN = 1525.0" in out
     assert "GUID_TIMEOUT = 2.5" in out
+
+
+def _reader(p: subprocess.Popen) -> list[tuple[float, str]]:
+    """MAVProxy's output lines with their time since start, read on a thread as they come."""
+    lines: list[tuple[float, str]] = []
+    t0 = time.monotonic()
+
+    def read() -> None:
+        for ln in p.stdout:
+            lines.append((time.monotonic() - t0, ln.rstrip()))
+
+    threading.Thread(target=read, daemon=True).start()
+    return lines
+
+
+def _stop(p: subprocess.Popen) -> None:
+    """End MAVProxy: its stdin closed and SIGTERM (it waits on its console otherwise), killed
+    if it has not ended 10 s later."""
+    p.stdin.close()
+    p.terminate()
+    try:
+        p.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.wait()
+
+
+def _wait_for(lines: list[tuple[float, str]], text: str, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while not any(text in ln for _, ln in lines) and time.monotonic() < end:
+        time.sleep(0.2)
+
+
+def test_mavproxy_flies_the_vehicle_with_position_no_false_fence_breach_quick_parameters(tmp_path):
+    """The README's "Using it" flow from MAVProxy: GUIDED, arm, take off, then `position 1.5 0 0`
+    (a BODY_NED offset, as ArduCopter takes it) moves the vehicle 1.5 m north. On connect MAVProxy
+    reports no fence breach (the geofence health bit, as ArduPilot sets it without a fence) and
+    its parameter download does not wait out FTP time-outs (the stand-in answers FTP at once)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    watch = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}")
+    v = start_vehicle(params=ROUTE_A, no_script=True, extra_endpoints=[f"udpout:127.0.0.1:{port}"])
+    p = subprocess.Popen(
+        ["mavproxy.py", "--master", v.mavlink_url, "--nowait", "--state-basedir", str(tmp_path)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        cwd=tmp_path,
+    )
+    lines = _reader(p)
+
+    def seen(text: str) -> float | None:
+        return next((t for t, ln in lines if text in ln), None)
+
+    try:
+        _wait_for(lines, "Detected vehicle")
+        for c in ("mode GUIDED", "arm throttle", "takeoff 2"):
+            p.stdin.write(c + "\n")
+            p.stdin.flush()
+            time.sleep(2)
+        time.sleep(4)
+        start = _last_position(watch)
+        p.stdin.write("position 1.5 0 0\n")
+        p.stdin.flush()
+        time.sleep(8)
+        end = _last_position(watch)
+    finally:
+        _stop(p)
+        watch.close()
+        v.stop()
+    out = "\n".join(f"{t:5.1f} {ln}" for t, ln in lines)
+    detected, params = seen("Detected vehicle"), seen("parameters")
+    assert detected is not None, out
+    assert "fence breach" not in out, out
+    assert params is not None and params - detected < 5.0, out  # one FTP time-out alone is 2 s
+    assert "FTP: request timed out" not in out, out
+    assert "NAV_TAKEOFF: ACCEPTED" in out, out
+    assert start is not None and end is not None
+    assert abs(end.x - start.x - 1.5) < 0.25, (start, end)
+
+
+def _last_position(conn):
+    last, end = None, time.monotonic() + 1.0
+    while time.monotonic() < end:
+        m = conn.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=0.1)
+        if m is not None:
+            last = m
+    return last

@@ -1,4 +1,4 @@
-"""Pre-arm lean-angle check on a 20 deg roof follows ANGLE_MAX; force-arm 21196 bypasses it."""
+"""Pre-arm lean-angle check on a 20 deg roof follows ANGLE_MAX; force-arm 2989 bypasses it."""
 
 from __future__ import annotations
 
@@ -32,11 +32,13 @@ def test_lean_check(on_roof):
     conn.mav.param_set_send(1, 1, b"ANGLE_MAX", 800.0, M.MAV_PARAM_TYPE_REAL32)
     wait_msg(conn, "PARAM_VALUE", lambda m: m.param_id == "ANGLE_MAX")
     assert arm(conn).result == M.MAV_RESULT_FAILED
-    wait_msg(conn, "STATUSTEXT", lambda m: m.text.startswith("PreArm: Leaning"))
+    wait_msg(conn, "STATUSTEXT", lambda m: m.text == "Arm: Leaning")
     conn.mav.param_set_send(1, 1, b"ARMING_CHECK", 0.0, M.MAV_PARAM_TYPE_REAL32)
     wait_msg(conn, "PARAM_VALUE", lambda m: m.param_id == "ARMING_CHECK")
     assert arm(conn).result == M.MAV_RESULT_ACCEPTED
     command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 0)
     conn.mav.param_set_send(1, 1, b"ARMING_CHECK", 1.0, M.MAV_PARAM_TYPE_REAL32)
     wait_msg(conn, "PARAM_VALUE", lambda m: m.param_id == "ARMING_CHECK")
+    # 21196 is the force-DISARM magic: in an arm command it is an ordinary arm, checks and all
+    assert command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196).result == M.MAV_RESULT_FAILED
     assert arm(conn, force=True).result == M.MAV_RESULT_ACCEPTED

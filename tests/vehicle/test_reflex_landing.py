@@ -28,7 +28,7 @@ def test_reflex_landing_on_the_roof(slope_deg, cut_m):
     try:
         conn.wait_heartbeat(timeout=10)
         take_off(conn, 2.5)
-        wait_msg(conn, "LOCAL_POSITION_NED", lambda m: m.z < -2.4)
+        wait_msg(conn, "LOCAL_POSITION_NED", lambda m: m.z < -2.25)
         conn.mav.set_position_target_local_ned_send(
             0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0x0DF8, 4.5, 0, -2.5, 0, 0, 0, 0, 0, 0, 0, 0
         )
