@@ -57,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=1.0, help="seconds recorded after first contact")
     p.add_argument("--position-noise", type=float, default=1e-3, help="m (standard deviation)")
     p.add_argument("--angle-noise", type=float, default=0.3, help="deg (standard deviation)")
-    p.add_argument("--latency", type=float, default=0.005, help="s")
+    p.add_argument("--latency", type=float, default=0.002, help="s (default 2 ms, as NoiseModel)")
     p.add_argument("--rate", type=float, default=200.0, help="sample rate, Hz")
     p.add_argument(
         "--slopes", type=float, nargs=2, default=[0.0, 45.0], metavar=("LO", "HI"), help="deg, within 0..45"
