@@ -89,7 +89,8 @@ def candidates_for(model: Model, user_effects: list[UserEffect] | None = None) -
 class CandidateResult:
     candidate: Candidate
     screening: float
-    """Fraction of the base residual one step along the candidate's direction removes."""
+    """Extra share of the base residual the candidate's direction removes beyond re-tuning the
+    base's parameters (linearised)."""
     fits: list[FitResult] = field(default_factory=list)
     """One per cross-fitting group (and repeat)."""
     heldout: np.ndarray | None = None
@@ -294,7 +295,8 @@ def candidate_params(
 @dataclass
 class Screening:
     share: float
-    """Fraction of the base residual the best step along the candidate's change removes."""
+    """Extra share of the base residual the candidate's change removes beyond the base
+    parameters' own directions (linearised least squares)."""
     sensitivity: np.ndarray
     """Per drop: NRMSE of the change (how strongly the candidate acts on that drop)."""
     nested: bool
@@ -323,13 +325,34 @@ def screen(
     bounds: dict[str, tuple[float, float]],
 ) -> dict[str, Screening]:
     """Cheap signature test: switch each candidate on (a tenth of its range from "off", or at
-    the centre of its bounds) and measure how much of the base residual the change in the
-    simulated states removes (best step along it), and on which drops it acts. Also checks
-    that the candidate at its neutral values is the base model. Two simulations per candidate
-    and drop."""
+    the centre of its bounds) and measure how much more of the base residual a least-squares
+    combination of that change and the base parameters' own directions removes than those
+    directions alone (linearised: a secant per direction), and on which drops it acts. Also
+    checks that the candidate at its neutral values is the base model. Two simulations per
+    candidate and drop, and one per base parameter and drop."""
     base_prob = Problem(base_model, drops, [], ranges)
     r = base_prob.residuals([])
     rr = float(r @ r)
+    # what re-tuning the base's own parameters could remove (linearised): a candidate earns
+    # only what it removes beyond that, as in its refit, where the base parameters move too
+    tuned = Problem(base_model, drops, base_params, ranges)
+    u0 = np.array([p.unit(base_model.parameter(p.name)) for p in base_params])
+    cols = []
+    for i in range(len(base_params)):
+        step = 0.02 if u0[i] + 0.02 <= 1.0 else -0.02
+        v = u0.copy()
+        v[i] += step
+        cols.append((tuned.residuals(v) - r) / step)
+    Jb = np.column_stack(cols) if cols else np.zeros((len(r), 0))
+
+    def removed(M: np.ndarray) -> float:
+        if M.shape[1] == 0:
+            return 0.0
+        x, *_ = np.linalg.lstsq(M, -r, rcond=None)
+        rest = r + M @ x
+        return 1.0 - float(rest @ rest) / rr
+
+    by_base = removed(Jb)
     out = {}
     for c in cands:
         params = candidate_params(base_model, c, [], bounds)
@@ -338,11 +361,7 @@ def screen(
         off = neutral_values(c)
         u = [min(1.0, p.unit(off[p.name]) + 0.1) if p.name in off else 0.5 for p in params]
         d = prob.residuals(u) - r
-        dd = float(d @ d)
-        alpha = -float(r @ d) / dd if dd > 0 else 0.0
-        alpha = min(max(alpha, 0.0), 1.0)
-        rest = r + alpha * d
-        share = max(0.0, 1.0 - float(rest @ rest) / rr) if rr > 0 else 0.0
+        share = max(0.0, removed(np.column_stack([Jb, d])) - by_base) if rr > 0 else 0.0
         missing = [p.name for p in params if p.name not in off]
         if missing:
             nested, note = False, f"no neutral value for {', '.join(missing)} (declare neutral=...)"

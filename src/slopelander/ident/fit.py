@@ -167,6 +167,10 @@ class Problem:
         r = np.concatenate(out)
         return np.where(np.isfinite(r), r, 10.0)
 
+    def groups(self) -> np.ndarray:
+        """The drop each residual belongs to (for intervals over drops)."""
+        return np.concatenate([np.full(int((d.t >= 0).sum()) * 6, i) for i, d in enumerate(self.drops)])
+
     @property
     def size(self) -> int:
         return sum(int((d.t >= 0).sum()) * 6 for d in self.drops)
@@ -238,8 +242,8 @@ class FitResult:
     cost: float
     train_nrmse: float
     ci95: dict[str, float]
-    """Half-width of the 95 % confidence interval (from J^T J; optimistic: motion-capture
-    samples are not independent)."""
+    """Half-width of the 95 % confidence interval: the sandwich over drops (each drop one
+    independent unit), Student's t with drops - 1 degrees of freedom."""
     warnings: list[str]
     nfev: int
     seconds: float
@@ -268,15 +272,26 @@ def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> 
 
 
 def identifiability(
-    params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.ndarray, values: dict[str, float]
+    params: list[FitParam],
+    J: np.ndarray,
+    u: np.ndarray,
+    r: np.ndarray,
+    values: dict[str, float],
+    groups: np.ndarray | None = None,
 ) -> tuple[dict[str, float], list[str]]:
-    """95 % half-widths from the Gauss-Newton covariance, and warnings for parameters the data
-    cannot identify: a flat direction (tiny singular value), a strong correlation, or an
-    interval wider than half the value."""
+    """95 % half-widths and warnings for parameters the data cannot identify: a flat direction
+    (tiny singular value), a strong correlation, or an interval wider than half the value.
+
+    With ``groups`` (the drop of each residual), the covariance is the sandwich over drops:
+    the drops are the independent units, the samples inside one are not (rates are slopes over
+    several samples, a model error is one smooth curve), so each drop's summed score J_i^T r_i
+    is one observation; the half-width uses Student's t with (drops - 1) degrees of freedom.
+    Without, the Gauss-Newton covariance treats every sample as independent (optimistic)."""
     n = len(params)
     dof = max(len(r) - n, 1)
     s2 = float(r @ r) / dof
     JtJ = J.T @ J
+    quantile = 1.96
     warnings = []
     _, sv, Vt = np.linalg.svd(J, full_matrices=False)
     if sv.size and sv[0] > 0:
@@ -287,6 +302,15 @@ def identifiability(
                 f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})"
             )
     cov = np.linalg.pinv(JtJ) * s2
+    if groups is not None:
+        from scipy.stats import t as student
+
+        ids = np.unique(groups)
+        if len(ids) > 1:
+            scores = np.array([J[groups == g].T @ r[groups == g] for g in ids])
+            inv = np.linalg.pinv(JtJ)
+            cov = inv @ (scores.T @ scores) @ inv * len(ids) / (len(ids) - 1)
+            quantile = float(student.ppf(0.975, len(ids) - 1))
     sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
     # a parameter that loads on a flat direction is not known: the pseudo-inverse drops that
     # direction and would read it as perfectly known (+-0)
@@ -296,7 +320,7 @@ def identifiability(
         unknown |= np.abs(Vt[kk]) > 0.1
     ci = {}
     for i, p in enumerate(params):
-        ci[p.name] = math.inf if unknown[i] else 1.96 * sd_u[i] * p.slope(float(u[i]))
+        ci[p.name] = math.inf if unknown[i] else quantile * sd_u[i] * p.slope(float(u[i]))
         v = values[p.name]
         if unknown[i]:
             warnings.append(
@@ -455,7 +479,7 @@ def fit(
         r = fun(u)
         J = jac(u)
         values = dict(zip([p.name for p in params], prob.values(u), strict=True))
-        ci, warns = identifiability(params, J, u, r, values)
+        ci, warns = identifiability(params, J, u, r, values, prob.groups())
         nfev = ev.nfev
     fitted = apply(model, params, [values[p.name] for p in params])
     train = compare(fitted, drops, ranges).nrmse
