@@ -14,7 +14,7 @@ PHASES: tuple[str, ...] = ("flight", "first contact", "compression", "rebound", 
 FIRST_CONTACT = 0.02
 """s after first contact counted as the impact transient."""
 SLIDE_SPEED = 0.1
-"""m/s along the slope above which a body that no longer moves into the slope is sliding."""
+"""m/s along the slope above which a body moving more along the slope than across it slides."""
 
 
 def _smooth(v: np.ndarray, n: int) -> np.ndarray:
@@ -31,8 +31,8 @@ def phase_labels(
     flight: before first contact (t < 0); first contact: the first 20 ms; compression: until the
     (smoothed) vertical speed first turns upward; rebound: while it stays upward; settling: after.
     With ``x_rate`` and the slope: sliding, where a compression or settling sample moves along
-    the slope faster than :data:`SLIDE_SPEED` and into it at less than half that speed (a
-    sliding drop's vertical speed never turns upward, so it read "compression" to the end).
+    the slope faster than :data:`SLIDE_SPEED` and faster along it than across it (a sliding
+    drop's vertical speed never turns upward, so it read "compression" to the end).
     """
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.005
     vz = _smooth(z_rate, max(1, round(0.015 / dt)))
@@ -55,7 +55,7 @@ def phase_labels(
         vx = _smooth(x_rate, max(1, round(0.015 / dt)))
         along = np.cos(a) * vx - np.sin(a) * vz
         into = np.sin(a) * vx + np.cos(a) * vz
-        slide = (np.abs(along) > SLIDE_SPEED) & (np.abs(into) < 0.5 * np.abs(along))
+        slide = (np.abs(along) > SLIDE_SPEED) & (np.abs(into) < np.abs(along))
         labels[slide & (t >= FIRST_CONTACT) & ((labels == 2) | (labels == 4))] = 5
     return labels
 
