@@ -154,3 +154,31 @@ def test_diagnose_takes_several_candidate_files_or_a_folder_and_its_budgets(tmp_
     (tmp_path / "empty").mkdir()
     with pytest.raises(IdentCliError, match="holds no Python file"):
         candidate_effects([tmp_path / "empty"])
+
+
+def test_diagnose_prints_its_evidence_and_the_noise_floor(tmp_path):
+    """A real run, tiny budgets: four drops of the truth analysed by the truth. The verdict
+    carries the noise floor, the test's figures, and says four drops cannot pass the test."""
+    ds = tmp_path / "ds"
+    assert run("synth", "--out", str(ds), "--drops", "4", "--duration", "0.3", "--seed", "2").returncode == 0
+    r = run(
+        "diagnose",
+        str(ds),
+        "--without",
+        "downhill_torque_growth",
+        "--fit",
+        "friction_kinetic",
+        "--cma-evals",
+        "6",
+        "--refit-evals",
+        "6",
+        "--ls-evals",
+        "1",
+        "--workers",
+        "1",
+        "--quiet",
+    )
+    assert r.returncode == 0, r.stderr
+    assert "| gain | p |" in r.stdout, r.stdout
+    assert "noise floor" in r.stdout and "over 16 all sign flips of 4 drops" in r.stdout, r.stdout
+    assert "no candidate can pass the test: the smallest p is 1/16" in r.stdout, r.stdout

@@ -199,6 +199,16 @@ class Diagnosis:
         return f"{r.candidate.name} acts most on {where}: more drops like these would show it"
 
     def verdict(self) -> str:
+        text = self._verdict()
+        t = self.test
+        if t is not None and t.exact and 1.0 / t.patterns > self.alpha:
+            text += (
+                f" (with {len(self.drops)} drops no candidate can pass the test: the smallest p is "
+                f"1/{t.patterns} > {self.alpha:g}; give at least 5 drops)"
+            )
+        return text
+
+    def _verdict(self) -> str:
         m = self.missing
         vis = f"{self.visible:.4f}" if self.visible is not None else "an unknown amount"
         floor = f"{self.floor:.4f}" if self.floor is not None else None
