@@ -505,6 +505,9 @@ def diagnose(
         if i < n_refit:
             params = candidate_params(model, c, base_params, bounds)
             off = neutral_values(c)
+            # a parameter without a neutral value starts at the centre of its bounds: its
+            # shipped or declared value would be the truth of a synthetic proof
+            off = {**{p.name: p.value(0.5) for p in params[len(base_params) :]}, **off}
             for k, (tr, va) in enumerate(splits):
                 res.fits.append(
                     fit(
