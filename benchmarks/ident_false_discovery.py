@@ -28,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from slopelander.ident.diagnose import diagnose  # noqa: E402
+from slopelander.ident.diagnose import ABOVE_FLOOR, ALPHA, MIN_GAIN, NOT_AMONG, diagnose  # noqa: E402
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize  # noqa: E402
 from slopelander.model import Model, load_effects  # noqa: E402
 
@@ -49,6 +49,22 @@ HIDDEN = {
 """Hidden user effect -> (its parameter, the truth's value, shown on the steep half)."""
 
 
+def rescore(row: dict) -> str:
+    """The verdict a saved run gets under the current rule (the fits are what cost; the rule
+    is read from the candidates' held-out gains and p, the residual and the floor)."""
+    if any(c["p"] <= ALPHA and c["gain"] >= MIN_GAIN for c in row["candidates"]):
+        return "missing"
+    ratio = row["heldout"] / row["floor"]
+    if ratio <= ABOVE_FLOOR:
+        return "nothing missing"
+    excess = (max(row["heldout"] ** 2 - row["floor"] ** 2, 0.0)) ** 0.5
+    return (
+        "missing, but not among these candidates"
+        if excess > NOT_AMONG * row["floor"]
+        else "too small to tell"
+    )
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs=2, default=[1, 20], metavar=("FIRST", "LAST"))
@@ -61,7 +77,23 @@ def main() -> int:
     ap.add_argument("--builtin-only", action="store_true", help="only the two built-in candidates")
     ap.add_argument("--hide", choices=sorted(HIDDEN), help="a user effect the truth has and the model lacks")
     ap.add_argument("--out", type=Path, help="append one JSON line per seed here")
+    ap.add_argument(
+        "--rescore", type=Path, nargs="+", help="recount saved runs (--out files) under the current rule"
+    )
     args = ap.parse_args()
+    if args.rescore:
+        import json as _json
+
+        rows = [
+            _json.loads(line) for f in args.rescore for line in f.read_text().splitlines() if line.strip()
+        ]
+        rows.sort(key=lambda r: (r.get("hidden") or "", r["seed"]))
+        for r in rows:
+            print(f"seed {r['seed']} ({r.get('hidden') or 'control'}): {rescore(r)}")
+        control = [r for r in rows if not r.get("hidden")]
+        nothing = sum(rescore(r) == "nothing missing" for r in control)
+        print(f"nothing missing in {nothing} of {len(control)} control seeds")
+        return 0
     base = Model.default().without("downhill_torque_growth", "downhill_friction_growth")
     users = [] if args.builtin_only else [e for f in FILES for e in load_effects(f)]
     truth = base
