@@ -88,8 +88,21 @@ def main() -> int:
             _json.loads(line) for f in args.rescore for line in f.read_text().splitlines() if line.strip()
         ]
         rows.sort(key=lambda r: (r.get("hidden") or "", r["seed"]))
+        from scipy.stats import spearmanr
+
         for r in rows:
-            print(f"seed {r['seed']} ({r.get('hidden') or 'control'}): {rescore(r)}")
+            line = f"seed {r['seed']} ({r.get('hidden') or 'control'}): {rescore(r)}"
+            if r.get("hidden"):
+                cs = r["candidates"]
+                rho = spearmanr([c["screening"] for c in cs], [c["gain"] for c in cs]).statistic
+                top = max(cs, key=lambda c: c["gain"])
+                scr = sorted(cs, key=lambda c: -c["screening"])
+                line += (
+                    f"; screening vs held-out gain: Spearman {rho:+.2f} over {len(cs)} candidates; "
+                    f"largest gain {top['name']} ({100 * top['gain']:+.0f} %) screened "
+                    f"#{scr.index(top) + 1} ({100 * top['screening']:.1f} %)"
+                )
+            print(line)
         control = [r for r in rows if not r.get("hidden")]
         nothing = sum(rescore(r) == "nothing missing" for r in control)
         print(f"nothing missing in {nothing} of {len(control)} control seeds")
@@ -148,6 +161,9 @@ def main() -> int:
             f"{d.base_validation:.4f}, floor {d.floor:.4f}); {row['seconds']} s",
             flush=True,
         )
+        if args.hide:
+            print(d.table())
+            print(verdict, flush=True)
         if args.out:
             with args.out.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
