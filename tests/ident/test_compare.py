@@ -73,3 +73,30 @@ def test_report_has_a_plot_per_drop(model, clean, tmp_path):
         png = tmp_path / f"{d.name}.png"
         assert png.stat().st_size > 10_000 and f"]({d.name}.png)" in text
     assert "| compression |" in text and "Worst 50 ms windows" in text
+
+
+def test_a_sliding_drop_is_labelled_sliding(model):
+    """On 42 deg (steeper than mu_k = 0.8 holds) on soft joints the feet slide on (outcome
+    "slid"): the vertical speed never turns upward, so before the sliding phase every sample
+    after contact read "compression"."""
+    from slopelander.model import LandingConditions
+
+    slid, level = synthesize(
+        model,
+        [
+            LandingConditions(slope_deg=42.0, speed=2.5, tau_up=0.56, tau_down=0.56),
+            LandingConditions(slope_deg=0.0, speed=1.5),
+        ],
+        NoiseModel(),
+        seed=1,
+        duration=0.8,
+    )
+    assert slid.outcome.name == "SLID"
+    before = phase_labels(slid.t, slid.states[:, 4])
+    assert set(before[slid.t >= 0.02]) == {PHASES.index("compression")}
+    lab = phase_labels(slid.t, slid.states[:, 4], slid.states[:, 3], slid.conditions.slope_deg)
+    late = slid.t > 0.3
+    assert np.mean(lab[late] == PHASES.index("sliding")) > 0.6
+    assert "sliding" in compare(model, [slid]).per_phase()
+    lab = phase_labels(level.t, level.states[:, 4], level.states[:, 3], 0.0)
+    assert PHASES.index("sliding") not in lab

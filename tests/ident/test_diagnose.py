@@ -9,7 +9,7 @@ several seeds.
 
 import pytest
 
-from slopelander.ident.diagnose import MIN_GAIN, diagnose
+from slopelander.ident.diagnose import ALPHA, diagnose
 from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesize
 
 BUDGET = {"cma_evals": 300, "refit_evals": 150}
@@ -29,7 +29,8 @@ def test_hidden_leg_flex_is_found(truth, seed):
     cut = 1 - best.validation_nrmse / d.base_validation
     assert cut >= 0.30, d.table()
     assert best.values()["flex_stiffness"] == pytest.approx(truth.params["flex_stiffness"], rel=0.15)
-    assert "missing: leg_flex" in d.verdict()
+    assert "missing: leg_flex" in d.verdict() and "sign flips of 10 drops" in d.verdict()
+    assert best.p <= ALPHA
     assert sorted(r.candidate.name for r in d.results) == [
         "downhill_friction_growth",
         "downhill_torque_growth",
@@ -43,8 +44,14 @@ def test_nothing_missing_when_nothing_is(truth, seed):
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
     d = diagnose(truth, drops, seed=seed, **BUDGET)
     assert d.missing is None
-    assert all(d.gain(r) < MIN_GAIN for r in d.results if r.fits)
-    assert d.verdict().startswith("nothing missing")
+    assert all(r.p > ALPHA for r in d.results if r.fits), d.table()
+    assert d.verdict().startswith("nothing missing: the held-out NRMSE"), d.verdict()
+    assert "nothing larger than" in d.verdict()
+    # a nested candidate (factor = 0 is the base) never ends with a training cost above the
+    # control's, the base searched with the same budget
+    for r in d.results:
+        for f, c in zip(r.fits, d.base, strict=True):
+            assert f.cost <= c.cost * (1 + 1e-12)
 
 
 def test_steps_error_falls_where_the_effect_is_added(truth, tmp_path):
@@ -65,6 +72,9 @@ def test_steps_error_falls_where_the_effect_is_added(truth, tmp_path):
     assert st.steps[1].validation < 0.8 * st.steps[0].validation
     assert st.steps[1].train < st.steps[0].train
     assert "| + leg_flex |" in st.table()
+    assert st.steps[1].spread > 0 and "fall (paired)" in st.table()
+    fall = st.table().splitlines()[-1].split("|")[4]
+    assert float(fall.split("+-")[0]) > 2 * float(fall.split("+-")[1]), st.table()
     assert st.plot(tmp_path / "steps.png").stat().st_size > 10_000
 
 

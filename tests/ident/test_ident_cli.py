@@ -1,9 +1,12 @@
 """The ident subcommands as a user runs them: a real process, this checkout's code."""
 
+import json
 import os
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -86,14 +89,96 @@ def test_a_user_effect_parameter_is_fitted_by_name_within_its_declared_bounds(tm
         "60",
         "--ls-evals",
         "20",
+        "--start",
+        "centre",
+        "--out",
+        str(tmp_path / "fitted.yaml"),
     )
     assert r.returncode == 0, r.stderr
     row = next(line for line in r.stdout.splitlines() if line.startswith("| joint_viscous_gain |"))
     fitted = float(row.split("|")[2])
-    # the search starts at the centre of the declared bounds (0.1): the truth is elsewhere, so a
-    # fit that did not use the file's bounds or never moved cannot pass. Three short noisy drops
-    # pin the gain only to about 15 % (0.051 measured on 2026-11-23).
+    # the search starts at the centre of the declared bounds (0.1, asked with --start centre):
+    # the truth is elsewhere, so a fit that did not use the file's bounds or never moved cannot
+    # pass. Three short noisy drops pin the gain only to about 15 % (0.051 measured on 2026-11-23).
     assert 0.0 <= fitted <= 0.2 and abs(fitted - 0.06) < 0.015, r.stdout
     assert abs(fitted - 0.06) < abs(fitted - 0.1), r.stdout
+    assert "with the given model" in r.stdout
+    # --out keeps the user effect's fitted value, and --params reads it back (with its file)
+    import argparse
+
+    import yaml
+
+    from slopelander.ident.cli import IdentCliError, build_model
+
+    doc = yaml.safe_load((tmp_path / "fitted.yaml").read_text())
+    saved = doc["user_effects"]["viscous_joint"]["joint_viscous_gain"]
+    assert saved["value"] == pytest.approx(fitted, rel=1e-3) and saved["provenance"] == "identified"
+    ns = argparse.Namespace(params=tmp_path / "fitted.yaml", without=[], effects_file=Path(effect), set=[])
+    assert build_model(ns).parameter("joint_viscous_gain") == pytest.approx(fitted, rel=1e-3)
+    ns.effects_file = None
+    with pytest.raises(IdentCliError, match="give their file with --effects-file"):
+        build_model(ns)
     r = run("fit", str(ds), "--effects-file", effect, "--set", "joint_viscous_gain=0.5")
     assert r.returncode == 1 and "joint_viscous_gain" in r.stderr and "outside 0.0..0.2" in r.stderr, r.stderr
+
+
+def test_synth_latency_default_is_the_documented_2_ms(tmp_path):
+    ds = tmp_path / "ds"
+    assert run("synth", "--out", str(ds), "--drops", "1", "--duration", "0.1").returncode == 0
+    meta = json.loads((ds / "drop00.json").read_text())["meta"]
+    assert meta["noise"]["latency_s"] == 0.002
+
+
+def test_bare_diagnose_on_the_shipped_model_points_at_candidates(tmp_path):
+    ds = tmp_path / "ds"
+    assert run("synth", "--out", str(ds), "--drops", "2", "--duration", "0.1").returncode == 0
+    r = run("diagnose", str(ds))
+    assert r.returncode == 1 and "--candidates FILE|FOLDER" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_diagnose_takes_several_candidate_files_or_a_folder_and_its_budgets(tmp_path):
+    import argparse
+
+    from slopelander.ident.cli import IdentCliError, candidate_effects, register
+
+    ap = argparse.ArgumentParser()
+    register(ap.add_subparsers())
+    effects = ROOT / "tests" / "ident" / "effects"
+    one = ROOT / "docs" / "examples" / "effect_joint_torque.py"
+    args = ap.parse_args(
+        ["diagnose", "ds", "--candidates", str(one), str(effects), "--refit-evals", "30", "--folds", "3"]
+    )
+    assert args.refit_evals == 30 and args.folds == 3
+    names = [e.name for e in candidate_effects(args.candidates)]
+    assert names[0] == "viscous_joint" and {"slip_weakening", "rotor_spin_down", "ground_power"} <= set(names)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(IdentCliError, match="holds no Python file"):
+        candidate_effects([tmp_path / "empty"])
+
+
+def test_diagnose_prints_its_evidence_and_the_noise_floor(tmp_path):
+    """A real run, tiny budgets: four drops of the truth analysed by the truth. The verdict
+    carries the noise floor, the test's figures, and says four drops cannot pass the test."""
+    ds = tmp_path / "ds"
+    assert run("synth", "--out", str(ds), "--drops", "4", "--duration", "0.3", "--seed", "2").returncode == 0
+    r = run(
+        "diagnose",
+        str(ds),
+        "--without",
+        "downhill_torque_growth",
+        "--fit",
+        "friction_kinetic",
+        "--cma-evals",
+        "6",
+        "--refit-evals",
+        "6",
+        "--ls-evals",
+        "1",
+        "--workers",
+        "1",
+        "--quiet",
+    )
+    assert r.returncode == 0, r.stderr
+    assert "| gain | p |" in r.stdout, r.stdout
+    assert "noise floor" in r.stdout and "over 16 all sign flips of 4 drops" in r.stdout, r.stdout
+    assert "no candidate can pass the test: the smallest p is 1/16" in r.stdout, r.stdout

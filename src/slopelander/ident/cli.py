@@ -25,6 +25,44 @@ def _model_args(p: argparse.ArgumentParser, what: str) -> None:
     g.add_argument("--set", nargs="+", default=[], metavar="NAME=VALUE", help="override parameters")
 
 
+def _user_values(path: Path | None) -> dict[str, float]:
+    """User-effect parameter values a parameter file carries (``fit --out`` writes them under
+    ``user_effects``; the built-in parameter reader ignores that section)."""
+    if path is None:
+        return {}
+    import yaml
+
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError):
+        return {}  # the parameter reader reports what is wrong with the file
+    section = doc.get("user_effects") if isinstance(doc, dict) else None
+    out = {}
+    for effect, params in (section or {}).items():
+        for name, entry in (params or {}).items():
+            value = entry.get("value") if isinstance(entry, dict) else entry
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise IdentCliError(f"{path}: user_effects.{effect}.{name}: {value!r} is not a number")
+            out[str(name)] = float(value)
+    return out
+
+
+def save_params(model: Model, path: Path) -> None:
+    """The model's parameters as a parameter file, with its user effects' values (by effect)."""
+    import yaml
+
+    doc = model.params.to_dict()
+    if model.user_effects:
+        doc["user_effects"] = {
+            e.name: {
+                n: {"value": p.value, "unit": p.unit, "provenance": p.provenance}
+                for n, p in e.parameters.items()
+            }
+            for e in model.user_effects
+        }
+    path.write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+
+
 def build_model(args: argparse.Namespace) -> Model:
     """The model the options describe: a parameter file, effects off, user effects, overrides."""
     from slopelander.model import Model, ParameterError, load_effects
@@ -35,6 +73,19 @@ def build_model(args: argparse.Namespace) -> Model:
     if args.effects_file:
         for effect in load_effects(args.effects_file):
             model = model.with_user_effect(effect)
+    saved = _user_values(args.params)
+    if saved:
+        known = model.user_parameters()
+        unknown = sorted(n for n in saved if n not in known)
+        if unknown:
+            raise IdentCliError(
+                f"--params {args.params}: values for {', '.join(unknown)}, parameters of user effects "
+                "not loaded: give their file with --effects-file"
+            )
+        try:
+            model = model.with_params(provenance="identified", **saved)
+        except ParameterError as exc:
+            raise IdentCliError(f"--params {args.params}: {exc}") from None
     values = {}
     for item in args.set:
         name, _, text = item.partition("=")
@@ -63,7 +114,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=1.0, help="seconds recorded after first contact")
     p.add_argument("--position-noise", type=float, default=1e-3, help="m (standard deviation)")
     p.add_argument("--angle-noise", type=float, default=0.3, help="deg (standard deviation)")
-    p.add_argument("--latency", type=float, default=0.005, help="s")
+    p.add_argument("--latency", type=float, default=0.002, help="s (default 2 ms, as NoiseModel)")
     p.add_argument("--rate", type=float, default=200.0, help="sample rate, Hz")
     p.add_argument(
         "--slopes", type=float, nargs=2, default=[0.0, 45.0], metavar=("LO", "HI"), help="deg, within 0..45"
@@ -259,6 +310,12 @@ def register_fit(subparsers: argparse._SubParsersAction) -> None:
         default=0,
         help="extra CMA-ES runs from random points, sharing the budget (noisy data)",
     )
+    p.add_argument(
+        "--start",
+        choices=("model", "centre"),
+        default="model",
+        help="where the search begins: the analysed model's values (default) or the centre of the bounds",
+    )
     _model_args(p, "analysed")
     _search_args(p)
     p.set_defaults(handler=run_fit)
@@ -285,6 +342,7 @@ def run_fit(args: argparse.Namespace) -> int:
             **_search_settings(args),
             progress=bar,
             restarts=args.restarts,
+            from_centre=args.start == "centre",
         )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
@@ -293,10 +351,22 @@ def run_fit(args: argparse.Namespace) -> int:
     print(sf.table())
     for w in sf.warnings():
         print(f"warning: {w}")
+    from slopelander.ident.compare import compare
+
+    means = {n: m for n, (m, _) in sf.mean_sd().items()}
+    fitted = model.with_params(**means)
+    before, after = compare(model, drops).nrmse, compare(fitted, drops).nrmse
+    print(
+        f"on all {len(drops)} drops: NRMSE {before:.4f} with the given model, "
+        f"{after:.4f} with the fitted means"
+    )
+    if after > before:
+        print(
+            "warning: the fitted means are worse than the given model on these drops "
+            f"({before:.4f} -> {after:.4f}): the fits disagree (see sigma) or the search was too short"
+        )
     if args.out:
-        means = {n: m for n, (m, _) in sf.mean_sd().items()}
-        builtin = {n: v for n, v in means.items() if n in model.params.values}
-        model.params.with_values(**builtin).save(args.out)
+        save_params(fitted, args.out)
         print(f"identified parameters: {args.out}")
     return 0
 
@@ -305,13 +375,33 @@ def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "diagnose",
         help="find which physical effect the model is missing",
-        description="Screen each candidate effect the model lacks (built-in: leg_flex, "
-        "downhill_torque_growth, downhill_friction_growth; plus --candidates FILE), refit "
-        "the model with it, and rank by held-out error with a penalty per added parameter.",
+        description="Refit the model with each candidate effect it lacks (built-in: leg_flex, "
+        "downhill_torque_growth, downhill_friction_growth; plus --candidates), predict each drop "
+        "with fits that did not see it, and name a candidate missing only when its held-out gains "
+        "pass a sign-flip test over drops (5 %% level, corrected for the candidates tried); "
+        "compare the residual with the recordings' noise floor.",
     )
     _dataset_arg(p)
-    p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects to try")
+    p.add_argument(
+        "--candidates",
+        type=Path,
+        nargs="+",
+        metavar="FILE|FOLDER",
+        help="Python files of user effects to try, or folders of them (every *.py inside)",
+    )
     p.add_argument("--refits", type=int, default=None, help="refit only the N best-screened candidates")
+    p.add_argument(
+        "--refit-evals",
+        type=int,
+        default=200,
+        help="model evaluations of each candidate's refit (and the control's)",
+    )
+    p.add_argument(
+        "--folds",
+        type=int,
+        default=2,
+        help="cross-fitting groups: each drop is predicted by fits on the others",
+    )
     p.add_argument(
         "--refit-from-centre",
         action="store_true",
@@ -323,6 +413,22 @@ def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run_diagnose, repeats=1)
 
 
+def candidate_effects(paths: list[Path] | None) -> list | None:
+    """The user effects of the ``--candidates`` files and folders (every ``*.py`` of a folder)."""
+    if not paths:
+        return None
+    files = []
+    for path in paths:
+        if path.is_dir():
+            found = sorted(path.glob("*.py"))
+            if not found:
+                raise IdentCliError(f"--candidates {path}: the folder holds no Python file")
+            files += found
+        else:
+            files.append(path)
+    return [e for f in files for e in load_effects(f)]
+
+
 def run_diagnose(args: argparse.Namespace) -> int:
     from slopelander.ident.diagnose import diagnose
     from slopelander.ident.fit import FitError
@@ -332,7 +438,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     drops = load_dataset(args.dataset)
     model = build_model(args)
     names, bounds = _fit_spec(args.fit)
-    users = load_effects(args.candidates) if args.candidates else None
+    users = candidate_effects(args.candidates)
     bar = _Bar(args.quiet, "diagnose")
     try:
         d = diagnose(
@@ -342,6 +448,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
             names=names,
             bounds=bounds,
             refits=args.refits,
+            refit_evals=args.refit_evals,
+            folds=args.folds,
             refit_from_centre=args.refit_from_centre,
             **_search_settings(args),
             progress=bar,
@@ -370,7 +478,13 @@ def register_steps(subparsers: argparse._SubParsersAction) -> None:
         metavar="EFFECT",
         help="effects to add in this order (built-in names or effects of --candidates)",
     )
-    p.add_argument("--candidates", type=Path, metavar="FILE", help="Python file of user effects")
+    p.add_argument(
+        "--candidates",
+        type=Path,
+        nargs="+",
+        metavar="FILE|FOLDER",
+        help="Python files (or folders) of user effects",
+    )
     p.add_argument("--plot", type=Path, metavar="PNG", help="write the error-fall plot here")
     _model_args(p, "base")
     _search_args(p)
@@ -383,9 +497,8 @@ def run_steps_cmd(args: argparse.Namespace) -> int:
     from slopelander.ident.fit import FitError
     from slopelander.ident.recording import load_dataset
     from slopelander.ident.steps import run_steps
-    from slopelander.model import load_effects
 
-    users = {e.name: e for e in load_effects(args.candidates)} if args.candidates else {}
+    users = {e.name: e for e in candidate_effects(args.candidates) or []}
     effects = []
     for name in args.add:
         if name in BUILTIN_CANDIDATES:

@@ -160,7 +160,7 @@ class Comparison:
 
 def compare_drop(model: Model, drop: Drop, ranges: np.ndarray) -> DropComparison:
     sim, outcome = predict(model, drop)
-    labels = phase_labels(drop.t, drop.states[:, 4])
+    labels = phase_labels(drop.t, drop.states[:, 4], drop.states[:, 3], drop.conditions.slope_deg)
     err = (sim - drop.states) / ranges
     contact = drop.t >= 0
     per_state = np.sqrt(np.mean(err[contact] ** 2, axis=0))

@@ -1,21 +1,32 @@
-"""Which physical effect is missing: screen the candidates cheaply, refit the likely ones,
-rank them by held-out error with a penalty per added parameter.
+"""Which physical effect is missing: refit each candidate, test it on drops the fit did not see.
 
-The base model is first identified on its own (from the centre of the bounds). Each candidate
-is then added and the whole set re-identified from the base's optimum (optionally also from the
-centre of the bounds, where the base fit began), so a candidate can only help the training error;
-whether it helps the *validation* drops, by more than its extra parameters buy by themselves,
-decides. When none does by at least :data:`MIN_GAIN`, the
-verdict is that nothing is missing: the residual is noise or beyond the candidates.
+Cross-fitting over drops: the drops are split into ``folds`` groups (stratified by slope); for
+each group, the base model and the base plus each candidate are identified on the other drops
+and predict that group's. Every drop is thus predicted by fits that did not see it. Before the
+candidates, the base itself is refitted from its optimum with the same budget a candidate gets
+(the control): a candidate must beat the base given as much search, not a base that stopped
+sooner. A candidate is named **missing** when its per-drop held-out gains pass a sign-flip
+test over drops at the 5 % level, corrected for the number of candidates tried
+(:mod:`slopelander.ident.evidence`). Otherwise the verdict compares the held-out residual with
+the recordings' noise floor: at the floor, nothing is missing (nothing larger than what these
+drops can see); clearly above it, something is, but not among these candidates, or too little
+of it to tell with these drops.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from slopelander.ident.compare import state_ranges
+from slopelander.ident.compare import compare, state_ranges
+from slopelander.ident.evidence import (
+    SignFlipTest,
+    noise_floor,
+    sign_flip_test,
+    weighted_mse,
+)
 from slopelander.ident.fit import (
     DEFAULT_BOUNDS,
     PAPER_SEVEN,
@@ -27,7 +38,6 @@ from slopelander.ident.fit import (
     fit,
     make_param,
     resolve_params,
-    subsets,
 )
 from slopelander.ident.recording import STATES, Drop
 from slopelander.model import Model, UserEffect
@@ -41,10 +51,21 @@ BUILTIN_CANDIDATES: dict[str, tuple[str, ...]] = {
 NEUTRAL: dict[str, float] = {"factor_tau": 0.0, "factor_mu": 0.0}
 """Values at which a candidate's parameter leaves the model as it was: the refit starts there,
 so it begins at the base model's optimum."""
-PENALTY = 0.02
-"""Relative validation-error penalty per added parameter."""
-MIN_GAIN = 0.05
-"""A candidate must cut the (penalised) validation NRMSE by this fraction to count as missing."""
+ALPHA = 0.05
+"""Level of the sign-flip test over drops."""
+MIN_GAIN = 0.02
+"""A candidate must also lower the held-out NRMSE by this fraction: on control sets the test
+alone passed candidates that gained 0.03-0.6 %, the same for several at once (a refit's extra
+search improving the base parameters, shared by all drops of a group), never a real effect."""
+FOLDS = 2
+"""Cross-fitting groups: each drop is predicted by fits on the other groups' drops."""
+ABOVE_FLOOR = 1.2
+"""A held-out residual above this multiple of the noise floor is more than noise: an effect
+adding more than sqrt(1.2^2 - 1) = 0.66 floors (in quadrature) lifts it above. (On control
+sets the base's held-out NRMSE, fitted on half the drops, read 0.95-1.12 floors.)"""
+NOT_AMONG = 1.5
+"""An excess beyond the floor of more than this many floors that no candidate explains reads
+"missing, but not among these candidates"; a smaller one "too small to tell"."""
 
 
 @dataclass(frozen=True)
@@ -73,84 +94,192 @@ def candidates_for(model: Model, user_effects: list[UserEffect] | None = None) -
 class CandidateResult:
     candidate: Candidate
     screening: float
-    """Fraction of the base residual one step along the candidate's direction removes."""
+    """Extra share of the base residual the candidate's direction removes beyond re-tuning the
+    base's parameters (linearised)."""
     fits: list[FitResult] = field(default_factory=list)
+    """One per cross-fitting group (and repeat)."""
+    heldout: np.ndarray | None = None
+    """Per drop: NRMSE predicted by the fits that did not see the drop."""
+    heldout_mse: np.ndarray | None = None
+    """Per drop: the fit's weighted mean square error, predicted likewise."""
+    p: float = math.nan
+    """Family-wise p-value of its held-out gains (sign-flip max-T over drops)."""
+    nested: bool | None = None
+    """At its neutral values it is the base model (None: not checked)."""
+    nested_note: str = ""
+    sensitivity: np.ndarray | None = None
+    """Per drop: NRMSE of the change the screening step makes (where the effect acts)."""
 
     @property
     def validation_nrmse(self) -> float:
-        return float(np.mean([f.validation_nrmse for f in self.fits]))
+        return float(np.mean(self.heldout)) if self.heldout is not None else math.nan
 
     @property
     def train_nrmse(self) -> float:
         return float(np.mean([f.train_nrmse for f in self.fits]))
 
-    @property
-    def score(self) -> float:
-        return self.validation_nrmse * (1.0 + PENALTY * len(self.candidate.params))
-
     def values(self) -> dict[str, float]:
         return {p: float(np.mean([f.values[p] for f in self.fits])) for p in self.candidate.params}
+
+    def spread(self) -> dict[str, tuple[float, float]]:
+        """Lowest and highest value over the cross-fitting groups' fits (each on other drops)."""
+        return {
+            p: (min(f.values[p] for f in self.fits), max(f.values[p] for f in self.fits))
+            for p in self.candidate.params
+        }
 
 
 @dataclass
 class Diagnosis:
     base: list[FitResult]
+    """The base model's control refits, one per group (the comparator of every candidate)."""
     results: list[CandidateResult]
-    """Refitted candidates, best first; then screened-out ones (no fits)."""
+    """Refitted candidates, best held-out gain first; then screened-out ones (no fits)."""
+    base_heldout: np.ndarray
+    base_heldout_mse: np.ndarray
+    drops: list[Drop]
+    test: SignFlipTest | None
+    floor: float | None
+    """NRMSE the recordings' declared noise alone leaves (None: not declared)."""
+    folds: int = FOLDS
+    alpha: float = ALPHA
 
     @property
     def base_validation(self) -> float:
-        return float(np.mean([f.validation_nrmse for f in self.base]))
+        return float(np.mean(self.base_heldout))
 
     @property
     def base_train(self) -> float:
         return float(np.mean([f.train_nrmse for f in self.base]))
 
     def gain(self, r: CandidateResult) -> float:
-        """Relative fall of the penalised validation NRMSE from the base model's."""
-        return 1.0 - r.score / self.base_validation
+        """Relative fall of the held-out NRMSE from the base model's."""
+        return 1.0 - r.validation_nrmse / self.base_validation
+
+    @property
+    def fitted(self) -> list[CandidateResult]:
+        return [r for r in self.results if r.fits]
 
     @property
     def missing(self) -> CandidateResult | None:
-        fitted = [r for r in self.results if r.fits]
-        if fitted and self.gain(fitted[0]) >= MIN_GAIN:
-            return fitted[0]
-        return None
+        passed = [r for r in self.fitted if r.p <= self.alpha and self.gain(r) >= MIN_GAIN]
+        return max(passed, key=self.gain) if passed else None
+
+    def evidence(self, r: CandidateResult) -> str:
+        t = self.test
+        if t is None:
+            return "not tested"
+        how = "all" if t.exact else "random"
+        better = int(np.sum(r.heldout_mse < self.base_heldout_mse)) if r.heldout_mse is not None else 0
+        return (
+            f"p = {r.p:.3g} over {t.patterns} {how} sign flips of {len(self.drops)} drops, "
+            f"corrected for {len(self.fitted)} candidates; better on {better} of "
+            f"{len(self.drops)} held-out drops"
+        )
+
+    @property
+    def visible(self) -> float | None:
+        """Smallest NRMSE an effect must add (in quadrature) to lift the held-out residual
+        above the noise floor's threshold: what "nothing missing" can vouch for."""
+        return None if self.floor is None else self.floor * math.sqrt(ABOVE_FLOOR**2 - 1.0)
+
+    @property
+    def excess(self) -> float | None:
+        """NRMSE the held-out residual has beyond the noise floor (in quadrature)."""
+        if self.floor is None:
+            return None
+        return math.sqrt(max(self.base_validation**2 - self.floor**2, 0.0))
+
+    def hint(self, r: CandidateResult, n: int = 3) -> str:
+        """Which of these drops the candidate acts on most: more drops like them would show it."""
+        if r.sensitivity is None or not np.any(r.sensitivity > 0):
+            return f"{r.candidate.name} changes none of these drops"
+        order = np.argsort(-r.sensitivity)[:n]
+        where = ", ".join(
+            f"{self.drops[i].name} ({self.drops[i].conditions.slope_deg:.0f} deg, "
+            f"{self.drops[i].conditions.speed:.1f} m/s, torques {self.drops[i].conditions.tau_up:.2g}/"
+            f"{self.drops[i].conditions.tau_down:.2g} N*m)"
+            for i in order
+        )
+        return f"{r.candidate.name} acts most on {where}: more drops like these would show it"
 
     def verdict(self) -> str:
+        text = self._verdict()
+        t = self.test
+        if t is not None and t.exact and 1.0 / t.patterns > self.alpha:
+            text += (
+                f" (with {len(self.drops)} drops no candidate can pass the test: the smallest p is "
+                f"1/{t.patterns} > {self.alpha:g}; give at least 5 drops)"
+            )
+        return text
+
+    def _verdict(self) -> str:
         m = self.missing
+        vis = f"{self.visible:.4f}" if self.visible is not None else "an unknown amount"
+        floor = f"{self.floor:.4f}" if self.floor is not None else None
         if m is not None:
             vals = ", ".join(f"{k} = {v:.4g}" for k, v in m.values().items())
             return (
-                f"missing: {m.candidate.name} (validation NRMSE {self.base_validation:.4f} -> "
-                f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % better after the penalty; {vals})"
+                f"missing: {m.candidate.name} (held-out NRMSE {self.base_validation:.4f} -> "
+                f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % lower; {self.evidence(m)}; {vals})"
             )
-        fitted = [r for r in self.results if r.fits]
-        best = (
-            f" (best candidate {fitted[0].candidate.name}: {100 * self.gain(fitted[0]):+.1f} %)"
-            if fitted
-            else ""
+        best = max(self.fitted, key=self.gain, default=None)
+        tried = (
+            f"best candidate {best.candidate.name}: {100 * self.gain(best):+.1f} %, {self.evidence(best)}"
+            if best is not None
+            else "no candidate refitted"
         )
+        if floor is None:
+            return (
+                f"nothing missing among these candidates ({tried}); the recordings declare no noise "
+                "(meta.noise), so whether the residual is more than noise cannot be said"
+            )
+        ratio = self.base_validation / self.floor if self.floor else math.inf
+        excess = self.excess or 0.0
+        if ratio <= ABOVE_FLOOR:
+            return (
+                f"nothing missing: the held-out NRMSE {self.base_validation:.4f} is at the noise floor "
+                f"{floor} ({ratio:.2f}x): nothing larger than {vis} NRMSE is missing (more would lift "
+                f"it above {ABOVE_FLOOR:g}x the floor); no candidate helps on drops it did not see ({tried})"
+            )
+        if excess > NOT_AMONG * self.floor:
+            return (
+                f"missing, but not among these candidates: the held-out NRMSE {self.base_validation:.4f} "
+                f"is {ratio:.1f}x the noise floor {floor} ({excess:.4f} beyond it), and no candidate "
+                f"explains it ({tried})"
+            )
+        hint = f"; {self.hint(best)}" if best is not None else ""
         return (
-            "nothing missing: no candidate explains the residual better than noise"
-            f"{best}; the {len(self.results)} candidates were tried"
+            f"too small to tell with these drops: the held-out NRMSE {self.base_validation:.4f} is "
+            f"{ratio:.2f}x the noise floor {floor} ({excess:.4f} beyond it, less than "
+            f"{NOT_AMONG:g} floors), and no candidate's gain holds over enough drops ({tried}){hint}"
         )
 
     def table(self) -> str:
         lines = [
-            "| rank | candidate | screening | train NRMSE | validation NRMSE | gain | fitted |",
-            "|---:|---|---:|---:|---:|---:|---|",
-            f"| - | (base) | - | {self.base_train:.4f} | {self.base_validation:.4f} | - | - |",
+            "| rank | candidate | screening | train NRMSE | held-out NRMSE | gain | p "
+            f"| fitted (range over {self.folds} groups) |",
+            "|---:|---|---:|---:|---:|---:|---:|---|",
+            f"| - | (base) | - | {self.base_train:.4f} | {self.base_validation:.4f} | - | - | - |",
         ]
         for i, r in enumerate(self.results, 1):
+            name = r.candidate.name + ("" if r.nested is not False else " (not nested)")
             if r.fits:
-                vals = ", ".join(f"{k} {v:.4g}" for k, v in r.values().items())
+                spread = r.spread()
+                vals = ", ".join(
+                    f"{k} {v:.4g} [{spread[k][0]:.3g}..{spread[k][1]:.3g}]" for k, v in r.values().items()
+                )
                 lines.append(
-                    f"| {i} | {r.candidate.name} | {100 * r.screening:.0f} % | {r.train_nrmse:.4f} "
-                    f"| {r.validation_nrmse:.4f} | {100 * self.gain(r):+.1f} % | {vals} |"
+                    f"| {i} | {name} | {100 * r.screening:.0f} % | {r.train_nrmse:.4f} "
+                    f"| {r.validation_nrmse:.4f} | {100 * self.gain(r):+.1f} % | {r.p:.3g} | {vals} |"
                 )
             else:
-                lines.append(f"| {i} | {r.candidate.name} | {100 * r.screening:.0f} % | not refitted | | | |")
+                lines.append(f"| {i} | {name} | {100 * r.screening:.0f} % | not refitted | | | | |")
+        if self.floor is not None:
+            lines.append(f"\nnoise floor (the recordings' declared noise alone): NRMSE {self.floor:.4f}")
+        for r in self.results:
+            if r.nested is False:
+                lines.append(f"{r.candidate.name} is not nested: {r.nested_note}")
         return "\n".join(lines)
 
 
@@ -178,6 +307,30 @@ def candidate_params(
     return [*base_params, *extra]
 
 
+@dataclass
+class Screening:
+    share: float
+    """Extra share of the base residual the candidate's change removes beyond the base
+    parameters' own directions (linearised least squares)."""
+    sensitivity: np.ndarray
+    """Per drop: NRMSE of the change (how strongly the candidate acts on that drop)."""
+    nested: bool
+    note: str
+
+
+def _per_drop(prob: Problem, r: np.ndarray) -> np.ndarray:
+    """Split a residual vector into drops and give each drop's root mean square (its NRMSE as
+    the fit weighs it)."""
+    out, i = [], 0
+    n = len(prob.drops)
+    for d in prob.drops:
+        k = int((d.t >= 0).sum()) * 6
+        seg = r[i : i + k]
+        out.append(math.sqrt(float(seg @ seg) * n))
+        i += k
+    return np.array(out)
+
+
 def screen(
     base_model: Model,
     drops: list[Drop],
@@ -185,13 +338,36 @@ def screen(
     base_params: list[FitParam],
     ranges: np.ndarray,
     bounds: dict[str, tuple[float, float]],
-) -> dict[str, float]:
+) -> dict[str, Screening]:
     """Cheap signature test: switch each candidate on (a tenth of its range from "off", or at
-    the centre of its bounds) and measure
-    how much of the base residual the change in the simulated states removes (best step along
-    it). One simulation per candidate and drop."""
+    the centre of its bounds) and measure how much more of the base residual a least-squares
+    combination of that change and the base parameters' own directions removes than those
+    directions alone (linearised: a secant per direction), and on which drops it acts. Also
+    checks that the candidate at its neutral values is the base model. Two simulations per
+    candidate and drop, and one per base parameter and drop."""
     base_prob = Problem(base_model, drops, [], ranges)
     r = base_prob.residuals([])
+    rr = float(r @ r)
+    # what re-tuning the base's own parameters could remove (linearised): a candidate earns
+    # only what it removes beyond that, as in its refit, where the base parameters move too
+    tuned = Problem(base_model, drops, base_params, ranges)
+    u0 = np.array([p.unit(base_model.parameter(p.name)) for p in base_params])
+    cols = []
+    for i in range(len(base_params)):
+        step = 0.02 if u0[i] + 0.02 <= 1.0 else -0.02
+        v = u0.copy()
+        v[i] += step
+        cols.append((tuned.residuals(v) - r) / step)
+    Jb = np.column_stack(cols) if cols else np.zeros((len(r), 0))
+
+    def removed(M: np.ndarray) -> float:
+        if M.shape[1] == 0:
+            return 0.0
+        x, *_ = np.linalg.lstsq(M, -r, rcond=None)
+        rest = r + M @ x
+        return 1.0 - float(rest @ rest) / rr
+
+    by_base = removed(Jb)
     out = {}
     for c in cands:
         params = candidate_params(base_model, c, [], bounds)
@@ -200,11 +376,16 @@ def screen(
         off = neutral_values(c)
         u = [min(1.0, p.unit(off[p.name]) + 0.1) if p.name in off else 0.5 for p in params]
         d = prob.residuals(u) - r
-        dd = float(d @ d)
-        alpha = -float(r @ d) / dd if dd > 0 else 0.0
-        alpha = min(max(alpha, 0.0), 1.0)
-        rest = r + alpha * d
-        out[c.name] = max(0.0, 1.0 - float(rest @ rest) / float(r @ r))
+        share = max(0.0, removed(np.column_stack([Jb, d])) - by_base) if rr > 0 else 0.0
+        missing = [p.name for p in params if p.name not in off]
+        if missing:
+            nested, note = False, f"no neutral value for {', '.join(missing)} (declare neutral=...)"
+        else:
+            gap = prob.residuals([p.unit(off[p.name]) for p in params]) - r
+            size = math.sqrt(float(gap @ gap))
+            nested = size <= 1e-9 * max(math.sqrt(rr), 1e-12)
+            note = "" if nested else f"at its neutral values it differs from the base by {size:.3g} NRMSE"
+        out[c.name] = Screening(share, _per_drop(prob, d), nested, note)
     return out
 
 
@@ -215,6 +396,47 @@ def residual_signature(prob: Problem, u: np.ndarray) -> dict[str, float]:
     return dict(zip(STATES, (e / max(e.sum(), 1e-300)).tolist(), strict=True))
 
 
+def fold_splits(
+    drops: list[Drop], folds: int = FOLDS, repeats: int = 1, seed: int = 0
+) -> list[tuple[list[int], list[int]]]:
+    """(training, held-out) index lists: each repeat splits the drops into ``folds`` groups,
+    stratified by slope (each group spans the slopes), and holds out each group in turn."""
+    n = len(drops)
+    if not 2 <= folds <= n:
+        raise FitError(f"need 2..{n} cross-fitting groups for {n} drops (got {folds})")
+    if n - math.ceil(n / folds) < 1:
+        raise FitError(f"{n} drops are too few to hold out a group of them")
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(max(1, repeats)):
+        order = np.argsort([d.conditions.slope_deg + 1e-6 * rng.random() for d in drops], kind="stable")
+        group = np.empty(n, dtype=int)
+        for start in range(0, n, folds):
+            block = order[start : start + folds]
+            group[block] = rng.permutation(folds)[: len(block)]
+        for g in range(folds):
+            held = sorted(np.flatnonzero(group == g).tolist())
+            if held:
+                out.append((sorted(np.flatnonzero(group != g).tolist()), held))
+    return out
+
+
+def _heldout(
+    fits: list[FitResult], splits, drops: list[Drop], ranges: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per drop: NRMSE and weighted MSE predicted by the fits that did not see it (averaged
+    over repeats)."""
+    n = len(drops)
+    nrmse, mse, count = np.zeros(n), np.zeros(n), np.zeros(n)
+    for f, (_, held) in zip(fits, splits, strict=True):
+        c = compare(f.model, [drops[i] for i in held], ranges)
+        for i, dc in zip(held, c.drops, strict=True):
+            nrmse[i] += dc.nrmse
+            mse[i] += weighted_mse(dc.per_state)
+            count[i] += 1
+    return nrmse / count, mse / count
+
+
 def diagnose(
     model: Model,
     drops: list[Drop],
@@ -222,6 +444,7 @@ def diagnose(
     user_effects: list[UserEffect] | None = None,
     names: list[str] | None = None,
     bounds: dict[str, tuple[float, float]] | None = None,
+    folds: int = FOLDS,
     repeats: int = 1,
     refits: int | None = None,
     seed: int = 0,
@@ -229,6 +452,7 @@ def diagnose(
     refit_evals: int = 200,
     ls_evals: int = 20,
     refit_from_centre: bool = False,
+    alpha: float = ALPHA,
     workers: int | None = None,
     client=None,
     progress=None,
@@ -236,43 +460,59 @@ def diagnose(
     """Find the effect ``model`` is missing to explain ``drops``.
 
     ``names``: the base model's fitted parameters (default the paper's seven it has);
-    ``repeats``: training/validation splits (60/40); ``refits``: how many of the screened
+    ``folds``: cross-fitting groups, ``repeats``: how many times the drops are split into them
+    (a drop's held-out error is averaged over repeats); ``refits``: how many of the screened
     candidates get the expensive refit (default all); ``refit_from_centre``: each refit's
     CMA-ES budget is shared between a run from the base optimum and one from the centre of the
-    bounds, where the base fit began (the base optimum can sit far from the answer when the
-    base model bent its parameters to mimic the missing effect).
+    bounds (the base optimum can sit far from the answer when the base model bent its
+    parameters to mimic the missing effect); ``alpha``: the test's level.
     """
     bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
     base_params = resolve_params(model, names, bounds)
     cands = candidates_for(model, user_effects)
     if not cands:
-        raise FitError("no candidate effect to try: the model already has every built-in candidate")
+        raise FitError(
+            "no candidate effect to try: the model already has every built-in candidate; "
+            "give effects to try with --candidates FILE|FOLDER ... (docs/effects.md)"
+        )
     ranges = state_ranges(drops)
-    splits = subsets(len(drops), repeats, seed=seed)
+    splits = fold_splits(drops, folds, repeats, seed)
     kw = {"ranges": ranges, "workers": workers, "client": client, "progress": progress, "ls_evals": ls_evals}
-    base_fits = []
+    centre = [{}] if refit_from_centre else None
+    base_fits, control = [], []
     for k, (tr, va) in enumerate(splits):
-        train = [drops[i] for i in tr]
-        base_fits.append(
+        train, held = [drops[i] for i in tr], [drops[i] for i in va]
+        b = fit(model, train, base_params, seed=seed + k, cma_evals=cma_evals, validation=held, **kw)
+        base_fits.append(b)
+        # the control: the base searched again from its optimum with a candidate's budget
+        control.append(
             fit(
                 model,
                 train,
                 base_params,
                 seed=seed + k,
-                cma_evals=cma_evals,
-                validation=[drops[i] for i in va],
+                cma_evals=refit_evals,
+                validation=held,
+                start=b.values,
+                sigma=0.25,
+                starts=centre,
                 **kw,
             )
         )
-    first_train = [drops[i] for i in splits[0][0]]
-    scores = screen(base_fits[0].model, first_train, cands, base_params, ranges, bounds)
-    order = sorted(cands, key=lambda c: -scores[c.name])
+    base_nrmse, base_mse = _heldout(control, splits, drops, ranges)
+    scr = screen(control[0].model, drops, cands, base_params, ranges, bounds)
+    order = sorted(cands, key=lambda c: -scr[c.name].share)
     n_refit = len(order) if refits is None else max(0, refits)
     results = []
     for i, c in enumerate(order):
-        res = CandidateResult(c, scores[c.name])
+        sc = scr[c.name]
+        res = CandidateResult(c, sc.share, nested=sc.nested, nested_note=sc.note, sensitivity=sc.sensitivity)
         if i < n_refit:
             params = candidate_params(model, c, base_params, bounds)
+            off = neutral_values(c)
+            # a parameter without a neutral value starts at the centre of its bounds: its
+            # shipped or declared value would be the truth of a synthetic proof
+            off = {**{p.name: p.value(0.5) for p in params[len(base_params) :]}, **off}
             for k, (tr, va) in enumerate(splits):
                 res.fits.append(
                     fit(
@@ -282,16 +522,28 @@ def diagnose(
                         seed=seed + k,
                         cma_evals=refit_evals,
                         validation=[drops[j] for j in va],
-                        start=base_fits[k].values,
-                        also=[neutral_values(c)],
+                        start={**base_fits[k].values, **off},
+                        # the control's optimum with the candidate off: a nested candidate's
+                        # training cost cannot end above the control's
+                        also=[{**control[k].values, **off}],
                         sigma=0.25,
-                        starts=[{}] if refit_from_centre else None,
+                        starts=centre,
                         **kw,
                     )
                 )
+            res.heldout, res.heldout_mse = _heldout(res.fits, splits, drops, ranges)
         results.append(res)
-    results.sort(key=lambda r: (not r.fits, r.score if r.fits else -r.screening))
-    return Diagnosis(base_fits, results)
+    fitted = [r for r in results if r.fits]
+    test = None
+    if fitted:
+        gains = np.array([np.log(base_mse / np.maximum(r.heldout_mse, 1e-300)) for r in fitted])
+        test = sign_flip_test(gains, alpha, seed)
+        for r, p in zip(fitted, test.p, strict=True):
+            r.p = float(p)
+    floor = noise_floor(control[0].model, drops, ranges, seed=seed)
+    d = Diagnosis(control, results, base_nrmse, base_mse, drops, test, floor, folds, alpha)
+    results.sort(key=lambda r: (not r.fits, -d.gain(r) if r.fits else -r.screening))
+    return d
 
 
 __all__ = ["BUILTIN_CANDIDATES", "PAPER_SEVEN", "Candidate", "Diagnosis", "diagnose", "effect_of"]

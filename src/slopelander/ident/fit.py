@@ -1,7 +1,7 @@
 """Identify named model parameters from recorded drops, as the paper did (Sec. IV-D).
 
-A global search (CMA-ES, from the centre of the bounds, so the start says nothing about the
-answer) then a local least-squares polish with a finite-difference Jacobian whose columns are
+A global search (CMA-ES, from the given model's values, or from the centre of the bounds when
+asked) then a local least-squares polish with a finite-difference Jacobian whose columns are
 simulated in parallel. The Jacobian at the optimum also gives confidence intervals and shows
 directions the data cannot pin down (flat or correlated), which are reported as warnings.
 """
@@ -68,6 +68,7 @@ class FitParam:
         return self.low + (self.high - self.low) * u
 
     def unit(self, value: float) -> float:
+        value = min(max(float(value), self.low), self.high)
         if self.log:
             return math.log(value / self.low) / math.log(self.high / self.low)
         return (value - self.low) / (self.high - self.low)
@@ -166,6 +167,10 @@ class Problem:
         r = np.concatenate(out)
         return np.where(np.isfinite(r), r, 10.0)
 
+    def groups(self) -> np.ndarray:
+        """The drop each residual belongs to (for intervals over drops)."""
+        return np.concatenate([np.full(int((d.t >= 0).sum()) * 6, i) for i, d in enumerate(self.drops)])
+
     @property
     def size(self) -> int:
         return sum(int((d.t >= 0).sum()) * 6 for d in self.drops)
@@ -237,8 +242,8 @@ class FitResult:
     cost: float
     train_nrmse: float
     ci95: dict[str, float]
-    """Half-width of the 95 % confidence interval (from J^T J; optimistic: motion-capture
-    samples are not independent)."""
+    """Half-width of the 95 % confidence interval: the sandwich over drops (each drop one
+    independent unit), Student's t with drops - 1 degrees of freedom."""
     warnings: list[str]
     nfev: int
     seconds: float
@@ -246,6 +251,11 @@ class FitResult:
     validation_nrmse: float | None = None
     train_names: list[str] = field(default_factory=list)
     validation_names: list[str] = field(default_factory=list)
+    start_values: dict[str, float] = field(default_factory=dict)
+    """Where the search began (the given model's values unless asked otherwise)."""
+    start_cost: float = math.nan
+    start_nrmse: float = math.nan
+    """Training NRMSE at the start: a fit never ends worse in cost, and says so if its NRMSE is."""
 
 
 def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> np.ndarray:
@@ -262,18 +272,28 @@ def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> 
 
 
 def identifiability(
-    params: list[FitParam], J: np.ndarray, u: np.ndarray, r: np.ndarray, values: dict[str, float]
+    params: list[FitParam],
+    J: np.ndarray,
+    u: np.ndarray,
+    r: np.ndarray,
+    values: dict[str, float],
+    groups: np.ndarray | None = None,
 ) -> tuple[dict[str, float], list[str]]:
-    """95 % half-widths from the Gauss-Newton covariance, and warnings for parameters the data
-    cannot identify: a flat direction (tiny singular value), a strong correlation, or an
-    interval wider than half the value."""
+    """95 % half-widths and warnings for parameters the data cannot identify: a flat direction
+    (tiny singular value), a strong correlation, or an interval wider than half the value.
+
+    With ``groups`` (the drop of each residual), the covariance is the sandwich over drops:
+    the drops are the independent units, the samples inside one are not (rates are slopes over
+    several samples, a model error is one smooth curve), so each drop's summed score J_i^T r_i
+    is one observation; the half-width uses Student's t with (drops - 1) degrees of freedom.
+    Without, the Gauss-Newton covariance treats every sample as independent (optimistic)."""
     n = len(params)
     dof = max(len(r) - n, 1)
     s2 = float(r @ r) / dof
     JtJ = J.T @ J
+    quantile = 1.96
     warnings = []
-    sv = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
-    _, _, Vt = np.linalg.svd(J, full_matrices=False)
+    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
     if sv.size and sv[0] > 0:
         for k in np.flatnonzero(sv / sv[0] < 1e-3):
             lead = [params[i].name for i in np.argsort(-np.abs(Vt[k]))[:2]]
@@ -282,12 +302,32 @@ def identifiability(
                 f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})"
             )
     cov = np.linalg.pinv(JtJ) * s2
+    if groups is not None:
+        from scipy.stats import t as student
+
+        ids = np.unique(groups)
+        if len(ids) > 1:
+            scores = np.array([J[groups == g].T @ r[groups == g] for g in ids])
+            inv = np.linalg.pinv(JtJ)
+            cov = inv @ (scores.T @ scores) @ inv * len(ids) / (len(ids) - 1)
+            quantile = float(student.ppf(0.975, len(ids) - 1))
     sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
+    # a parameter that loads on a flat direction is not known: the pseudo-inverse drops that
+    # direction and would read it as perfectly known (+-0)
+    unknown = np.zeros(n, dtype=bool)
+    flat = sv <= (sv[0] * 1e-3 if sv.size and sv[0] > 0 else np.inf)
+    for kk in np.flatnonzero(flat):
+        unknown |= np.abs(Vt[kk]) > 0.1
     ci = {}
     for i, p in enumerate(params):
-        ci[p.name] = 1.96 * sd_u[i] * p.slope(float(u[i]))
+        ci[p.name] = math.inf if unknown[i] else quantile * sd_u[i] * p.slope(float(u[i]))
         v = values[p.name]
-        if ci[p.name] > 0.5 * abs(v) and abs(v) > 0:
+        if unknown[i]:
+            warnings.append(
+                f"{p.name} is not identified: the drops do not change with it near {v:.3g} "
+                "(no interval can be given)"
+            )
+        elif ci[p.name] > 0.5 * abs(v) and abs(v) > 0:
             warnings.append(
                 f"{p.name} is poorly identified: 95 % interval +-{ci[p.name]:.3g} on a value of {v:.3g}"
             )
@@ -300,7 +340,7 @@ def identifiability(
     corr = cov / np.outer(d, d)
     for i in range(n):
         for j in range(i + 1, n):
-            if abs(corr[i, j]) > 0.95:
+            if abs(corr[i, j]) > 0.95 and not (unknown[i] or unknown[j]):
                 warnings.append(
                     f"{params[i].name} and {params[j].name} are correlated "
                     f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each"
@@ -326,13 +366,16 @@ def fit(
     also: list[dict[str, float]] | None = None,
     restarts: int = 0,
     starts: list[dict[str, float]] | None = None,
+    from_centre: bool = False,
 ) -> FitResult:
     """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
 
     ``cma_evals`` bounds the global search, ``ls_evals`` the local iterations; ``progress`` is
     called with the number of new model evaluations (for a progress bar). The search starts
-    from the centre of the bounds, or from ``start`` (values by name, e.g. a previous fit's)
-    where given; ``sigma`` is the initial search width in units of the bounds. Points in
+    from the model's own values (clipped into the bounds), or from the centre of the bounds with
+    ``from_centre``, with ``start`` (values by name, e.g. a previous fit's) overriding either;
+    the start is evaluated first and kept if nothing beats it, so a fit never ends worse in
+    cost than where it began; ``sigma`` is the initial search width in units of the bounds. Points in
     ``also`` (values by name; unnamed ones from ``start``) are evaluated first and kept if best.
     ``restarts`` splits the global budget over that many more CMA-ES runs from random points
     (a noisy cost has false basins one run can fall into). ``starts`` adds one CMA-ES run from
@@ -348,17 +391,22 @@ def fit(
     prob = Problem(model, drops, params, ranges)
     n = len(params)
     tick = progress or (lambda k: None)
-    x0 = np.array([p.unit(start[p.name]) if start and p.name in start else 0.5 for p in params])
+    here = {} if from_centre else {p.name: model.parameter(p.name) for p in params}
+    start = {**here, **(start or {})}
+    x0 = np.array([p.unit(start[p.name]) if p.name in start else 0.5 for p in params])
     x0 = np.clip(x0, 0.0, 1.0)
+    start_values = dict(zip([p.name for p in params], prob.values(x0), strict=True))
     with Evaluator(prob, workers, client) as ev:
         best_u, best_c = x0, math.inf
-        firsts = [x0] if start else []
+        firsts = [x0]
         for extra in also or []:
             merged = {**(start or {}), **extra}
             point = [p.unit(merged[p.name]) if p.name in merged else 0.5 for p in params]
             firsts.append(np.clip(point, 0.0, 1.0))
+        start_cost = math.nan
         if firsts:
             costs0 = [float(r @ r) for r in ev.residuals(firsts)]
+            start_cost = costs0[0]
             i0 = int(np.argmin(costs0))
             best_u, best_c = np.asarray(firsts[i0], dtype=float), costs0[i0]
         if cma_evals > 0 and n == 1:  # CMA-ES needs two dimensions: scan the line instead
@@ -431,11 +479,17 @@ def fit(
         r = fun(u)
         J = jac(u)
         values = dict(zip([p.name for p in params], prob.values(u), strict=True))
-        ci, warns = identifiability(params, J, u, r, values)
+        ci, warns = identifiability(params, J, u, r, values, prob.groups())
         nfev = ev.nfev
     fitted = apply(model, params, [values[p.name] for p in params])
     train = compare(fitted, drops, ranges).nrmse
     val = compare(fitted, validation, ranges).nrmse if validation else None
+    start_nrmse = compare(apply(model, params, list(start_values.values())), drops, ranges).nrmse
+    if train > start_nrmse * (1 + 1e-9):
+        warns.append(
+            f"the fit's training NRMSE {train:.4f} is worse than its start's {start_nrmse:.4f} "
+            f"(its cost, the sum of squares it minimises, is not: {float(r @ r):.4g} <= {start_cost:.4g})"
+        )
     return FitResult(
         params,
         values,
@@ -450,6 +504,9 @@ def fit(
         val,
         [d.name for d in drops],
         [d.name for d in validation or []],
+        start_values,
+        start_cost,
+        start_nrmse,
     )
 
 

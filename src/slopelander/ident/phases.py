@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-PHASES: tuple[str, ...] = ("flight", "first contact", "compression", "rebound", "settling")
+PHASES: tuple[str, ...] = ("flight", "first contact", "compression", "rebound", "settling", "sliding")
 FIRST_CONTACT = 0.02
 """s after first contact counted as the impact transient."""
+SLIDE_SPEED = 0.1
+"""m/s along the slope above which a body moving more along the slope than across it slides."""
 
 
 def _smooth(v: np.ndarray, n: int) -> np.ndarray:
@@ -21,11 +23,16 @@ def _smooth(v: np.ndarray, n: int) -> np.ndarray:
     return np.convolve(v, np.ones(n) / n, mode="same")
 
 
-def phase_labels(t: np.ndarray, z_rate: np.ndarray) -> np.ndarray:
+def phase_labels(
+    t: np.ndarray, z_rate: np.ndarray, x_rate: np.ndarray | None = None, slope_deg: float = 0.0
+) -> np.ndarray:
     """Index into :data:`PHASES` for every sample.
 
     flight: before first contact (t < 0); first contact: the first 20 ms; compression: until the
     (smoothed) vertical speed first turns upward; rebound: while it stays upward; settling: after.
+    With ``x_rate`` and the slope: sliding, where a compression or settling sample moves along
+    the slope faster than :data:`SLIDE_SPEED` and faster along it than across it (a sliding
+    drop's vertical speed never turns upward, so it read "compression" to the end).
     """
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.005
     vz = _smooth(z_rate, max(1, round(0.015 / dt)))
@@ -43,6 +50,13 @@ def phase_labels(t: np.ndarray, z_rate: np.ndarray) -> np.ndarray:
         down = np.flatnonzero((np.arange(len(t)) > end_comp) & (vz <= 0))
         end_reb = int(down[0]) if down.size else len(t)
         labels[end_comp:end_reb] = 3
+    if x_rate is not None:
+        a = np.radians(slope_deg)
+        vx = _smooth(x_rate, max(1, round(0.015 / dt)))
+        along = np.cos(a) * vx - np.sin(a) * vz
+        into = np.sin(a) * vx + np.cos(a) * vz
+        slide = (np.abs(along) > SLIDE_SPEED) & (np.abs(into) < np.abs(along))
+        labels[slide & (t >= FIRST_CONTACT) & ((labels == 2) | (labels == 4))] = 5
     return labels
 
 

@@ -10,7 +10,7 @@ from slopelander.ident.compare import Comparison, DropComparison, Window
 from slopelander.ident.phases import PHASES, phase_spans
 from slopelander.ident.recording import STATES
 
-PHASE_COLORS = ("#ffffff", "#fde0dd", "#deebf7", "#e5f5e0", "#f0f0f0")
+PHASE_COLORS = ("#ffffff", "#fde0dd", "#deebf7", "#e5f5e0", "#f0f0f0", "#fff2cc")
 _LABELS = ("x (m)", "z (m)", "pitch (deg)", "x rate (m/s)", "z rate (m/s)", "pitch rate (deg/s)")
 _SCALE = (1.0, 1.0, 180 / math.pi, 1.0, 1.0, 180 / math.pi)
 

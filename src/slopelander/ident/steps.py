@@ -23,6 +23,14 @@ class Step:
     label: str
     fits: list[FitResult]
     validation_per_state: np.ndarray
+    validation_per_drop: np.ndarray | None = None
+    """Held-out NRMSE of each validation drop (over the splits), for the spread."""
+
+    @property
+    def spread(self) -> float:
+        """Standard error of the validation NRMSE over the validation drops."""
+        v = self.validation_per_drop
+        return float(np.std(v, ddof=1) / np.sqrt(len(v))) if v is not None and len(v) > 1 else float("nan")
 
     @property
     def train(self) -> float:
@@ -38,14 +46,32 @@ class Steps:
     steps: list[Step]
 
     def table(self) -> str:
-        head = "| step | train NRMSE | validation NRMSE | " + " | ".join(f"val {s}" for s in STATES) + " |"
-        lines = [head, "|---|" + "---:|" * (2 + len(STATES))]
+        """Error per step, with the spread over the validation drops: the validation NRMSE's
+        standard error, and the fall from the previous step paired drop by drop (mean +- its
+        standard error; a fall within about twice its error is not shown by these drops)."""
+        head = (
+            "| step | train NRMSE | validation NRMSE (+- s.e. over drops) | fall (paired) | "
+            + " | ".join(f"val {s}" for s in STATES)
+            + " |"
+        )
+        lines = [head, "|---|" + "---:|" * (3 + len(STATES))]
+        prev = None
         for s in self.steps:
+            fall = "-"
+            if (
+                prev is not None
+                and prev.validation_per_drop is not None
+                and s.validation_per_drop is not None
+            ):
+                d = prev.validation_per_drop - s.validation_per_drop
+                se = np.std(d, ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+                fall = f"{d.mean():+.4f} +- {se:.4f}"
             lines.append(
-                f"| {s.label} | {s.train:.4f} | {s.validation:.4f} | "
+                f"| {s.label} | {s.train:.4f} | {s.validation:.4f} +- {s.spread:.4f} | {fall} | "
                 + " | ".join(f"{v:.4f}" for v in s.validation_per_state)
                 + " |"
             )
+            prev = s
         return "\n".join(lines)
 
     def plot(self, path: str | Path) -> Path:
@@ -124,14 +150,12 @@ def run_steps(
                     **kw,
                 )
             )
-        per_state = np.mean(
-            [
-                compare(f.model, [drops[j] for j in va], ranges).per_state
-                for f, (_, va) in zip(fits, splits, strict=True)
-            ],
-            axis=0,
-        )
+        comps = [
+            compare(f.model, [drops[j] for j in va], ranges) for f, (_, va) in zip(fits, splits, strict=True)
+        ]
+        per_state = np.mean([c.per_state for c in comps], axis=0)
+        per_drop = np.array([d.nrmse for c in comps for d in c.drops])
         label = "base" if i == 0 else f"+ {effects[i - 1].name}"
-        out.append(Step(label, fits, per_state))
+        out.append(Step(label, fits, per_state, per_drop))
         prev = fits
     return Steps(out)

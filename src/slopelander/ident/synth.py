@@ -50,7 +50,10 @@ class NoiseModel:
 
 def differentiate(x: np.ndarray, t: np.ndarray, window: int = 7) -> np.ndarray:
     """Rates of sampled positions (columns of ``x``) by the least-squares slope over ``window``
-    samples centred on each one; central differences where the window does not fit."""
+    samples centred on each one. Where the centred window does not fit (the recording's first
+    and last ``window // 2`` samples), the slope of the line through the first or last
+    ``window`` samples: as little noise as inside (the differences there had 3.7 to 7.4 times
+    the noise, so the flight phase, at the start, read worse than the contact)."""
     out = np.gradient(x, t, axis=0)
     h = window // 2
     if len(t) <= window or h < 2:
@@ -60,6 +63,8 @@ def differentiate(x: np.ndarray, t: np.ndarray, window: int = 7) -> np.ndarray:
     coef = k / (k @ k) / dt
     for j in range(x.shape[1]):
         out[h:-h, j] = np.correlate(x[:, j], coef, mode="valid")
+        out[:h, j] = coef @ x[:window, j]
+        out[-h:, j] = coef @ x[-window:, j]
     return out
 
 

@@ -31,9 +31,11 @@ from numba import njit, prange
 
 from slopelander.model import layout
 from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's names
+    C_BG,
     C_COS,
     C_DOWN,
     C_FEXT,
+    C_KG,
     C_QINIT,
     C_SIN,
     C_TAU,
@@ -573,7 +575,10 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
             nk[i] = 0.0
             nb[i] = 0.0
             if d0[i] < 0.0:
-                # the user's law in penetration (into the ground) and its rate
+                # the user's law in penetration (into the ground) and its rate; it may read
+                # the model's own ground at this point (a law scaling it reduces to it)
+                ctx[C_KG] = kgp[i]
+                ctx[C_BG] = bgp[i]
                 N0, kk, bb = _normal_force(t, st, ctx, up, i, -d0[i], -dd0[i])
                 nN[i] = N0
                 nk[i] = kk

@@ -80,7 +80,9 @@ C_DOWN = 2  # index of the downhill leg: 0 = C (left), 1 = D (right)
 C_TAU = 3  # 3, 4: planar friction torque of leg C, D (N*m, already x joints_per_planar_leg)
 C_QINIT = 5  # 5, 6: leg angle the compression is measured from (rad)
 C_FEXT = 7  # 7, 8, 9: force on the body at its centre (N: world x, z; N*m: pitch), e.g. wind
-N_CTX = 10
+C_KG = 10  # the ground's stiffness at the contact point a normal-force law is asked about (N/m)
+C_BG = 11  # and its damping (N*s/m): set by the integrator just before it calls the law
+N_CTX = 12
 
 # --- state vector layout ------------------------------------------------------------------
 S_Q = 0  # 0..4 generalised coordinates

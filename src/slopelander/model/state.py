@@ -164,3 +164,16 @@ def torque_setting(ctx, leg):
 def initial_leg_angle(ctx, leg):
     """The leg angle the compression is measured from (rad)."""
     return ctx[lay.C_QINIT + leg]
+
+
+@njit(cache=True)
+def ground_stiffness(ctx):
+    """The model's ground stiffness (N/m) at the point a normal-force law is called for: a
+    law that scales or blends with the built-in spring-damper reads it here."""
+    return ctx[lay.C_KG]
+
+
+@njit(cache=True)
+def ground_damping(ctx):
+    """The model's ground damping (N*s/m) at the point a normal-force law is called for."""
+    return ctx[lay.C_BG]

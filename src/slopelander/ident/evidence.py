@@ -1,0 +1,129 @@
+"""The statistics behind diagnose's verdict: a test over drops, the noise floor, what is visible.
+
+Drops are the independent units (each has its own measurement noise; the samples inside one
+drop are not independent: motion-capture rates are slopes over several samples). Every drop is
+predicted by fits that did not see it (cross-fitting), so a candidate's gain on drop i,
+
+    d_i = log(error of the base on drop i / error with the candidate on drop i),
+
+is the gain of a model the drop did not shape. With nothing missing, a candidate's extra
+parameters fit the training drops' noise and gain nothing on a drop they did not see (a
+little less than nothing on average), so d_i is as likely negative as positive. The test flips
+the signs of the drops' gains at random (all 2^n patterns for up to 16 drops) and asks how
+often the best candidate's studentised mean gain is at least the one observed: the maximum over
+candidates is taken in every pattern, so the p-value is corrected for trying several
+candidates (Westfall and Young's max-T), which are far from independent.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from itertools import product
+
+import numpy as np
+
+from slopelander.ident.compare import WEIGHTS, combine, predict
+from slopelander.ident.recording import Drop
+from slopelander.ident.synth import differentiate
+from slopelander.model import Model
+
+EXACT_UP_TO = 16
+"""Drops up to which every sign pattern is enumerated; beyond, :data:`RANDOM_FLIPS` are drawn."""
+RANDOM_FLIPS = 20000
+
+
+def weighted_mse(per_state: np.ndarray) -> float:
+    """A drop's error as the fit weighs it: mean of the states' squared NRMSE, angular x2."""
+    return float(np.sum(WEIGHTS * np.asarray(per_state) ** 2) / WEIGHTS.sum())
+
+
+def _t(d: np.ndarray) -> np.ndarray:
+    """Studentised mean of each row (0 where a row has no spread and no mean)."""
+    n = d.shape[-1]
+    m = d.mean(axis=-1)
+    var = np.maximum((np.sum(d * d, axis=-1) - n * m * m) / max(n - 1, 1), 0.0)
+    se = np.sqrt(var / n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(se > 0, m / np.where(se > 0, se, 1.0), np.sign(m) * np.inf)
+    return np.where((se == 0) & (m == 0), 0.0, t)
+
+
+@dataclass(frozen=True)
+class SignFlipTest:
+    """Max-T sign-flip test of the candidates' per-drop held-out gains."""
+
+    t: np.ndarray
+    """Studentised mean gain per candidate."""
+    p: np.ndarray
+    """Family-wise p-value per candidate (corrected for trying them all)."""
+    patterns: int
+    exact: bool
+    critical: float
+    """The max-T a candidate must reach at the test's level (its 1 - alpha quantile)."""
+
+
+def sign_flip_test(gains: np.ndarray, alpha: float = 0.05, seed: int = 0) -> SignFlipTest:
+    """``gains``: candidates x drops. One-sided: a candidate helps on drops it did not see."""
+    gains = np.atleast_2d(np.asarray(gains, dtype=float))
+    n = gains.shape[1]
+    if n <= EXACT_UP_TO:
+        signs = np.array(list(product((1.0, -1.0), repeat=n)))
+        exact = True
+    else:
+        rng = np.random.default_rng(seed)
+        signs = np.vstack([np.ones(n), rng.choice((1.0, -1.0), (RANDOM_FLIPS, n))])
+        exact = False
+    t_obs = _t(gains)
+    flipped = gains[:, None, :] * signs[None, :, :]  # candidates x patterns x drops
+    max_t = _t(flipped).max(axis=0)
+    p = np.array([float(np.mean(max_t >= t - 1e-12)) for t in t_obs])
+    crit = float(np.quantile(max_t, 1.0 - alpha))
+    return SignFlipTest(t_obs, p, len(signs), exact, crit)
+
+
+# -- the noise floor ------------------------------------------------------------------------
+def noise_of(drop: Drop) -> dict[str, float] | None:
+    """The recording's declared measurement noise (``meta.noise``), or None if not declared."""
+    raw = drop.meta.get("noise") if isinstance(drop.meta, dict) else None
+    if not isinstance(raw, dict):
+        return None
+    try:
+        return {
+            "position_sd_m": float(raw["position_sd_m"]),
+            "angle_sd_deg": float(raw["angle_sd_deg"]),
+            "latency_s": float(raw.get("latency_s", 0.0)),
+        }
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def noise_floor(
+    model: Model, drops: list[Drop], ranges: np.ndarray, draws: int = 2, seed: int = 0
+) -> float | None:
+    """NRMSE that the declared measurement noise alone leaves between a perfect model and its
+    recording: the model's own landing, recorded as the drop was (its latency, jitter and rate
+    differentiation), against the same landing observed without noise. None when a drop does
+    not declare its noise."""
+    noises = [noise_of(d) for d in drops]
+    if any(n is None for n in noises):
+        return None
+    rng = np.random.default_rng(seed)
+    out = []
+    for d, nz in zip(drops, noises, strict=True):
+        assert nz is not None
+        clean, _ = predict(model, d, outcome=False)
+        shifted, _ = predict(model, replace(d, t=d.t - nz["latency_s"], meta={}), outcome=False)
+        contact = d.t >= 0
+        vals = []
+        for _ in range(draws):
+            pos = shifted[:, :3].copy()
+            pos[:, :2] += rng.normal(0.0, nz["position_sd_m"], (len(d.t), 2))
+            pos[:, 2] += rng.normal(0.0, math.radians(nz["angle_sd_deg"]), len(d.t))
+            w = d.rate_window
+            rates = differentiate(pos, d.t, w) if w else shifted[:, 3:]
+            rec = np.column_stack([pos, rates])
+            err = (rec - clean)[contact] / ranges
+            vals.append(combine(np.sqrt(np.mean(err**2, axis=0))))
+        out.append(float(np.mean(vals)))
+    return float(np.mean(out))

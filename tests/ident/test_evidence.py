@@ -1,0 +1,183 @@
+"""The pieces of diagnose's evidence: the sign-flip test's error rate, the noise floor, nested
+candidates, what each verdict says; and the defects fixed on the way (edge rates, singular
+directions, a fit that starts from the given model)."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from slopelander.ident.compare import compare, state_ranges
+from slopelander.ident.diagnose import (
+    Candidate,
+    CandidateResult,
+    Diagnosis,
+    candidates_for,
+    screen,
+)
+from slopelander.ident.evidence import SignFlipTest, noise_floor, sign_flip_test
+from slopelander.ident.fit import fit, identifiability, make_param, resolve_params
+from slopelander.ident.synth import NoiseModel, differentiate, paper_drops, synthesize
+from slopelander.model import load_effects
+
+EFFECTS = Path(__file__).parent / "effects"
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_sign_flip_test_keeps_its_error_rate_with_many_candidates():
+    """Seven correlated candidates whose held-out gains are noise (symmetric about a small loss,
+    as extra parameters fitted to noise give): the smallest corrected p falls below 5 % in at
+    most 5 % of datasets. A flat 'best of seven' rule would pick one every time."""
+    rng = np.random.default_rng(0)
+    hits = 0
+    for _ in range(400):
+        common = rng.normal(0, 1, 10)
+        gains = np.array([0.7 * common + rng.normal(0, 0.7, 10) - 0.05 for _ in range(7)])
+        hits += sign_flip_test(gains).p.min() <= 0.05
+    assert hits / 400 <= 0.05
+
+
+def test_sign_flip_test_finds_a_consistent_gain():
+    rng = np.random.default_rng(1)
+    gains = np.array([rng.normal(0.4, 0.2, 10), rng.normal(0.0, 0.2, 10), rng.normal(0.0, 0.2, 10)])
+    t = sign_flip_test(gains)
+    assert t.exact and t.patterns == 1024
+    assert t.p[0] <= 2 / 1024 and t.p[0] == t.p.min()
+
+
+def test_rates_at_a_recordings_edges_are_as_quiet_as_inside():
+    """Before: differences at the first and last three samples, 3.7 to 7.4x the noise."""
+    rng = np.random.default_rng(2)
+    t = np.arange(200) * 0.005
+    noise = rng.normal(0, 1e-3, (4000, 200, 1))
+    rates = np.array([differentiate(n, t, 7)[:, 0] for n in noise])
+    sd = rates.std(axis=0)
+    inside = sd[3:-3].mean()
+    assert sd[:3].max() < 1.2 * inside and sd[-3:].max() < 1.2 * inside
+    # and a straight line's slope is exact everywhere
+    line = (2.0 * t - 1.0)[:, None]
+    assert np.allclose(differentiate(line, t, 7), 2.0)
+
+
+def test_a_parameter_on_a_flat_direction_is_not_identified():
+    """A Jacobian column of zeros (a stick-slip parameter the drops never move) was reported
+    +-0: the pseudo-inverse dropped the direction and read it as perfectly known."""
+    params = [make_param("a", 0.0, 1.0), make_param("b", 0.0, 1.0)]
+    rng = np.random.default_rng(3)
+    J = np.column_stack([rng.normal(size=50), np.zeros(50)])
+    r = rng.normal(0, 0.01, 50)
+    ci, warns = identifiability(params, J, np.array([0.5, 0.5]), r, {"a": 0.5, "b": 0.5})
+    assert math.isfinite(ci["a"]) and ci["a"] > 0
+    assert ci["b"] == math.inf
+    assert any("b is not identified" in w for w in warns)
+
+
+def test_fit_starts_from_the_given_model_and_never_ends_worse(model):
+    """Before, the search began at the centre of the bounds: on a correct model a short
+    search made it worse."""
+    drops = synthesize(model, paper_drops(3, seed=5), NoiseModel(), seed=5, duration=0.4)
+    params = resolve_params(model, ["ground_damping", "friction_kinetic"])
+    r = fit(model, drops, params, cma_evals=16, ls_evals=2, workers=1)
+    assert r.start_values == pytest.approx({"ground_damping": 437.0, "friction_kinetic": 0.8})
+    assert r.cost <= r.start_cost
+    assert r.values["ground_damping"] == pytest.approx(437.0, rel=0.3)
+    centre = fit(model, drops, params, cma_evals=16, ls_evals=2, workers=1, from_centre=True)
+    assert centre.start_values["friction_kinetic"] == pytest.approx(0.7)
+
+
+def test_noise_floor_is_what_the_truth_scores_on_its_own_recording(model):
+    drops = synthesize(model, paper_drops(4, seed=1), NoiseModel(), seed=7, duration=0.5)
+    ranges = state_ranges(drops)
+    floor = noise_floor(model, drops, ranges, draws=3)
+    truth_score = compare(model, drops, ranges).nrmse
+    assert floor == pytest.approx(truth_score, rel=0.15)
+    undeclared = [d.__class__(d.name, d.t, d.states, d.conditions, d.outcome, d.source, {}) for d in drops]
+    assert noise_floor(model, undeclared, ranges) is None
+
+
+def test_a_candidate_at_its_neutral_values_is_the_base_model(model):
+    """The normal-force seam reads the model's own ground, so a law built on it is nested: at
+    its neutral exponent it gives the base model's residual. A Hunt-Crossley ground (a law of
+    its own) is not, and diagnose says so."""
+    base = model.without("downhill_torque_growth", "downhill_friction_growth")
+    drops = synthesize(base, paper_drops(3, seed=2), NoiseModel(), seed=2, duration=0.4)
+    ranges = state_ranges(drops)
+    power = load_effects(EFFECTS / "ground_power.py")
+    hc = load_effects(ROOT / "docs" / "examples" / "effect_normal_force.py")
+    cands = [c for c in candidates_for(base, power + hc) if c.user is not None]
+    params = resolve_params(base, ["ground_damping"])
+    out = screen(base, drops, cands, params, ranges, {})
+    assert out["ground_power"].nested, out["ground_power"].note
+    assert out["ground_power"].sensitivity.max() > 0
+    assert not out["hunt_crossley_ground"].nested
+    assert "no neutral value for hc_stiffness" in out["hunt_crossley_ground"].note
+
+
+def _diagnosis(base_nrmse, cand_nrmse, floor, p):
+    n = len(base_nrmse)
+    cand = CandidateResult(Candidate("leg_flex", ("flex_stiffness",)), 0.1, p=p)
+    cand.fits = [type("F", (), {"values": {"flex_stiffness": 10.0}, "train_nrmse": 0.01})()]
+    cand.heldout = np.asarray(cand_nrmse)
+    cand.heldout_mse = cand.heldout**2
+    cand.sensitivity = np.linspace(0.0, 1.0, n)
+    drops = synthesize_stub(n)
+    b = np.asarray(base_nrmse)
+    test = SignFlipTest(np.array([2.0]), np.array([p]), 1024, True, 2.5)
+    return Diagnosis([], [cand], b, b**2, drops, test, floor)
+
+
+def synthesize_stub(n):
+    from slopelander.ident.recording import Drop
+    from slopelander.model import LandingConditions
+
+    t = np.array([0.0, 0.01])
+    return [
+        Drop(f"drop{i:02d}", t, np.zeros((2, 6)), LandingConditions(slope_deg=4.0 * i, speed=2.0))
+        for i in range(n)
+    ]
+
+
+def test_the_verdicts_say_what_the_residual_and_the_test_show():
+    # at the floor: nothing missing, and how much could hide
+    d = _diagnosis([0.0105] * 10, [0.0104] * 10, 0.010, 0.4)
+    assert d.verdict().startswith("nothing missing: the held-out NRMSE 0.0105 is at the noise floor")
+    assert "nothing larger than 0.0066 NRMSE" in d.verdict()
+    # a consistent but negligible gain (a refit's extra search, not an effect) is not named
+    d = _diagnosis([0.0105] * 10, [0.0104] * 10, 0.010, 0.003)
+    assert d.missing is None and d.verdict().startswith("nothing missing")
+    # nine floors and no candidate: missing, but not among them
+    d = _diagnosis([0.096] * 10, [0.095] * 10, 0.010, 0.3)
+    assert d.verdict().startswith("missing, but not among these candidates")
+    # a moderate excess no candidate pins down: too small to tell, and where to drop next
+    d = _diagnosis([0.014] * 10, [0.0135] * 10, 0.010, 0.2)
+    v = d.verdict()
+    assert v.startswith("too small to tell with these drops") and "acts most on drop09 (36 deg" in v
+    # a candidate that passes the test is named, with its evidence
+    d = _diagnosis([0.03] * 10, [0.012] * 10, 0.010, 0.002)
+    assert d.verdict().startswith("missing: leg_flex") and "p = 0.002" in d.verdict()
+    # no declared noise: no claim about the floor
+    d = _diagnosis([0.03] * 10, [0.03] * 10, None, 0.5)
+    assert "declare no noise" in d.verdict()
+
+
+def test_intervals_over_drops_cover_when_samples_within_a_drop_are_not_independent():
+    """Each drop's noise is mostly one offset shared by its samples (as a smooth model error
+    is). Treating 400 samples as independent gave intervals that missed the truth most of the
+    time; the sandwich over the 8 drops covers it about 95 % of the time."""
+    rng = np.random.default_rng(4)
+    params = [make_param("a", 0.0, 1.0)]
+    groups = np.repeat(np.arange(8), 50)
+    x = rng.uniform(0.5, 1.5, 400)
+    x += np.repeat(rng.normal(0, 0.5, 8), 50)
+    J = x[:, None]
+    cover = {"drops": 0, "samples": 0}
+    for _ in range(300):
+        y = 0.5 * x + np.repeat(rng.normal(0, 0.2, 8), 50) + rng.normal(0, 0.01, 400)
+        a = float(np.linalg.lstsq(J, y, rcond=None)[0][0])
+        r = J[:, 0] * a - y
+        for key, g in (("drops", groups), ("samples", None)):
+            ci, _ = identifiability(params, J, np.array([a]), r, {"a": a}, g)
+            cover[key] += abs(a - 0.5) <= ci["a"]
+    assert 0.88 <= cover["drops"] / 300 <= 0.99
+    assert cover["samples"] / 300 < 0.5
