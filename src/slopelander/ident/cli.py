@@ -417,6 +417,8 @@ def candidate_effects(paths: list[Path] | None) -> list | None:
     """The user effects of the ``--candidates`` files and folders (every ``*.py`` of a folder)."""
     if not paths:
         return None
+    from slopelander.model import load_effects
+
     files = []
     for path in paths:
         if path.is_dir():
@@ -433,7 +435,6 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from slopelander.ident.diagnose import diagnose
     from slopelander.ident.fit import FitError
     from slopelander.ident.recording import load_dataset
-    from slopelander.model import load_effects
 
     drops = load_dataset(args.dataset)
     model = build_model(args)
