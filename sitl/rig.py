@@ -448,7 +448,7 @@ class Rig:
         ``height_m`` above the pad."""
         L = self.link
         guided = (mavlink.MAV_CMD_DO_SET_MODE, 1, 4)
-        arm = (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196 if force else 0)
+        arm = (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, 2989 if force else 0)  # 2989: force-arm magic
         if self.autopilot == "ardupilot":
             # ArduCopter's start-up sets its initial mode after a GUIDED asked for too early, and
             # it refuses to arm in GUIDED until its EKF has an origin (20-40 s of vehicle time
