@@ -49,6 +49,8 @@ def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
         t += 0.02
         if m.name in ("DESCEND", "ARMED"):
             rng -= 0.5 * 0.02
+        if m.name == "ARMED":
+            script = max(script, 10)  # the script reports its reflex armed
         if m.name == "ARMED" and rng <= 0.3:
             script = 11
         if m.name == "CUT" and t - m.ctx.entered_at > 0.1:
@@ -253,10 +255,29 @@ def test_false_cut_and_no_impact():
     t = run_to(m, "CUT")
     m.step(replace(OK, t=t + 0.05, range_m=0.2, script_state=0))
     assert m.name == "ABORTED" and "false cut" in m.history[-1]["reason"]
+    # the script's state still CUT past the companion's backstop (a stale announcement): the range
+    # decides. High above the roof: aborted to the autopilot, which flies.
     m, _, _ = make()
     t = run_to(m, "CUT")
-    m.step(replace(OK, t=t + 2.0, range_m=0.2, script_state=11))
-    assert m.name == "ABORTED" and "no impact" in m.history[-1]["reason"]
+    m.step(replace(OK, t=t + 0.5, range_m=1.2, script_state=11))
+    assert m.name == "CUT"  # within the script's own bound (0.35 s) and the margin
+    m.step(replace(OK, t=t + 1.0, range_m=1.2, script_state=11))
+    assert m.name == "ABORTED" and "not near the roof" in m.history[-1]["reason"]
+    # on the roof: the motors stay held and the landing is judged as it lies
+    m, act, _ = make()
+    t = run_to(m, "CUT")
+    m.step(replace(OK, t=t + 1.0, range_m=0.2, script_state=11))
+    assert m.name == "SETTLED" and "on the roof" in m.history[-1]["reason"]
+    assert "release" not in act.names() and "reflex_abort" not in act.names()
+
+
+def test_the_cut_backstop_follows_the_cut_height_and_the_descent_rate():
+    """The script's missed-impact bound is the free fall from the cut height (0.35 s for 0.30 m at
+    0.5 m/s), not a fixed 1 s: 4.9 m of free fall."""
+    from slopelander.controller.script_contract import missed_impact_s
+
+    assert missed_impact_s(0.30, 0.5) == pytest.approx(0.352, abs=0.002)
+    assert missed_impact_s(1.0, 0.5) > missed_impact_s(0.3, 0.5)
 
 
 def test_reset_waits_for_the_legs_to_loosen_before_the_next_preset():
@@ -389,19 +410,26 @@ def test_reverse_thrust_goes_on_while_the_vehicle_slides_until_the_scripts_bound
     assert m.name == "SETTLED" and "reflex_end_reverse" in act.names()
 
 
+def slide_steps(m, t0: float, speed: float, base: Inputs, n: int = 20, dt: float = 0.05):
+    """Steps of a vehicle moving ``speed`` m/s downhill (+x) from SETTLED's start on."""
+    for i in range(1, n + 1):
+        m.step(replace(base, t=t0 + dt * i, speed_mps=speed, position_m=(speed * dt * i, 0.0, 0.0)))
+
+
 def test_the_scripts_bound_ends_reverse_thrust_and_a_slide_after_it_is_not_disarmed():
     m, act, _ = make()
     t = run_to(m, "REVERSE")
     longest = m.ctx.cfg["reflex.reverse_max_ms"] / 1000.0
     m.step(replace(OK, t=t + longest + 0.01, range_m=0.2, script_state=13, speed_mps=0.4))
     assert m.name == "SETTLED" and "ended by the script" in m.history[-1]["reason"]
-    m.step(
-        replace(
-            OK, t=t + longest + 0.3, range_m=0.2, script_state=13, speed_mps=0.4, position_m=(0.1, 0, 0.07)
-        )
-    )
-    assert m.name == "ABORTED" and "sliding at 0.40 m/s, 0.12 m" in m.history[-1]["reason"]
-    assert "disarm" not in act.names()
+    n = len(act.calls)
+    slide_steps(m, t + longest + 0.01, 0.4, replace(OK, range_m=0.2, script_state=13))
+    # sliding 0.4 m/s for 1 s: not disarmed, and not handed to the autopilot (no release, no LOITER)
+    assert m.name == "SETTLED"
+    sent = act.calls[n:]
+    names = [c[0] for c in sent]
+    assert "disarm" not in names and "release" not in names and "set_mode" not in names, names
+    assert any(c[0] == "statustext" and "sliding at 0.40 m/s" in c[1] for c in sent), sent
 
 
 def test_a_steady_slide_reading_one_g_is_never_called_still():
@@ -409,12 +437,25 @@ def test_a_steady_slide_reading_one_g_is_never_called_still():
     t = run_to(m, "SETTLED")
     n = len(act.calls)
     # constant speed: no acceleration, so the accelerometer reads exactly 1 g
-    slide = replace(OK, range_m=0.2, script_state=13, accel_mps2=9.80665, speed_mps=0.5)
-    m.step(replace(slide, t=t + 0.1, position_m=(0.04, 0.0, 0.03)))
-    assert m.name == "SETTLED"  # 5 cm: a rebound of the legs looks like this too
-    m.step(replace(slide, t=t + 0.3, position_m=(0.12, 0.0, 0.09)))
-    assert m.name == "ABORTED" and "sliding at 0.50 m/s, 0.15 m" in m.history[-1]["reason"]
+    slide = replace(OK, range_m=0.2, script_state=13, accel_mps2=9.80665)
+    slide_steps(m, t, 0.5, slide, n=60)
+    assert m.name == "SETTLED"
     assert "disarm" not in [c[0] for c in act.calls[n:]]
+
+
+def test_one_fast_velocity_sample_is_not_a_slide():
+    """After a link stall the impact's pivot once read as a 1.4 m/s slide 0.14 s after the cut:
+    a slide is a displacement over vehicle time, and a vehicle that has not moved is disarmed."""
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    rest = replace(OK, range_m=0.2, script_state=13, speed_mps=0.0, position_m=(0.0, 0.0, 0.0))
+    m.step(replace(rest, t=t + 0.02, speed_mps=1.4))
+    for i in range(2, 80):
+        m.step(replace(rest, t=t + 0.02 * i, armed="disarm" not in act.names()))
+        if m.name != "SETTLED":
+            break
+    assert m.name == "LANDED", m.history[-2:]
+    assert not any(c[0] == "statustext" and "sliding" in c[1] for c in act.calls)
 
 
 def test_creeping_below_the_slide_speed_is_not_still_either():
@@ -434,12 +475,14 @@ def test_creeping_below_the_slide_speed_is_not_still_either():
 def test_without_a_velocity_the_vehicle_is_not_disarmed_nor_the_landing_started():
     m, act, _ = make()
     t = run_to(m, "SETTLED")
-    blind = replace(OK, range_m=0.2, script_state=13, speed_mps=None)
+    blind = replace(OK, range_m=0.2, script_state=13, speed_mps=None, position_m=None)
     m.step(replace(blind, t=t + 2.0))
     assert m.name == "SETTLED"
     m.step(replace(blind, t=t + m.ctx.cfg["settle.timeout_s"] + 0.1))
-    assert m.name == "ABORTED" and "speed unknown" in m.history[-1]["reason"]
-    assert "disarm" not in act.names()
+    # held on the roof and said so: neither disarmed blind nor handed to the autopilot
+    assert m.name == "SETTLED"
+    assert any(c[0] == "statustext" and "position unknown" in c[1] for c in act.calls), act.calls[-3:]
+    assert not {"disarm", "release", "set_mode"} & set(act.names())
     m2, _, _ = make()
     run_to(m2, "ABORTED", base=replace(OK, speed_mps=None))
     assert any("no velocity" in h["reason"] for h in m2.history)
@@ -590,3 +633,53 @@ def test_still_is_not_disarmed_while_the_script_ramps_the_reverse_thrust_down():
     assert m.name == "SETTLED" and "disarm" in act.names()  # asked; LANDED once it is seen made
     m.step(replace(rest, t=t + still_s + 0.3, script_state=13, armed=False))
     assert m.name == "LANDED"
+
+
+def test_the_descent_below_the_arm_height_waits_for_the_scripts_reflex():
+    """A refused arm (emergency stop, a system-id mismatch) must not fly the vehicle into the roof
+    with its motors running: ARMED hovers until the script reports ARMED, and aborts in the air
+    after ``reflex.confirm_timeout_s`` without it."""
+    m, act, _ = make()
+    t = run_to(m, "DESCEND")
+    m.step(replace(OK, t=t + 0.02, range_m=1.4, script_state=0))
+    assert m.name == "ARMED"
+    n = len(act.calls)
+    m.step(replace(OK, t=t + 0.1, range_m=1.4, script_state=0))
+    assert ("descend", 0.0) in act.calls[n:]  # hovering, not descending
+    m.step(replace(OK, t=t + 0.3, range_m=1.4, script_state=10))
+    assert ("descend", m.ctx.cfg["descent.rate_mps"]) in act.calls[n:]  # confirmed: down it goes
+    m2, act2, _ = make()
+    t = run_to(m2, "DESCEND")
+    m2.step(replace(OK, t=t + 0.02, range_m=1.4, script_state=0))
+    limit = m2.ctx.cfg["reflex.confirm_timeout_s"]
+    m2.step(replace(OK, t=t + 0.02 + limit + 0.05, range_m=1.4, script_state=0))
+    assert m2.name == "ABORTED" and "reflex not armed" in m2.history[-1]["reason"]
+    armed_at = next(i for i, c in enumerate(act2.calls) if c[0] == "reflex_arm")
+    descents = [c[1] for c in act2.calls[armed_at:] if c[0] == "descend"]
+    assert descents and all(v == 0.0 for v in descents), descents  # never descended unconfirmed
+
+
+def test_an_abort_after_contact_keeps_the_motors_held_on_the_roof():
+    """The landing's wall-clock timeout (or any abort) after contact, with the script holding the
+    motors of an armed vehicle, is not a hand-over to LOITER: it stays SETTLED."""
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    n = len(act.calls)
+    held = replace(OK, t=t + 0.1, range_m=0.2, script_state=13)
+    m.transition("ABORTED", "landing not finished within 120 s", held)
+    assert m.name == "SETTLED"
+    assert not {"release", "reflex_abort", "set_mode"} & {c[0] for c in act.calls[n:]}
+    # the script let go (it gave the motors back: the vehicle left the roof): then it is aborted
+    m.transition("ABORTED", "left the roof", replace(held, script_state=0))
+    assert m.name == "ABORTED"
+
+
+def test_a_link_lost_before_contact_and_back_after_it_judges_the_vehicle_on_the_roof():
+    m, act, _ = make()
+    t = run_to(m, "ARMED")
+    m.step(replace(OK, t=t + 0.02, range_m=1.0, script_state=10, link_ok=False))
+    assert m.name == "LINK_LOST"
+    n = len(act.calls)
+    m.step(replace(OK, t=t + 3.0, range_m=0.2, script_state=13, link_ok=True))
+    assert m.name == "SETTLED", m.history[-1]
+    assert not {"release", "set_mode"} & {c[0] for c in act.calls[n:]}

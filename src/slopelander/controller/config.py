@@ -50,6 +50,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "reflex.reverse_ramp_ms": (0, 3000, True),
     "reflex.validity_ms": (100, 10000, True),
     "reflex.refresh_s": (0.05, 5.0, False),
+    "reflex.confirm_timeout_s": (0.2, 5.0, False),
     "range.max_age_s": (0.01, 5.0, False),
     "range.min_quality": (0, 100, True),
     "legs.tolerance_nm": (0.0, 2.0, False),

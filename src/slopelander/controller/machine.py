@@ -11,7 +11,7 @@ import json
 import logging
 from typing import IO
 
-from slopelander.controller.script_contract import ScriptState
+from slopelander.controller.script_contract import LANDING, ScriptState
 from slopelander.controller.states.aborted import Aborted
 from slopelander.controller.states.armed import Armed
 from slopelander.controller.states.base import Context, Inputs, State
@@ -96,8 +96,29 @@ class Machine:
     def name(self) -> str:
         return self.state.name
 
+    def held_on_the_roof(self, inp: Inputs) -> bool:
+        """Whether this landing has met the roof (an impact, or the script's landing sequence
+        reported after the cut) and the script still holds the motors of an armed vehicle."""
+        return (
+            self._started
+            and self.ctx.marks.get("impact") is not None
+            and inp.armed
+            and inp.script_state in LANDING
+        )
+
     def transition(self, new: str, reason: str, inp: Inputs) -> None:
-        """Leave the current state, enter ``new``; a refused enter aborts (the reason recorded)."""
+        """Leave the current state, enter ``new``; a refused enter aborts (the reason recorded).
+
+        After contact, while the script holds the motors of an armed vehicle, nothing hands the
+        vehicle to the autopilot: an abort from any cause (a timeout, a state's own judgement)
+        becomes SETTLED, which keeps the motors held and has the vehicle disarmed at rest; the
+        ways out are a disarm, the pilot's emergency stop or a commanded take-off."""
+        if new == "ABORTED" and self.held_on_the_roof(inp):
+            reason = f"{reason}; after contact, motors held: judged on the roof, not handed back"
+            if self._started and self.state.name == "SETTLED":
+                log.info("SETTLED stays: %s", reason)
+                return
+            new = "SETTLED"
         old = self.state.name if self._started else None
         if self._started:
             self.state.leave(self.ctx, inp)

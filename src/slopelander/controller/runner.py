@@ -299,7 +299,7 @@ class Lander:
                 self.machine.transition(
                     "ABORTED", f"landing not finished within {timeout_s:g} s", self.inputs()
                 )
-                return "ABORTED"
+                return self.machine.name  # SETTLED when the vehicle is held on the roof
             if sleep is not None:
                 sleep(0.001)
             else:

@@ -35,6 +35,18 @@ IMPACT_MIN_MPS2 = 2 * G
 TAKEOFF_RELEASE_TILT_DEG = 25.0
 
 
+#: the spin-down of the rotors and one 20 Hz range sample, added to the free fall (ms), as the script
+THRUST_DECAY_MS, RANGE_PERIOD_MS = 100, 50
+
+
+def missed_impact_s(cut_m: float, descent_mps: float) -> float:
+    """How long (s) after the cut the script waits for an impact before it judges the cut (its
+    ``missed_impact_ms``): the free fall from the cut height at the descent speed, plus the rotors'
+    spin-down and a range sample. ``tests/firmware/test_script_contract.py`` holds the two equal."""
+    fall_s = ((descent_mps**2 + 2 * G * cut_m) ** 0.5 - descent_mps) / G
+    return (int(fall_s * 1000 + THRUST_DECAY_MS + RANGE_PERIOD_MS + 0.5)) / 1000.0
+
+
 class ScriptState(IntEnum):
     """The script's states, as it announces them in NAMED_VALUE_FLOAT ``SL_STATE``."""
 

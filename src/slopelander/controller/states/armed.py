@@ -5,10 +5,17 @@ from __future__ import annotations
 from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.base import Context, Inputs, State
 
+#: the script's states that say it holds the reflex (armed, or already past the cut)
+REFLEX_HELD = (ScriptState.ARMED, ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD)
+
 
 class Armed(State):
-    """Keeps descending and re-sends the reflex arm before its validity lapses; the script's
-    state tells when it has cut the motors or felt the impact."""
+    """Re-sends the reflex arm before its validity lapses; the script's state tells when it has
+    cut the motors or felt the impact. The descent below the arm height goes on only once the
+    script reports its reflex armed: until then the vehicle hovers, and without that report
+    within ``reflex.confirm_timeout_s`` (a refusal: emergency stop, a system-id mismatch, no
+    rangefinder) the landing is aborted in the air, motors running, rather than flown into the
+    roof with nobody to cut them."""
 
     name = "ARMED"
     airborne_descent = True
@@ -25,13 +32,30 @@ class Armed(State):
             if inp.range_valid and inp.range_m <= ctx.cfg["reflex.arm_height_m"]:
                 return ("LANDED", "disarmed by the autopilot before the cut: on the ground")
             return ("ABORTED", "disarmed by the autopilot in the air")
-        ctx.act.descend(ctx.cfg["descent.rate_mps"])
+        if inp.script_state == ScriptState.CUT:
+            return ("CUT", "on-board script cut the motors")
+        if inp.script_state in (ScriptState.RVT, ScriptState.HOLD):  # cut and impact between two steps
+            return ("CUT", "on-board script cut the motors and reports impact")
+        confirmed = inp.script_state in REFLEX_HELD
+        if confirmed:
+            ctx.marks["reflex_confirmed"] = True
+        elif not ctx.marks.get("reflex_confirmed"):
+            waited = inp.t - ctx.entered_at
+            if waited > ctx.cfg["reflex.confirm_timeout_s"]:
+                state = _name(inp.script_state)
+                return ("ABORTED", f"on-board reflex not armed after {waited:.2f} s (script {state})")
+        # a script that let go of an armed reflex (its validity lapsed, a reboot) stops the descent too
+        ctx.act.descend(ctx.cfg["descent.rate_mps"] if confirmed else 0.0)
         if inp.t - ctx.marks["reflex_sent"] >= ctx.cfg["reflex.refresh_s"]:
             ctx.act.reflex_arm()
             ctx.marks["reflex_sent"] = inp.t
-        if inp.script_state == ScriptState.CUT:
-            return ("CUT", "on-board script cut the motors")
-        # cut and impact both fell between two steps
-        if inp.script_state in (ScriptState.RVT, ScriptState.HOLD):
-            return ("CUT", "on-board script cut the motors and reports impact")
+        if not confirmed and ctx.marks.get("reflex_confirmed"):
+            return ("ABORTED", f"on-board reflex let go before the cut (script {_name(inp.script_state)})")
         return None
+
+
+def _name(state: int | None) -> str:
+    try:
+        return ScriptState(state).name
+    except ValueError:
+        return str(state)

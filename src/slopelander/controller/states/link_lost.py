@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from slopelander.controller.script_contract import LANDING
 from slopelander.controller.states.base import Context, Inputs, State
 
 #: states after contact: the vehicle is on the roof and the script owns the motors
@@ -24,8 +25,13 @@ class LinkLost(State):
     def step(self, ctx: Context, inp: Inputs):
         if not inp.link_ok:
             return None
-        if ctx.marks.get("lost_in") in AFTER_CONTACT:
+        # lost before contact but the script reports its landing sequence: the vehicle came down
+        # while the link was out, and a tilted vehicle on a roof is not handed to LOITER
+        landed_meanwhile = inp.script_state in LANDING
+        if ctx.marks.get("lost_in") in AFTER_CONTACT or landed_meanwhile:
             if not inp.armed:
                 return ("LANDED", "link back: the script disarmed on the ground")
+            if landed_meanwhile:
+                ctx.marks.setdefault("impact", inp.t)
             return ("SETTLED", "link back after contact: judging rest")
         return ("ABORTED", "link back: aborting the landing")

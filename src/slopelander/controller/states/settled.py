@@ -10,6 +10,26 @@ import math
 from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
 from slopelander.controller.states.reverse import SCRIPT_RVT
 
+#: the window (vehicle s) over which a slide is measured as displacement per time
+SLIDE_WINDOW_S = 0.5
+
+
+def _drift(ctx: Context, inp: Inputs) -> float | None:
+    """Speed over the ground (m/s) as the displacement over the last :data:`SLIDE_WINDOW_S` of
+    vehicle time; None until positions cover most of the window, or while the position is
+    unknown. One velocity sample is not a slide: after a link stall the impact's pivot read as a
+    1.4 m/s slide 0.14 s after the cut."""
+    track = ctx.marks.setdefault("settle_track", [])
+    if inp.position_m is None:
+        return None
+    track.append((inp.t, inp.position_m))
+    while len(track) > 2 and track[1][0] <= inp.t - SLIDE_WINDOW_S:
+        track.pop(0)
+    (t0, p0), (t1, p1) = track[0], track[-1]
+    if t1 - t0 < 0.8 * SLIDE_WINDOW_S:
+        return None
+    return math.dist(p0, p1) / (t1 - t0)
+
 
 def _moved(ctx: Context, inp: Inputs) -> float | None:
     """Distance (m) from where the vehicle was when SETTLED began (None: position unknown)."""
@@ -32,38 +52,52 @@ def request_disarm(ctx: Context, inp: Inputs) -> None:
 
 
 class Settled(State):
-    """Has the vehicle disarmed once it has been still (:func:`still`: accel 1 g and speed low)
-    for ``settle.still_s``, and moves to LANDED when the HEARTBEAT shows it disarmed. A slide
-    (faster than ``settle.slide_speed_mps`` and more than
-    ``settle.slide_m`` from where SETTLED began) is not disarmed: the landing is aborted to the
-    pilot, armed, in LOITER (docs/failsafes.md)."""
+    """On the roof with the motors held stopped by the script. Has the vehicle disarmed once it
+    has been still (:func:`still`: accel 1 g and speed low) for ``settle.still_s``, and moves to
+    LANDED when the HEARTBEAT shows it disarmed. A slide (displacement faster than
+    ``settle.slide_speed_mps`` over :data:`SLIDE_WINDOW_S` and more than ``settle.slide_m`` from
+    where SETTLED began) is not disarmed, and not handed to the autopilot either: spinning the
+    rotors up on a tilted, sliding vehicle is no rescue. The motors stay held; the pilot may stop
+    them (emergency stop) or command a take-off, which the script allows only level enough; a
+    slide off the roof's edge is the script's to end (it gives the motors back when the range
+    says the roof is gone). Not still by ``settle.timeout_s``: disarmed only if it is not moving
+    (by displacement), else held and said so."""
 
     name = "SETTLED"
     reflex_owns = True
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
-        for k in ("still_since", "settle_pos", "disarm_sent", "disarm_asked"):
+        for k in ("still_since", "settle_pos", "settle_track", "disarm_sent", "disarm_asked", "said"):
             ctx.marks.pop(k, None)
         _moved(ctx, inp)
+        _drift(ctx, inp)
         return None
+
+    def _say_once(self, ctx: Context, key: str, text: str) -> None:
+        said = ctx.marks.setdefault("said", set())
+        if key not in said:
+            said.add(key)
+            ctx.act.statustext(text)
 
     def step(self, ctx: Context, inp: Inputs):
         cfg = ctx.cfg
         if not inp.armed:
             how = ctx.marks.get("disarm_asked", "by the autopilot")
             return ("LANDED", f"disarmed ({how}): seen in the HEARTBEAT")
+        if inp.takeoff_request:
+            return ("TAKEOFF", "take-off commanded on the roof")
+        keep_reflex(ctx, inp, thrust_ended=True)  # SETTLED comes after the thrust
+        drift, moved = _drift(ctx, inp), _moved(ctx, inp)
         if "disarm_asked" in ctx.marks:  # asked: the motors stay held until the HEARTBEAT says so
-            keep_reflex(ctx, inp, thrust_ended=True)
             request_disarm(ctx, inp)
             return None
-        speed, moved = inp.speed_mps, _moved(ctx, inp)
-        fast = speed is not None and speed > cfg["settle.slide_speed_mps"]
+        fast = drift is not None and drift > cfg["settle.slide_speed_mps"]
         if fast and moved is not None and moved > cfg["settle.slide_m"]:
-            return (
-                "ABORTED",
-                f"sliding at {speed:.2f} m/s, {moved:.2f} m after reverse thrust: not disarmed",
+            ctx.marks.pop("still_since", None)
+            self._say_once(
+                ctx, "slide", f"sliding at {drift:.2f} m/s, {moved:.2f} m: motors held, not disarmed"
             )
-        keep_reflex(ctx, inp, thrust_ended=True)  # SETTLED comes after the thrust
+            return None
         if still(cfg, inp):
             since = ctx.marks.setdefault("still_since", inp.t)
             # not while the script still ramps the reverse thrust down: the legs are unbending
@@ -73,12 +107,12 @@ class Settled(State):
         else:
             ctx.marks.pop("still_since", None)
         if inp.t - ctx.entered_at >= cfg["settle.timeout_s"]:
-            if speed is None:
-                return ("ABORTED", "speed unknown within the settle timeout: not disarmed")
-            if speed > cfg["settle.slide_speed_mps"]:
-                return ("ABORTED", f"still moving at {speed:.2f} m/s at the settle timeout: not disarmed")
-            # not moving but the accelerometer keeps shaking (a vibrating sensor): the motors
-            # are stopped either way, and it must not stay armed for ever
-            ctx.marks["disarm_asked"] = "not still within the settle timeout but not moving"
-            request_disarm(ctx, inp)
+            if drift is not None and drift <= cfg["settle.still_speed_mps"]:
+                # not moving but the accelerometer keeps shaking (a vibrating sensor): the motors
+                # are stopped either way, and it must not stay armed for ever
+                ctx.marks["disarm_asked"] = "not still within the settle timeout but not moving"
+                request_disarm(ctx, inp)
+            else:
+                what = "position unknown" if drift is None else f"moving at {drift:.2f} m/s"
+                self._say_once(ctx, "timeout", f"{what} at the settle timeout: motors held, not disarmed")
         return None

@@ -48,6 +48,7 @@ class Takeoff(State):
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         ctx.act.release_for_takeoff()  # a held, armed vehicle is given back only level enough
+        ctx.marks.pop("impact", None)  # the landing is over: the next one meets its roof anew
         ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
         ctx.marks["takeoff_range"] = None  # (t, m) of the last believed reading
         ctx.marks["takeoff_disagree"] = None  # since when readings disagree with it
