@@ -96,9 +96,11 @@ def test_the_parser_refuses_what_ardupilot_refuses() -> None:
     assert parse_sensors(missing)[0] == 0
 
 
-def test_non_finite_values_are_never_sent() -> None:
+def test_non_finite_values_are_never_sent_but_a_rangefinder_without_data_is_nan() -> None:
     bad = Fdm(1.0, (0.0, math.nan, 0.0), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     with pytest.raises(ProtocolError, match=r"in imu\.gyro\[1\]:"):
         encode_reply(bad)
     with pytest.raises(ProtocolError, match=r"in timestamp, rng_1:"):
-        encode_reply(dataclasses.replace(FDM, timestamp=math.inf, rng_1=math.nan))
+        encode_reply(dataclasses.replace(FDM, timestamp=math.inf, rng_1=math.inf))
+    # "nan" is what ArduPilot's SITL rangefinder reads as no data (it parses each value with atof)
+    assert b'"rng_1":nan}' in encode_reply(dataclasses.replace(FDM, rng_1=math.nan))
