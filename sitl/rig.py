@@ -23,6 +23,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from sitl.guided import arm_in_guided, wait_for_vehicle_time
 from sitl.linkfault import Relay
 from sitl.vehicle.launch import start_legboard, start_vehicle
 from slopelander.controller.config import Config, load_config, merge
@@ -312,12 +313,10 @@ class Rig:
             self.calibration = load_calibration()
             # the board's silence is measured on the vehicle's clock: it must be running first
             # (ArduCopter's first timestamped message comes after the streams are asked for)
-            end = time.monotonic() + 30.0
-            while not self.link.clock.known and time.monotonic() < end:
-                self.link.poll()
-                time.sleep(0.002)
-            if not self.link.clock.known:
-                raise RigError("the vehicle sent no timestamped message within 30 s")
+            try:
+                wait_for_vehicle_time(self.link)
+            except TimeoutError as exc:
+                raise RigError(str(exc)) from None
             self.legs = LegBoard.open(self.board.pty, calibration=self.calibration)
             # the board's silence is judged on the vehicle's clock, as the landing controller does:
             # a loaded machine that slows the lock-stepped simulation is not a silent board
@@ -376,15 +375,6 @@ class Rig:
             time.sleep(0.002)
         if not handle.ok:
             raise RigError(f"{what}: {handle.state} (result {handle.result})")
-
-    def _accepted(self, handle, wall_s: float = 10.0) -> bool:
-        end = time.monotonic() + wall_s
-        while time.monotonic() < end and not handle.done:
-            self.poll()
-            time.sleep(0.002)
-        if not handle.ok:
-            self.wait(1.0)
-        return handle.ok
 
     def fly_until(self, cond, vehicle_s: float, what: str, send=None, wall_s: float = 120.0) -> None:
         """Poll (and call ``send`` each loop) until ``cond()``; RigError after ``vehicle_s`` of
@@ -447,23 +437,10 @@ class Rig:
         """GUIDED, arm (``force``: past the pre-arm lean check, e.g. on a roof) and climb to
         ``height_m`` above the pad."""
         L = self.link
-        guided = (mavlink.MAV_CMD_DO_SET_MODE, 1, 4)
-        arm = (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, 2989 if force else 0)  # 2989: force-arm magic
-        if self.autopilot == "ardupilot":
-            # ArduCopter's start-up sets its initial mode after a GUIDED asked for too early, and
-            # it refuses to arm in GUIDED until its EKF has an origin (20-40 s of vehicle time
-            # after boot): ask again until its HEARTBEAT shows GUIDED and armed
-            def armed_in_guided() -> bool:
-                if self.mode() != 4:
-                    self._accepted(L.command(*guided))
-                elif not self.armed():
-                    self._accepted(L.command(*arm))
-                return self.mode() == 4 and self.armed()
-
-            self.fly_until(armed_in_guided, 120.0, "arm in GUIDED")
-        else:
-            self.wait_command(L.command(*guided), "GUIDED")
-            self.wait_command(L.command(*arm), "arm")
+        try:
+            arm_in_guided(L, self.poll, force=force)
+        except TimeoutError as exc:
+            raise RigError(str(exc)) from None
         self.wait_command(L.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, height_m), "take-off")
         self.fly_until(lambda: self.height() > height_m - 0.3, 30.0, "climb")
 

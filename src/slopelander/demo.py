@@ -168,10 +168,17 @@ def run_demo(
     table: Path | None = None,
     plot: bool = True,
     echo=print,
+    autopilot: str = "sim",
+    arducopter: str | Path | None = None,
 ) -> DemoResult:
-    """Fly the whole demo; ``speed`` is simulated seconds per wall second."""
+    """Fly the whole demo; ``speed`` is simulated seconds per wall second. ``autopilot`` is
+    ``"sim"`` (the project's simulated ArduCopter) or ``"ardupilot"``: real ArduCopter SITL
+    (``arducopter``, else ``$SLOPELANDER_ARDUCOPTER``) behind the same physics, in a loopback-only
+    network namespace; ``speed`` is then its ``--speedup`` (it runs in lock-step with the physics,
+    so a busy machine only slows it)."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+    from sitl.guided import arm_in_guided, wait_for_vehicle_time
     from sitl.vehicle.launch import start_legboard, start_vehicle
     from slopelander.controller.config import load_config
     from slopelander.controller.landing import cut_dynamics, leg_geometry, plan_landing
@@ -185,6 +192,17 @@ def run_demo(
         raise DemoError(f"--slope must lie within 0..60 deg, got {slope_deg:g}")
     if not (math.isfinite(speed) and 0.1 <= speed <= 20.0):
         raise DemoError(f"--speed must lie within 0.1..20, got {speed:g}")
+    if autopilot not in ("sim", "ardupilot"):
+        raise DemoError(f"--autopilot must be sim or ardupilot, not {autopilot!r}")
+    binary = None
+    if autopilot == "ardupilot":
+        from sitl.ardupilot import arducopter_binary
+        from sitl.launching import LaunchError
+
+        try:
+            binary = arducopter_binary(arducopter)
+        except LaunchError as exc:
+            raise DemoError(str(exc)) from None
     check_out_dir(out)
     out.mkdir(exist_ok=True)
     from slopelander.controller.table import DEFAULT_TABLE
@@ -207,9 +225,10 @@ def run_demo(
     files = {"telemetry log": str(out / "flight.tlog"), "transitions": str(out / "transitions.jsonl")}
     wall0 = time.monotonic()
     scenario = {"slope_deg": float(slope_deg), "roof_x": ROOF_X_M, "roof_z": ROOF_Z_M, "start_on": "pad"}
+    what = "real ArduCopter SITL" if autopilot == "ardupilot" else "the simulated vehicle"
     echo(
-        f"starting the simulated leg board and vehicle ({speed:g}x real time; the first run after an "
-        "install compiles the model, about half a minute) ..."
+        f"starting the simulated leg board and {what} ({speed:g}x real time at most; the first run "
+        "after an install compiles the model, about half a minute) ..."
     )
     board = start_legboard(speed=speed, clock="external")
     vehicle = None
@@ -218,7 +237,14 @@ def run_demo(
     legs_uphill: tuple[int, ...] = (0, 1)
     tele = Telemetry()
     try:
-        vehicle = start_vehicle(scenario=scenario, speed=speed, lockstep=True, legboard_control=board.control)
+        if autopilot == "ardupilot":
+            from sitl.ardupilot import start_arducopter
+
+            vehicle = start_arducopter(scenario=scenario, legs=board.control, binary=binary, speedup=speed)
+        else:
+            vehicle = start_vehicle(
+                scenario=scenario, speed=speed, lockstep=True, legboard_control=board.control
+            )
         link = Link(vehicle.mavlink_url, link_loss_s=cfg["link.link_loss_s"])
         link.conn.setup_logfile(str(out / "flight.tlog"), mode="wb")
         link.add_listener(tele.listen)
@@ -232,13 +258,18 @@ def run_demo(
             (mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 50),
         ):
             _wait(link, link.request_stream(msg_id, hz), 5, f"stream {msg_id}")
+        wait_for_vehicle_time(link)  # the legs' silence is judged on the vehicle's clock
         legs = LegBoard.open(board.pty, calibration=calibration)
+        legs.set_clock(link.clock.now)
         legs_uphill = legs.pairs.uphill
         tele.legs = legs
 
         echo(f"take-off from the pad to {CRUISE_HEIGHT_M:g} m, then over the {slope_deg:g} deg roof")
-        _wait(link, link.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4), 5, "GUIDED")
-        _wait(link, link.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1), 5, "arming")
+        try:
+            # ArduCopter arms in GUIDED once its EKF has an origin (20-40 s of vehicle time)
+            arm_in_guided(link, lambda: (link.poll(), legs.poll()), wall_s=120 / speed + 60)
+        except TimeoutError as exc:
+            raise DemoError(str(exc)) from None
         _wait(
             link, link.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, CRUISE_HEIGHT_M), 5, "take-off"
         )

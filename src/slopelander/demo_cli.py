@@ -36,6 +36,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--table", type=Path, default=None, help="lookup table (default: the shipped one)")
     p.add_argument("--out", type=Path, default=Path("slopelander-demo"), help="output folder")
     p.add_argument("--no-plot", action="store_true", help="skip the picture")
+    p.add_argument(
+        "--autopilot",
+        choices=("sim", "ardupilot"),
+        default="sim",
+        help="sim: the project's simulated ArduCopter (default); ardupilot: real ArduCopter SITL behind "
+        "the same physics, in a loopback-only network namespace (needs --arducopter or "
+        "SLOPELANDER_ARDUCOPTER)",
+    )
+    p.add_argument(
+        "--arducopter",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="the arducopter SITL binary (./waf configure --board sitl && ./waf copter)",
+    )
     p.set_defaults(handler=run)
 
 
@@ -43,8 +58,24 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out")
     from slopelander.demo import run_demo
 
+    if args.autopilot == "ardupilot":  # a missing binary is said before anything starts
+        from sitl.ardupilot import arducopter_binary
+        from sitl.launching import LaunchError
+
+        try:
+            arducopter_binary(args.arducopter)
+        except LaunchError as exc:
+            raise SystemExit(f"slopelander demo: error: {exc}") from None
+    elif args.arducopter is not None:
+        raise SystemExit("slopelander demo: error: --arducopter is for --autopilot ardupilot")
     result = run_demo(
-        out=args.out, slope_deg=args.slope, speed=args.time_scale, table=args.table, plot=not args.no_plot
+        out=args.out,
+        slope_deg=args.slope,
+        speed=args.time_scale,
+        table=args.table,
+        plot=not args.no_plot,
+        autopilot=args.autopilot,
+        arducopter=args.arducopter,
     )
     print(result.summary())
     return 0 if result.outcome == "LANDED_AND_RESET" else 3

@@ -83,7 +83,7 @@ def test_finds_autopilot_takes_its_system_id_and_heartbeats_as_companion(pair):
     assert hbs, "companion sent no heartbeat"
     assert hbs[-1].type == mavlink.MAV_TYPE_ONBOARD_CONTROLLER
     assert hbs[-1].get_srcSystem() == 7 and hbs[-1].get_srcComponent() == COMPANION_COMPONENT
-    assert "QUADROTOR" in link.info.describe() and "script absent" in link.info.describe()
+    assert "QUADROTOR" in link.info.describe() and "script not heard" in link.info.describe()
 
 
 def test_firmware_and_script_reported(pair):

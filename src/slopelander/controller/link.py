@@ -50,6 +50,7 @@ REBOOT_RUN = 5
 STREAM_MIN_SPAN_S = 0.5
 STREAM_WINDOW_S = 2.0
 SCRIPT_SILENT_S = 1.0  # vehicle seconds without SL_STATE: the script is silent
+SCRIPT_ANNOUNCE_WAIT_S = 1.5  # local s: the script's SL_VER comes once a second
 #: a jump in the newest vehicle time larger than this (s) is a telemetry gap (a 200 Hz IMU stream
 #: normally advances it by 5 ms): ages of what the link holds are counted from where it resumed
 GAP_S = 0.1
@@ -161,7 +162,9 @@ class AutopilotInfo:
         """One line for the pilot."""
         vt = mavlink.enums["MAV_TYPE"].get(self.vehicle_type)
         ap = mavlink.enums["MAV_AUTOPILOT"].get(self.autopilot)
-        script = "absent" if self.script_version is None else f"v{self.script_version:g}"
+        # "not heard", not "absent": a script announces its version once a second, and a line
+        # printed before that would call a running script missing (CHECKS refuses a silent one)
+        script = "not heard" if self.script_version is None else f"v{self.script_version:g}"
         return (
             f"system {self.system} component {self.component}: "
             f"{vt.name if vt else self.vehicle_type}, {ap.name if ap else self.autopilot}, "
@@ -653,9 +656,19 @@ class Link:
     def wait_autopilot(
         self, timeout_s: float = 10.0, sleep: Callable[[float], None] = time.sleep
     ) -> AutopilotInfo:
-        """Poll until an autopilot heartbeat (and its version, briefly) arrives; raise if none."""
+        """Poll until an autopilot heartbeat (and, briefly, its version and the on-board script's
+        once-a-second SL_VER) arrives; raise if none."""
         t0 = self.monotonic()
-        while self.info is None or (self.info.firmware == "unknown" and self.monotonic() - t0 < 1.0):
+
+        def waiting() -> bool:
+            if self.info is None:
+                return True
+            age = self.monotonic() - t0
+            return (self.info.firmware == "unknown" and age < 1.0) or (
+                self.info.script_version is None and age < SCRIPT_ANNOUNCE_WAIT_S
+            )
+
+        while waiting():
             self.poll()
             if self.info is None and self.monotonic() - t0 > timeout_s:
                 raise LinkError(f"no autopilot heartbeat within {timeout_s:g} s")

@@ -1,0 +1,67 @@
+"""Arm in GUIDED, the way a ground station must on either autopilot: the shared start of every
+simulated flight (the rig's, the demo's).
+
+ArduCopter's start-up sets its initial mode after a GUIDED asked for too early, and it refuses to
+arm in GUIDED until its EKF has an origin (20-40 s of vehicle time after boot); the simulated
+vehicle accepts both at once. So: ask again, a second of vehicle time apart, until the HEARTBEAT
+shows GUIDED and armed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+GUIDED = 4
+#: ArduCopter's force-arm magic (param2 of an arm): past the pre-arm checks, e.g. a lean on a roof
+FORCE_ARM = 2989
+
+
+def armed_in(link) -> tuple[int | None, bool]:
+    """(custom mode, armed) from the newest HEARTBEAT."""
+    hb = link.last.get("HEARTBEAT")
+    if hb is None:
+        return None, False
+    return hb.custom_mode, bool(hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+
+
+def arm_in_guided(
+    link,
+    poll: Callable[[], None],
+    force: bool = False,
+    vehicle_s: float = 120.0,
+    wall_s: float = 300.0,
+) -> None:
+    """Put the vehicle in GUIDED and arm it; raises TimeoutError (with the autopilot's last words)
+    when it has not within ``vehicle_s`` of vehicle time or ``wall_s`` of wall time."""
+    t0, end = link.clock.now(), time.monotonic() + wall_s
+    asked, handle = -1e9, None
+    while True:
+        mode, armed = armed_in(link)
+        if mode == GUIDED and armed:
+            return
+        now = link.clock.now()
+        if now - t0 > vehicle_s or time.monotonic() > end:
+            said = "; ".join(list(link.statustext)[-3:])
+            raise TimeoutError(f"not armed in GUIDED within {vehicle_s:g} s (mode {mode}): {said}")
+        if (handle is None or handle.done) and now - asked >= 1.0:
+            asked = now
+            if mode != GUIDED:
+                handle = link.command(mavlink.MAV_CMD_DO_SET_MODE, 1, GUIDED)
+            else:
+                handle = link.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM if force else 0)
+        poll()
+        time.sleep(0.002)
+
+
+def wait_for_vehicle_time(link, wall_s: float = 30.0) -> None:
+    """Poll until the link has the vehicle's time (its first timestamped message): timeouts measured
+    on that clock before then would count from zero and jump."""
+    end = time.monotonic() + wall_s
+    while not link.clock.known:
+        if time.monotonic() > end:
+            raise TimeoutError(f"the vehicle sent no timestamped message within {wall_s:g} s")
+        link.poll()
+        time.sleep(0.002)

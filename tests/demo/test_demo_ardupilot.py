@@ -1,0 +1,66 @@
+"""``slopelander demo --autopilot ardupilot``: the whole demo (take-off from the pad, over the
+roof, landing, disarm, take-off, legs loosened) on real ArduCopter SITL, with the same printout,
+tlog, transitions and picture as on the simulated vehicle. Skipped, saying why, without
+``SLOPELANDER_ARDUCOPTER``; about 1.5 minutes of wall time."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from sitl.ardupilot import arducopter_binary
+from sitl.ardupilot.launch import ArduCopterMissingError
+
+
+def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path: Path) -> None:
+    try:
+        arducopter_binary()
+    except ArduCopterMissingError as exc:
+        if os.environ.get("SLOPELANDER_ARDUCOPTER"):
+            pytest.fail(str(exc))
+        pytest.skip(str(exc))
+    out = tmp_path / "demo"
+    r = subprocess.run(
+        [sys.executable, "-m", "slopelander.cli", "demo", "--autopilot", "ardupilot", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert "firmware 4." in r.stdout and "on-board script v4" in r.stdout, r.stdout[:800]
+    assert "outcome: LANDED_AND_RESET" in r.stdout
+    lines = [json.loads(ln) for ln in (out / "transitions.jsonl").read_text().splitlines()]
+    states = [ln["to"] for ln in lines]
+    assert states[-4:] == ["LANDED", "TAKEOFF", "RESET", "READY"], states
+    landed = next(ln for ln in lines if ln["to"] == "LANDED")
+    assert "seen in the HEARTBEAT" in landed["reason"]  # a disarm made, not a disarm sent
+    assert (out / "flight.tlog").stat().st_size > 10_000
+    assert (out / "flight.png").stat().st_size > 10_000
+
+
+def test_the_demo_without_a_binary_says_how_to_get_one(tmp_path: Path) -> None:
+    env = {k: v for k, v in os.environ.items() if k != "SLOPELANDER_ARDUCOPTER"}
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "slopelander.cli",
+            "demo",
+            "--autopilot",
+            "ardupilot",
+            "--out",
+            str(tmp_path / "d"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+    )
+    assert r.returncode != 0
+    assert "SLOPELANDER_ARDUCOPTER" in r.stderr and "./waf" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "d").exists()  # nothing started, nothing written
