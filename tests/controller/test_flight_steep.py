@@ -10,9 +10,10 @@ rest 0.8-1.2 s after contact (impact 0.7-1.1 m/s), so a fixed 500 ms of thrust w
 the vehicle still slides. The controller holds the thrust until the vehicle reads still
 (``reflex.reverse_thrust_ms`` minimum, ``reflex.reverse_max_ms`` bound) and ramps it down over
 ``reflex.reverse_ramp_ms``; at 55 deg the vehicle slides as the ramp runs out (past atan(mu_s)
-nothing holds without the thrust), and SETTLED, seeing the speed, aborts to the pilot instead of
-disarming. Without reverse
-thrust the vehicle never stops: it tips over the downhill legs or slides off.
+nothing holds without the thrust), and SETTLED, seeing the slide (a displacement over 0.5 s of
+vehicle time), neither disarms it nor hands it to the autopilot: the script keeps the motors
+stopped and the pilot is told (docs/failsafes.md, "After contact"). Without reverse thrust the
+vehicle never stops: it tips over the downhill legs or slides off.
 """
 
 from __future__ import annotations
@@ -26,7 +27,11 @@ from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.model.landing import simulate
 
 SLOPE = 55.0
-CUT_M = 0.5  # the uphill foot meets the 55 deg roof at ~0.47 m: an impact at ~0.7 m/s
+# the uphill foot meets the 55 deg roof at ~0.47 m; the script cuts on the second distinct 20 Hz
+# sample at or below the cut height (50-100 ms later, 2.5-5 cm lower): an impact at ~0.8-1 m/s
+CUT_M = 0.55
+#: the landing's own timeout (local s): a vehicle held sliding on the roof stays SETTLED until it
+ROOF_TIMEOUT_S = 20.0
 
 
 @pytest.fixture
@@ -49,8 +54,8 @@ def speed(p) -> float:
 def test_with_reverse_thrust_it_stops_on_the_roof_and_a_slide_after_it_is_not_disarmed(rig):
     rig.go_over_roof(2.5)
     cfg = config(reflex={"cut_height_m": CUT_M})
-    flight = rig.land(preset(), cfg, timeout_s=60.0)
-    assert flight.states == [
+    flight = rig.land(preset(), cfg, timeout_s=ROOF_TIMEOUT_S)
+    assert flight.states[: len(flight.states) - (flight.states[-1] == "SETTLED")] == [
         "PRESET",
         "LEGS_WAIT",
         "CHECKS",
@@ -61,7 +66,7 @@ def test_with_reverse_thrust_it_stops_on_the_roof_and_a_slide_after_it_is_not_di
         "SETTLED",
         flight.states[-1],
     ], flight.history
-    assert flight.states[-1] in ("ABORTED", "LANDED"), flight.history
+    assert flight.end in ("SETTLED", "LANDED", "ABORTED"), flight.history
     c = flight.contact
     assert c is not None and c["vz"] > 0.6
     predicted = simulate(flight.model_conditions("held")).result
@@ -70,50 +75,39 @@ def test_with_reverse_thrust_it_stops_on_the_roof_and_a_slide_after_it_is_not_di
     as_flown = simulate(flight.model_conditions()).result
     assert not as_flown.outcome.success, as_flown.summary()
     # reverse thrust ended on evidence: at rest under the thrust, after the minimum, before the bound
-    ended = flight.history[-2]
-    assert ended["to"] == "SETTLED" and "still under reverse thrust" in ended["reason"], ended
-    rig.wait(1.5)  # the ramp may still be running when the landing ends: let it finish
+    ended = next(h for h in flight.history if h["to"] == "SETTLED")
+    assert "still under reverse thrust" in ended["reason"], ended
     rvt = rig.track.event_times("EV_RVT", c["t"] - 0.001)
-    assert rvt and rvt[0] - c["t"] < 0.01, (rvt, c)
+    assert rvt and rvt[0] - c["t"] < 0.03, (rvt, c)
     shortest, longest = cfg["reflex.reverse_thrust_ms"] / 1000.0, cfg["reflex.reverse_max_ms"] / 1000.0
-    ramp = cfg["reflex.reverse_ramp_ms"] / 1000.0
     assert shortest < ended["t"] - c["t"] < longest, ended["t"] - c["t"]
-    held = [t for t, state in rig.track.script if state == 13 and t > c["t"]]  # the script's HOLD
-    if held:  # the ramp ran out: the outputs reached the stop once it was over
-        stop = rig.track.event_times("EV_STOP", c["t"])
-        assert stop and ended["t"] + 0.9 * ramp <= stop[0] <= ended["t"] + ramp + 0.2, (ended["t"], stop)
-        thrust_over = stop[0]
-    else:  # the slide was seen while the ramp still ran: handed to the pilot then, the script released
-        assert flight.states[-1] == "ABORTED" and flight.history[-1]["t"] < ended["t"] + ramp + 0.1
-        assert flight.history[-1]["t"] >= ended["t"] + 0.3 * ramp, flight.history[-1]
-        thrust_over = flight.history[-1]["t"]
     # the controller's own window: it read "still" for the hold time before it ended the thrust
-    # (the vehicle's EV_STOP comes a command's latency later, so it does not mark that window)
     hold = cfg["reflex.reverse_still_s"]
-    decided = ended["t"]
-    assert decided <= thrust_over
-    under = [p for p in rig.track.pos if decided - hold + 0.02 <= p[0] <= decided]
-    pitch = [a for t, a in rig.track.pitch if c["t"] <= t <= thrust_over]
+    under = [p for p in rig.track.pos if ended["t"] - hold + 0.02 <= p[0] <= ended["t"]]
+    pitch = [a for t, a in rig.track.pitch if c["t"] <= t <= ended["t"]]
     assert under and max(speed(p) for p in under) <= cfg["settle.still_speed_mps"], under
     assert min(pitch) > -80.0  # upright
     end = flight.history[-1]
-    if end["to"] == "LANDED":
-        # If the legs catch once the thrust is gone the controller may disarm, but only a
+    if flight.end == "LANDED":
+        # If the legs catch once the thrust is gone the controller has it disarmed, but only a
         # vehicle that read still for the settle time, and it must stay where it rested.
         rested = [p for p in rig.track.pos if end["t"] - cfg["settle.still_s"] + 0.02 <= p[0] <= end["t"]]
         assert rested and max(speed(p) for p in rested) <= cfg["settle.still_speed_mps"], rested
-        rig.wait(1.0)
-        after = [p for p in rig.track.pos if end["t"] <= p[0] <= end["t"] + 1.0]
-        assert after and math.dist(after[0][1:3], after[-1][1:3]) < cfg["settle.slide_m"], after[-3:]
         return
-    # 55 deg is past what static friction holds: it slides once the thrust stops, and the
-    # controller hands it to the pilot armed instead of disarming a sliding vehicle
-    assert "sliding at" in end["reason"] and "not disarmed" in end["reason"]
-    assert all("disarm" not in h["reason"] or "not disarmed" in h["reason"] for h in flight.history)
+    # 55 deg is past what static friction holds: it slides once the thrust stops. It is neither
+    # disarmed nor handed to the autopilot while on the roof: the script holds the motors stopped
+    assert any("sliding at" in t and "not disarmed" in t for t in rig.link.statustext), list(
+        rig.link.statustext
+    )[-5:]
+    assert not any("disarm" in h["reason"] and "not disarmed" not in h["reason"] for h in flight.history)
     assert rig.armed()
-    rig.wait(1.0)
-    after = [p for p in rig.track.pos if end["t"] <= p[0] <= end["t"] + 1.0]
-    assert after and max(speed(p) for p in after) > cfg["settle.slide_speed_mps"]
+    on_roof = [
+        out for t, out in rig.track.servo if ended["t"] + cfg["reflex.reverse_ramp_ms"] / 1000 + 0.1 < t
+    ]
+    if flight.end == "SETTLED":  # still on the roof: never a forward thrust
+        assert on_roof and all(max(o) <= 1530 for o in on_roof), on_roof[-3:]
+    else:  # off the roof's edge: the script gave the motors back and the autopilot flies
+        assert "gave the motors back" in end["reason"], end
 
 
 def test_without_reverse_thrust_it_tips_over_or_slides(rig):
@@ -135,13 +129,13 @@ def test_without_reverse_thrust_it_tips_over_or_slides(rig):
 def test_without_reverse_thrust_the_controller_never_disarms_a_moving_vehicle(rig):
     rig.go_over_roof(2.5)
     cfg = config(reflex={"cut_height_m": CUT_M, "reverse_thrust_pct": 0})
-    flight = rig.land(preset(), cfg, timeout_s=60.0, rest_s=0.0)
-    assert flight.end in ("LANDED", "ABORTED"), flight.history
+    flight = rig.land(preset(), cfg, timeout_s=ROOF_TIMEOUT_S, rest_s=0.0)
+    assert flight.end in ("LANDED", "ABORTED", "SETTLED"), flight.history
     assert "REVERSE" in flight.states and "SETTLED" in flight.states
     t_end = flight.history[-1]["t"]
     last = [p for p in rig.track.pos if p[0] <= t_end][-3:]
     if flight.end == "LANDED":  # came to rest (e.g. on its back): disarming is right
         assert last and max(speed(p) for p in last) <= cfg["settle.still_speed_mps"], last
-    else:
-        assert "sliding at" in flight.history[-1]["reason"], flight.history
+    else:  # held sliding on the roof, or off its edge with the motors given back: never disarmed
         assert rig.armed()
+        assert not any("disarm" in h["reason"] and "not disarmed" not in h["reason"] for h in flight.history)

@@ -60,6 +60,14 @@ class ScriptState(IntEnum):
     ESTOP = 20  # the pilot's emergency stop: everything released
 
 
+def state_name(state: int | None) -> str:
+    """The script state's name (its number when the script reports one this side does not know)."""
+    try:
+        return ScriptState(state).name
+    except ValueError:
+        return str(state)
+
+
 #: the script's landing sequence: from the cut on, it holds the motors and refuses an abort or a
 #: release; only a disarm, a level take-off release, the emergency stop or leaving the roof end it
 LANDING = frozenset({ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD})

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from slopelander.controller.script_contract import ScriptState
+from slopelander.controller.script_contract import ScriptState, state_name
 from slopelander.controller.states.base import Context, Inputs, State
 
 #: the script's states that say it holds the reflex (armed, or already past the cut)
@@ -42,7 +42,7 @@ class Armed(State):
         elif not ctx.marks.get("reflex_confirmed"):
             waited = inp.t - ctx.entered_at
             if waited > ctx.cfg["reflex.confirm_timeout_s"]:
-                state = _name(inp.script_state)
+                state = state_name(inp.script_state)
                 return ("ABORTED", f"on-board reflex not armed after {waited:.2f} s (script {state})")
         # a script that let go of an armed reflex (its validity lapsed, a reboot) stops the descent too
         ctx.act.descend(ctx.cfg["descent.rate_mps"] if confirmed else 0.0)
@@ -50,12 +50,6 @@ class Armed(State):
             ctx.act.reflex_arm()
             ctx.marks["reflex_sent"] = inp.t
         if not confirmed and ctx.marks.get("reflex_confirmed"):
-            return ("ABORTED", f"on-board reflex let go before the cut (script {_name(inp.script_state)})")
+            now = state_name(inp.script_state)
+            return ("ABORTED", f"on-board reflex let go before the cut (script {now})")
         return None
-
-
-def _name(state: int | None) -> str:
-    try:
-        return ScriptState(state).name
-    except ValueError:
-        return str(state)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+from slopelander.controller.script_contract import ScriptState, state_name
 from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
 from slopelander.controller.states.reverse import SCRIPT_RVT
 
@@ -86,6 +87,11 @@ class Settled(State):
             return ("LANDED", f"disarmed ({how}): seen in the HEARTBEAT")
         if inp.takeoff_request:
             return ("TAKEOFF", "take-off commanded on the roof")
+        if inp.script_state in (ScriptState.IDLE, ScriptState.STOP, ScriptState.REVERSE):
+            # the script let go while armed: it gave the motors back (the range says the vehicle
+            # left the roof, or its validity lapsed): the autopilot has them, so it flies
+            now = state_name(inp.script_state)
+            return ("ABORTED", f"the on-board script gave the motors back ({now})")
         keep_reflex(ctx, inp, thrust_ended=True)  # SETTLED comes after the thrust
         drift, moved = _drift(ctx, inp), _moved(ctx, inp)
         if "disarm_asked" in ctx.marks:  # asked: the motors stay held until the HEARTBEAT says so
