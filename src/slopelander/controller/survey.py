@@ -53,10 +53,11 @@ def measure_slope(
     board) while the pass is flown; by default ``link.poll``."""
     st = EstimateSettings.from_config(cfg)
     tick = tick or link.poll
-    pos = track.position()
-    if pos is None:
+    end = time.monotonic() + 5.0  # the streams were just asked for: a moment for the first position
+    while track.position() is None and time.monotonic() < end:
         tick()
-        pos = track.position()
+        time.sleep(0.002)
+    pos = track.position()
     if pos is None:
         est = estimate([], 0.0, st)
         est.refusal = "no position (LOCAL_POSITION_NED) to place the rangefinder's points"
