@@ -141,11 +141,16 @@ def world_beam(stepper: Stepper, world: World) -> float:
     if b.x * math.sin(a) + b.z * math.cos(a) <= 0.0:
         return 0.0
     x, z = world.to_world(b.x, b.z)
+    return beam_at(world, x, z, b.pitch)
+
+
+def beam_at(world: World, x: float, z: float, pitch: float) -> float:
+    """:func:`world_beam` for a body origin at world (x, z up) pitched ``pitch`` (rad, nose up)."""
     bm = world.beam
     segs = world.segments()
     n = bm.rays if bm.width_deg > 0 else 1
     half = math.radians(bm.width_deg) / 2
-    angles = [b.pitch + (-half + 2 * half * i / (n - 1) if n > 1 else 0.0) for i in range(n)]
+    angles = [pitch + (-half + 2 * half * i / (n - 1) if n > 1 else 0.0) for i in range(n)]
     first = ray_hit(segs, x, z, math.sin(angles[0]), -math.cos(angles[0]))
     last = ray_hit(segs, x, z, math.sin(angles[-1]), -math.cos(angles[-1]))
     if first[1] >= 0 and first[1] == last[1]:
