@@ -24,7 +24,7 @@ from sitl.vehicle.events import Events
 from sitl.vehicle.legs_link import LegsLink
 from sitl.vehicle.scenario import Scenario
 from sitl.vehicle.sensors import Imu, Range
-from sitl.vehicle.world import beam_range, start_on_ground
+from sitl.vehicle.world import start_on_ground, world_beam
 
 NO_RETURN_M = 999.0  # beam pointing away from the ground: beyond any rangefinder's maximum
 #: what ArduPilot's SITL rangefinder reads as "no data": only a NaN or an infinity
@@ -77,9 +77,10 @@ class JsonPhysics:
         self.imu.accel_noise = self.scn.accel_noise + self.scn.imu_extra_noise(self.t)
         # ArduPilot filters the IMU itself (INS_*_FILTER): hand it the unfiltered reading
         self.imu.update(dt, fx, fz, self.stepper.body().pitch_rate, 0.0, 0.0, self.scn.imu_spike(self.t))
-        true = beam_range(self.stepper)
-        status = 4 if math.isfinite(true) else 3
-        self.range = self.scn.range_fault(self.t, Range(true, status, 100), self.rng)
+        true = world_beam(self.stepper, self.world)  # NaN: the footprint straddles an edge
+        status = 1 if math.isnan(true) else 4 if math.isfinite(true) else 3
+        raw = Range(0.0, 1, 0) if status == 1 else Range(true, status, 100)
+        self.range = self.scn.range_fault(self.t, raw, self.rng)
         if self.legs is not None:
             self.legs.update(self)
         if self.events is not None:

@@ -31,7 +31,12 @@ TOP_KEYS = {
     "faults",
     "model_params",
     "wind",
+    "ridge",
+    "roof_length",
+    "rangefinder",
 }
+RIDGES = ("step", "gable")
+BEAM_RETURNS = ("mean", "nearest")
 DEFAULT_RC = {1: 1500, 2: 1500, 3: 1000, 4: 1500}
 
 
@@ -55,6 +60,11 @@ class Scenario:
     roof_z: float = 0.5
     start_x: float = 0.0  # m, world x; on the roof: beyond roof_x
     start_on: str = "pad"  # or "roof"
+    ridge: str = "step"  # the roof's top edge: a step up from the pad, or a gable ridge
+    roof_length: float = 1e4  # m along x from the top edge to the gutter (beyond: nothing in range)
+    beam_width_deg: float = 2.0  # the rangefinder's full beam width
+    beam_return: str = "mean"  # mean (a lidar's centroid) | nearest (a sonar's first echo)
+    edge_dropout_m: float = 0.1  # neighbouring rays further apart than this: no return
     accel_noise: float = 0.05  # m/s^2, 1 sigma per sample
     gyro_noise: float = 0.002  # rad/s
     range_noise: float = 0.005  # m
@@ -153,6 +163,22 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
         s.start_x = _num(src, "start_x", data.get("start_x", s.start_x), -1000.0, s.roof_x - 0.5)
     else:
         s.start_x = _num(src, "start_x", data.get("start_x", s.roof_x + 1.0), s.roof_x + 0.5, 1e4)
+    s.ridge = data.get("ridge", s.ridge)
+    if s.ridge not in RIDGES:
+        raise ScenarioError(f"{src}: ridge must be one of {', '.join(RIDGES)}, got {s.ridge!r}")
+    s.roof_length = _num(src, "roof_length", data.get("roof_length", s.roof_length), 0.5, 1e4)
+    beam = data.get("rangefinder", {})
+    if not isinstance(beam, dict) or set(beam) - {"beam_deg", "return", "edge_dropout_m"}:
+        raise ScenarioError(f"{src}: rangefinder must be a mapping with beam_deg, return, edge_dropout_m")
+    s.beam_width_deg = _num(src, "rangefinder.beam_deg", beam.get("beam_deg", s.beam_width_deg), 0.0, 60.0)
+    s.beam_return = beam.get("return", s.beam_return)
+    if s.beam_return not in BEAM_RETURNS:
+        raise ScenarioError(
+            f"{src}: rangefinder.return must be one of {', '.join(BEAM_RETURNS)}, got {s.beam_return!r}"
+        )
+    s.edge_dropout_m = _num(
+        src, "rangefinder.edge_dropout_m", beam.get("edge_dropout_m", s.edge_dropout_m), 0.001, 100.0
+    )
     noise = data.get("noise", {})
     if not isinstance(noise, dict) or set(noise) - {"accel", "gyro", "range"}:
         raise ScenarioError(f"{src}: noise must be a mapping with accel, gyro, range (1-sigma, SI)")

@@ -18,7 +18,7 @@ from sitl.vehicle.params import Params
 from sitl.vehicle.scenario import Scenario
 from sitl.vehicle.sensors import BEAM_MISS_M, Imu, Range, range_reading
 from sitl.vehicle.streams import Streams, system_time
-from sitl.vehicle.world import beam_range, start_on_ground
+from sitl.vehicle.world import start_on_ground, world_beam
 from slopelander.model.judge import LandingJudge
 
 PHYSICS_HZ = 1200
@@ -350,8 +350,11 @@ class Vehicle:
         """The 20 Hz rangefinder task (arducopter_rules (d)): the beam's distance read as
         ArduPilot's SITL driver reads a value, then the scenario's faults, then the height the
         land detector and take-off use."""
-        true = beam_range(self.stepper)
-        raw = Range(true if math.isfinite(true) else BEAM_MISS_M, 4, 100)
+        true = world_beam(self.stepper, self.world)
+        if math.isnan(true):  # the beam's footprint straddles an edge: no return
+            raw = Range(0.0, rules.NO_DATA, 0)
+        else:
+            raw = Range(true if math.isfinite(true) else BEAM_MISS_M, 4, 100)
         r = self.scn.range_fault(self.t, raw, self.rng)  # faults act on the value, then ArduPilot reads it
         value = math.nan if r.status == rules.NO_DATA else r.distance_m
         self.range = range_reading(value, self.range_min, self.range_max)

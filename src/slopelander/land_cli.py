@@ -41,8 +41,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--slope",
         required=True,
-        type=float,
-        help="slope of the landing site, deg (within the lookup table's slopes: 0..60 for the shipped one)",
+        type=slope_arg,
+        help="slope of the landing site, deg (within the lookup table's slopes: 0..60 for the shipped one), "
+        "checked against the slope the companion measures; or 'auto': land on the measured slope "
+        "(docs/slope-estimate.md)",
     )
     p.add_argument("--table", help="lookup table file (YAML); default: the shipped table")
     p.add_argument("--config", help="controller settings overriding the shipped defaults")
@@ -57,6 +59,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--timeout", type=float, default=120.0, help="give up (abort) after this many s (default 120)"
     )
     p.set_defaults(handler=run)
+
+
+def slope_arg(text: str) -> float | str:
+    """``--slope``: 'auto' or a number of degrees (range-checked in :func:`run`)."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of degrees or 'auto', got {text!r}") from None
 
 
 def connection_string(text: str, baud: int | None) -> str:
@@ -111,7 +123,8 @@ def format_transition(h: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not (math.isfinite(args.slope) and 0 <= args.slope < 90):
+    auto = args.slope == "auto"
+    if not auto and not (math.isfinite(args.slope) and 0 <= args.slope < 90):
         raise SlopelanderError(f"--slope must be within 0..89 deg, got {args.slope:g}")
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise SlopelanderError(f"--timeout must be a positive number of seconds, got {args.timeout:g}")
@@ -126,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_config(args.config)
     table = LookupTable.load(args.table or DEFAULT_TABLE)
     lo, hi = table.slope_range
-    if not lo <= args.slope <= hi:
+    if not auto and not lo <= args.slope <= hi:
         raise SlopelanderError(
             f"--slope {args.slope:g} is outside the lookup table's slopes {lo:g}..{hi:g} deg "
             f"({args.table or 'the shipped table'})"
@@ -157,9 +170,12 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
     from slopelander.controller.link import LANDING_MESSAGES, Link
     from slopelander.controller.rc_presets import preset_for
     from slopelander.controller.runner import Lander
+    from slopelander.controller.slope_estimate import SurfaceTrack
     from slopelander.legs.driver import LegBoard
 
     link = Link(url, link_loss_s=cfg["link.link_loss_s"], decode=LANDING_MESSAGES)
+    track = SurfaceTrack(cfg["slope.pair_window_s"])
+    link.add_listener(track.feed)
     legs = None
     rec = None
     try:
@@ -170,10 +186,14 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
         link.request_stream(65, 10)  # RC_CHANNELS
         link.request_stream(32, cfg["link.position_hz"])  # LOCAL_POSITION_NED
         link.request_stream(30, cfg["link.attitude_hz"])  # ATTITUDE
+        rec = Path(args.record).open("w") if args.record else None  # noqa: SIM115 (closed below)
+        slope, est, bound = measured_slope(args.slope, link, cfg, table, track, rec)
+        if slope is None:
+            return 3
         preset, speed = plan_landing(
             cfg["descent.rate_mps"],
             cfg["reflex.cut_height_m"],
-            args.slope,
+            slope,
             leg_geometry(),
             table,
             preset_for(cfg, link.last.get("RC_CHANNELS")),
@@ -183,7 +203,7 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
         up, down = preset.tau_up, preset.tau_down
         angle = "" if preset.angle_up_deg is None else f", uphill angle {preset.angle_up_deg:.1f} deg"
         print(
-            f"expected impact {speed:.2f} m/s on {args.slope:g} deg; "
+            f"expected impact {speed:.2f} m/s on {slope:.1f} deg; "
             f"legs {up:.2f}/{down:.2f} N*m{angle} ({preset.source})"
         )
         legs = LegBoard.open(args.legs, calibration=calibration)
@@ -191,7 +211,6 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
         if todo is not None:
             print(todo)
             link.send_statustext(f"SL set uphill legs to {preset.angle_up_deg:.1f} deg")
-        rec = Path(args.record).open("w") if args.record else None  # noqa: SIM115 (closed below)
         lander = Lander(
             link,
             cfg,
@@ -199,7 +218,9 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
             legs=legs,
             record=LiveTransitions(rec),
             uphill_angle_deg=preset.angle_up_deg,
-            slope_deg=args.slope,
+            slope_deg=slope,
+            slope_estimate=est,
+            slope_bound_deg=bound,
         )
         end = lander.run(args.timeout)
         print(f"outcome: {end}", flush=True)
@@ -212,3 +233,36 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
         if legs is not None:
             legs.close()
         link.close()
+
+
+def measured_slope(
+    pilot, link, cfg, table, track, rec: IO[str] | None
+) -> tuple[float | None, object, float | None]:
+    """The slope to land on, the estimate and the bound (deg) for CHECKS: with ``--slope auto``
+    the measured slope (None, after printing and recording why, when it cannot be trusted); with
+    a number, that number, checked in CHECKS against the estimate (unless ``slope.check_pilot``
+    is false: then no survey and no check)."""
+    import numpy as np
+
+    from slopelander.controller.slope_estimate import check_bound, slope_to_land
+    from slopelander.controller.survey import measure_slope
+
+    auto = pilot == "auto"
+    if not auto and not cfg["slope.check_pilot"]:
+        return float(pilot), None, None
+    est, took = measure_slope(link, cfg, track)
+    cell = float(max(np.diff(table.slopes))) if len(table.slopes) > 1 else 0.0
+    bound = check_bound(cell, est.sigma_deg or 0.0, cfg["slope.check_sigmas"], cfg["slope.check_bound_deg"])
+    print(f"slope measured: {est.describe()}" + (f" (survey pass {took:.1f} s)" if took else ""), flush=True)
+    if not auto:
+        return float(pilot), est, bound
+    slope, why = slope_to_land(est, bound)
+    lo, hi = table.slope_range
+    if slope is not None and not lo <= slope <= hi:
+        slope, why = None, f"measured slope {slope:.1f} deg is outside the lookup table's {lo:g}..{hi:g} deg"
+    if slope is None:
+        print(f"refused: {why}", flush=True)
+        if rec is not None:
+            rec.write(json.dumps({"slope_estimate": est.record(), "bound_deg": bound, "refused": why}) + "\n")
+        link.send_statustext(f"SL refused: {why}"[:50])
+    return slope, est, bound

@@ -219,7 +219,10 @@ def test_the_record_holds_the_transitions_printed(tmp_path: Path) -> None:
         vehicle.stop()
         board.stop()
     assert out.returncode == 3, out.stderr
-    entries = [json.loads(x) for x in record.read_text().splitlines()]
+    lines = [json.loads(x) for x in record.read_text().splitlines()]
+    # first the slope the companion measured (docs/slope-estimate.md), then the transitions
+    assert "slope_estimate" in lines[0] and lines[0]["slope_deg"] == 35.0, lines[0]
+    entries = lines[1:]
     assert [e["to"] for e in entries][:2] == ["PRESET", "LEGS_WAIT"] and entries[-1]["to"] == "ABORTED"
     printed = [x for x in out.stdout.splitlines() if " -> " in x]
     assert len(printed) == len(entries)

@@ -70,6 +70,20 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "takeoff.attitude_window_s": (0.01, 1.0, False),
     "takeoff.unknown_slope_deg": (0.0, 80.0, False),
     "rc_presets.channel": (1, 18, True),
+    "slope.check_sigmas": (0.0, 10.0, False),
+    "slope.pair_window_s": (0.005, 1.0, False),
+    "slope.min_points": (5, 10000, True),
+    "slope.min_baseline_m": (0.2, 20.0, False),
+    "slope.min_side_m": (0.0, 10.0, False),
+    "slope.half_span_m": (0.2, 20.0, False),
+    "slope.min_inlier_fraction": (0.3, 1.0, False),
+    "slope.plane_tolerance_deg": (0.0, 30.0, False),
+    "slope.max_sigma_deg": (0.1, 20.0, False),
+    "slope.sigma_floor_deg": (0.0, 10.0, False),
+    "slope.attitude_error_deg": (0.0, 10.0, False),
+    "slope.survey_length_m": (0.4, 20.0, False),
+    "slope.survey_speed_mps": (0.05, 3.0, False),
+    "slope.survey_timeout_s": (1.0, 600.0, False),
 }
 RC_PRESET_LIMITS = {
     "min_us": (800, 2200),
@@ -172,6 +186,27 @@ def merge(base: dict[str, Any], user: Any, source: str) -> dict[str, Any]:
     return out
 
 
+def _validate_slope(sl: dict[str, Any], source: str) -> None:
+    """The slope section's flag, nullable bound and the relations between its lengths."""
+    if not isinstance(sl.get("check_pilot"), bool):
+        raise ConfigError(
+            source, "slope.check_pilot", f"expected true or false, got {sl.get('check_pilot')!r}"
+        )
+    b = sl.get("check_bound_deg")
+    if b is not None and (
+        isinstance(b, bool) or not isinstance(b, (int, float)) or not math.isfinite(b) or not 0.5 <= b <= 45
+    ):
+        raise ConfigError(source, "slope.check_bound_deg", f"expected null or a number in 0.5..45, got {b!r}")
+    if sl["min_baseline_m"] > 2 * sl["half_span_m"]:
+        raise ConfigError(
+            source, "slope.min_baseline_m", "must not exceed twice slope.half_span_m (no fit could pass)"
+        )
+    if sl["survey_length_m"] < sl["min_baseline_m"]:
+        raise ConfigError(source, "slope.survey_length_m", "must be at least slope.min_baseline_m")
+    if 2 * sl["min_side_m"] > sl["survey_length_m"]:
+        raise ConfigError(source, "slope.min_side_m", "must be at most half of slope.survey_length_m")
+
+
 def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
     if not isinstance(doc, dict):
         raise ConfigError(source, "(top level)", "expected a mapping of sections")
@@ -203,6 +238,7 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
         raise ConfigError(source, "settle.slide_speed_mps", "must not be below settle.still_speed_mps")
     if doc["reflex"]["refresh_s"] * 1000 >= doc["reflex"]["validity_ms"]:
         raise ConfigError(source, "reflex.refresh_s", "must be shorter than reflex.validity_ms")
+    _validate_slope(doc["slope"], source)
     rc = doc.get("rc_presets", {})
     if not isinstance(rc.get("enabled"), bool):
         raise ConfigError(source, "rc_presets.enabled", "expected true or false")

@@ -7,6 +7,7 @@ and steps the machine whenever vehicle time advanced.
 from __future__ import annotations
 
 import contextlib
+import json
 import math
 import os
 import time
@@ -22,6 +23,7 @@ from slopelander.controller.link import Link, mavlink
 from slopelander.controller.machine import Machine
 from slopelander.controller.pilot_switch import APPLY_IN, WAIT_AGAIN, PresetSwitch
 from slopelander.controller.script_contract import ScriptState
+from slopelander.controller.slope_estimate import SlopeEstimate
 from slopelander.controller.states.base import Context, Inputs
 from slopelander.legs.errors import LegBoardError
 
@@ -71,8 +73,21 @@ class Lander:
         next_preset: tuple[float, float] | None = None,
         uphill_angle_deg: float | None = None,
         slope_deg: float | None = None,
+        slope_estimate: SlopeEstimate | None = None,
+        slope_bound_deg: float | None = None,
     ) -> None:
         self.link = link
+        #: the slope measured before the landing and the bound the landing's slope must keep to it
+        #: (CHECKS refuses outside it); written first to the record, points and all
+        self.slope_estimate = slope_estimate
+        self.slope_bound_deg = slope_bound_deg
+        if record is not None and slope_estimate is not None:
+            entry = {
+                "slope_estimate": slope_estimate.record(),
+                "bound_deg": slope_bound_deg,
+                "slope_deg": slope_deg,
+            }
+            record.write(json.dumps(entry) + "\n")
         link.heartbeats_missed = cfg["link.heartbeats_missed"]  # the link's loss rule, from the settings
         self.cfg = cfg
         self.legs = legs
@@ -169,6 +184,8 @@ class Lander:
             tilt_deg=tilt,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,
+            slope_measured=self.slope_estimate,
+            slope_bound_deg=self.slope_bound_deg,
         )
 
     def poll(self) -> str:

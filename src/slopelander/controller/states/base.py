@@ -64,6 +64,10 @@ class Inputs:
     tilt_deg: float | None = 0.0
     impact: bool = False
     takeoff_request: bool = False
+    #: the slope measured before the landing (controller/slope_estimate.py) and how far the
+    #: landing's slope may lie from it (deg); None when it was not measured (CHECKS skips it)
+    slope_measured: Any = None
+    slope_bound_deg: float | None = None
 
     @property
     def range_valid(self) -> bool:

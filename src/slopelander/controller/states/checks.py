@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from slopelander.controller.link import stream_refusal
+from slopelander.controller.slope_estimate import pilot_refusal
 from slopelander.controller.states.base import SCRIPT_CONTRACT, Context, Inputs, State
 
 
@@ -44,11 +45,22 @@ def angle_refusal(ctx: Context, inp: Inputs) -> str | None:
     return None
 
 
+def slope_refusal(ctx: Context, inp: Inputs) -> str | None:
+    """Why the landing's slope (the pilot's number, or the measured one) does not fit the
+    measurement, naming both, or None; nothing to check when the slope was not measured."""
+    est = inp.slope_measured
+    if est is None:
+        return None
+    if ctx.slope_deg is None or inp.slope_bound_deg is None:
+        return "slope measured but the landing's slope or the bound is unknown"
+    return pilot_refusal(ctx.slope_deg, est, inp.slope_bound_deg)
+
+
 class Checks(State):
     name = "CHECKS"
 
     def step(self, ctx: Context, inp: Inputs):
-        why = refusal(inp) or angle_refusal(ctx, inp)
+        why = refusal(inp) or angle_refusal(ctx, inp) or slope_refusal(ctx, inp)
         # the streams the landing reads deliver at least link.min_delivered_fraction of their rate
         why = why or stream_refusal(getattr(ctx.act, "link", None), ctx.cfg["link.min_delivered_fraction"])
         if why is not None:

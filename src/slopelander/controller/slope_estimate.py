@@ -1,0 +1,426 @@
+"""The slope under the vehicle, measured from what it already has: points on the surface from the
+downward rangefinder, each reading placed with the attitude and the local position of its own
+moment, and a robust line fit through them along the landing direction (north, the planar
+model's x).
+
+Pure and numpy-only: it runs on the companion. How it works, what it cannot see and how far it
+is to be trusted: docs/slope-estimate.md.
+
+* :class:`SurfaceTrack` keeps the recent DISTANCE_SENSOR, ATTITUDE and LOCAL_POSITION_NED messages
+  (fed every message, e.g. as a :meth:`Link.add_listener`) and turns each range reading into a
+  point with the attitude and position interpolated to the reading's stamp (none within the
+  window: the reading is dropped; a reading out of the sensor's range is no point).
+* :func:`fit_line` is the robust fit: a Theil-Sen start, then iteratively reweighted least
+  squares with Tukey's biweight on a MAD scale.
+* :func:`estimate` fits the points near the landing spot and says why it will not be trusted
+  (too few points, too short a baseline, one side of the spot unseen, many outliers, two
+  different slopes on the two sides of the spot, too uncertain). A refused estimate carries no
+  slope to land on: the caller refuses, it does not guess.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_left
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: Tukey's biweight constant (95 % efficiency at the normal) and the MAD's normal consistency
+TUKEY_C = 4.685
+MAD_NORMAL = 1.4826
+#: the residual scale is never taken below this (m): noiseless points would give a zero scale
+SCALE_FLOOR_M = 0.002
+#: a point whose final weight is below this is counted as an outlier
+OUTLIER_WEIGHT = 0.1
+#: contiguous blocks of the block jackknife (points along a track are correlated within a block)
+JACKKNIFE_BLOCKS = 8
+#: MAV_SENSOR_ROTATION_PITCH_270: the downward rangefinder
+DOWNWARD = 25
+
+
+@dataclass(frozen=True)
+class EstimateSettings:
+    """What :func:`estimate` needs from the settings (``slope.*`` in default_config.yaml)."""
+
+    min_points: int = 30
+    min_baseline_m: float = 1.0
+    #: the spot must be seen on both sides, at least this far (m)
+    min_side_m: float = 0.3
+    #: points farther than this from the spot along north are not used (m)
+    half_span_m: float = 1.5
+    min_inlier_fraction: float = 0.7
+    max_sigma_deg: float = 3.0
+    sigma_floor_deg: float = 0.5
+    attitude_error_deg: float = 1.0
+    #: the two sides' slopes may differ by this much beyond their joint 3 sigma (deg)
+    plane_tolerance_deg: float = 4.0
+
+    @classmethod
+    def from_config(cls, cfg) -> EstimateSettings:
+        return cls(
+            min_points=int(cfg["slope.min_points"]),
+            min_baseline_m=float(cfg["slope.min_baseline_m"]),
+            min_side_m=float(cfg["slope.min_side_m"]),
+            half_span_m=float(cfg["slope.half_span_m"]),
+            min_inlier_fraction=float(cfg["slope.min_inlier_fraction"]),
+            max_sigma_deg=float(cfg["slope.max_sigma_deg"]),
+            sigma_floor_deg=float(cfg["slope.sigma_floor_deg"]),
+            attitude_error_deg=float(cfg["slope.attitude_error_deg"]),
+            plane_tolerance_deg=float(cfg["slope.plane_tolerance_deg"]),
+        )
+
+
+@dataclass(frozen=True)
+class LineFit:
+    """``h = intercept + gradient * x`` (h up); ``weights`` per point (0..1), ``scale_m`` the
+    residuals' robust scale, ``gradient_se`` the gradient's standard error from the weighted fit."""
+
+    intercept: float
+    gradient: float
+    weights: np.ndarray
+    scale_m: float
+    gradient_se: float
+
+
+@dataclass
+class SlopeEstimate:
+    """The slope along north (deg; positive: the surface falls toward north, the way the vehicle
+    faces to land) with its 1-sigma uncertainty, or the reason there is none (``refusal``).
+    ``points``: (t, north m, height up m, weight) of every point fitted."""
+
+    slope_deg: float | None
+    sigma_deg: float | None
+    refusal: str | None
+    spot_x_m: float
+    n_points: int = 0
+    n_inliers: int = 0
+    baseline_m: float = 0.0
+    scale_m: float | None = None
+    sides_deg: tuple[float, float] | None = None
+    points: list[tuple[float, float, float, float]] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.refusal is None
+
+    @property
+    def needs_survey(self) -> bool:
+        """Refused for want of points, not for what the points showed: a survey pass may help."""
+        return self.refusal is not None and self.refusal.startswith(LACK)
+
+    def describe(self) -> str:
+        if not self.ok:
+            return f"slope not measured: {self.refusal}"
+        return f"{self.slope_deg:.1f} +/- {self.sigma_deg:.1f} deg ({self.n_inliers}/{self.n_points} points)"
+
+    def record(self) -> dict:
+        """The JSON form written to the landing's record."""
+        return {
+            "slope_deg": None if self.slope_deg is None else round(self.slope_deg, 3),
+            "sigma_deg": None if self.sigma_deg is None else round(self.sigma_deg, 3),
+            "refusal": self.refusal,
+            "spot_x_m": round(self.spot_x_m, 3),
+            "n_points": self.n_points,
+            "n_inliers": self.n_inliers,
+            "baseline_m": round(self.baseline_m, 3),
+            "scale_m": None if self.scale_m is None else round(self.scale_m, 4),
+            "sides_deg": None if self.sides_deg is None else [round(s, 2) for s in self.sides_deg],
+            "points": [[round(t, 3), round(x, 4), round(h, 4), round(w, 3)] for t, x, h, w in self.points],
+        }
+
+
+#: refusals that more points could cure start with this
+LACK = "too little seen"
+
+
+def beam_point(
+    range_m: float, roll: float, pitch: float, yaw: float, north: float, east: float, down: float
+) -> tuple[float, float, float]:
+    """Where a downward beam of ``range_m`` from a body at (north, east, down) with this attitude
+    (rad, ArduPilot's Euler 321) meets the surface: the body's z axis in NED is the third column
+    of the body-to-NED rotation."""
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    zn = cr * sp * cy + sr * sy
+    ze = cr * sp * sy - sr * cy
+    zd = cr * cp
+    return north + range_m * zn, east + range_m * ze, down + range_m * zd
+
+
+def _interp(stamps: list[float], values: list[tuple], t: float, window: float) -> tuple | None:
+    """``values`` at ``t`` linearly between the two stamps around it, both within ``window``;
+    else the nearest within ``window``; else None."""
+    i = bisect_left(stamps, t)
+    lo = i - 1 if i > 0 else None
+    hi = i if i < len(stamps) else None
+    if lo is not None and hi is not None and t - stamps[lo] <= window and stamps[hi] - t <= window:
+        t0, t1 = stamps[lo], stamps[hi]
+        if t1 <= t0:
+            return values[hi]
+        f = (t - t0) / (t1 - t0)
+        return tuple(a + f * (b - a) for a, b in zip(values[lo], values[hi], strict=True))
+    best = None
+    for j in (lo, hi):
+        if j is not None and abs(stamps[j] - t) <= window and (best is None or abs(stamps[j] - t) < best[0]):
+            best = (abs(stamps[j] - t), values[j])
+    return None if best is None else best[1]
+
+
+class SurfaceTrack:
+    """The recent range readings, attitudes and positions, kept by vehicle time; feed it every
+    message (:meth:`feed`), ask it for surface points (:meth:`points`)."""
+
+    def __init__(self, window_s: float = 0.1, keep: int = 4000) -> None:
+        self.window_s = window_s
+        self.ranges: deque = deque(maxlen=keep)  # (t, distance m)
+        self.attitudes: deque = deque(maxlen=keep)  # (t, (roll, pitch, yaw))
+        self.positions: deque = deque(maxlen=keep)  # (t, (n, e, d))
+        self.dropped = 0
+
+    def feed(self, msg) -> None:
+        kind = msg.get_type()
+        if kind == "DISTANCE_SENSOR":
+            if msg.orientation != DOWNWARD:
+                return
+            t = msg.time_boot_ms / 1000.0
+            if msg.min_distance < msg.current_distance < msg.max_distance:  # in range: a surface
+                self.ranges.append((t, msg.current_distance / 100.0))
+        elif kind == "ATTITUDE":
+            att = (msg.roll, msg.pitch, msg.yaw)
+            if all(math.isfinite(a) for a in att):
+                _insert(self.attitudes, msg.time_boot_ms / 1000.0, att)
+        elif kind == "LOCAL_POSITION_NED":
+            pos = (msg.x, msg.y, msg.z)
+            if all(math.isfinite(p) for p in pos):
+                _insert(self.positions, msg.time_boot_ms / 1000.0, pos)
+
+    def add(self, t: float, range_m: float | None = None, attitude=None, position=None) -> None:
+        """Add samples directly (offline evaluation, tests): each given part at vehicle time ``t``."""
+        if range_m is not None:
+            self.ranges.append((t, range_m))
+        if attitude is not None:
+            _insert(self.attitudes, t, tuple(attitude))
+        if position is not None:
+            _insert(self.positions, t, tuple(position))
+
+    def points(self, since_s: float = -math.inf) -> list[tuple[float, float, float]]:
+        """(t, north m, height up m) of each range reading since ``since_s`` whose attitude and
+        position are known within the window; the others are dropped (counted in ``dropped``)."""
+        at, av = [a[0] for a in self.attitudes], [a[1] for a in self.attitudes]
+        pt, pv = [p[0] for p in self.positions], [p[1] for p in self.positions]
+        out, self.dropped = [], 0
+        for t, d in sorted(self.ranges):
+            if t < since_s:
+                continue
+            att = _interp(at, av, t, self.window_s)
+            pos = _interp(pt, pv, t, self.window_s)
+            if att is None or pos is None:
+                self.dropped += 1
+                continue
+            n, _e, down = beam_point(d, *att, *pos)
+            out.append((t, n, -down))
+        return out
+
+    def position(self) -> tuple[float, float, float] | None:
+        """The newest position (north, east, down)."""
+        return self.positions[-1][1] if self.positions else None
+
+
+def _insert(dq: deque, t: float, value: tuple) -> None:
+    """Append in time order (a reordered, older message is put in its place)."""
+    if not dq or t >= dq[-1][0]:
+        dq.append((t, value))
+        return
+    items = list(dq)
+    i = bisect_left([s for s, _ in items], t)
+    items.insert(i, (t, value))
+    dq.clear()
+    dq.extend(items[-dq.maxlen :] if dq.maxlen else items)
+
+
+def theil_sen(x: np.ndarray, h: np.ndarray, max_pairs: int = 20000) -> tuple[float, float]:
+    """The median of the pairwise gradients (a strided subset of pairs when there are many) and
+    the median intercept: a start that half the points being wrong does not move."""
+    n = x.size
+    i, j = np.triu_indices(n, 1)
+    if i.size > max_pairs:
+        keep = np.linspace(0, i.size - 1, max_pairs).astype(int)
+        i, j = i[keep], j[keep]
+    dx = x[j] - x[i]
+    ok = np.abs(dx) > 1e-6
+    if not ok.any():
+        return float(np.median(h)), 0.0
+    g = float(np.median((h[j] - h[i])[ok] / dx[ok]))
+    return float(np.median(h - g * x)), g
+
+
+def fit_line(x: np.ndarray, h: np.ndarray, iterations: int = 30) -> LineFit:
+    """Robust ``h = a + b x``: Theil-Sen start, then IRLS with Tukey's biweight on the MAD scale
+    of the residuals (re-estimated each round, floored at :data:`SCALE_FLOOR_M`)."""
+    x = np.asarray(x, float)
+    h = np.asarray(h, float)
+    if x.size < 2:
+        raise ValueError("a line needs at least two points")
+    a, b = theil_sen(x, h)
+    w = np.ones_like(x)
+    s = SCALE_FLOOR_M
+    for _ in range(iterations):
+        r = h - (a + b * x)
+        s = max(SCALE_FLOOR_M, MAD_NORMAL * float(np.median(np.abs(r - np.median(r)))))
+        u = r / (TUKEY_C * s)
+        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        sw = w.sum()
+        if sw <= 0 or np.count_nonzero(w) < 2:
+            break
+        xm = float((w * x).sum() / sw)
+        sxx = float((w * (x - xm) ** 2).sum())
+        if sxx <= 1e-12:
+            break
+        nb = float((w * (x - xm) * (h - (w * h).sum() / sw)).sum() / sxx)
+        na = float((w * h).sum() / sw - nb * xm)
+        done = abs(nb - b) < 1e-9 and abs(na - a) < 1e-9
+        a, b = na, nb
+        if done:
+            break
+    r = h - (a + b * x)
+    sw = float(w.sum())
+    xm = float((w * x).sum() / sw) if sw > 0 else 0.0
+    sxx = float((w * (x - xm) ** 2).sum())
+    neff = float(np.count_nonzero(w > OUTLIER_WEIGHT))
+    var = float((w * r * r).sum() / max(1.0, sw)) * neff / max(1.0, neff - 2.0)
+    se = math.sqrt(max(var, SCALE_FLOOR_M**2) / sxx) if sxx > 0 else math.inf
+    return LineFit(a, b, w, s, se)
+
+
+def _deg(gradient: float) -> float:
+    """The slope (deg, positive falling toward north) of ``h = a + gradient x``."""
+    return math.degrees(math.atan(-gradient))
+
+
+def _deg_se(gradient: float, se: float) -> float:
+    return math.degrees(se / (1.0 + gradient * gradient))
+
+
+def estimate(
+    points: list[tuple[float, float, float]], spot_x_m: float, settings: EstimateSettings | None = None
+) -> SlopeEstimate:
+    """The slope along north at the landing spot (north ``spot_x_m``) from ``points`` (t, north,
+    height up), or a refusal saying why not. The uncertainty (1 sigma) is the root sum of squares
+    of: the block jackknife of the fit over :data:`JACKKNIFE_BLOCKS` runs of consecutive points
+    (points along a track share the position's slow errors, which a per-point error ignores);
+    the attitude's bias (``attitude_error_deg``: a pitch bias d moves the slope by sin^2(slope) d
+    at level flight); and a floor (``sigma_floor_deg``)."""
+    st = settings or EstimateSettings()
+    near = [p for p in points if abs(p[1] - spot_x_m) <= st.half_span_m]
+    est = SlopeEstimate(None, None, None, spot_x_m, n_points=len(near))
+    if not near:
+        est.refusal = f"{LACK}: no rangefinder point within {st.half_span_m:g} m of the spot"
+        return est
+    arr = np.array(near, float)
+    t, x, h = arr[:, 0], arr[:, 1], arr[:, 2]
+    est.baseline_m = float(x.max() - x.min())
+    behind, ahead = spot_x_m - float(x.min()), float(x.max()) - spot_x_m
+    est.points = [(float(a), float(b), float(c), 1.0) for a, b, c in near]
+    if len(near) < st.min_points:
+        est.refusal = f"{LACK}: {len(near)} points, {st.min_points} needed"
+        return est
+    if est.baseline_m < st.min_baseline_m:
+        est.refusal = f"{LACK}: the points span {est.baseline_m:.2f} m, {st.min_baseline_m:g} m needed"
+        return est
+    if min(behind, ahead) < st.min_side_m:
+        side = "south" if behind < ahead else "north"
+        est.refusal = (
+            f"{LACK}: surface seen only {min(behind, ahead):.2f} m {side} of the spot "
+            f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
+        )
+        return est
+    fit = fit_line(x, h)
+    est.points = [
+        (float(a), float(b), float(c), float(w)) for (a, b, c), w in zip(near, fit.weights, strict=True)
+    ]
+    est.scale_m = fit.scale_m
+    est.n_inliers = int(np.count_nonzero(fit.weights > OUTLIER_WEIGHT))
+    slope = _deg(fit.gradient)
+    est.slope_deg = slope
+    frac = est.n_inliers / len(near)
+    if frac < st.min_inlier_fraction:
+        est.refusal = (
+            f"only {frac:.0%} of {len(near)} points lie on one plane "
+            f"({st.min_inlier_fraction:.0%} needed): the surface under the pass is not flat"
+        )
+        return est
+    # the two sides of the spot: one plane has one slope (a ridge or a gutter under the path does not)
+    sides = []
+    for m in (x < spot_x_m, x >= spot_x_m):
+        if np.count_nonzero(m) >= max(5, st.min_points // 4) and np.ptp(x[m]) >= 0.5 * st.min_side_m:
+            f = fit_line(x[m], h[m])
+            sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
+    if len(sides) == 2:
+        est.sides_deg = (sides[0][0], sides[1][0])
+        diff = abs(sides[0][0] - sides[1][0])
+        allowed = 3.0 * math.hypot(sides[0][1], sides[1][1]) + st.plane_tolerance_deg
+        if diff > allowed:
+            est.refusal = (
+                f"the surface is not one plane: {sides[0][0]:.1f} deg south of the spot, "
+                f"{sides[1][0]:.1f} deg north of it (a ridge or an edge under the path)"
+            )
+            return est
+    # block jackknife in time order
+    order = np.argsort(t)
+    blocks = np.array_split(order, JACKKNIFE_BLOCKS)
+    leave = []
+    for b in blocks:
+        keep = np.ones(x.size, bool)
+        keep[b] = False
+        if np.ptp(x[keep]) > 0.25 * est.baseline_m and keep.sum() >= 2:
+            leave.append(_deg(fit_line(x[keep], h[keep]).gradient))
+    k = len(leave)
+    jack = (
+        math.sqrt((k - 1) / k * float(np.sum((np.array(leave) - np.mean(leave)) ** 2)))
+        if k >= 3
+        else math.inf
+    )
+    stat = max(jack, _deg_se(fit.gradient, fit.gradient_se))
+    att = math.sin(math.radians(slope)) ** 2 * st.attitude_error_deg
+    est.sigma_deg = math.sqrt(stat**2 + att**2 + st.sigma_floor_deg**2)
+    if est.sigma_deg > st.max_sigma_deg:
+        est.refusal = (
+            f"too uncertain: {slope:.1f} +/- {est.sigma_deg:.1f} deg (at most {st.max_sigma_deg:g} deg)"
+        )
+    return est
+
+
+def check_bound(cell_deg: float, sigma_deg: float, sigmas: float, fixed_deg: float | None = None) -> float:
+    """How far a pilot's slope may lie from the measured one (deg): ``fixed_deg`` when set, else
+    half the table's slope cell (a slope within it picks a neighbouring cell's preset at worst)
+    plus ``sigmas`` of the estimate's uncertainty."""
+    if fixed_deg is not None:
+        return float(fixed_deg)
+    return 0.5 * cell_deg + sigmas * sigma_deg
+
+
+def slope_to_land(est: SlopeEstimate, bound_deg: float) -> tuple[float | None, str | None]:
+    """The slope (deg, >= 0) a landing may use from ``est``, or why none: a surface falling toward
+    south by more than ``bound_deg`` has the vehicle facing uphill (its uphill legs downhill)."""
+    if not est.ok:
+        return None, est.describe()
+    if est.slope_deg < -bound_deg:
+        return None, (
+            f"the surface falls toward south ({-est.slope_deg:.1f} deg): the vehicle must face downhill "
+            "(north) to land"
+        )
+    return max(0.0, est.slope_deg), None
+
+
+def pilot_refusal(pilot_deg: float, est: SlopeEstimate, bound_deg: float) -> str | None:
+    """Why the pilot's slope does not fit the measured one, naming both, or None."""
+    if not est.ok:
+        return est.describe()
+    if abs(pilot_deg - est.slope_deg) > bound_deg:
+        return (
+            f"pilot's slope {pilot_deg:g} deg, measured {est.slope_deg:.1f} +/- {est.sigma_deg:.1f} deg "
+            f"(they may differ by {bound_deg:.1f} deg)"
+        )
+    return None

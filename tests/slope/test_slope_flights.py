@@ -1,0 +1,126 @@
+"""The measured slope in whole flights (sitl.rig): the companion flies its survey pass over the
+spot, fits the slope, and either lands on it (``--slope auto``) or checks the pilot's number in
+CHECKS. The estimate, its uncertainty and its points are the record's first line."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+
+import pytest
+
+from sitl.rig import Rig, config
+from slopelander.controller.landing import expected_impact_speed, leg_geometry
+from slopelander.controller.runner import Lander
+from slopelander.controller.slope_estimate import SurfaceTrack, check_bound, slope_to_land
+from slopelander.controller.survey import measure_slope
+from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+from tests.flights.conftest import autopilot  # noqa: F401 (the fixture: sim, and ArduCopter when present)
+from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range
+
+TABLE = LookupTable.load(DEFAULT_TABLE)
+CELL_DEG = float(max(TABLE.slopes[1:] - TABLE.slopes[:-1]))
+
+
+def preset_for(slope_deg: float, cfg):
+    speed = expected_impact_speed(
+        cfg["descent.rate_mps"], cfg["reflex.cut_height_m"], slope_deg, leg_geometry()
+    )
+    return TABLE.lookup(slope_deg, speed)
+
+
+def fly(rig: Rig, pilot, over_roof: bool):
+    """Measure as ``slopelander land`` does, then land with the slope it gives (the measured one
+    for ``pilot='auto'``, else the pilot's) and the cut height set for the true roof's slope."""
+    cut = round(max(0.3, contact_range(rig.slope_deg if over_roof else 0.0) + FALL_M), 2)
+    cfg = config(reflex={"cut_height_m": cut})
+    if over_roof:
+        rig.go_over_roof(2.0)
+    track = SurfaceTrack(cfg["slope.pair_window_s"])
+    rig.link.add_listener(track.feed)
+    est, took = measure_slope(rig.link, cfg, track, tick=rig.poll, note=lambda _: None)
+    bound = check_bound(
+        CELL_DEG, est.sigma_deg or 0.0, cfg["slope.check_sigmas"], cfg["slope.check_bound_deg"]
+    )
+    if pilot == "auto":
+        slope, why = slope_to_land(est, bound)
+        assert why is None, (est.describe(), est.sides_deg)
+    else:
+        slope = float(pilot)
+    p = preset_for(slope, cfg)
+    record = io.StringIO()
+    lander = Lander(
+        rig.link,
+        cfg,
+        (p.tau_up, p.tau_down),
+        legs=rig.legs,
+        record=record,
+        slope_deg=slope,
+        slope_estimate=est,
+        slope_bound_deg=bound,
+    )
+    flight = rig.land((p.tau_up, p.tau_down), cfg, lander=lander, timeout_s=90.0, rest_s=2.0)
+    first = json.loads(record.getvalue().splitlines()[0])
+    return flight, est, took, p, first
+
+
+def test_auto_over_a_35_deg_roof_lands_with_the_35_deg_preset(autopilot: str) -> None:  # noqa: F811
+    with Rig(slope_deg=35.0, seed=36, autopilot=autopilot) as rig:
+        rig.take_off(3.0)
+        flight, est, took, preset, first = fly(rig, "auto", over_roof=True)
+    ctx = (autopilot, est.describe(), flight.history[-4:])
+    assert took > 0, ctx  # hovering shows one spot only: the companion flew its survey pass
+    assert abs(est.slope_deg - 35.0) <= 1.5, ctx
+    assert est.sigma_deg <= 2.0, ctx
+    want = preset_for(35.0, flight.cfg)
+    # the measured slope picks the 35 deg cell's preset (within what 1.5 deg of interpolation moves)
+    assert math.isclose(preset.tau_up, want.tau_up, abs_tol=0.3), (preset, want)
+    assert math.isclose(preset.tau_down, want.tau_down, abs_tol=0.3), (preset, want)
+    assert flight.end == "LANDED", ctx
+    assert flight.contact is not None and abs(flight.contact["slope"] - 35.0) < 0.5, ctx
+    # the record starts with the estimate, its uncertainty and the points behind it
+    rec = first["slope_estimate"]
+    assert rec["refusal"] is None and abs(rec["slope_deg"] - est.slope_deg) < 1e-3
+    assert len(rec["points"]) == est.n_points >= 30
+
+
+def test_a_pilot_slope_of_15_over_the_35_deg_roof_is_refused_before_the_cut() -> None:
+    with Rig(slope_deg=35.0, seed=37) as rig:
+        rig.take_off(3.0)
+        flight, est, _took, _p, first = fly(rig, 15.0, over_roof=True)
+    assert flight.end == "ABORTED", flight.history
+    last = flight.history[-1]
+    assert last["from"] == "CHECKS", flight.history
+    assert "pilot's slope 15 deg" in last["reason"] and f"measured {est.slope_deg:.1f}" in last["reason"], (
+        last
+    )
+    assert "CUT" not in flight.states and "DESCEND" not in flight.states
+    assert flight.contact is None
+    assert first["slope_deg"] == 15.0 and first["slope_estimate"]["slope_deg"] > 30
+
+
+def test_a_pilot_slope_of_35_over_the_flat_pad_is_refused() -> None:
+    with Rig(slope_deg=35.0, seed=38) as rig:
+        rig.take_off(2.0)  # over the pad at x = 0, the roof's edge 3 m north: the pass stays on the pad
+        flight, est, _took, _p, _first = fly(rig, 35.0, over_roof=False)
+    assert abs(est.slope_deg) <= 1.5, est.describe()
+    assert flight.end == "ABORTED", flight.history
+    last = flight.history[-1]
+    assert last["from"] == "CHECKS" and "pilot's slope 35 deg" in last["reason"], last
+    assert "CUT" not in flight.states
+
+
+@pytest.mark.parametrize("why", ["not armed"])
+def test_no_survey_on_a_vehicle_on_the_ground(why: str) -> None:
+    """A vehicle resting on the pad, disarmed: one spot seen, no pass flown, the estimate refused
+    (an auto landing then does not start) and says what was missing."""
+    cfg = config()
+    with Rig(slope_deg=20.0, seed=39) as rig:
+        track = SurfaceTrack(cfg["slope.pair_window_s"])
+        rig.link.add_listener(track.feed)
+        rig.wait(1.0)
+        est, took = measure_slope(rig.link, cfg, track, tick=rig.poll, note=lambda _: None)
+    assert took == 0.0
+    assert not est.ok and est.slope_deg is None
+    assert "too little seen" in est.refusal and ("GUIDED" in est.refusal or why in est.refusal), est.refusal
