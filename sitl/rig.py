@@ -265,6 +265,7 @@ class Rig:
         script: bool = True,
         autopilot: str = "sim",
         arducopter: str | None = None,
+        extra_endpoints: list[str] | None = None,
     ) -> None:
         if autopilot not in AUTOPILOTS:
             raise ValueError(f"autopilot must be one of {', '.join(AUTOPILOTS)}, not {autopilot!r}")
@@ -295,6 +296,7 @@ class Rig:
                     lockstep=True,
                     legboard_control=self.board.control,
                     no_script=not script,
+                    extra_endpoints=extra_endpoints,
                 )
             url = self.vehicle.mavlink_url
             if relay:

@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import re
+import signal
 import sys
 from pathlib import Path
 from typing import IO
@@ -222,7 +223,17 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
             slope_estimate=est,
             slope_bound_deg=bound,
         )
-        end = lander.run(args.timeout)
+        with PilotInterrupts(lander) as interrupts:
+            end = lander.run(args.timeout, interrupts=interrupts)
+        left = link.settle()
+        if left:
+            print(f"warning: {left} command(s) to the autopilot unanswered at exit", flush=True)
+        if end == "SETTLED":  # ended on the roof, armed, motors held: said, not hidden
+            print(
+                "the vehicle is ARMED on the roof with its motors held stopped by the on-board script; "
+                "it disarms itself once still (the companion is silent now): stay clear",
+                flush=True,
+            )
         print(f"outcome: {end}", flush=True)
         if args.record:
             print(f"transitions: {args.record}")
@@ -233,6 +244,43 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
         if legs is not None:
             legs.close()
         link.close()
+
+
+class PilotInterrupts:
+    """Ctrl-C (SIGINT) and SIGTERM during a landing are counted, not raised: what an interrupt
+    does depends on the landing's state (:meth:`slopelander.controller.runner.Lander.interrupt`),
+    and a KeyboardInterrupt thrown out of the middle of a step would leave the vehicle wherever
+    it was. Each one is answered with a line saying what happens now."""
+
+    def __init__(self, lander) -> None:
+        self.lander = lander
+        self.count = 0
+        self._old: dict[int, object] = {}
+
+    def _on_signal(self, signum: int, frame: object) -> None:
+        self.count += 1
+        state = self.lander.machine.name if self.lander.machine._started else "PRESET"
+        if state in ("CUT", "REVERSE", "SETTLED") and self.count == 1:
+            what = "on the roof with the motors held: finishing the landing to its disarm (again to leave)"
+        elif state in ("CUT", "REVERSE", "SETTLED"):
+            what = "leaving the vehicle to the on-board script, which disarms it once still"
+        elif state in ("LANDED", "READY", "ABORTED", "ESTOP"):
+            what = "ending"
+        else:
+            what = "aborting the landing: the autopilot holds position in LOITER"
+        print(f"interrupted in {state}: {what}", flush=True)
+
+    def __call__(self) -> int:
+        return self.count
+
+    def __enter__(self) -> PilotInterrupts:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._old[sig] = signal.signal(sig, self._on_signal)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
 
 
 def measured_slope(

@@ -675,6 +675,18 @@ class Link:
             sleep(0.01)
         return self.info
 
+    def settle(self, timeout_s: float = 1.5, sleep: Callable[[float], None] = time.sleep) -> int:
+        """Poll until every command sent is answered or out of tries, at most ``timeout_s`` local
+        seconds; returns how many were still unanswered. Before closing: ArduPilot SITL drops what
+        it had not yet read from a client that disconnects, and a real serial link may be cut, so
+        a disarm or an end of the reverse thrust sent last is seen answered (or re-sent) first."""
+        end = self.monotonic() + timeout_s
+        while self._commands and self.monotonic() < end:
+            self.poll()
+            self._commands = [h for h in self._commands if not h.done]
+            sleep(0.005)
+        return len(self._commands)
+
     def close(self) -> None:
         """Close the connection."""
         self.conn.close()

@@ -37,6 +37,8 @@ SCRIPT_ESTOP = ScriptState.ESTOP
 #: the longest the landing loop waits for input between polls: the leg board's queued writes and
 #: the descent setpoint's re-sends still go out at 200 Hz or more
 POLL_WAIT_S = 0.005
+#: after an interrupt in the air, how long (local s) the companion waits to see LOITER
+INTERRUPT_WAIT_S = 3.0
 #: how fast the loop's estimate of the vehicle's speed (vehicle per local seconds) follows a change
 RATE_GAIN = 0.2
 MAX_RATE = 50.0
@@ -292,8 +294,46 @@ class Lander:
             self.machine.transition("LEGS_WAIT", what, inp)
         return True
 
+    def interrupt(self, count: int) -> bool:
+        """The pilot's interrupt (Ctrl-C, SIGTERM) number ``count``, in the state the landing is
+        in (docs/failsafes.md, "Interrupting a landing"); True when the landing loop should end.
+
+        - Ended (LANDED, READY, ABORTED, ESTOP): nothing to do.
+        - On the roof with the motors held (CUT, REVERSE, SETTLED): the first interrupt lets the
+          landing finish to its confirmed disarm (releasing the script on a roof is what the
+          landing exists to avoid); a second one ends the loop and leaves the vehicle to the
+          script, which disarms it once still when the companion falls silent.
+        - Anywhere else (before contact, in the air, in the take-off): the landing is aborted
+          (the autopilot holds position in LOITER) and the loop ends once the autopilot says
+          LOITER, or after a few seconds."""
+        name = self.machine.name if self.machine._started else None
+        if name in ENDINGS:
+            return True
+        inp = self.inputs()
+        if name in ("CUT", "REVERSE", "SETTLED") or self.machine.held_on_the_roof(inp):
+            if count == 1:
+                self.act.statustext("SL interrupt: finishing the landing")
+                return False
+            self.act.statustext("SL interrupt: left to the on-board script")
+            return True
+        if name is not None:
+            self.machine.transition("ABORTED", "interrupted by the pilot", inp)
+        end = time.monotonic() + INTERRUPT_WAIT_S
+        while time.monotonic() < end:
+            self.poll()
+            hb = self.link.last.get("HEARTBEAT")
+            armed = hb is not None and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+            if hb is not None and (not armed or MODES.get("LOITER") == hb.custom_mode):
+                break
+            time.sleep(0.01)
+        return True
+
     def run(
-        self, timeout_s: float, sleep: Callable[[float], None] | None = None, until: tuple[str, ...] = ENDINGS
+        self,
+        timeout_s: float,
+        sleep: Callable[[float], None] | None = None,
+        until: tuple[str, ...] = ENDINGS,
+        interrupts: Callable[[], int] | None = None,
     ) -> str:
         """Poll until an ending state (or ``timeout_s`` local seconds: then abort); returns the state.
         Between polls it waits for the link or the leg board to have bytes (at most
@@ -307,11 +347,16 @@ class Lander:
         period = self.cfg["link.poll_period_s"]
         rate = 1.0  # vehicle seconds per local second, smoothed; never taken below real time
         last_w, last_v = time.monotonic(), self.link.clock.now()
+        handled = 0
         while True:
             started = time.monotonic()
             name = self.poll()
             if self.machine._started and name in until:
                 return name
+            if interrupts is not None and interrupts() > handled:
+                handled = interrupts()
+                if self.interrupt(handled):
+                    return self.machine.name if self.machine._started else "ABORTED"
             if self.link.monotonic() - t0 > timeout_s:
                 self.machine.transition(
                     "ABORTED", f"landing not finished within {timeout_s:g} s", self.inputs()

@@ -1,0 +1,107 @@
+"""Ctrl-C (a real SIGINT to the real ``slopelander land`` process) during a landing on the
+simulated vehicle leaves it safe, by the state it came in (docs/failsafes.md, "Interrupting a
+landing"): in the descent the landing is aborted and the autopilot holds position in LOITER,
+armed and no longer descending; on the roof after contact the landing is finished to its
+confirmed disarm. About a minute each."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from sitl.rig import Rig
+from sitl.vehicle.launch import free_port
+
+ENV = {**os.environ, "MAVLINK20": "1"}
+
+
+def fly_land_and_interrupt(tmp_path: Path, when: str, slope: float = 20.0):
+    """Hover over the roof, run ``land`` on a second endpoint, SIGINT it when it prints ``when``;
+    returns its output lines, its exit status and the rig (the vehicle seen from a ground station)."""
+    port = free_port()
+    cfg = tmp_path / "no-survey.yaml"
+    cfg.write_text("slope:\n  check_pilot: false\n")  # the pilot's slope as given: no survey pass
+    rig = Rig(slope_deg=slope, seed=8, extra_endpoints=[f"tcpin:127.0.0.1:{port}"])
+    try:
+        rig.take_off(3.0)
+        rig.go_over_roof(2.0)
+        pty = rig.board.pty
+        rig.legs.close()  # the leg board is the landing's now
+        rig.legs = None
+        args = ["--connect", f"tcp:127.0.0.1:{port}", "--legs", pty, "--slope", f"{slope:g}"]
+        args += ["--config", str(cfg), "--timeout", "120"]
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "slopelander.cli",
+                "land",
+                *args,
+                "--config",
+                str(cfg),
+                "--timeout",
+                "120",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=ENV,
+            cwd=tmp_path,
+        )
+        lines: list[str] = []
+        sent_at = None
+        deadline = time.monotonic() + 240
+        for line in proc.stdout:
+            lines.append(line.rstrip())
+            rig.poll()
+            if sent_at is None and when in line:
+                proc.send_signal(signal.SIGINT)
+                sent_at = rig.now
+            if time.monotonic() > deadline:
+                proc.kill()
+                break
+        status = proc.wait(30)
+        return lines, status, proc.stderr.read(), rig, sent_at
+    except BaseException:
+        rig.close()
+        raise
+
+
+@pytest.mark.slow
+def test_ctrl_c_in_the_descent_aborts_to_loiter_and_the_vehicle_stops_descending(tmp_path: Path) -> None:
+    lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "-> DESCEND")
+    try:
+        assert sent_at is not None, lines
+        assert any(ln.startswith("interrupted in DESCEND: aborting the landing") for ln in lines), lines
+        assert any("-> ABORTED" in ln and "interrupted by the pilot" in ln for ln in lines), lines
+        assert lines[-1] == "outcome: ABORTED" and status == 3, (lines[-3:], err[-500:])
+        assert "Traceback" not in err, err
+        # the autopilot holds position, armed: it neither descends to the roof nor drops
+        rig.wait(0.5)
+        assert rig.armed() and rig.mode() == 5, (rig.armed(), rig.mode())  # LOITER
+        h0 = rig.height()
+        rig.wait(3.0)
+        assert abs(rig.height() - h0) < 0.3, (h0, rig.height())
+        assert not rig.track.event_times("EV_STOP", sent_at - 5.0)  # the motors never stopped
+    finally:
+        rig.close()
+
+
+@pytest.mark.slow
+def test_ctrl_c_after_contact_finishes_the_landing_to_its_disarm(tmp_path: Path) -> None:
+    lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "-> REVERSE")
+    try:
+        assert sent_at is not None, lines
+        assert any(ln.startswith("interrupted in REVERSE: on the roof") for ln in lines), lines
+        assert any("-> LANDED" in ln and "seen in the HEARTBEAT" in ln for ln in lines), lines
+        assert lines[-1] == "outcome: LANDED" and status == 0, (lines[-3:], err[-500:])
+        rig.wait(0.5)
+        assert not rig.armed()
+    finally:
+        rig.close()
