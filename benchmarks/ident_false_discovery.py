@@ -25,6 +25,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
@@ -151,7 +153,13 @@ def main() -> int:
             "hidden": args.hide,
             "values": d.missing.values() if d.missing else None,
             "candidates": [
-                {"name": r.candidate.name, "screening": r.screening, "gain": d.gain(r), "p": r.p}
+                {
+                    "name": r.candidate.name,
+                    "screening": r.screening,
+                    "gain": d.gain(r),
+                    "p": r.p,
+                    "drop_gains": np.log(d.base_heldout_mse / r.heldout_mse).round(6).tolist(),
+                }
                 for r in d.results
                 if r.fits
             ],

@@ -118,7 +118,14 @@ class CandidateResult:
     def train_nrmse(self) -> float:
         return float(np.mean([f.train_nrmse for f in self.fits]))
 
+    final: FitResult | None = None
+    """Refitted on every drop once named missing (the estimate; the groups' fits decided)."""
+
     def values(self) -> dict[str, float]:
+        """The fitted values: from the refit on every drop when there is one, else the mean of
+        the groups' fits."""
+        if self.final is not None:
+            return {p: float(self.final.values[p]) for p in self.candidate.params}
         return {p: float(np.mean([f.values[p] for f in self.fits])) for p in self.candidate.params}
 
     def spread(self) -> dict[str, tuple[float, float]]:
@@ -143,6 +150,8 @@ class Diagnosis:
     """NRMSE the recordings' declared noise alone leaves (None: not declared)."""
     folds: int = FOLDS
     alpha: float = ALPHA
+    final: FitResult | None = None
+    """The missing candidate refitted on every drop: its values and their intervals over drops."""
 
     @property
     def base_validation(self) -> float:
@@ -219,6 +228,12 @@ class Diagnosis:
         floor = f"{self.floor:.4f}" if self.floor is not None else None
         if m is not None:
             vals = ", ".join(f"{k} = {v:.4g}" for k, v in m.values().items())
+            if self.final is not None:
+                vals = ", ".join(
+                    f"{k} = {self.final.values[k]:.4g} +- {self.final.ci95[k]:.2g}"
+                    for k in m.candidate.params
+                )
+                vals += f" (refitted on all {len(self.drops)} drops; 95 % intervals over drops)"
             return (
                 f"missing: {m.candidate.name} (held-out NRMSE {self.base_validation:.4f} -> "
                 f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % lower; {self.evidence(m)}; {vals})"
@@ -543,6 +558,22 @@ def diagnose(
     floor = noise_floor(control[0].model, drops, ranges, seed=seed)
     d = Diagnosis(control, results, base_nrmse, base_mse, drops, test, floor, folds, alpha)
     results.sort(key=lambda r: (not r.fits, -d.gain(r) if r.fits else -r.screening))
+    m = d.missing
+    if m is not None:
+        # the decision used held-out drops; the estimate uses them all, from the groups' mean
+        mean = {p.name: float(np.mean([f.values[p.name] for f in m.fits])) for p in m.fits[0].params}
+        d.final = fit(
+            m.candidate.add_to(model),
+            drops,
+            list(m.fits[0].params),
+            seed=seed,
+            cma_evals=refit_evals,
+            start=mean,
+            also=[f.values for f in m.fits],
+            sigma=0.1,
+            **kw,
+        )
+        m.final = d.final
     return d
 
 

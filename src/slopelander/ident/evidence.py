@@ -10,9 +10,12 @@ is the gain of a model the drop did not shape. With nothing missing, a candidate
 parameters fit the training drops' noise and gain nothing on a drop they did not see (a
 little less than nothing on average), so d_i is as likely negative as positive. The test flips
 the signs of the drops' gains at random (all 2^n patterns for up to 16 drops) and asks how
-often the best candidate's studentised mean gain is at least the one observed: the maximum over
-candidates is taken in every pattern, so the p-value is corrected for trying several
-candidates (Westfall and Young's max-T), which are far from independent.
+often the best candidate's mean gain is at least the one observed: the maximum over candidates
+is taken in every pattern, so the p-value is corrected for trying several candidates (Westfall
+and Young's max-statistic), which are far from independent. The gains share one unit (a log
+error ratio), so the plain mean is used: studentised, a candidate with tiny but equal gains on
+every drop reached huge values in the flipped patterns and hid a real effect that acts on some
+drops more than others (a viscous joint at -44 % held-out error read p = 0.077).
 """
 
 from __future__ import annotations
@@ -38,29 +41,19 @@ def weighted_mse(per_state: np.ndarray) -> float:
     return float(np.sum(WEIGHTS * np.asarray(per_state) ** 2) / WEIGHTS.sum())
 
 
-def _t(d: np.ndarray) -> np.ndarray:
-    """Studentised mean of each row (0 where a row has no spread and no mean)."""
-    n = d.shape[-1]
-    m = d.mean(axis=-1)
-    var = np.maximum((np.sum(d * d, axis=-1) - n * m * m) / max(n - 1, 1), 0.0)
-    se = np.sqrt(var / n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(se > 0, m / np.where(se > 0, se, 1.0), np.sign(m) * np.inf)
-    return np.where((se == 0) & (m == 0), 0.0, t)
-
-
 @dataclass(frozen=True)
 class SignFlipTest:
-    """Max-T sign-flip test of the candidates' per-drop held-out gains."""
+    """Max-statistic sign-flip test of the candidates' per-drop held-out gains."""
 
     t: np.ndarray
-    """Studentised mean gain per candidate."""
+    """Mean gain per candidate (the test's statistic)."""
     p: np.ndarray
     """Family-wise p-value per candidate (corrected for trying them all)."""
     patterns: int
     exact: bool
     critical: float
-    """The max-T a candidate must reach at the test's level (its 1 - alpha quantile)."""
+    """The mean gain a candidate must reach at the test's level (the 1 - alpha quantile of
+    the best candidate's under sign flips)."""
 
 
 def sign_flip_test(gains: np.ndarray, alpha: float = 0.05, seed: int = 0) -> SignFlipTest:
@@ -74,9 +67,8 @@ def sign_flip_test(gains: np.ndarray, alpha: float = 0.05, seed: int = 0) -> Sig
         rng = np.random.default_rng(seed)
         signs = np.vstack([np.ones(n), rng.choice((1.0, -1.0), (RANDOM_FLIPS, n))])
         exact = False
-    t_obs = _t(gains)
-    flipped = gains[:, None, :] * signs[None, :, :]  # candidates x patterns x drops
-    max_t = _t(flipped).max(axis=0)
+    t_obs = gains.mean(axis=1)
+    max_t = (signs @ gains.T / n).max(axis=1)  # patterns: the best candidate's mean gain
     p = np.array([float(np.mean(max_t >= t - 1e-12)) for t in t_obs])
     crit = float(np.quantile(max_t, 1.0 - alpha))
     return SignFlipTest(t_obs, p, len(signs), exact, crit)
