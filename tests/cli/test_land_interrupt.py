@@ -27,7 +27,9 @@ def fly_land_and_interrupt(tmp_path: Path, when: str, slope: float = 20.0):
     port = free_port()
     cfg = tmp_path / "no-survey.yaml"
     cfg.write_text("slope:\n  check_pilot: false\n")  # the pilot's slope as given: no survey pass
-    rig = Rig(slope_deg=slope, seed=8, extra_endpoints=[f"tcpin:127.0.0.1:{port}"])
+    # the pilot holds the throttle centred: LOITER holds height (a low stick would descend)
+    centred = [{"t": 0.0, "channels": {3: 1500}}]
+    rig = Rig(slope_deg=slope, seed=8, scenario={"rc": centred}, extra_endpoints=[f"tcpin:127.0.0.1:{port}"])
     try:
         rig.take_off(3.0)
         rig.go_over_roof(2.0)
@@ -98,8 +100,10 @@ def test_ctrl_c_after_contact_finishes_the_landing_to_its_disarm(tmp_path: Path)
     lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "-> REVERSE")
     try:
         assert sent_at is not None, lines
-        assert any(ln.startswith("interrupted in REVERSE: on the roof") for ln in lines), lines
-        assert any("-> LANDED" in ln and "seen in the HEARTBEAT" in ln for ln in lines), lines
+        # sent on the line "-> REVERSE"; the landing may have moved on when the signal lands
+        said = [ln for ln in lines if ln.startswith("interrupted in ")]
+        assert len(said) == 1 and ": on the roof with the motors held: finishing" in said[0], lines
+        assert any("-> LANDED" in ln and "seen in the HEARTBEAT" in ln for ln in lines), " | ".join(lines[-4:])
         assert lines[-1] == "outcome: LANDED" and status == 0, (lines[-3:], err[-500:])
         rig.wait(0.5)
         assert not rig.armed()

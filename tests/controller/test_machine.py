@@ -683,3 +683,27 @@ def test_a_link_lost_before_contact_and_back_after_it_judges_the_vehicle_on_the_
     m.step(replace(OK, t=t + 3.0, range_m=0.2, script_state=13, link_ok=True))
     assert m.name == "SETTLED", m.history[-1]
     assert not {"release", "set_mode"} & {c[0] for c in act.calls[n:]}
+
+
+def test_a_script_that_disarmed_as_asked_is_not_taken_for_one_that_let_go():
+    """The script says IDLE as it disarms; the HEARTBEAT saying disarmed comes up to a second
+    later (found flying: SETTLED aborted "the script gave the motors back" 1 s before LANDED)."""
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    rest = replace(OK, range_m=0.2, script_state=13, speed_mps=0.0)
+    i = 1
+    while "disarm_asked" not in m.ctx.marks and i < 200:
+        m.step(replace(rest, t=t + 0.02 * i))
+        i += 1
+    t1 = t + 0.02 * i
+    m.step(replace(rest, t=t1, script_state=0))  # IDLE: disarmed, the HEARTBEAT not yet
+    m.step(replace(rest, t=t1 + 0.8, script_state=0))
+    assert m.name == "SETTLED"
+    m.step(replace(rest, t=t1 + 0.9, script_state=0, armed=False))
+    assert m.name == "LANDED"
+    # unasked, a script that lets go while armed hands the landing to the autopilot
+    m2, _, _ = make()
+    t = run_to(m2, "SETTLED")
+    m2.step(replace(rest, t=t + 0.05, script_state=0, speed_mps=0.3))
+    m2.step(replace(rest, t=t + 0.5, script_state=0, speed_mps=0.3))
+    assert m2.name == "ABORTED" and "gave the motors back" in m2.history[-1]["reason"]

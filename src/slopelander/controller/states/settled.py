@@ -40,6 +40,12 @@ def _moved(ctx: Context, inp: Inputs) -> float | None:
     return math.dist(start, inp.position_m)
 
 
+#: after the script disarmed as asked, how long (vehicle s) its IDLE may come before the HEARTBEAT
+#: that says disarmed (ArduCopter's HEARTBEAT is 1 Hz unless asked faster)
+DISARM_SEEN_S = 2.0
+#: a script that let go unasked: this long (vehicle s) for a reordered or late announcement
+LET_GO_S = 0.3
+
 #: how often (vehicle s) an unanswered or refused disarm request is sent again
 DISARM_RETRY_S = 0.5
 
@@ -68,7 +74,15 @@ class Settled(State):
     reflex_owns = True
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
-        for k in ("still_since", "settle_pos", "settle_track", "disarm_sent", "disarm_asked", "said"):
+        for k in (
+            "still_since",
+            "settle_pos",
+            "settle_track",
+            "disarm_sent",
+            "disarm_asked",
+            "said",
+            "script_let_go",
+        ):
             ctx.marks.pop(k, None)
         _moved(ctx, inp)
         _drift(ctx, inp)
@@ -89,9 +103,15 @@ class Settled(State):
             return ("TAKEOFF", "take-off commanded on the roof")
         if inp.script_state in (ScriptState.IDLE, ScriptState.STOP, ScriptState.REVERSE):
             # the script let go while armed: it gave the motors back (the range says the vehicle
-            # left the roof, or its validity lapsed): the autopilot has them, so it flies
-            now = state_name(inp.script_state)
-            return ("ABORTED", f"the on-board script gave the motors back ({now})")
+            # left the roof, or its validity lapsed) and the autopilot flies. But a script that
+            # disarmed as asked says IDLE before the next HEARTBEAT says disarmed: wait for that.
+            since = ctx.marks.setdefault("script_let_go", inp.t)
+            grace = DISARM_SEEN_S if "disarm_asked" in ctx.marks else LET_GO_S
+            if inp.t - since > grace:
+                now = state_name(inp.script_state)
+                return ("ABORTED", f"the on-board script gave the motors back ({now})")
+            return None
+        ctx.marks.pop("script_let_go", None)
         keep_reflex(ctx, inp, thrust_ended=True)  # SETTLED comes after the thrust
         drift, moved = _drift(ctx, inp), _moved(ctx, inp)
         if "disarm_asked" in ctx.marks:  # asked: the motors stay held until the HEARTBEAT says so
