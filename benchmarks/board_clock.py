@@ -34,6 +34,7 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from sitl.legboard.control import BoardControl  # noqa: E402
+from sitl.legs_clock import open_legs  # noqa: E402
 from sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 from slopelander.controller.link import Link  # noqa: E402
 from slopelander.legs import LegBoard  # noqa: E402
@@ -108,8 +109,7 @@ def run(clock: str, period_ms: float, speed: float, presets: int) -> dict:
             while not h.done and time.monotonic() < end:
                 link.poll()
                 time.sleep(0.002)
-        legs = LegBoard.open(board.pty)  # the handshake on the wall clock, as the rig does
-        legs.set_clock(link.clock.now)  # then vehicle time, as the landing controller runs it
+        legs = open_legs(board.pty, link)  # vehicle time, as the rig and the landing controller
         legs.silence_timeout = 5.0
         vehicle_s, board_s = [], []
         wall0, t0, b0 = time.monotonic(), link.clock.now(), None

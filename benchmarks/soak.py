@@ -76,7 +76,6 @@ from sitl.rig import Rig, RigError, config  # noqa: E402
 from sitl.vehicle.wind import MAX_RANDOM_GUSTS as MAX_GUSTS  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
-from slopelander.legs.driver import LegBoard  # noqa: E402
 
 LOITER, GUIDED = 5, 4
 MAV_CMD_DO_SET_MODE, MAV_CMD_DO_AUX_FUNCTION, AUX_MOTOR_ESTOP = 176, 218, 31
@@ -284,8 +283,7 @@ class Soak:
             ctl.clear_faults()
             if ctl.state()["unplugged"]:
                 raise RigError("leg board unplugged")
-        rig.legs = LegBoard.open(rig.board.pty, calibration=rig.calibration)
-        rig.legs.set_clock(rig.link.clock.now)
+        rig.open_legs()
         # a leg the fault left latched in its fault state refuses every preset until loosened
         # ("loosen it first"), as a mechanic would do before the next flight
         if any(lg.fault for lg in (rig.legs.status.legs if rig.legs.status else ())):

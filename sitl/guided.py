@@ -54,14 +54,3 @@ def arm_in_guided(
                 handle = link.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM if force else 0)
         poll()
         time.sleep(0.002)
-
-
-def wait_for_vehicle_time(link, wall_s: float = 30.0) -> None:
-    """Poll until the link has the vehicle's time (its first timestamped message): timeouts measured
-    on that clock before then would count from zero and jump."""
-    end = time.monotonic() + wall_s
-    while not link.clock.known:
-        if time.monotonic() > end:
-            raise TimeoutError(f"the vehicle sent no timestamped message within {wall_s:g} s")
-        link.poll()
-        time.sleep(0.002)

@@ -23,7 +23,8 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sitl.guided import arm_in_guided, wait_for_vehicle_time
+from sitl.guided import arm_in_guided
+from sitl.legs_clock import open_legs
 from sitl.linkfault import Relay
 from sitl.vehicle.launch import start_legboard, start_vehicle
 from slopelander.controller.config import Config, load_config, merge
@@ -313,21 +314,25 @@ class Rig:
             for msg_id, hz in streams:
                 self.wait_command(self.link.request_stream(msg_id, hz), f"stream {msg_id}")
             self.calibration = load_calibration()
-            # the board's silence is measured on the vehicle's clock: it must be running first
-            # (ArduCopter's first timestamped message comes after the streams are asked for)
-            try:
-                wait_for_vehicle_time(self.link)
-            except TimeoutError as exc:
-                raise RigError(str(exc)) from None
-            self.legs = LegBoard.open(self.board.pty, calibration=self.calibration)
-            # the board's silence is judged on the vehicle's clock, as the landing controller does:
-            # a loaded machine that slows the lock-stepped simulation is not a silent board
-            self.legs.set_clock(self.link.clock.now)
+            self.open_legs()
         except BaseException:
             self.close()
             raise
 
     # ------------------------------------------------------------------ plumbing
+    def open_legs(self) -> LegBoard:
+        """A fresh leg driver (the old one closed) whose silence and timeouts are measured on the
+        vehicle's clock, as the landing controller measures them: a loaded machine that slows the
+        lock-stepped simulation, and the board on its time, is not a silent board."""
+        if self.legs is not None:
+            self.legs.close()
+            self.legs = None
+        try:
+            self.legs = open_legs(self.board.pty, self.link, calibration=self.calibration)
+        except TimeoutError as exc:
+            raise RigError(str(exc)) from None
+        return self.legs
+
     def close(self) -> None:
         if self.legs is not None:
             self.legs.close()

@@ -178,7 +178,8 @@ def run_demo(
     so a busy machine only slows it)."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-    from sitl.guided import arm_in_guided, wait_for_vehicle_time
+    from sitl.guided import arm_in_guided
+    from sitl.legs_clock import open_legs
     from sitl.vehicle.launch import start_legboard, start_vehicle
     from slopelander.controller.config import load_config
     from slopelander.controller.landing import cut_dynamics, leg_geometry, plan_landing
@@ -258,9 +259,7 @@ def run_demo(
             (mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 50),
         ):
             _wait(link, link.request_stream(msg_id, hz), 5, f"stream {msg_id}")
-        wait_for_vehicle_time(link)  # the legs' silence is judged on the vehicle's clock
-        legs = LegBoard.open(board.pty, calibration=calibration)
-        legs.set_clock(link.clock.now)
+        legs = open_legs(board.pty, link, calibration=calibration)  # on the vehicle's clock
         legs_uphill = legs.pairs.uphill
         tele.legs = legs
 

@@ -688,7 +688,7 @@ def test_a_link_lost_before_contact_and_back_after_it_judges_the_vehicle_on_the_
 def test_a_script_that_disarmed_as_asked_is_not_taken_for_one_that_let_go():
     """The script says IDLE as it disarms; the HEARTBEAT saying disarmed comes up to a second
     later (found flying: SETTLED aborted "the script gave the motors back" 1 s before LANDED)."""
-    m, act, _ = make()
+    m, _act, _ = make()
     t = run_to(m, "SETTLED")
     rest = replace(OK, range_m=0.2, script_state=13, speed_mps=0.0)
     i = 1

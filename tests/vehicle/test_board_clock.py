@@ -13,10 +13,13 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from sitl.legboard.control import BoardControl
 from sitl.rig import Rig
 from sitl.vehicle.launch import REPO, child_env
 from sitl.vehicle.legs_link import PERIOD_S
+from slopelander.legs.driver import LegBoard, LegTimeout
 
 TICK_S = 1.0 / 400  # the vehicle's control tick
 IMU_PERIOD_S = 1.0 / 200  # the rig's RAW_IMU stream: the newest stamp lags the vehicle by at most this
@@ -77,3 +80,43 @@ def test_a_bad_exchange_period_is_refused_by_name():
             timeout=60,
         )
         assert r.returncode == 2 and "--legboard-period-ms" in r.stderr, (bad, r.returncode, r.stderr)
+
+
+# The companion stops echoing the vehicle's time for STALL_S of wall time, less than the
+# lock-stepped vehicle's give-up (1 s, sitl/vehicle/vehicle.py LOCKSTEP_GIVE_UP_S): the vehicle,
+# and the board on its time, stand still, as they do in shorter spells on a loaded machine. The
+# drivers count a silent board after SILENT_S (the shipped 1 s would need a stall past the give-up).
+STALL_S = 0.5
+SILENT_S = 0.25
+
+
+def _poll_legs_only(legs: LegBoard) -> None:
+    """Read the board for STALL_S without polling the MAVLink link (so without echoing)."""
+    end = time.monotonic() + STALL_S
+    while time.monotonic() < end:
+        legs.poll()
+        time.sleep(0.005)
+
+
+def test_a_stalled_lock_step_is_a_silent_board_only_on_the_wall_clock():
+    """What made a loaded run fail a flight test: a driver on the wall clock calls the board
+    silent while the lock-step stands still. The rig's driver (``Rig.open_legs``, the rule of
+    ``sitl.legs_clock``) measures on the vehicle's clock and rides it out."""
+    with Rig(slope_deg=20.0, seed=6) as rig:
+        rig.legs.close()
+        rig.legs = None
+        wall = LegBoard.open(rig.board.pty, calibration=rig.calibration, silence_timeout=SILENT_S)
+        try:
+            rig.wait(0.3)  # the lock-step runs; the board reports
+            with pytest.raises(LegTimeout, match="silent"):
+                _poll_legs_only(wall)
+        finally:
+            wall.close()
+        legs = rig.open_legs()
+        assert legs is rig.legs
+        legs.silence_timeout = SILENT_S
+        rig.wait(0.3)
+        _poll_legs_only(legs)
+        before = legs.status.received_at
+        rig.wait(1.0)  # the companion echoes again: the vehicle and the board run on
+        assert legs.status.received_at > before

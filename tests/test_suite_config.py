@@ -1,0 +1,110 @@
+"""The README's test command runs the whole suite on parallel workers (pytest-xdist, addopts in
+pyproject.toml): every worker must collect the same tests as one process does, and a module's
+tests, which may share a vehicle, must stay together on one worker in order (tests/conftest.py)."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _env() -> dict[str, str]:
+    """The environment of a fresh pytest run: none of this run's worker variables."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST_", "HYPOTHESIS_"))}
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO / "src"), str(REPO)])
+    return env
+
+
+def _pytest(*args: str, cwd: Path) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", *args],
+        cwd=cwd,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+
+
+def _ids(proc: subprocess.Popen[str]) -> list[str]:
+    out, _ = proc.communicate(timeout=600)
+    assert proc.returncode == 0, out[-3000:]
+    return [line for line in out.splitlines() if "::" in line and not line.startswith(" ")]
+
+
+def test_the_whole_suite_configuration_collects_the_same_tests_as_one_process() -> None:
+    """Two processes, as two workers are: the configured command and one with no workers collect the
+    same test ids in the same order (xdist aborts a run whose workers differ), all of the suite."""
+    configured = _pytest("--collect-only", "-q", cwd=REPO)
+    alone = _pytest("--collect-only", "-q", "-n", "0", cwd=REPO)
+    a, b = _ids(configured), _ids(alone)
+    assert len(a) > 1000, len(a)
+    assert a == b, sorted(set(a) ^ set(b))[:20]
+
+
+SHARED = """
+import os, pytest, time
+
+@pytest.fixture(scope="module")
+def vehicle(tmp_path_factory):
+    with open(os.environ["MADE"], "a") as f:
+        f.write(os.environ.get("PYTEST_XDIST_WORKER", "-") + "\\n")
+    return object()
+
+@pytest.mark.parametrize("n", range(4))
+def test_shared(vehicle, n):
+    time.sleep(0.3)
+    with open(os.environ["RAN"], "a") as f:
+        f.write(f"shared {n} {os.environ['PYTEST_XDIST_WORKER']}\\n")
+"""
+
+SPREAD = """
+import os, pytest, time
+
+pytestmark = pytest.mark.spread
+
+@pytest.mark.parametrize("n", range(4))
+def test_spread(n):
+    time.sleep(0.3)
+    with open(os.environ["RAN"], "a") as f:
+        f.write(f"spread {n} {os.environ['PYTEST_XDIST_WORKER']}\\n")
+"""
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="one core: -n auto starts one worker")
+def test_the_configured_command_runs_a_module_on_one_worker_in_order(tmp_path: Path) -> None:
+    """The README's command (``python3 -m pytest``, nothing more) in a project with this
+    repository's pytest settings and test-wide conftest: two or more workers; a module's
+    module-scoped fixture made once and its tests in file order on one worker; a ``spread``
+    module's tests shared out."""
+    shutil.copy(REPO / "pyproject.toml", tmp_path / "pyproject.toml")
+    (tmp_path / "tests").mkdir()
+    shutil.copy(REPO / "tests" / "conftest.py", tmp_path / "tests" / "conftest.py")
+    (tmp_path / "tests" / "test_shared.py").write_text(SHARED)
+    (tmp_path / "tests" / "test_other.py").write_text(SHARED.replace("shared", "other"))
+    (tmp_path / "tests" / "test_spread_out.py").write_text(SPREAD)
+    made, ran = tmp_path / "made", tmp_path / "ran"
+    env = {**_env(), "MADE": str(made), "RAN": str(ran)}
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+    )
+    out = done.stdout + done.stderr
+    assert done.returncode == 0, out[-3000:]
+    workers = re.search(r"created: (\d+)/(\d+) workers", out)
+    assert workers and int(workers[1]) >= 2, out[-3000:]
+    assert "12 passed" in out, out[-3000:]
+    assert len(made.read_text().split()) == 2  # one per module that has it, not one per worker
+    rows = [line.split() for line in ran.read_text().splitlines()]
+    for module in ("shared", "other"):
+        mine = [(int(n), w) for m, n, w in rows if m == module]
+        assert [n for n, _ in mine] == [0, 1, 2, 3], rows  # file order
+        assert len({w for _, w in mine}) == 1, rows  # one worker
+    assert len({w for m, _, w in rows if m == "spread"}) >= 2, rows
