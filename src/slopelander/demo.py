@@ -187,7 +187,6 @@ def run_demo(
     from slopelander.controller.runner import Lander
     from slopelander.controller.table import LookupTable
     from slopelander.legs.calibration import load_calibration
-    from slopelander.legs.driver import LegBoard
 
     if not (math.isfinite(slope_deg) and 0.0 <= slope_deg <= 60.0):
         raise DemoError(f"--slope must lie within 0..60 deg, got {slope_deg:g}")
