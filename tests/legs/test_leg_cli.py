@@ -10,7 +10,7 @@ from slopelander import cli
 @pytest.fixture
 def run(monkeypatch, capsys):
     # The worktree may not have every part's subcommands yet; the legs part is enough here.
-    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", {"slopelander.legs.cli": ("legs",)})
+    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", {"slopelander.legs.cli": (("legs",), False)})
 
     def run_cli(*argv: str) -> tuple[int, str, str]:
         code = cli.main(list(argv))
