@@ -9,7 +9,9 @@ processes, lock-step). Prints the outcome table and how many landed (paper: 25/2
 its HEARTBEAT shows it disarmed (the controller's LANDED). The simulated vehicle's own judge
 (last column) does not exist there. Per landing it also prints the cut's figures
 (benchmarks/cut_height.py): the range when the motors stopped against the cut height, contact
-after the stop, contact -> reverse-thrust outputs; their medians and p99 at the end.
+after the stop, contact -> reverse-thrust outputs; their medians and p99 at the end. ``--only
+4,7`` flies only those landings (the same draws), e.g. the ones a loaded machine kept the rig
+from flying.
 
 Each landing draws (from the seed):
 - a roof slope s in 25..45 deg and a heading error h in -10..10 deg. The model is planar, so the
@@ -86,6 +88,17 @@ def model_class(conditions) -> tuple[str, float]:
     return "landed" if m.success else {"FLIP": "flipped", "SLID": "slid"}.get(m.name, m.name.lower()), r.slide
 
 
+def landing_numbers(text: str) -> set[int]:
+    """``--only``'s value: landing numbers (from 1), comma-separated."""
+    try:
+        out = {int(n) for n in text.split(",")}
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"landing numbers, comma-separated (e.g. 4,7): {text!r}") from None
+    if min(out) < 1:
+        raise argparse.ArgumentTypeError("landings are numbered from 1")
+    return out
+
+
 def drifting(lander: Lander, vx: float) -> None:
     """The descent setpoint with a horizontal speed ``vx`` (m/s, + downhill) as well."""
     act = lander.act
@@ -126,6 +139,12 @@ def main() -> None:
     ap.add_argument(
         "--arducopter", metavar="PATH", help="ArduCopter SITL binary (else $SLOPELANDER_ARDUCOPTER)"
     )
+    ap.add_argument(
+        "--only",
+        type=landing_numbers,
+        metavar="N,N",
+        help="fly only these landings (1-based), e.g. to re-fly those the rig could not fly",
+    )
     a = ap.parse_args()
     if a.autopilot == "ardupilot":
         from sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
@@ -155,8 +174,11 @@ def main() -> None:
         fall = (v * v - 0.25) / (2 * 9.80665)
         cut = round(contact_range(planar) + CONTACT_OFFSET_M + fall, 2)
         cfg = config(reflex={"cut_height_m": cut})
-        row = {"slope": s, "heading": h, "planar": planar, "v_goal": v, "vx_goal": vx, "autopilot": ap_name,
-               "preset": (p.tau_up, p.tau_down), "which": which, "cut": cut, "table": p.outcome}  # fmt: skip
+        if a.only and i + 1 not in a.only:  # drawn all the same: landing N is the same landing
+            continue
+        row = {"landing": i + 1, "slope": s, "heading": h, "planar": planar, "v_goal": v, "vx_goal": vx,
+               "autopilot": ap_name, "preset": (p.tau_up, p.tau_down), "which": which, "cut": cut,
+               "table": p.outcome}  # fmt: skip
         try:
             wind = {"random_gusts": {"count": a.gusts, "max_n": a.gust_n, "from_s": 0.0, "to_s": 80.0,
                                      "duration_s": 1.5}} if a.gusts else {}  # fmt: skip
