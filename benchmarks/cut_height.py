@@ -32,12 +32,22 @@ import numpy as np
 FIT_S = 0.5
 
 
-def cut_figures(track, t0: float, cut_m: float) -> dict[str, float]:
+def cut_figures(track, t0: float, cut_m: float) -> dict:
     """The cut's figures (s, m) for the landing that began at vehicle time ``t0`` with the cut at
     ``cut_m``: keys ``stop``, ``contact``, ``rvt`` (times), ``range_at_stop``, ``last_reading``,
     ``cut_error`` (range at stop - cut), ``contact_after_stop``, ``impact_to_rvt``; a key is
-    absent when the flight did not show it (no stop, no contact, too few readings)."""
-    out: dict[str, float] = {}
+    absent when the flight did not show it (no stop, no contact, too few readings). With them,
+    the evidence: ``script_states`` (the script's SL_STATE changes) and ``readings`` (the last 80
+    distinct range readings)."""
+    out: dict = {}
+    # the evidence behind the figures, kept with them: the script's states (SL_STATE changes) and
+    # the distinct range readings from the landing's start
+    out["script_states"] = [(round(t, 3), code) for t, code in track.script if t >= t0]
+    seen: list[tuple[float, float]] = []
+    for t, r in track.ranges:
+        if t >= t0 and (not seen or r != seen[-1][1]):
+            seen.append((round(t, 3), r))
+    out["readings"] = seen[-80:]
     stop = track.event_times("EV_STOP", t0)
     contact = track.contact(t0)
     if contact is not None:

@@ -88,11 +88,11 @@ def one_landing(rig: Rig, fall_m: float, table: LookupTable) -> tuple[dict, Land
             break
         time.sleep(0.001)
     out: dict = {"end": name, "cut": cut, "autopilot": rig.autopilot, "armed_after": rig.armed()}
+    out["history"] = [(round(h["t"], 3), h["to"], h["reason"]) for h in lander.machine.history]
     if name != "LANDED" and lander.machine.history:
         out["why"] = lander.machine.history[-1]["reason"]
-        out["history"] = [(round(h["t"], 3), h["to"], h["reason"]) for h in lander.machine.history]
-        if rig.autopilot == "ardupilot":  # the firmware's own words, for the finding
-            out["statustext"] = rig.vehicle.statustexts()[-12:]
+    if rig.autopilot == "ardupilot":  # the firmware's own words (the script's too), for the findings
+        out["statustext"] = rig.vehicle.statustexts()[-30:]
     rig.read_events()
     tr = rig.track
     out.update(cut_figures(tr, t0, cut))

@@ -197,8 +197,8 @@ def main() -> None:
                              rest_s=2.0)  # fmt: skip
                 row.update(cut_figures(rig.track, f.t_start, cut))
                 row["armed_after"] = rig.armed()
-                if real and f.end != "LANDED":  # the firmware's own words, for the finding
-                    row["statustext"] = rig.vehicle.statustexts()[-12:]
+                if real:  # the firmware's own words (the script's too), for the findings
+                    row["statustext"] = rig.vehicle.statustexts()[-40:]
                 c = f.contact
                 outcome, fig = f.classify(planar)
                 if c and a.save_conditions:
