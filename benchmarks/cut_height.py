@@ -6,7 +6,8 @@ and a side-by-side summary of landings saved by the landing benchmarks.
 ``FILE.jsonl``: what ``benchmarks/landing_latency.py --save`` or ``benchmarks/outdoor_campaign.py
 --save-conditions`` wrote, one landing a line, with its ``autopilot``. Prints, per autopilot, the
 median and p99 of: the range at the moment the motors stopped minus the configured cut height
-(the cut height error), contact minus that moment, contact -> reverse-thrust outputs.
+(the cut height error), contact minus that moment, contact -> reverse-thrust outputs; and the
+p1, the cut height error's bad tail.
 
 Where the figures come from (vehicle time, both autopilots alike):
 - motors stopped: the physics' EV_STOP (the first frame whose four outputs are all in the ESCs'
@@ -82,14 +83,15 @@ def cut_figures(track, t0: float, cut_m: float) -> dict:
 
 
 def stats_line(name: str, xs: list[float], unit: str = "ms", scale: float = 1000.0) -> str:
-    """``name: median .., p99 .. (min, max, n)`` of ``xs`` (scaled to ``unit``)."""
+    """``name: median .., p1 .., p99 .. (min, max, n)`` of ``xs`` (scaled to ``unit``): both
+    tails, as a cut height error's bad tail is the low one and a latency's the high one."""
     xs = [x for x in xs if x is not None and math.isfinite(x)]
     if not xs:
         return f"{name}: no samples"
     a = np.array(xs) * scale
     return (
-        f"{name}: median {np.median(a):.1f} {unit}, p99 {np.percentile(a, 99):.1f} {unit} "
-        f"(min {a.min():.1f}, max {a.max():.1f}, n={len(a)})"
+        f"{name}: median {np.median(a):.1f} {unit}, p1 {np.percentile(a, 1):.1f} {unit}, "
+        f"p99 {np.percentile(a, 99):.1f} {unit} (min {a.min():.1f}, max {a.max():.1f}, n={len(a)})"
     )
 
 
