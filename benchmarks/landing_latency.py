@@ -147,6 +147,13 @@ def main() -> None:
     ap.add_argument(
         "--arducopter", metavar="PATH", help="ArduCopter SITL binary (else $SLOPELANDER_ARDUCOPTER)"
     )
+    ap.add_argument(
+        "--speedup",
+        type=float,
+        default=4.0,
+        help="ArduCopter's --speedup (1: real time, for a loaded machine: it does not wait for the "
+        "companion or the leg board)",
+    )
     ap.add_argument("--save", metavar="FILE", help="write each landing's figures as a JSON line")
     a = ap.parse_args()
     if a.autopilot == "ardupilot":
@@ -215,7 +222,12 @@ def main() -> None:
 def fly_slope(slope, seed, todo, rows, rng, table, a) -> None:
     """Land on one vehicle as long as the next landings in ``todo`` are on its slope."""
     with Rig(
-        slope_deg=slope, seed=seed, range_hz=200.0, autopilot=a.autopilot, arducopter=a.arducopter
+        slope_deg=slope,
+        seed=seed,
+        range_hz=200.0,
+        autopilot=a.autopilot,
+        arducopter=a.arducopter,
+        arducopter_speedup=a.speedup,
     ) as rig:
         rig.take_off(3.0)
         rig.go_over_roof(1.8)

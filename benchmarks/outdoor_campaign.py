@@ -140,6 +140,13 @@ def main() -> None:
         "--arducopter", metavar="PATH", help="ArduCopter SITL binary (else $SLOPELANDER_ARDUCOPTER)"
     )
     ap.add_argument(
+        "--speedup",
+        type=float,
+        default=4.0,
+        help="ArduCopter's --speedup (1: real time, for a loaded machine: it does not wait for the "
+        "companion or the leg board)",
+    )
+    ap.add_argument(
         "--only",
         type=landing_numbers,
         metavar="N,N",
@@ -184,7 +191,8 @@ def main() -> None:
                                      "duration_s": 1.5}} if a.gusts else {}  # fmt: skip
             scenario = {"wind": wind} if wind else None
             with Rig(slope_deg=round(planar, 2), seed=a.seed * 1000 + i, scenario=scenario, range_hz=100.0,
-                     autopilot=a.autopilot, arducopter=a.arducopter) as rig:  # fmt: skip
+                     autopilot=a.autopilot, arducopter=a.arducopter,
+                     arducopter_speedup=a.speedup) as rig:  # fmt: skip
                 rig.take_off(3.0)
                 rig.go_over_roof(2.0)
                 if not a.no_angles:  # by hand before flight on the paper's legs; the board has ANGLE_STOP

@@ -106,3 +106,19 @@ def test_a_rangefinder_dropout_reaches_arducopter_as_no_data() -> None:
     assert all(d > 0 for d in readings) or not readings, readings[:10]
     assert status.onboard_control_sensors_present & rf
     assert not status.onboard_control_sensors_health & rf, bin(status.onboard_control_sensors_health)
+
+
+def test_the_rig_runs_arducopter_at_the_speedup_asked() -> None:
+    """At 1 ArduCopter keeps to real time: the leg board and the companion, which it does not wait
+    for, then have the wall time a real vehicle gives them."""
+    binary = _binary()
+    from sitl.rig import Rig
+
+    with pytest.raises(ValueError, match="positive"):
+        Rig(autopilot="ardupilot", arducopter=str(binary), arducopter_speedup=0.0)
+    with Rig(slope_deg=20.0, autopilot="ardupilot", arducopter=str(binary), arducopter_speedup=1.0) as rig:
+        rig.wait(1.0)
+        t0, w0 = rig.now, time.monotonic()
+        rig.wait(4.0)
+        ratio = (rig.now - t0) / (time.monotonic() - w0)
+    assert 0.2 < ratio < 1.25, ratio
