@@ -131,7 +131,8 @@ def main() -> None:
     ap.add_argument(
         "--save-conditions",
         metavar="FILE",
-        help="write each landing's model conditions (thrust as flown) and outcomes as JSON lines",
+        help="write each landing as a JSON line as it is flown: its draws, outcomes, model conditions "
+        "(thrust as flown), the cut's figures and their evidence (benchmarks/cut_height.py reads it)",
     )
     ap.add_argument(
         "--autopilot", choices=AUTOPILOTS, default="sim", help="the simulated vehicle or ArduCopter"
