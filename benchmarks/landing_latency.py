@@ -4,23 +4,24 @@ rangefinder cut -> motors stopped and contact -> reverse-thrust outputs, the com
 and p99 of each.
 
     python3 benchmarks/landing_latency.py [--landings 100] [--slopes 15,25,35] [--seed 1]
-        [--autopilot sim|ardupilot] [--arducopter PATH] [--save FILE.jsonl]
+        [--autopilot sim|ardupilot] [--arducopter PATH] [--speedup 4] [--save FILE.jsonl]
 
 ``--autopilot ardupilot`` flies real ArduCopter SITL (``--arducopter PATH`` or
 ``SLOPELANDER_ARDUCOPTER``) behind the same physics, whose events (EV_CONTACT, EV_STOP, EV_RVT)
-reach the rig from a file; a landing there ends when ArduCopter's HEARTBEAT shows it disarmed,
-and the take-off from the roof is a forced arm. ``--save`` writes each landing's figures as a
-JSON line as it is flown (``benchmarks/cut_height.py FILE`` summarises them). The cut's own
-figures are printed too (benchmarks/cut_height.py): the range when the motors stopped against
-the cut height, and contact after the stop.
+reach the rig from a file; a landing there ends when ArduCopter's HEARTBEAT shows it disarmed.
+ArduCopter is lock-stepped with the physics, not with the companion or the leg board: at its
+``--speedup`` (default 4) a loaded machine can leave them behind; 1 keeps it to real time.
+``--save`` writes each landing's figures as a JSON line as it is flown (``benchmarks/cut_height.py
+FILE`` summarises them). The cut's own figures are printed too (benchmarks/cut_height.py): the
+range when the motors stopped against the cut height, and contact after the stop.
 
-Real processes in lock-step: the simulated vehicle (or ArduCopter) with the on-board script, the
-leg board, the companion's controller (slopelander.controller.runner.Lander). Between landings
-the vehicle takes off again from the roof by the controller's own take-off (TAKEOFF -> RESET ->
-READY: the script releases the motors it holds, the legs are loosened; the next landing sets its
-preset again), so a landing costs about 20 s of vehicle time. The cut height varies per landing
-(0.1-0.3 m of free fall: impact 1.1-2.5 m/s); one vehicle per slope, each with its own noise
-seed.
+Real processes (the simulated vehicle in lock-step with the companion): the simulated vehicle (or
+ArduCopter) with the on-board script, the leg board, the companion's controller
+(slopelander.controller.runner.Lander). Between landings the vehicle takes off again from the roof
+by the controller's own take-off (TAKEOFF -> RESET -> READY: the script releases the motors it
+holds, the legs are loosened; the next landing sets its preset again), so a landing costs about 20
+s of vehicle time. The cut height varies per landing (0.1-0.3 m of free fall: impact 1.1-2.5 m/s);
+one vehicle per slope, each with its own noise seed.
 
 Where each time comes from (sitl/vehicle/events.py; all vehicle time):
 - rangefinder cut: the first DISTANCE_SENSOR reading (stream at 200 Hz, cm) at or below the cut
@@ -59,6 +60,7 @@ from sitl.rig import AUTOPILOTS, Rig, RigError, config  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.runner import ENDINGS, Lander  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
+from slopelander.legs.errors import LegBoardError  # noqa: E402
 
 
 def contact_range(slope_deg: float) -> float:
@@ -177,7 +179,7 @@ def main() -> None:
         i, slope = todo[0]
         try:
             fly_slope(slope, a.seed * 100 + i + 10 * failures, todo, rows, rng, table, a)
-        except RigError as exc:  # the vehicle could not be brought back: a fresh one goes on
+        except (RigError, LegBoardError) as exc:  # the vehicle could not be brought back: a fresh one goes on
             failures += 1
             print(f"{slope:4.0f} deg: {exc}; starting a new vehicle", flush=True)
             if failures > 5:
