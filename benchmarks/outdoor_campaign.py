@@ -2,7 +2,16 @@
 1.5-3 m/s, by the companion's controller against the simulated vehicle and leg board (real
 processes, lock-step). Prints the outcome table and how many landed (paper: 25/25).
 
-    python3 benchmarks/outdoor_campaign.py [--landings 25] [--seed 7]
+    python3 benchmarks/outdoor_campaign.py [--landings 25] [--seed 7] [--autopilot sim|ardupilot]
+
+``--autopilot ardupilot`` flies real ArduCopter SITL (``--arducopter PATH`` or
+``SLOPELANDER_ARDUCOPTER``) behind the same physics, one boot per landing; the landing ends when
+its HEARTBEAT shows it disarmed (the controller's LANDED). The simulated vehicle's own judge
+(last column) does not exist there. Per landing it also prints the cut's figures
+(benchmarks/cut_height.py): the range when the motors stopped against the cut height, contact
+after the stop, contact -> reverse-thrust outputs; their medians and p99 at the end. ``--only
+4,7`` flies only those landings (the same draws), e.g. the ones a loaded machine kept the rig
+from flying.
 
 Each landing draws (from the seed):
 - a roof slope s in 25..45 deg and a heading error h in -10..10 deg. The model is planar, so the
@@ -50,7 +59,8 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
 import numpy as np  # noqa: E402
 
-from sitl.rig import Rig, RigError, config  # noqa: E402
+from benchmarks.cut_height import cut_figures, stats_line  # noqa: E402
+from sitl.rig import AUTOPILOTS, Rig, RigError, config  # noqa: E402
 from slopelander.controller.actions import DESCENT_TYPE_MASK  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.link import mavlink  # noqa: E402
@@ -76,6 +86,17 @@ def model_class(conditions) -> tuple[str, float]:
     r = simulate(conditions).result
     m = r.outcome
     return "landed" if m.success else {"FLIP": "flipped", "SLID": "slid"}.get(m.name, m.name.lower()), r.slide
+
+
+def landing_numbers(text: str) -> set[int]:
+    """``--only``'s value: landing numbers (from 1), comma-separated."""
+    try:
+        out = {int(n) for n in text.split(",")}
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"landing numbers, comma-separated (e.g. 4,7): {text!r}") from None
+    if min(out) < 1:
+        raise argparse.ArgumentTypeError("landings are numbered from 1")
+    return out
 
 
 def drifting(lander: Lander, vx: float) -> None:
@@ -110,12 +131,42 @@ def main() -> None:
     ap.add_argument(
         "--save-conditions",
         metavar="FILE",
-        help="write each landing's model conditions (thrust as flown) and outcomes as JSON lines",
+        help="write each landing as a JSON line as it is flown: its draws, outcomes, model conditions "
+        "(thrust as flown), the cut's figures and their evidence (benchmarks/cut_height.py reads it)",
+    )
+    ap.add_argument(
+        "--autopilot", choices=AUTOPILOTS, default="sim", help="the simulated vehicle or ArduCopter"
+    )
+    ap.add_argument(
+        "--arducopter", metavar="PATH", help="ArduCopter SITL binary (else $SLOPELANDER_ARDUCOPTER)"
+    )
+    ap.add_argument(
+        "--speedup",
+        type=float,
+        default=4.0,
+        help="ArduCopter's --speedup (1: real time, for a loaded machine: it does not wait for the "
+        "companion or the leg board)",
+    )
+    ap.add_argument(
+        "--only",
+        type=landing_numbers,
+        metavar="N,N",
+        help="fly only these landings (1-based), e.g. to re-fly those the rig could not fly",
     )
     a = ap.parse_args()
+    if a.autopilot == "ardupilot":
+        from sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
+
+        try:
+            arducopter_binary(a.arducopter)
+        except ArduCopterMissingError as exc:
+            sys.exit(f"outdoor_campaign: {exc}")
+    real, ap_name = a.autopilot == "ardupilot", a.autopilot
     rng = np.random.default_rng(a.seed)
     table = LookupTable.load(DEFAULT_TABLE)
     rows = []
+    if a.save_conditions:
+        open(a.save_conditions, "w").close()
     wall0 = time.monotonic()
     for i in range(a.landings):
         s, h = rng.uniform(25, 45), rng.uniform(-10, 10)
@@ -131,13 +182,18 @@ def main() -> None:
         fall = (v * v - 0.25) / (2 * 9.80665)
         cut = round(contact_range(planar) + CONTACT_OFFSET_M + fall, 2)
         cfg = config(reflex={"cut_height_m": cut})
-        row = {"slope": s, "heading": h, "planar": planar, "v_goal": v, "vx_goal": vx,
-               "preset": (p.tau_up, p.tau_down), "which": which, "cut": cut, "table": p.outcome}  # fmt: skip
+        if a.only and i + 1 not in a.only:  # drawn all the same: landing N is the same landing
+            continue
+        row = {"landing": i + 1, "slope": s, "heading": h, "planar": planar, "v_goal": v, "vx_goal": vx,
+               "autopilot": ap_name, "preset": (p.tau_up, p.tau_down), "which": which, "cut": cut,
+               "table": p.outcome}  # fmt: skip
         try:
             wind = {"random_gusts": {"count": a.gusts, "max_n": a.gust_n, "from_s": 0.0, "to_s": 80.0,
                                      "duration_s": 1.5}} if a.gusts else {}  # fmt: skip
             scenario = {"wind": wind} if wind else None
-            with Rig(slope_deg=round(planar, 2), seed=a.seed * 1000 + i, scenario=scenario) as rig:
+            with Rig(slope_deg=round(planar, 2), seed=a.seed * 1000 + i, scenario=scenario, range_hz=100.0,
+                     autopilot=a.autopilot, arducopter=a.arducopter,
+                     arducopter_speedup=a.speedup) as rig:  # fmt: skip
                 rig.take_off(3.0)
                 rig.go_over_roof(2.0)
                 if not a.no_angles:  # by hand before flight on the paper's legs; the board has ANGLE_STOP
@@ -146,7 +202,12 @@ def main() -> None:
                     rig.fly_until(lambda op=op: op.done, 30.0, "set the leg angles")
                 lander = Lander(rig.link, cfg, (p.tau_up, p.tau_down), legs=rig.legs)
                 drifting(lander, vx)
-                f = rig.land((p.tau_up, p.tau_down), cfg, lander=lander, timeout_s=60.0, rest_s=2.0)
+                f = rig.land((p.tau_up, p.tau_down), cfg, lander=lander, timeout_s=90.0 if real else 60.0,
+                             rest_s=2.0)  # fmt: skip
+                row.update(cut_figures(rig.track, f.t_start, cut))
+                row["armed_after"] = rig.armed()
+                if real:  # the firmware's own words (the script's too), for the findings
+                    row["statustext"] = rig.vehicle.statustexts()[-40:]
                 c = f.contact
                 outcome, fig = f.classify(planar)
                 if c and a.save_conditions:
@@ -159,6 +220,7 @@ def main() -> None:
                 said = [t.split()[1] for t in rig.track.statustext if t.startswith("Landing: ")]
                 judge = said[-1] if said else "-"
                 why = f.history[-1]["reason"] if f.history else ""
+                row["history"] = [(round(x["t"], 3), x["to"], x["reason"]) for x in f.history]
                 row.update(end=f.end, why=why, outcome=outcome, vz=c["vz"] if c else math.nan,
                            vx=c["vx"] if c else math.nan, slide=fig.get("slide_m", math.nan),
                            model=model, held=held, m_slide=m_slide, judge=judge)  # fmt: skip
@@ -166,38 +228,50 @@ def main() -> None:
             row.update(end="rig error", why=str(exc), outcome="rig error", vz=math.nan, vx=math.nan,
                        slide=math.nan, model="-", held="-", m_slide=math.nan, judge="-")  # fmt: skip
         rows.append(row)
+        if a.save_conditions:  # a line per landing as it is flown: a run stopped early keeps what it flew
+            with open(a.save_conditions, "a") as fh:
+                fh.write(json.dumps(row, default=float) + "\n")
+        cutf = " ".join(f"{k} {row[k] * sc:.1f}{u}" for k, sc, u in (
+            ("cut_error", 100, "cm"), ("contact_after_stop", 1000, "ms"), ("impact_to_rvt", 1000, "ms"))
+            if k in row)  # fmt: skip
         print(
             f"{i + 1:2d}  roof {s:4.1f} deg, heading {h:+5.1f} -> {planar:4.1f} deg  "
             f"impact {row['vz']:4.2f} m/s "
             f"(goal {v:4.2f}), vx {row['vx']:+5.2f} (goal {vx:+5.2f})  legs {p.tau_up:.2f}/{p.tau_down:.2f} "
             f"{which}  cut {cut:.2f} m  {row['end']:<8} {row['outcome']}  slide {row['slide']:.2f} m"
             f"  model {row['model']}, slide {row['m_slide']:.2f} m"
-            f"  ({row['why']})",
+            f"  ({row['why']})  {cutf}",
             flush=True,
         )
-    if a.save_conditions:
-        with open(a.save_conditions, "w") as fh:
-            for r in rows:
-                fh.write(json.dumps({k: v for k, v in r.items()}, default=float) + "\n")
     landed = sum(1 for r in rows if r["outcome"] == "landed")
     print(f"\nlegs at {'37.5 deg' if a.no_angles else 'the table angles'}")
     print(
         f"{'slope':>6} {'planar':>6} {'speed':>6} {'vx':>6}  preset       table says    flown     "
-        f"model       thrust held vehicle's judge"
+        f"model       thrust held vehicle's judge  end"
     )
     for r in rows:
         print(
             f"{r['slope']:6.1f} {r['planar']:6.1f} {r['vz']:6.2f} {r['vx']:+6.2f}  "
             f"{r['preset'][0]:.2f}/{r['preset'][1]:.2f} {r['which'].split(':')[0].split()[-1]:<6}  "
-            f"{r['table']:<13} {r['outcome']:<9} {r['model']:<11} {r['held']:<11} {r['judge']}"
+            f"{r['table']:<13} {r['outcome']:<9} {r['model']:<11} {r['held']:<11} {r['judge']:<16} {r['end']}"
         )
+    ended = sum(1 for r in rows if r["end"] == "LANDED" and not r.get("armed_after", True))
     agree = sum(1 for r in rows if r["outcome"] == r["model"])
     agree_held = sum(1 for r in rows if r["outcome"] == r["held"])
     print(
-        f"landed {landed}/{len(rows)} (paper: 25/25); the model, run for each contact state, agrees on "
+        f"on {a.autopilot}: landed {landed}/{len(rows)} (paper: 25/25), {ended} of them ended LANDED and "
+        f"disarmed; the model, run for each contact state, agrees on "
         f"{agree}/{len(rows)} with the thrust as flown, {agree_held}/{len(rows)} with it held; "
         f"gusts: {a.gusts} per landing up to {a.gust_n} N; {time.monotonic() - wall0:.0f} s wall"
     )
+
+    print(
+        stats_line(
+            "cut height error (range at EV_STOP - cut)", [r.get("cut_error") for r in rows], "cm", 100.0
+        )
+    )
+    print(stats_line("EV_STOP -> EV_CONTACT", [r.get("contact_after_stop") for r in rows]))
+    print(stats_line("EV_CONTACT -> EV_RVT", [r.get("impact_to_rvt") for r in rows]))
 
 
 if __name__ == "__main__":

@@ -83,7 +83,9 @@ class Console:
             # (GCS_MAVLINK::active_channel_mask): say hello as a ground station does, at 1 Hz
             now = time.monotonic()
             if now - beat >= 1.0:
-                if not beat:  # SYSTEM_TIME at 10 Hz: the boot time written beside each STATUSTEXT
+                # SYSTEM_TIME at 10 Hz: the boot time written beside each STATUSTEXT. Asked until
+                # it comes: ArduCopter, still booting, lets the first request go unanswered
+                if not boot_ms:
                     self.conn.mav.command_long_send(1, 1, 511, 0, 2, 100_000, 0, 0, 0, 0, 0)
                 beat = now
                 self.conn.mav.heartbeat_send(

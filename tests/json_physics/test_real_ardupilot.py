@@ -59,6 +59,13 @@ def test_arducopter_flies_on_slopelanders_physics_in_its_own_namespace() -> None
             )
         finally:
             conn.close()
+        # its STATUSTEXTs are logged with the boot time they came at (not 0: the console's
+        # request for SYSTEM_TIME went unanswered while ArduCopter booted)
+        deadline = time.monotonic() + 90.0
+        while time.monotonic() < deadline and not any("EKF3" in ln for ln in ap.statustexts()):
+            time.sleep(0.5)
+        ekf = [ln for ln in ap.statustexts() if "EKF3" in ln]
+        assert ekf and float(ekf[0].split()[0]) > 0.0, ap.statustexts()
         # ArduCopter's folder is its own, and it ran with no network but loopback
         assert (ap.folder / "eeprom.bin").exists()
         assert (ap.folder / "scripts" / "slopelander.lua").exists()
@@ -99,3 +106,19 @@ def test_a_rangefinder_dropout_reaches_arducopter_as_no_data() -> None:
     assert all(d > 0 for d in readings) or not readings, readings[:10]
     assert status.onboard_control_sensors_present & rf
     assert not status.onboard_control_sensors_health & rf, bin(status.onboard_control_sensors_health)
+
+
+def test_the_rig_runs_arducopter_at_the_speedup_asked() -> None:
+    """At 1 ArduCopter keeps to real time: the leg board and the companion, which it does not wait
+    for, then have the wall time a real vehicle gives them."""
+    binary = _binary()
+    from sitl.rig import Rig
+
+    with pytest.raises(ValueError, match="positive"):
+        Rig(autopilot="ardupilot", arducopter=str(binary), arducopter_speedup=0.0)
+    with Rig(slope_deg=20.0, autopilot="ardupilot", arducopter=str(binary), arducopter_speedup=1.0) as rig:
+        rig.wait(1.0)
+        t0, w0 = rig.now, time.monotonic()
+        rig.wait(4.0)
+        ratio = (rig.now - t0) / (time.monotonic() - w0)
+    assert 0.2 < ratio < 1.25, ratio
