@@ -22,7 +22,13 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 
 def work_unit(item: pytest.Item) -> str | None:
-    """The xdist group of a test: its module's path, or None for a test of a ``spread`` module."""
+    """The xdist group of a test: its module's path, or None for a test of a ``spread`` module;
+    every test marked ``arducopter`` (it flies real ArduCopter SITL) in one group, so no two
+    ArduCopters run at once: each is lock-stepped with its physics only, not with the companion,
+    and two of them starved the companions of a 2-core machine (boards judged silent, reflexes
+    lapsed)."""
+    if item.get_closest_marker("arducopter") is not None:
+        return "arducopter"
     if item.get_closest_marker("spread") is not None:
         return None
     return item.nodeid.split("::", 1)[0]

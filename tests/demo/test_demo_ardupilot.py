@@ -16,6 +16,8 @@ import pytest
 from sitl.ardupilot import arducopter_binary
 from sitl.ardupilot.launch import ArduCopterMissingError
 
+pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)
+
 
 def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path: Path) -> None:
     try:

@@ -25,7 +25,7 @@ from slopelander.controller.landing import expected_impact_speed, leg_geometry
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 
 # each landing flies a vehicle of its own: the workers may share the landings out
-pytestmark = pytest.mark.spread
+pytestmark = pytest.mark.arducopter
 
 FALL_M = 0.1
 

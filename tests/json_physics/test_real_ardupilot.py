@@ -15,6 +15,8 @@ import pytest
 from sitl.ardupilot import arducopter_binary, start_arducopter
 from sitl.ardupilot.launch import ArduCopterMissingError
 
+pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)
+
 os.environ.setdefault("MAVLINK20", "1")
 
 

@@ -14,9 +14,12 @@ from sitl.vehicle.ack_sequence import run_sequence
 from tests.vehicle.ack_compare import differences, standin_answers
 
 BINARY = os.environ.get("SLOPELANDER_ARDUCOPTER")
-pytestmark = pytest.mark.skipif(
-    not BINARY, reason="SLOPELANDER_ARDUCOPTER is not set: no ArduCopter SITL binary to compare with"
-)
+pytestmark = [
+    pytest.mark.skipif(
+        not BINARY, reason="SLOPELANDER_ARDUCOPTER is not set: no ArduCopter SITL binary to compare with"
+    ),
+    pytest.mark.arducopter,  # one ArduCopter at a time (tests/conftest.py)
+]
 
 
 def test_stand_in_answers_commands_as_arducopter_does():
