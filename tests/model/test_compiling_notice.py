@@ -1,4 +1,4 @@
-"""The "compiling" notice appears for a slow first call only, not for every long batch."""
+"""The "compiling" notice appears for a real compile only, not for a slow start or a long batch."""
 
 from __future__ import annotations
 
@@ -20,7 +20,11 @@ def test_a_long_call_to_compiled_code_is_not_called_compiling(capsys: pytest.Cap
     assert "compiling" not in capsys.readouterr().err
 
 
-def test_a_slow_first_call_says_it_is_compiling(capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_slow_start_that_compiles_nothing_is_not_called_compiling(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Only numba's own compile event arms the notice (tests/cli/test_compile_notice.py shows it
+    said for a real compile): a start slowed by a busy machine or a cache load is not one."""
     with compiling_notice("the model", after=0.2):
         time.sleep(0.5)
-    assert "slopelander: compiling the model" in capsys.readouterr().err
+    assert "compiling" not in capsys.readouterr().err

@@ -184,7 +184,16 @@ def test_state_layout_tiles_the_state_vector() -> None:
 
 
 def test_context_layout_tiles_the_context_vector() -> None:
-    widths = {"C_SIN": 1, "C_COS": 1, "C_DOWN": 1, "C_TAU": 2, "C_QINIT": 2, "C_FEXT": 3}
+    widths = {
+        "C_SIN": 1,
+        "C_COS": 1,
+        "C_DOWN": 1,
+        "C_TAU": 2,
+        "C_QINIT": 2,
+        "C_FEXT": 3,
+        "C_KG": 1,
+        "C_BG": 1,
+    }
     starts = _constants("C_")
     assert set(starts) == set(widths), set(starts) ^ set(widths)
     assert _coverage(starts, widths, k.N_CTX) == [1] * k.N_CTX, sorted(starts.items(), key=lambda kv: kv[1])

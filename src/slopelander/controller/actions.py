@@ -28,9 +28,14 @@ class MavActions:
         self._then: tuple[float, float] | None = None  # torques to set once the angle is set
         self.pending: dict[str, CommandHandle | ScriptRequest] = {}
         self._last_descent = -1.0
-        #: the on-board script's requests, each ACK matched to its own request
-        self.script = ScriptClient(
-            link, retries=int(cfg["link.command_retries"]), timeout_s=cfg["link.command_timeout_s"]
+        #: the on-board script's requests, each ACK matched to its own request (None without a
+        #: link: the leg actions alone, as on the bench)
+        self.script = (
+            ScriptClient(
+                link, retries=int(cfg["link.command_retries"]), timeout_s=cfg["link.command_timeout_s"]
+            )
+            if link is not None
+            else None
         )
         self._setup: ScriptRequest | None = None
 
