@@ -137,6 +137,10 @@ def test_rangefinder_from_the_pad_onto_the_roof(ap: ArduPilotSide) -> None:
     errors = []
     for st in states:
         north, z, p = st["position"][0], alt(st) + rest, st["attitude"][1]
+        if abs(north - 3.0) < 0.4:
+            # the beam has a width (2 deg, docs/simulated-vehicle.md): while its footprint straddles
+            # the edge it reads a mean of the two surfaces, not one point's range
+            continue
         if north < 3.0:
             expected = z / math.cos(p)
         else:
