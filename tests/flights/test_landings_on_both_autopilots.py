@@ -56,7 +56,10 @@ def fly_one_landing(autopilot: str, slope_deg: float, **reflex):
 @pytest.mark.parametrize("slope_deg", [0.0, 20.0, 35.0, 45.0])
 def test_pad_to_roof_lands_and_ends_disarmed(autopilot: str, slope_deg: float) -> None:
     flight, armed, texts, preset = fly_one_landing(autopilot, slope_deg)
-    ctx = (autopilot, slope_deg, flight.history[-4:], texts[-8:])
+    ctx = " | ".join(
+        [f"{autopilot} {slope_deg:g} deg"] + [f"{h['to']}: {h['reason']}" for h in flight.history]
+    )
+    ctx += " || " + " | ".join(texts[-8:])
     assert flight.end == "LANDED", ctx
     assert not armed, ctx  # the autopilot's own HEARTBEAT, after the landing ended
     c = flight.contact
