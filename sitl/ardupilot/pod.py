@@ -77,16 +77,17 @@ class Console:
     def _run(self) -> None:
         from pymavlink import mavutil
 
-        boot_ms, beat = 0, 0.0
+        boot_ms, beat, asked = 0, 0.0, 0.0
         while self.running:
             # ArduPilot sends STATUSTEXT only on channels it has heard a MAVLink message on
             # (GCS_MAVLINK::active_channel_mask): say hello as a ground station does, at 1 Hz
             now = time.monotonic()
-            if now - beat >= 1.0:
+            if not boot_ms and now - asked >= 0.2:
                 # SYSTEM_TIME at 10 Hz: the boot time written beside each STATUSTEXT. Asked until
-                # it comes: ArduCopter, still booting, lets the first request go unanswered
-                if not boot_ms:
-                    self.conn.mav.command_long_send(1, 1, 511, 0, 2, 100_000, 0, 0, 0, 0, 0)
+                # it comes: ArduCopter, still booting, lets the first requests go unanswered
+                self.conn.mav.command_long_send(1, 1, 511, 0, 2, 100_000, 0, 0, 0, 0, 0)
+                asked = now
+            if now - beat >= 1.0:
                 beat = now
                 self.conn.mav.heartbeat_send(
                     mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0
