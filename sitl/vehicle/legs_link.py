@@ -23,6 +23,7 @@ from sitl.legboard.control import BoardControl, ControlError
 from slopelander.model.stepper import Stepper
 
 PERIOD_S = 0.02
+CONTROL_TIMEOUT_S = 10.0  # s of wall time for one exchange with the board's control socket
 CLEAR_M = 0.05  # the board's angles reach the physics only this far clear of the surface
 
 
@@ -41,7 +42,10 @@ class LegsLink:
     def __init__(self, control_path: Path, period_s: float = PERIOD_S) -> None:
         if not (period_s > 0 and math.isfinite(period_s)):
             raise ValueError(f"leg board period must be a positive number of seconds, got {period_s!r}")
-        self.ctl = BoardControl(control_path)
+        # a simulator in lock-step with the board waits for each exchange: on a loaded machine
+        # (several simulations on 2 cores) one can take seconds, and a timeout here ends the
+        # simulated legs for good (``error``), which reads as a silent board to the companion
+        self.ctl = BoardControl(control_path, timeout=CONTROL_TIMEOUT_S)
         self.period_s = period_s
         try:
             #: whether the board follows the vehicle's clock (``--clock external``)
