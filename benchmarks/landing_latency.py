@@ -56,7 +56,7 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 import numpy as np  # noqa: E402
 
 from benchmarks.cut_height import cut_figures, stats_line  # noqa: E402
-from sitl.rig import AUTOPILOTS, Rig, RigError, config  # noqa: E402
+from sitl.rig import Rig, RigError, add_autopilot_args, config  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.runner import ENDINGS, Lander  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
@@ -143,19 +143,7 @@ def main() -> None:
     ap.add_argument("--landings", type=int, default=100)
     ap.add_argument("--slopes", default="15,25,35")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument(
-        "--autopilot", choices=AUTOPILOTS, default="sim", help="the simulated vehicle or ArduCopter"
-    )
-    ap.add_argument(
-        "--arducopter", metavar="PATH", help="ArduCopter SITL binary (else $SLOPELANDER_ARDUCOPTER)"
-    )
-    ap.add_argument(
-        "--speedup",
-        type=float,
-        default=4.0,
-        help="ArduCopter's --speedup (1: real time, for a loaded machine: it does not wait for the "
-        "companion or the leg board)",
-    )
+    add_autopilot_args(ap)
     ap.add_argument("--save", metavar="FILE", help="write each landing's figures as a JSON line")
     a = ap.parse_args()
     if a.autopilot == "ardupilot":

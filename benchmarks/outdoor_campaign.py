@@ -60,7 +60,7 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 import numpy as np  # noqa: E402
 
 from benchmarks.cut_height import cut_figures, stats_line  # noqa: E402
-from sitl.rig import AUTOPILOTS, Rig, RigError, config  # noqa: E402
+from sitl.rig import Rig, RigError, add_autopilot_args, config  # noqa: E402
 from slopelander.controller.actions import DESCENT_TYPE_MASK  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.link import mavlink  # noqa: E402
@@ -134,19 +134,7 @@ def main() -> None:
         help="write each landing as a JSON line as it is flown: its draws, outcomes, model conditions "
         "(thrust as flown), the cut's figures and their evidence (benchmarks/cut_height.py reads it)",
     )
-    ap.add_argument(
-        "--autopilot", choices=AUTOPILOTS, default="sim", help="the simulated vehicle or ArduCopter"
-    )
-    ap.add_argument(
-        "--arducopter", metavar="PATH", help="ArduCopter SITL binary (else $SLOPELANDER_ARDUCOPTER)"
-    )
-    ap.add_argument(
-        "--speedup",
-        type=float,
-        default=4.0,
-        help="ArduCopter's --speedup (1: real time, for a loaded machine: it does not wait for the "
-        "companion or the leg board)",
-    )
+    add_autopilot_args(ap)
     ap.add_argument(
         "--only",
         type=landing_numbers,

@@ -52,6 +52,25 @@ STREAMS = (
 #: (``SLOPELANDER_ARDUCOPTER``) behind the same physics
 AUTOPILOTS = ("sim", "ardupilot")
 
+
+def add_autopilot_args(ap) -> None:
+    """The options of a benchmark that flies either autopilot: ``--autopilot``, ``--arducopter``
+    and ``--speedup`` (ArduCopter's)."""
+    ap.add_argument(
+        "--autopilot", choices=AUTOPILOTS, default="sim", help="the simulated vehicle or ArduCopter"
+    )
+    ap.add_argument(
+        "--arducopter", metavar="PATH", help="ArduCopter SITL binary (else $SLOPELANDER_ARDUCOPTER)"
+    )
+    ap.add_argument(
+        "--speedup",
+        type=float,
+        default=4.0,
+        help="ArduCopter's --speedup (1: real time, for a loaded machine: it does not wait for the "
+        "companion or the leg board)",
+    )
+
+
 #: what the rig's :class:`Track` reads on top of the landing's messages
 TRACK_MESSAGES = LANDING_MESSAGES | {"ATTITUDE", "SERVO_OUTPUT_RAW"}
 
