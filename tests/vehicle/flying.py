@@ -71,7 +71,10 @@ HOME_OVER_PAD_M = 0.148  # home is the body's origin as it first settled on the 
 
 def take_off(conn, alt: float) -> None:
     """GUIDED, arm, MAV_CMD_NAV_TAKEOFF to ``alt``: metres over the surface the rangefinder sees
-    when it is healthy and ``alt`` is below RNGFND1_MAX (ArduCopter's rule), else above home."""
+    when it is healthy and ``alt`` is below RNGFND1_MAX (ArduCopter's rule), else above home.
+    It waits for 1 s of vehicle time first: before RANGEFINDER_HEALTH_MAX readings (20 Hz) the
+    rangefinder is not yet healthy and the height would be over home, a race a loaded machine loses."""
+    wait_msg(conn, "ATTITUDE", lambda m: m.time_boot_ms >= 1000, timeout=30)
     assert set_mode(conn, 4).result == M.MAV_RESULT_ACCEPTED
     assert arm(conn).result == M.MAV_RESULT_ACCEPTED
     assert command(conn, M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, alt).result == M.MAV_RESULT_ACCEPTED
