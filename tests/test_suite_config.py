@@ -108,3 +108,46 @@ def test_the_configured_command_runs_a_module_on_one_worker_in_order(tmp_path: P
         assert [n for n, _ in mine] == [0, 1, 2, 3], rows  # file order
         assert len({w for _, w in mine}) == 1, rows  # one worker
     assert len({w for m, _, w in rows if m == "spread"}) >= 2, rows
+
+
+GROUPS_PLUGIN = """
+def pytest_collection_finish(session):
+    for item in session.items:
+        groups = [m.args[0] if m.args else m.kwargs["name"] for m in item.iter_markers("xdist_group")]
+        print("GROUP", item.nodeid, groups[0] if groups else "-")
+"""
+
+
+def test_only_flights_on_arducopter_join_its_work_unit(tmp_path: Path) -> None:
+    """The landings on both autopilots: each ArduCopter flight in the one "arducopter" unit (never
+    two ArduCopters at once), each flight on the simulated vehicle free to go to any worker."""
+    (tmp_path / "groups_plugin.py").write_text(GROUPS_PLUGIN)
+    env = _env()
+    env["PYTHONPATH"] += os.pathsep + str(tmp_path)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-p",
+            "no:cacheprovider",
+            "-p",
+            "groups_plugin",
+            "-n",
+            "0",
+            "--collect-only",
+            "-q",
+            "tests/flights",
+        ],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    ).stdout
+    groups = dict(line.split()[1:3] for line in out.splitlines() if line.startswith("GROUP "))
+    ap = {k: v for k, v in groups.items() if "[ardupilot" in k}
+    sim = {k: v for k, v in groups.items() if "[sim" in k}
+    assert ap and sim, out[-2000:]
+    assert set(ap.values()) == {"arducopter"}, ap
+    assert set(sim.values()) == {"-"}, sim

@@ -10,7 +10,9 @@ import pytest
 from sitl.ardupilot import arducopter_binary
 from sitl.ardupilot.launch import ArduCopterMissingError
 
-AUTOPILOTS = ["sim", "ardupilot"]
+# A flight on real ArduCopter joins the one "arducopter" work unit (tests/conftest.py): no two
+# ArduCopters at once. A flight on the simulated vehicle goes to whichever worker is free.
+AUTOPILOTS = ["sim", pytest.param("ardupilot", marks=pytest.mark.arducopter)]
 
 
 @pytest.fixture(params=AUTOPILOTS)

@@ -24,8 +24,9 @@ from sitl.rig import Rig, config
 from slopelander.controller.landing import expected_impact_speed, leg_geometry
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 
-# each landing flies a vehicle of its own: the workers may share the landings out
-pytestmark = pytest.mark.arducopter
+# each landing flies a vehicle of its own: the workers may share the landings out (the flights on
+# ArduCopter still one at a time: tests/flights/conftest.py)
+pytestmark = pytest.mark.spread
 
 FALL_M = 0.1
 
