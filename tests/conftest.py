@@ -7,11 +7,19 @@ The suite runs on parallel workers (pytest-xdist, ``-n auto --dist loadgroup`` i
 Each test module is one work unit, run on one worker in file order, so a module-scoped fixture (a
 flying vehicle, a physics server) is made once and the flight tests that share one vehicle keep
 their order. A module marked ``spread`` shares nothing wider than a test: its tests go to
-whichever worker is free (the landings on both autopilots, each on its own vehicle)."""
+whichever worker is free (the landings on both autopilots, each on its own vehicle).
+
+The work units are handed out longest first (``--no-loadscope-reorder`` keeps this order; xdist's
+own order is by number of tests, which put the few long flights last and left one worker idle for
+the last ten minutes): a unit's length is the sum of its tests' times in ``tests/durations.json``,
+written from a measured run by ``benchmarks/suite_time.py``; a test not in it counts
+``UNKNOWN_TEST_S``."""
 
 from __future__ import annotations
 
+import json
 import os
+from pathlib import Path
 
 import pytest
 from hypothesis import settings
@@ -34,9 +42,54 @@ def work_unit(item: pytest.Item) -> str | None:
     return item.nodeid.split("::", 1)[0]
 
 
+DURATIONS = Path(__file__).with_name("durations.json")
+UNKNOWN_TEST_S = 2.0
+
+
+def recorded_durations(path: Path = DURATIONS) -> dict[str, float]:
+    """Test id -> seconds from a measured run; empty when the file is missing or unreadable (every
+    test then counts the same, units with more tests go first: xdist's own rule; the order changes
+    the run's length, never its result)."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(data, dict):
+        return {}
+    return {k: float(v) for k, v in data.items() if isinstance(v, (int, float))}
+
+
+def longest_first(items: list[pytest.Item], seconds: dict[str, float]) -> list[pytest.Item]:
+    """The items reordered so that work units come longest first, each unit's tests kept in their
+    order (a unit's first appearance breaks ties, so the order is the same on every worker)."""
+    units: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        units.setdefault(work_unit(item) or item.nodeid, []).append(item)
+    cost = {u: sum(seconds.get(i.nodeid, UNKNOWN_TEST_S) for i in its) for u, its in units.items()}
+    rank = {u: n for n, u in enumerate(units)}
+    order = sorted(units, key=lambda u: (-cost[u], rank[u]))
+    return [item for u in order for item in units[u]]
+
+
 @pytest.hookimpl(tryfirst=True)  # before xdist's worker reads the groups into the test ids
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     for item in items:
         group = work_unit(item)
         if group is not None:
             item.add_marker(pytest.mark.xdist_group(group))
+    items[:] = longest_first(items, recorded_durations())
+
+
+_RECORD = os.environ.get("SLOPELANDER_RECORD_DURATIONS")  # benchmarks/suite_time.py sets it
+_measured: dict[str, float] = {}
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Setup, call and teardown times per test (on the controller: every worker's reports)."""
+    if _RECORD:
+        _measured[report.nodeid] = _measured.get(report.nodeid, 0.0) + report.duration
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    if _RECORD and _measured and not hasattr(session.config, "workerinput"):
+        Path(_RECORD).write_text(json.dumps(dict(sorted(_measured.items())), indent=0) + "\n")

@@ -151,3 +151,27 @@ def test_only_flights_on_arducopter_join_its_work_unit(tmp_path: Path) -> None:
     assert ap and sim, out[-2000:]
     assert set(ap.values()) == {"arducopter"}, ap
     assert set(sim.values()) == {"-"}, sim
+
+
+def test_work_units_are_handed_out_longest_first(tmp_path: Path) -> None:
+    """The recorded times order the units, longest first, each unit's tests kept together in
+    their order; with no record, units with more tests first (xdist's own rule)."""
+    from tests.conftest import longest_first, recorded_durations
+
+    class Item:
+        def __init__(self, nodeid: str) -> None:
+            self.nodeid = nodeid
+
+        def get_closest_marker(self, name: str):
+            return None
+
+    ids = ["a.py::t1", "a.py::t2", "b.py::t1", "c.py::t1", "c.py::t2"]
+    items = [Item(i) for i in ids]
+    record = tmp_path / "durations.json"
+    record.write_text('{"a.py::t1": 1, "a.py::t2": 1, "b.py::t1": 30, "c.py::t1": 5, "c.py::t2": 0}')
+    ordered = [i.nodeid for i in longest_first(items, recorded_durations(record))]
+    assert ordered == ["b.py::t1", "c.py::t1", "c.py::t2", "a.py::t1", "a.py::t2"]
+    record.write_text("not json")
+    assert recorded_durations(record) == {}
+    unrecorded = [i.nodeid for i in longest_first(items, {})]
+    assert unrecorded == ["a.py::t1", "a.py::t2", "c.py::t1", "c.py::t2", "b.py::t1"]

@@ -1,0 +1,66 @@
+"""How long the README's test command takes, and where the time goes.
+
+Runs ``python3 -m pytest`` (the README's command, which ``.ci/run`` runs) with
+SLOPELANDER_RECORD_DURATIONS set, prints the wall time, the load average before and after, the
+summed test time (the two workers' share) and the longest work units; ``--write`` saves the
+per-test times to tests/durations.json, from which tests/conftest.py hands the work units out
+longest first.
+
+    python3 benchmarks/suite_time.py [--write] [-- extra pytest arguments]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def unit_of(nodeid: str) -> str:
+    return nodeid.split("::", 1)[0]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--write", action="store_true", help="save the times to tests/durations.json")
+    ap.add_argument("--top", type=int, default=15, help="how many of the longest modules to print")
+    ap.add_argument("pytest_args", nargs="*", help="extra arguments for pytest (after --)")
+    a = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "durations.json"
+        env = {**os.environ, "SLOPELANDER_RECORD_DURATIONS": str(out)}
+        load0 = os.getloadavg()
+        t0 = time.monotonic()
+        run = subprocess.run([sys.executable, "-m", "pytest", "-q", *a.pytest_args], cwd=REPO, env=env)
+        wall = time.monotonic() - t0
+        load1 = os.getloadavg()
+        if not out.exists():
+            print("the run recorded no test times", file=sys.stderr)
+            return 1
+        seconds = json.loads(out.read_text())
+        if a.write:
+            shutil.copy(out, REPO / "tests" / "durations.json")
+    per_module: dict[str, float] = defaultdict(float)
+    for nodeid, s in seconds.items():
+        per_module[unit_of(nodeid)] += s
+    total = sum(seconds.values())
+    print(
+        f"\nwall {wall / 60:.1f} min, exit {run.returncode}; load {load0[0]:.1f} before, {load1[0]:.1f} after"
+    )
+    print(f"{len(seconds)} tests, {total / 60:.1f} min of test time ({total / wall:.2f} workers busy)")
+    for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
+        print(f"  {s:7.1f} s  {module}")
+    return run.returncode
+
+
+if __name__ == "__main__":
+    sys.exit(main())
