@@ -60,8 +60,9 @@ def companion_instance(parm: dict[str, tuple[float, str]], mav: set[int]) -> tup
 
 
 @pytest.mark.skipif(not REFERENCE.exists(), reason="ArduPilot parameter reference not available")
-def test_the_companion_streams_are_set_on_its_own_mavlink_instance():
-    parm = read_parm(PARM)
+@pytest.mark.parametrize("path", [PARM, PARM.with_name("sitl.parm")], ids=lambda p: p.name)
+def test_the_companion_streams_are_set_on_its_own_mavlink_instance(path: Path):
+    parm = read_parm(path)
     mav = mavlink_protocols()
     assert {1, 2} <= mav
     port, n = companion_instance(parm, mav)
