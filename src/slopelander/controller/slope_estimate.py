@@ -30,8 +30,10 @@ import numpy as np
 #: Tukey's biweight constant (95 % efficiency at the normal) and the MAD's normal consistency
 TUKEY_C = 4.685
 MAD_NORMAL = 1.4826
-#: the residual scale is never taken below this (m): noiseless points would give a zero scale
-SCALE_FLOOR_M = 0.002
+#: the residual scale is never taken below this (m): noiseless points would give a zero scale, and
+#: DISTANCE_SENSOR reports whole centimetres, so on a steady height most residuals are 0 or one
+#: step: the MAD is then 0, and a step (1 cm) must stay well inside Tukey's cut (4.685 scales)
+SCALE_FLOOR_M = 0.005
 #: a point whose final weight is below this is counted as an outlier
 OUTLIER_WEIGHT = 0.1
 #: contiguous blocks of the block jackknife (points along a track are correlated within a block)
