@@ -12,6 +12,16 @@ and the range reading's 50 ms age (ArduCopter's 20 Hz task). The estimator is th
 own (``slopelander.controller.slope_estimate``) with the shipped settings.
 
     python3 benchmarks/slope_estimate.py [--runs 40] [--att-bias 0.5] [--beam-deg 2] [--return mean]
+
+``--flown`` flies the passes instead, on the simulated vehicle or on real ArduCopter SITL
+(``--autopilot ardupilot``, its binary from ``--arducopter`` or ``SLOPELANDER_ARDUCOPTER``): one
+vehicle per slope over the roof's spot (the rig's), each pass the companion's own
+``survey.measure_slope`` with a track of its own; ``--save FILE`` keeps every estimate with its
+points. A flown pass costs its 11-12 s of vehicle time plus the repositioning, so keep the subset
+small (``--slopes``, ``--heights``, ``--runs``); ArduCopter at ``--speedup 1`` on a loaded machine.
+
+    python3 benchmarks/slope_estimate.py --flown --autopilot ardupilot --speedup 1 --runs 2 \
+        --slopes 0,10,20,35 --heights 1,2,3 --save passes.jsonl
 """
 
 from __future__ import annotations
@@ -40,7 +50,7 @@ from slopelander.controller.slope_estimate import (
 
 SPOT_X = 5.5
 G = 9.80665
-RANGE_MAX_M = 14.0  # the simulated vehicle's RNGFND1_MAX
+RANGE_MAX_M = 3.0  # RNGFND1_MAX of every parameter file: the TeraRanger Evo 3m
 
 
 def pass_profile(length: float, speed: float, accel: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -95,58 +105,211 @@ def one_pass(
     return estimate(tr.points(), SPOT_X, st), float(t[-1])
 
 
+HEADER = (
+    "slope  height  bias   spread  mean-sigma  |err|<=1sig  |err|<=2sig  refused  caught+-10  caught+-20  "
+    "false-ref  survey-s"
+)
+
+
+def row(s: float, h: float, results: list[tuple[object, float]], cfg) -> str:
+    """One line of the table from the (estimate, survey seconds) of the passes at slope ``s``,
+    height ``h``."""
+    errs, sig, cover1, cover, refused, false = [], [], 0, 0, 0, 0
+    caught = {10: [0, 0], 20: [0, 0]}
+    for est, _took in results:
+        if not est.ok:
+            refused += 1
+            continue
+        e = est.slope_deg - s
+        errs.append(e)
+        sig.append(est.sigma_deg)
+        cover1 += abs(e) <= est.sigma_deg
+        cover += abs(e) <= 2 * est.sigma_deg
+        bound = check_bound(5.0, est.sigma_deg, cfg["slope.check_sigmas"], cfg["slope.check_bound_deg"])
+        false += pilot_refusal(float(s), est, bound) is not None
+        for off, tally in caught.items():
+            for pilot in (s - off, s + off):
+                if 0 <= pilot <= 60:
+                    tally[1] += 1
+                    tally[0] += pilot_refusal(float(pilot), est, bound) is not None
+    took = np.mean([t for _e, t in results])
+    ok, n = len(errs), len(results)
+    if not ok:
+        return f"{s:5.0f}  {h:5.1f}  all {n} refused{'':70}{took:8.1f}"
+    return (
+        f"{s:5.0f}  {h:5.1f}  {np.mean(errs):+6.2f}  {np.std(errs):6.2f}  {np.mean(sig):9.2f}  "
+        f"{cover1 / ok:10.0%}  {cover / ok:10.0%}  {refused / n:7.0%}  "
+        f"{caught[10][0] / max(1, caught[10][1]):10.0%}  {caught[20][0] / max(1, caught[20][1]):10.0%}  "
+        f"{false / ok:9.0%}  {took:8.1f}"
+    )
+
+
+def synthesized(args, cfg, st, slopes, heights) -> None:
+    rng = np.random.default_rng(args.seed)
+    print(f"synthesized, runs {args.runs}, attitude bias {args.att_bias} deg, ", end="")
+    print(f"beam {args.beam_deg} deg ({args.ret})")
+    print(HEADER)
+    for h in heights:
+        for s in slopes:
+            print(row(s, h, [one_pass(s, h, rng, args, st) for _ in range(args.runs)], cfg), flush=True)
+
+
+class Current:
+    """Feeds the track of the pass being flown (a fresh one per pass: no point of an earlier pass)."""
+
+    track: SurfaceTrack | None = None
+
+    def feed(self, msg) -> None:
+        if self.track is not None:
+            self.track.feed(msg)
+
+
+def flown(args, cfg, slopes, heights) -> None:
+    """Survey passes flown by the companion's own ``measure_slope`` on a vehicle (one per slope,
+    the heights and runs in turn over the roof's spot, each pass with a track of its own)."""
+    import json
+
+    from sitl.rig import Rig, RigError
+    from slopelander.controller.survey import measure_slope
+    from slopelander.legs.errors import LegBoardError
+
+    print(
+        f"flown on {args.autopilot}, runs {args.runs}"
+        + (f", speedup {args.speedup:g}" if args.autopilot == "ardupilot" else "")
+    )
+    print(HEADER)
+    save = open(args.save, "a") if args.save else None  # noqa: SIM115
+    for s in slopes:
+        by_height: dict[float, list] = {h: [] for h in heights}
+        todo = [h for h in heights for _ in range(args.runs)]
+        for attempt in (1, 2):  # a vehicle lost to a loaded machine (a silent board): a fresh one, once
+            try:
+                with Rig(
+                    slope_deg=s,
+                    seed=int(s) + 100 * attempt + 1000 * args.seed,
+                    autopilot=args.autopilot,
+                    arducopter=args.arducopter,
+                    arducopter_speedup=args.speedup,
+                ) as rig:
+                    rig.take_off(3.0)
+                    current = Current()
+                    rig.link.add_listener(current.feed)
+                    while todo:
+                        h = todo[0]
+                        rig.go_over_roof(h)
+                        current.track = SurfaceTrack(cfg["slope.pair_window_s"])
+                        est, took = measure_slope(
+                            rig.link, cfg, current.track, tick=rig.poll, note=lambda _: None
+                        )
+                        if est.refusal and est.refusal.startswith("survey pass not finished"):
+                            raise RigError(est.refusal)
+                        by_height[h].append((est, took))
+                        todo.pop(0)
+                        if save:
+                            rec = {"autopilot": args.autopilot, "slope": s, "height": h, "took_s": took}
+                            save.write(json.dumps({**rec, **est.record()}) + "\n")
+                            save.flush()
+                break
+            except (LegBoardError, RigError) as exc:
+                print(f"# slope {s:g}: vehicle lost ({exc}); {len(todo)} passes left", flush=True)
+        for h in heights:
+            print(row(s, h, by_height[h], cfg), flush=True)
+    if save:
+        save.close()
+
+
+def height_walk(rec: dict) -> float | None:
+    """The height's random-walk intensity (m per sqrt(s)) seen in one flown pass: the points'
+    heights about the true slope (a free offset), their semivariogram at 0.05 s and 4 s of lag,
+    gamma(L) = noise^2 + q^2 L / 2. None without enough points."""
+    pts = np.array(rec.get("points") or [], float).reshape(-1, 4)
+    if len(pts) < 30:
+        return None
+    t, x, h = pts[:, 0], pts[:, 1], pts[:, 2]
+    r = h + (x - rec["spot_x_m"]) * math.tan(math.radians(rec["slope"]))
+    gamma = []
+    for lag in (0.05, 4.0):
+        j = np.searchsorted(t, t + lag)
+        ok = (j < t.size) & (np.abs(t[np.minimum(j, t.size - 1)] - t - lag) < 0.03)
+        d = r[j[ok]] - r[ok]
+        gamma.append(0.5 * float(np.mean(d * d)) if d.size else math.nan)
+    return math.sqrt(max(0.0, 2 * (gamma[1] - gamma[0]) / (4.0 - 0.05)))
+
+
+def summarize(files: list[str], cfg) -> None:
+    """The table from passes saved by ``--flown --save`` (any number of files, pooled), and the
+    height's wander each autopilot showed."""
+    import json
+
+    from slopelander.controller.slope_estimate import SlopeEstimate
+
+    recs = [json.loads(line) for f in files for line in open(f) if line.strip()]  # noqa: SIM115
+    for ap in sorted({r["autopilot"] for r in recs}):
+        mine = [r for r in recs if r["autopilot"] == ap]
+        print(f"flown on {ap}: {len(mine)} passes from {', '.join(files)}")
+        print(HEADER)
+        for s in sorted({r["slope"] for r in mine}):
+            for h in sorted({r["height"] for r in mine if r["slope"] == s}):
+                cell = [
+                    (SlopeEstimate(r["slope_deg"], r["sigma_deg"], r["refusal"], r["spot_x_m"]), r["took_s"])
+                    for r in mine
+                    if r["slope"] == s and r["height"] == h
+                ]
+                print(row(s, h, cell, cfg))
+        for s in sorted({r["slope"] for r in mine}):
+            q = [v for r in mine if r["slope"] == s and (v := height_walk(r)) is not None]
+            if q:
+                print(
+                    f"height wander over {s:g} deg (cm per sqrt(s)): median {np.median(q) * 100:.2f}, "
+                    f"max {max(q) * 100:.2f} ({len(q)} passes)"
+                )
+
+
 def main(argv: list[str] | None = None) -> int:
+    from sitl.rig import add_autopilot_args
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=40, help="passes per (slope, height) (default 40)")
     ap.add_argument("--att-bias", type=float, default=0.5, help="attitude bias, 1 sigma deg (default 0.5)")
     ap.add_argument("--beam-deg", type=float, default=2.0, help="full beam width, deg (default 2)")
     ap.add_argument("--return", dest="ret", choices=("mean", "nearest"), default="mean")
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument(
+        "--seed", type=int, default=1, help="of the synthesized errors, or of the flown scenarios"
+    )
+    ap.add_argument("--slopes", default="0,10,20,30,35,40,50,60", help="true slopes, deg (comma-separated)")
+    ap.add_argument("--heights", default="1,2,3", help="heights over the spot, m (comma-separated)")
+    ap.add_argument(
+        "--flown", action="store_true", help="fly the passes on --autopilot instead of synthesizing them"
+    )
+    ap.add_argument(
+        "--save", metavar="FILE", help="(--flown) append each pass's estimate and points as a JSON line"
+    )
+    ap.add_argument("--summarize", nargs="+", metavar="FILE", help="tabulate passes saved by --flown --save")
+    add_autopilot_args(ap)
     args = ap.parse_args(argv)
     cfg = load_config()
+    if args.summarize:
+        summarize(args.summarize, cfg)
+        return 0
     st = EstimateSettings.from_config(cfg)
-    rng = np.random.default_rng(args.seed)
-    slopes = [0, 10, 20, 30, 35, 40, 50, 60]
-    heights = [1.0, 2.0, 3.0]
-    t0 = time.process_time()
-    print(f"runs {args.runs}, attitude bias {args.att_bias} deg, beam {args.beam_deg} deg ({args.ret})")
-    print("slope  height  bias   spread  mean-sigma  |err|<=2sig  refused  caught+-10  caught+-20  false-ref")
-    pass_s = None
-    for h in heights:
-        for s in slopes:
-            errs, sig, cover, refused, caught10, n10, caught20, n20, false = [], [], 0, 0, 0, 0, 0, 0, 0
-            for _ in range(args.runs):
-                est, pass_s = one_pass(s, h, rng, args, st)
-                if not est.ok:
-                    refused += 1
-                    continue
-                e = est.slope_deg - s
-                errs.append(e)
-                sig.append(est.sigma_deg)
-                cover += abs(e) <= 2 * est.sigma_deg
-                bound = check_bound(
-                    5.0, est.sigma_deg, cfg["slope.check_sigmas"], cfg["slope.check_bound_deg"]
-                )
-                false += pilot_refusal(float(s), est, bound) is not None
-                for off in (-10, 10):
-                    if 0 <= s + off <= 60:
-                        n10 += 1
-                        caught10 += pilot_refusal(float(s + off), est, bound) is not None
-                for off in (-20, 20):
-                    if 0 <= s + off <= 60:
-                        n20 += 1
-                        caught20 += pilot_refusal(float(s + off), est, bound) is not None
-            ok = len(errs)
-            if ok:
-                print(
-                    f"{s:5.0f}  {h:5.1f}  {np.mean(errs):+6.2f}  {np.std(errs):6.2f}  {np.mean(sig):9.2f}  "
-                    f"{cover / ok:10.0%}  {refused / args.runs:7.0%}  "
-                    f"{caught10 / max(1, n10):10.0%}  {caught20 / max(1, n20):10.0%}  {false / ok:12.0%}"
-                )
-            else:
-                print(f"{s:5.0f}  {h:5.1f}  all {args.runs} refused")
-    print(f"pass duration (target motion 10 s + settling): {pass_s:.1f} s vehicle time")
-    print(f"CPU {time.process_time() - t0:.1f} s")
+    slopes = [float(v) for v in args.slopes.split(",")]
+    heights = [float(v) for v in args.heights.split(",")]
+    if args.autopilot == "ardupilot" and not args.flown:
+        ap.error("--autopilot ardupilot flies the passes: add --flown")
+    if args.autopilot == "ardupilot":
+        from sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
+
+        try:
+            arducopter_binary(args.arducopter)
+        except ArduCopterMissingError as exc:
+            ap.error(str(exc))
+    t0, w0 = time.process_time(), time.monotonic()
+    if args.flown:
+        flown(args, cfg, slopes, heights)
+    else:
+        synthesized(args, cfg, st, slopes, heights)
+    print("survey-s: vehicle seconds the pass added (target motion 10 s + settling)")
+    print(f"CPU {time.process_time() - t0:.1f} s (this process), wall {time.monotonic() - w0:.0f} s")
     return 0
 
 

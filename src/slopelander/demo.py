@@ -185,6 +185,8 @@ def run_demo(
     from slopelander.controller.landing import cut_dynamics, leg_geometry, plan_landing
     from slopelander.controller.link import Link
     from slopelander.controller.runner import Lander
+    from slopelander.controller.slope_estimate import SurfaceTrack
+    from slopelander.controller.survey import measure_slope
     from slopelander.controller.table import LookupTable
     from slopelander.legs.calibration import load_calibration
 
@@ -236,6 +238,7 @@ def run_demo(
     legs = None
     legs_uphill: tuple[int, ...] = (0, 1)
     tele = Telemetry()
+    slope_drawn = None
     try:
         if autopilot == "ardupilot":
             from sitl.ardupilot import start_arducopter
@@ -248,6 +251,8 @@ def run_demo(
         link = Link(vehicle.mavlink_url, link_loss_s=cfg["link.link_loss_s"])
         link.conn.setup_logfile(str(out / "flight.tlog"), mode="wb")
         link.add_listener(tele.listen)
+        track = SurfaceTrack(cfg["slope.pair_window_s"])  # the rangefinder's points, as `land` keeps them
+        link.add_listener(track.feed)
         info = link.wait_autopilot(timeout_s=30.0)
         echo(f"autopilot: {info.describe()}")
         for msg_id, hz in (
@@ -326,6 +331,20 @@ def run_demo(
             send=goto(approach),
         )
 
+        # the slope measured as `slopelander land` does (a survey pass when the approach saw too
+        # little), for the picture and slope_estimate.json; the landing uses the demo's slope
+        survey_t0 = link.clock.now()
+        estimate, took = measure_slope(
+            link, cfg, track, tick=lambda: (link.poll(), legs.poll()), note=echo, wall_s=120 / speed + 60
+        )
+        slope_drawn = {
+            "record": estimate.record(),
+            "survey": (survey_t0, survey_t0 + took) if took else None,
+            "true_slope_deg": float(slope_deg),
+        }
+        echo(f"slope measured: {estimate.describe()}" + (f" (survey pass {took:.1f} s)" if took else ""))
+        (out / "slope_estimate.json").write_text(json.dumps({**slope_drawn, "survey_s": took}, indent=1))
+        files["slope estimate"] = str(out / "slope_estimate.json")
         echo(
             f"landing: legs {up:.2f}/{down:.2f} N*m from the {source}, descent "
             f"{cfg['descent.rate_mps']:g} m/s, motors stopped at {cfg['reflex.cut_height_m']:g} m, "
@@ -387,6 +406,7 @@ def run_demo(
                     f"slopelander demo: {slope_deg:g} deg roof, legs {up:.2f}/{down:.2f} N*m, "
                     f"reverse thrust {cfg['reflex.reverse_thrust_pct']:g} % - {result_state}"
                 ),
+                slope=slope_drawn,
             )
         )
     result = DemoResult(

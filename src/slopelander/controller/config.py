@@ -81,6 +81,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "slope.max_sigma_deg": (0.1, 20.0, False),
     "slope.sigma_floor_deg": (0.0, 10.0, False),
     "slope.attitude_error_deg": (0.0, 10.0, False),
+    "slope.height_walk_m": (0.0, 1.0, False),
     "slope.survey_length_m": (0.4, 20.0, False),
     "slope.survey_speed_mps": (0.05, 3.0, False),
     "slope.survey_timeout_s": (1.0, 600.0, False),

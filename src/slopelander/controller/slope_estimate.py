@@ -30,8 +30,10 @@ import numpy as np
 #: Tukey's biweight constant (95 % efficiency at the normal) and the MAD's normal consistency
 TUKEY_C = 4.685
 MAD_NORMAL = 1.4826
-#: the residual scale is never taken below this (m): noiseless points would give a zero scale
-SCALE_FLOOR_M = 0.002
+#: the residual scale is never taken below this (m): noiseless points would give a zero scale, and
+#: DISTANCE_SENSOR reports whole centimetres, so on a steady height most residuals are 0 or one
+#: step: the MAD is then 0, and a step (1 cm) must stay well inside Tukey's cut (4.685 scales)
+SCALE_FLOOR_M = 0.005
 #: a point whose final weight is below this is counted as an outlier
 OUTLIER_WEIGHT = 0.1
 #: contiguous blocks of the block jackknife (points along a track are correlated within a block)
@@ -54,6 +56,9 @@ class EstimateSettings:
     max_sigma_deg: float = 3.0
     sigma_floor_deg: float = 0.5
     attitude_error_deg: float = 1.0
+    #: the position's height error as a random walk (m per sqrt(s)): it wanders slowly, so it is
+    #: shared by neighbouring points and no per-point scatter or time-block jackknife sees it
+    height_walk_m: float = 0.01
     #: the two sides' slopes may differ by this much beyond their joint 3 sigma (deg)
     plane_tolerance_deg: float = 4.0
 
@@ -68,6 +73,7 @@ class EstimateSettings:
             max_sigma_deg=float(cfg["slope.max_sigma_deg"]),
             sigma_floor_deg=float(cfg["slope.sigma_floor_deg"]),
             attitude_error_deg=float(cfg["slope.attitude_error_deg"]),
+            height_walk_m=float(cfg["slope.height_walk_m"]),
             plane_tolerance_deg=float(cfg["slope.plane_tolerance_deg"]),
         )
 
@@ -303,13 +309,36 @@ def _deg_se(gradient: float, se: float) -> float:
     return math.degrees(se / (1.0 + gradient * gradient))
 
 
+def walk_gradient_se(t: np.ndarray, x: np.ndarray, w: np.ndarray, walk: float) -> float:
+    """The gradient's standard error from a height error that is a random walk of ``walk`` m per
+    sqrt(s) (covariance ``walk^2 min(t_i, t_j)``) under the weighted fit ``w``. The gradient is
+    ``sum c_i h_i`` with ``sum c_i = 0``, so its variance is ``walk^2`` times the integral over time
+    of ``S(s)^2``, ``S(s)`` the sum of the ``c_i`` of the points after ``s``: a pass that sees the
+    same ground going out and coming back cancels much of a slow drift, one sweep does not."""
+    sw = float(w.sum())
+    if sw <= 0 or walk <= 0:
+        return 0.0
+    xm = float((w * x).sum() / sw)
+    sxx = float((w * (x - xm) ** 2).sum())
+    if sxx <= 0:
+        return math.inf
+    order = np.argsort(t, kind="stable")
+    c = (w * (x - xm) / sxx)[order]
+    ts = t[order]
+    after = np.cumsum(c[::-1])[::-1]  # after[k]: sum of c from k on
+    gaps = np.diff(ts)  # between point k and k + 1 the points after s are k + 1 ..
+    return walk * math.sqrt(float((gaps * after[1:] ** 2).sum()))
+
+
 def estimate(
     points: list[tuple[float, float, float]], spot_x_m: float, settings: EstimateSettings | None = None
 ) -> SlopeEstimate:
     """The slope along north at the landing spot (north ``spot_x_m``) from ``points`` (t, north,
     height up), or a refusal saying why not. The uncertainty (1 sigma) is the root sum of squares
-    of: the block jackknife of the fit over :data:`JACKKNIFE_BLOCKS` runs of consecutive points
-    (points along a track share the position's slow errors, which a per-point error ignores);
+    of: the statistical error, the larger of the block jackknife of the fit over
+    :data:`JACKKNIFE_BLOCKS` runs of consecutive points and the weighted fit's own standard error
+    together with what the height's slow wander (``height_walk_m``, :func:`walk_gradient_se`)
+    gives (points along a track share it: neither the scatter nor the jackknife sees all of it);
     the attitude's bias (``attitude_error_deg``: a pitch bias d moves the slope by sin^2(slope) d
     at level flight); and a floor (``sigma_floor_deg``)."""
     st = settings or EstimateSettings()
@@ -382,9 +411,10 @@ def estimate(
         if k >= 3
         else math.inf
     )
-    stat = max(jack, _deg_se(fit.gradient, fit.gradient_se))
+    walk = _deg_se(fit.gradient, walk_gradient_se(t, x, fit.weights, st.height_walk_m))
+    stat = max(jack, math.hypot(_deg_se(fit.gradient, fit.gradient_se), walk))
     att = math.sin(math.radians(slope)) ** 2 * st.attitude_error_deg
-    est.sigma_deg = math.sqrt(stat**2 + att**2 + st.sigma_floor_deg**2)
+    est.sigma_deg = max(st.sigma_floor_deg, math.hypot(stat, att))
     if est.sigma_deg > st.max_sigma_deg:
         est.refusal = (
             f"too uncertain: {slope:.1f} +/- {est.sigma_deg:.1f} deg (at most {st.max_sigma_deg:g} deg)"

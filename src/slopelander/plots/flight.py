@@ -3,7 +3,8 @@
 Two columns: the whole flight on the left, the landing (from just before the cut to the vehicle at
 rest) zoomed on the right, since the landing lasts about 1 s of a 30 s flight. State names sit in a
 strip of their own above each column, on as many lines as it takes for no two to overprint, and
-every legend sits outside the data."""
+every legend sits outside the data. When the landing began with a measured slope, the survey pass
+shows as its own band and a last row draws the estimate (plots/slope.py)."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from matplotlib.lines import Line2D
 
 STATE_COLOURS = {
     "PRESET": "#dddddd",
+    "SURVEY": "#fce5cd",
     "LEGS_WAIT": "#cccccc",
     "CHECKS": "#bbbbbb",
     "DESCEND": "#cfe2f3",
@@ -103,21 +105,27 @@ def _place_labels(fig: Figure, ax) -> None:
         placed[line].append(text.get_window_extent(renderer))
 
 
-def flight_figure(tele, history: list[dict], title: str = "") -> Figure:
+def flight_figure(tele, history: list[dict], title: str = "", slope: dict | None = None) -> Figure:
     """Height and range, vertical speed, acceleration, motor outputs, leg torques and angles, pitch;
     the landing states as coloured bands; the landing zoomed beside the whole flight.
-    ``tele`` is a :class:`slopelander.demo.Telemetry`."""
+    ``tele`` is a :class:`slopelander.demo.Telemetry`. ``slope``: the measured slope, as
+    ``{"record": SlopeEstimate.record(), "survey": (t0, t1) or None, "true_slope_deg": x or None}``
+    (the survey pass's vehicle times): drawn in a last row, the pass as a SURVEY band."""
     t0 = history[0]["t"] - 3.0 if history else (tele.t[0] if tele.t else 0.0)
+    survey = (slope or {}).get("survey")
+    if survey:
+        t0 = min(t0, survey[0] - 1.0)
     t_end = max([*tele.t[-1:], *(h["t"] for h in history)], default=t0 + 1) + 0.5
-    spans = _spans(history, t_end)
+    spans = ([("SURVEY", *survey)] if survey else []) + _spans(history, t_end)
     window = landing_window(history, t_end)
     columns = [(t0, t_end)] + ([window] if window else [])
 
-    fig = plt.figure(figsize=(16 if window else 11, 14), layout="constrained")
+    ratios = [0.75, 2, 1.4, 1.4, 1.6, 1.6, 1.4] + ([2.6] if slope else [])
+    fig = plt.figure(figsize=(16 if window else 11, 14 + (4 if slope else 0)), layout="constrained")
     grid = fig.add_gridspec(
-        7,
+        len(ratios),
         len(columns),
-        height_ratios=[0.75, 2, 1.4, 1.4, 1.6, 1.6, 1.4],
+        height_ratios=ratios,
         width_ratios=[2.2, 1.3][: len(columns)],
     )
     for col, (lo, hi) in enumerate(columns):
@@ -132,6 +140,12 @@ def flight_figure(tele, history: list[dict], title: str = "") -> Figure:
         if col == 0 and window:
             for ax in axes:
                 ax.axvspan(*window, fill=False, edgecolor="k", lw=0.8, ls="--")
+    if slope:
+        from slopelander.plots.slope import draw_slope_estimate
+
+        ax = fig.add_subplot(grid[len(ratios) - 1, :])
+        ax.set_gid("slope-estimate")
+        draw_slope_estimate(ax, slope["record"], _length(survey), slope.get("true_slope_deg"))
     if title:
         fig.suptitle(title)
     fig.canvas.draw()  # lay out once, then place the names where they fit
@@ -199,9 +213,13 @@ def _draw_rows(tele, axes, spans, lo: float, hi: float, legends: bool, ylabels: 
         twin.legend(handles, labels, **{**outside, "bbox_to_anchor": (1.12, 1.0)})
 
 
-def plot_flight(tele, history: list[dict], path: Path, title: str = "") -> Path:
+def _length(span) -> float | None:
+    return None if not span else span[1] - span[0]
+
+
+def plot_flight(tele, history: list[dict], path: Path, title: str = "", slope: dict | None = None) -> Path:
     """Draw :func:`flight_figure` into a PNG at ``path``."""
-    fig = flight_figure(tele, history, title)
+    fig = flight_figure(tele, history, title, slope)
     path = Path(path)
     fig.savefig(path, dpi=90)
     plt.close(fig)
