@@ -99,14 +99,16 @@ def speed(p: tuple) -> float:
     return math.hypot(p[3], p[4])
 
 
-#: what ArduCopter did at 55 deg, in both flights of 2026-11-26 (machine load 10-15)
+#: what ArduCopter did at 55 deg: 2 of 3 flights of 2026-11-26 failed (machine load 10-15), so the
+#: mark is not strict (a strict one would fail the suite on a lucky flight)
 HOLD_LAPSES = (
     "ArduCopter: while the script holds the motors stopped on the 55 deg roof (HOLD, the vehicle "
-    "sliding, armed), SERVO_OUTPUT_RAW shows the mixer's forward outputs for 1-3 samples at a time "
-    "(1976/1596/1882/1866 us, 40 ms, twice in 25 s); in another flight the pitch between contact "
-    "and the thrust's end read -84.8 deg (the simulated vehicle: above -80). Likely cause: the "
-    "script's 30 ms output override lapses when ArduCopter's scripting thread, not lock-stepped "
-    "with SITL's clock, is starved by the host (docs/ardupilot-sitl.md)"
+    "sliding, armed), the outputs leave the stop band for tens of ms (SERVO_OUTPUT_RAW "
+    "1976/1596/1882/1866 us for 40 ms, twice in 25 s; the physics saw them: EV_STOP again at "
+    "74.513 and 91.520 s); in another flight the pitch between contact and the thrust's end read "
+    "-84.8 deg (the simulated vehicle: above -80). Suspected: the script's 30 ms output override "
+    "lapses when ArduCopter's scripting thread, not lock-stepped with SITL's clock, is starved by "
+    "the host (docs/ardupilot-sitl.md)"
 )
 
 
@@ -120,7 +122,7 @@ def test_55_deg_with_reverse_thrust_rests_under_it_and_a_slide_after_it_is_not_d
     from slopelander.model.landing import simulate
 
     if autopilot == "ardupilot":
-        request.applymarker(pytest.mark.xfail(strict=True, reason=HOLD_LAPSES))
+        request.applymarker(pytest.mark.xfail(strict=False, reason=HOLD_LAPSES))
 
     cfg = config(reflex={"cut_height_m": STEEP_CUT_M})
     p = LookupTable.load(DEFAULT_TABLE).lookup(STEEP_DEG, 1.3)
