@@ -99,7 +99,7 @@ def speed(p: tuple) -> float:
     return math.hypot(p[3], p[4])
 
 
-#: what ArduCopter did at 55 deg: 2 of 3 flights of 2026-11-26 failed (machine load 10-15), so the
+#: what ArduCopter did at 55 deg: 2 of 4 flights of 2026-11-26 failed (machine load 10-15), so the
 #: mark is not strict (a strict one would fail the suite on a lucky flight)
 HOLD_LAPSES = (
     "ArduCopter: while the script holds the motors stopped on the 55 deg roof (HOLD, the vehicle "
