@@ -120,7 +120,7 @@ def pytest_collection_finish(session):
 
 def test_only_flights_on_arducopter_join_its_work_unit(tmp_path: Path) -> None:
     """The landings on both autopilots: each ArduCopter flight in the one "arducopter" unit (never
-    two ArduCopters at once), each flight on the simulated vehicle free to go to any worker."""
+    two ArduCopters at once), the flights on the simulated vehicle in their module's unit."""
     (tmp_path / "groups_plugin.py").write_text(GROUPS_PLUGIN)
     env = _env()
     env["PYTHONPATH"] += os.pathsep + str(tmp_path)
@@ -150,7 +150,7 @@ def test_only_flights_on_arducopter_join_its_work_unit(tmp_path: Path) -> None:
     sim = {k: v for k, v in groups.items() if "[sim" in k}
     assert ap and sim, out[-2000:]
     assert set(ap.values()) == {"arducopter"}, ap
-    assert set(sim.values()) == {"-"}, sim
+    assert set(sim.values()) == {"tests/flights/test_landings_on_both_autopilots.py"}, sim
 
 
 def test_work_units_are_handed_out_longest_first(tmp_path: Path) -> None:

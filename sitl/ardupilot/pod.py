@@ -36,6 +36,8 @@ HOME = "47.3977,8.5456,400,0"
 #: SITL's MAVLink TCP ports with ``-I0``: SERIAL0, SERIAL1, SERIAL2
 CONSOLE_PORT, COMPANION_PORT, GCS_PORT = 5760, 5762, 5763
 JSON_PORT = 9002
+#: SITL's RC input with ``-I0`` (``SIM::rcin_port``): the scenario's sticks and switches go there
+RC_PORT = 5501
 _PR_SET_PDEATHSIG = 1
 
 
@@ -135,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     scenario = yaml.safe_load(a.scenario.read_text()) if a.scenario else None
     try:
         physics = start_json_physics(
-            scenario=scenario, legs=a.legs, port=JSON_PORT, events=folder / "events.jsonl"
+            scenario=scenario, legs=a.legs, port=JSON_PORT, events=folder / "events.jsonl", rc_port=RC_PORT
         )
     except RuntimeError as exc:
         return fail(str(exc))

@@ -33,6 +33,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="append the measurement events (contact, outputs stopped, outputs reversed; "
         "sitl/vehicle/events.py) to this file, one JSON object a line, in ArduPilot's boot time",
     )
+    ap.add_argument(
+        "--rc-port",
+        type=int,
+        default=None,
+        metavar="PORT",
+        help="send the scenario's rc schedule to ArduPilot SITL's RC input on this UDP port of --host "
+        "(5501 + 10 x instance); without it ArduPilot keeps its default sticks",
+    )
     return ap.parse_args(argv)
 
 
@@ -45,8 +53,11 @@ def main(argv: list[str] | None = None) -> int:
 
     if not 0 <= a.port <= 65535:
         return fail(f"--port {a.port} must lie within 0..65535")
+    if a.rc_port is not None and not 1 <= a.rc_port <= 65535:
+        return fail(f"--rc-port {a.rc_port} must lie within 1..65535")
 
     from sitl.json_physics.physics import JsonPhysics
+    from sitl.json_physics.pilot_rc import PilotRc
     from sitl.json_physics.server import JsonServer, ServerError
     from sitl.vehicle.scenario import ScenarioError, load_scenario
 
@@ -75,7 +86,8 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         physics = JsonPhysics(scenario, legs, events)
-        server = JsonServer(physics, a.port, a.host)
+        rc = PilotRc(scenario, a.rc_port, a.host) if a.rc_port is not None else None
+        server = JsonServer(physics, a.port, a.host, rc)
     except ServerError as exc:
         if legs is not None:
             legs.close()
@@ -96,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
         server.serve_forever()
     finally:
         server.close()
+        if rc is not None:
+            rc.close()
         if legs is not None:
             legs.close()
         c = server.count

@@ -66,9 +66,11 @@ def start_json_physics(
     port: int | None = None,
     timeout: float = 90.0,
     events: Path | None = None,
+    rc_port: int | None = None,
 ) -> PhysicsProcess:
     """Start ``python -m sitl.json_physics``; returns once it is ready. Raises RuntimeError with
-    its stderr if it fails."""
+    its stderr if it fails. ``rc_port``: ArduPilot SITL's UDP RC input, where the scenario's
+    ``rc`` schedule is sent."""
     tmp = tempfile.TemporaryDirectory(prefix="sl-json-")
     port = port or free_udp_port()
     cmd = [sys.executable, "-m", "sitl.json_physics", "--port", str(port)]
@@ -80,5 +82,7 @@ def start_json_physics(
         cmd += ["--legs", str(legs)]
     if events is not None:
         cmd += ["--events", str(events)]
+    if rc_port is not None:
+        cmd += ["--rc-port", str(rc_port)]
     proc, line = start_ready_process(cmd, "json_physics ready", tmp, "json physics", timeout)
     return PhysicsProcess(proc, port, line, tmp)

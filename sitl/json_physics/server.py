@@ -16,6 +16,7 @@ import time
 from dataclasses import dataclass
 
 from sitl.json_physics.physics import JsonPhysics
+from sitl.json_physics.pilot_rc import PilotRc
 from sitl.json_physics.protocol import ProtocolError, decode_servo_packet, encode_reply
 from slopelander.errors import SlopelanderError
 
@@ -34,8 +35,11 @@ class Counters:
 
 
 class JsonServer:
-    def __init__(self, physics: JsonPhysics, port: int, host: str = "127.0.0.1") -> None:
+    def __init__(
+        self, physics: JsonPhysics, port: int, host: str = "127.0.0.1", rc: PilotRc | None = None
+    ) -> None:
         self.physics = physics
+        self.rc = rc  # the scenario's pilot on ArduPilot's RC input, sent as the physics time goes
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self.sock.bind((host, port))
@@ -102,6 +106,8 @@ class JsonServer:
             reply = encode_reply(self.physics.fdm())
         self.count.frames += 1
         self.last_reply = reply
+        if self.rc is not None:
+            self.rc.update(self.physics.t)
         return reply
 
     def _reset(self, why: str) -> None:

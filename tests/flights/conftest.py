@@ -11,19 +11,30 @@ from sitl.ardupilot import arducopter_binary
 from sitl.ardupilot.launch import ArduCopterMissingError
 
 # A flight on real ArduCopter joins the one "arducopter" work unit (tests/conftest.py): no two
-# ArduCopters at once. A flight on the simulated vehicle goes to whichever worker is free.
+# ArduCopters at once. The flights on the simulated vehicle stay in their module's unit.
 AUTOPILOTS = ["sim", pytest.param("ardupilot", marks=pytest.mark.arducopter)]
 
 
-@pytest.fixture(params=AUTOPILOTS)
-def autopilot(request) -> str:
-    """``"sim"``, or ``"ardupilot"`` (skipped, saying why, without a binary; failed when the
-    variable names something that is not one)."""
-    if request.param == "ardupilot":
+def _available(name: str) -> str:
+    """``name``; for ``"ardupilot"`` skipped, saying why, without a binary, and failed when the
+    variable names something that is not one."""
+    if name == "ardupilot":
         try:
             arducopter_binary()
         except ArduCopterMissingError as exc:
             if os.environ.get("SLOPELANDER_ARDUCOPTER"):
                 pytest.fail(str(exc))
             pytest.skip(str(exc))
-    return request.param
+    return name
+
+
+@pytest.fixture(params=AUTOPILOTS)
+def autopilot(request) -> str:
+    """``"sim"`` or ``"ardupilot"``: a vehicle of the test's own."""
+    return _available(request.param)
+
+
+@pytest.fixture(scope="module", params=AUTOPILOTS)
+def module_autopilot(request) -> str:
+    """The same, for one vehicle that flies a module's landings in order."""
+    return _available(request.param)
