@@ -56,7 +56,7 @@ class Vehicle:
         self.range_alt = rules.RangefinderAlt()
         self.ticks = 0
         self.land = rules.LandDetector(CONTROL_HZ)
-        self.streams = Streams()
+        self.streams = Streams(len(links.conns))
         self.armed = False
         self.estop = False
         self.mode = modes.STABILIZE
