@@ -61,7 +61,17 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def named_command(argv: list[str]) -> str | None:
+    """The subcommand ``argv`` starts with, or None (no command, a top-level option such as
+    ``--help``, or a name that is not a command: the whole parser answers those)."""
+    if not argv or argv[0].startswith("-"):
+        return None
+    return argv[0] if any(argv[0] in names for names, _ in SUBCOMMAND_MODULES.values()) else None
+
+
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; with ``only``, that subcommand's alone: the modules of the
+    others (the leg driver, yaml, pyserial) are not imported, so a command starts sooner."""
     parser = argparse.ArgumentParser(
         prog="slopelander",
         description="Fast multirotor landing on steep slopes.",
@@ -70,6 +80,8 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     missing = missing_sim_module()
     for module, (names, needs_sim) in SUBCOMMAND_MODULES.items():
+        if only is not None and only not in names:
+            continue
         if needs_sim and missing:
             _needs_extra(subparsers, names, missing)
             continue
@@ -96,7 +108,8 @@ def _needs_extra(subparsers: argparse._SubParsersAction, names: tuple[str, ...],
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(named_command(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "handler", None):
         parser.print_help()

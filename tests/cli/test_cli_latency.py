@@ -97,3 +97,36 @@ def test_the_map_kinds_written_out_are_the_reports() -> None:
     from slopelander.envelope_cli import MAP_KINDS as CLI_KINDS
 
     assert CLI_KINDS == MAP_KINDS
+
+
+def test_a_named_command_imports_only_its_own_module() -> None:
+    """`slopelander simulate ...` builds the simulate parser alone: the leg driver, pyserial and
+    the other commands' modules are not imported (the whole parser is built for `--help`)."""
+    code = """
+import json, sys
+from slopelander.cli import main
+try:
+    main(sys.argv[1:])
+except SystemExit as exc:
+    print(json.dumps(sorted(m for m in sys.modules if m.startswith("slopelander.") or m == "serial")))
+    sys.exit(exc.code)
+"""
+    done = _fresh(code, "simulate", "--slope", "x")
+    assert done.returncode == 2 and "invalid float value: 'x'" in done.stderr, done.stderr
+    imported = set(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert "slopelander.simulate_cli" in imported
+    others = {"serial", "slopelander.legs.driver", "slopelander.land_cli", "slopelander.ident.cli"}
+    assert not imported & others, imported & others
+
+
+@pytest.mark.parametrize("argv", [["simulate", "--help"], ["legs", "set", "--help"], ["fit", "--help"]])
+def test_a_command_alone_parses_and_helps_as_in_the_whole_parser(argv: list[str], capsys) -> None:
+    from slopelander.cli import build_parser, named_command
+
+    texts = []
+    for parser in (build_parser(), build_parser(named_command(argv))):
+        with pytest.raises(SystemExit):
+            parser.parse_args(argv)
+        texts.append(capsys.readouterr().out)
+    assert texts[0] == texts[1] and "usage: slopelander " + argv[0] in texts[0]
+    assert named_command(["--help"]) is None and named_command(["nosuch"]) is None
