@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import sys
 
 from slopelander import __version__
@@ -108,6 +109,12 @@ def _needs_extra(subparsers: argparse._SubParsersAction, names: tuple[str, ...],
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one command. Without ``argv`` it is this process's own command line (the
+    ``slopelander`` script, ``python -m slopelander.cli``): then a command that asks for it
+    (``simulate``) ends the process as soon as it has finished and its output is flushed, without
+    the interpreter's teardown of numba, LLVM and numpy (0.3-0.4 s of CPU, a quarter of a second
+    ``simulate``)."""
+    own = argv is None
     argv = sys.argv[1:] if argv is None else argv
     parser = build_parser(named_command(argv))
     args = parser.parse_args(argv)
@@ -115,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.handler(args) or 0)
+        rc = int(args.handler(args) or 0)
     except SlopelanderError as exc:
         print(f"slopelander {args.command}: error: {exc}", file=sys.stderr)
         return 1
@@ -132,6 +139,11 @@ def main(argv: list[str] | None = None) -> int:
         # Commands that write files as they go (map) say what they wrote themselves.
         print(f"slopelander {args.command}: interrupted", file=sys.stderr)
         return 130
+    if own and getattr(args, "exit_without_teardown", False):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(rc)  # every file it wrote is closed; nothing is left to clean up
+    return rc
 
 
 if __name__ == "__main__":

@@ -130,3 +130,34 @@ def test_a_command_alone_parses_and_helps_as_in_the_whole_parser(argv: list[str]
         texts.append(capsys.readouterr().out)
     assert texts[0] == texts[1] and "usage: slopelander " + argv[0] in texts[0]
     assert named_command(["--help"]) is None and named_command(["nosuch"]) is None
+
+
+def test_simulate_from_its_own_command_line_ends_without_teardown_its_output_complete(tmp_path) -> None:
+    """The interpreter's teardown (numba, LLVM, numpy: 0.3-0.4 s of CPU) is skipped once
+    `simulate` has finished: an exit handler does not run, yet every line is printed through
+    the pipe, the CSV is whole and the exit status is the command's."""
+    csv_path = tmp_path / "t.csv"
+    code = (
+        "import atexit, sys; atexit.register(lambda: print('TEARDOWN')); "
+        "from slopelander.cli import main; sys.exit(main())"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    argv = ["simulate", "--slope", "20", "--csv", str(csv_path)]
+    done = subprocess.run(
+        [sys.executable, "-c", code, *argv], capture_output=True, text=True, env=env, timeout=600
+    )
+    assert done.returncode == 0, done.stderr
+    assert "TEARDOWN" not in done.stdout
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("landing: 20 deg slope") and lines[-1] == f"trajectory: {csv_path}", lines
+    rows = csv_path.read_text().splitlines()
+    assert rows[0].startswith("t_s,") and len(rows) > 100 and rows[-1].count(",") == 6
+    # called with its arguments (a test, another program) it returns as before
+    inproc = subprocess.run(
+        [sys.executable, "-c", code.replace("main()", "main(sys.argv[1:])"), *argv],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
+    assert inproc.returncode == 0 and inproc.stdout.rstrip().endswith("TEARDOWN"), inproc.stdout
