@@ -201,7 +201,7 @@ def fly_to(mavproxy: Terminal, north: float, down: float, timeout: float = 120.0
     p: dict[str, float] = {}
     while time.monotonic() < end:
         p = local_position(mavproxy)
-        if math.hypot(p["x"] - north, p["z"] - down) < 0.15 and math.hypot(p["vx"], p["vz"]) < 0.1:
+        if math.hypot(p["x"] - north, p["z"] - down) < 0.25 and math.hypot(p["vx"], p["vz"]) < 0.1:
             return p
         time.sleep(0.5)
     raise AssertionError(f"not at ({north}, {down}) within {timeout:g} s: {p}")
