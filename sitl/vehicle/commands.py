@@ -43,12 +43,12 @@ def _command_long(v: Vehicle, chan: int, m) -> None:
     p = (m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7)
     fn = _COMMANDS.get(cmd)
     if fn is None:
-        v.ack(cmd, rules.unknown_command_result())
+        v.ack(cmd, rules.unknown_command_result(), chan=chan)
         return
     if any(math.isnan(x) for x in p[:2]) and cmd != mavlink.MAV_CMD_NAV_TAKEOFF:
-        v.ack(cmd, DENIED)
+        v.ack(cmd, DENIED, chan=chan)
         return
-    v.ack(cmd, _LINK_COMMANDS[cmd](v, p, chan) if cmd in _LINK_COMMANDS else fn(v, p))
+    v.ack(cmd, _LINK_COMMANDS[cmd](v, p, chan) if cmd in _LINK_COMMANDS else fn(v, p), chan=chan)
 
 
 def _arm(v: Vehicle, p) -> int:
@@ -149,7 +149,7 @@ def _send_version(v: Vehicle) -> None:
 def _set_mode_msg(v: Vehicle, chan: int, m) -> None:
     flag_ok = bool(m.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
     ok = flag_ok and _enter_mode(v, m.custom_mode)
-    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, rules.set_mode_result(m.base_mode, m.custom_mode, ok))
+    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, rules.set_mode_result(m.base_mode, m.custom_mode, ok), chan=chan)
 
 
 def _param_value(v: Vehicle, name: str) -> None:

@@ -34,14 +34,20 @@ def _rate(conn, kind: str, vehicle_s: float = 2.0) -> float:
     return (n - 1) / (last - first)
 
 
-def test_a_ground_stations_stream_request_leaves_the_companions_rates_alone():
+def test_a_ground_stations_stream_request_leaves_the_companions_rates_and_answers_alone():
     gcs_port = free_port()
     v = start_vehicle(params=ROUTE_A, no_script=True, extra_endpoints=[f"tcpin:127.0.0.1:{gcs_port}"])
     companion = mavutil.mavlink_connection(v.mavlink_url, source_system=255, source_component=191)
     gcs = mavutil.mavlink_connection(f"tcp:127.0.0.1:{gcs_port}", source_system=255, source_component=190)
     try:
         assert companion.wait_heartbeat(timeout=20) and gcs.wait_heartbeat(timeout=20)
+        gcs.recv_match(type="HEARTBEAT", blocking=True, timeout=5)
+        while gcs.recv_match(blocking=False) is not None:  # what came before the command
+            pass
         assert set_interval(companion, M.MAVLINK_MSG_ID_RAW_IMU, 200).result == M.MAV_RESULT_ACCEPTED
+        # the command's answer goes to the link that asked, as ArduCopter's: MAVProxy on its own
+        # link does not show the companion's COMMAND_ACKs
+        gcs_acks = [gcs.recv_match(type="COMMAND_ACK", blocking=True, timeout=1.5)]
         gcs.mav.request_data_stream_send(1, 1, M.MAV_DATA_STREAM_ALL, 4, 1)  # what MAVProxy sends
         time.sleep(0.5)
         companion_hz, gcs_hz = _rate(companion, "RAW_IMU"), _rate(gcs, "RAW_IMU")
@@ -51,6 +57,7 @@ def test_a_ground_stations_stream_request_leaves_the_companions_rates_alone():
         companion.close()
         gcs.close()
         v.stop()
+    assert gcs_acks == [None]
     assert companion_hz > 150, companion_hz
     assert 3 < gcs_hz < 6, gcs_hz
     got = [m.get_seq() for m in seqs if m is not None]
