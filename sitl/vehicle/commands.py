@@ -43,12 +43,12 @@ def _command_long(v: Vehicle, chan: int, m) -> None:
     p = (m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7)
     fn = _COMMANDS.get(cmd)
     if fn is None:
-        v.ack(cmd, rules.unknown_command_result())
+        v.ack(cmd, rules.unknown_command_result(), chan=chan)
         return
     if any(math.isnan(x) for x in p[:2]) and cmd != mavlink.MAV_CMD_NAV_TAKEOFF:
-        v.ack(cmd, DENIED)
+        v.ack(cmd, DENIED, chan=chan)
         return
-    v.ack(cmd, fn(v, p))
+    v.ack(cmd, _LINK_COMMANDS[cmd](v, p, chan) if cmd in _LINK_COMMANDS else fn(v, p), chan=chan)
 
 
 def _arm(v: Vehicle, p) -> int:
@@ -96,7 +96,8 @@ def _aux(v: Vehicle, p) -> int:
     return ACCEPTED
 
 
-def _interval(v: Vehicle, p) -> int:
+def _interval(v: Vehicle, p, chan: int = 0) -> int:
+    """MAV_CMD_SET_MESSAGE_INTERVAL: on the link it came from only (GCS_MAVLINK::set_message_interval)."""
     msgid, interval = int(p[0]), p[1]
     result = rules.message_interval_result(interval, v.params["SCHED_LOOP_RATE"], msgid in v.streams.SENDERS)
     if result != ACCEPTED:
@@ -104,17 +105,19 @@ def _interval(v: Vehicle, p) -> int:
             text = f"Requested rate for message ID {msgid} too fast. Increase SCHED_LOOP_RATE"
             v.statustext(text, mavlink.MAV_SEVERITY_WARNING)
         return result
-    v.streams.set_interval(msgid, None if interval == 0 else (-1.0 if interval < 0 else interval / 1e6))
+    seconds = None if interval == 0 else (-1.0 if interval < 0 else interval / 1e6)
+    v.streams.set_interval(msgid, seconds, chan)
     return ACCEPTED
 
 
-def _request_message(v: Vehicle, p) -> int:
+def _request_message(v: Vehicle, p, chan: int | None = None) -> int:
+    """MAV_CMD_REQUEST_MESSAGE: answered on the link that asked."""
     msgid = int(p[0])
     if msgid == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
         _send_version(v)
         return ACCEPTED
     if msgid in v.streams.SENDERS:
-        v.streams.send_now(v, msgid)
+        v.streams.send_now(v, msgid, chan)
         return ACCEPTED
     return DENIED
 
@@ -146,7 +149,7 @@ def _send_version(v: Vehicle) -> None:
 def _set_mode_msg(v: Vehicle, chan: int, m) -> None:
     flag_ok = bool(m.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
     ok = flag_ok and _enter_mode(v, m.custom_mode)
-    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, rules.set_mode_result(m.base_mode, m.custom_mode, ok))
+    v.ack(mavlink.MAVLINK_MSG_ID_SET_MODE, rules.set_mode_result(m.base_mode, m.custom_mode, ok), chan=chan)
 
 
 def _param_value(v: Vehicle, name: str) -> None:
@@ -276,7 +279,8 @@ def _timesync(v: Vehicle, chan: int, m) -> None:
 
 
 def _data_stream(v: Vehicle, chan: int, m) -> None:
-    v.streams.request_data_stream(m.req_stream_id, m.req_message_rate if m.start_stop else 0)
+    """REQUEST_DATA_STREAM: the rates of the link it came from (GCS_MAVLINK::handle_request_data_stream)."""
+    v.streams.request_data_stream(m.req_stream_id, m.req_message_rate if m.start_stop else 0, chan)
 
 
 def _rc_override(v: Vehicle, chan: int, m) -> None:
@@ -298,6 +302,12 @@ _COMMANDS = {
     mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: _interval,
     mavlink.MAV_CMD_REQUEST_MESSAGE: _request_message,
     mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: _capabilities,
+}
+
+#: commands that act on the link they came from
+_LINK_COMMANDS = {
+    mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: _interval,
+    mavlink.MAV_CMD_REQUEST_MESSAGE: _request_message,
 }
 
 _HANDLERS = {

@@ -1,5 +1,8 @@
-"""Telemetry streams: which messages go out at what interval (vehicle time), set by
-SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM, and how each is built from the vehicle's state."""
+"""Telemetry streams: which messages go out at what interval (vehicle time) on each link, set by
+SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM received on that link, and how each is built from the
+vehicle's state. Each link has its own rates, as each of ArduCopter's GCS_MAVLINK channels has
+(its SRn_ stream rates and message intervals): a ground station asking for 4 Hz on its link
+does not slow the 200 Hz IMU a companion asked for on another."""
 
 from __future__ import annotations
 
@@ -176,23 +179,24 @@ class Streams:
         M.MAVLINK_MSG_ID_SYSTEM_TIME: system_time,
     }
 
-    def __init__(self) -> None:
-        self.interval: dict[int, float] = dict(DEFAULT_INTERVALS)
-        self.next_t: dict[int, float] = {}
+    def __init__(self, channels: int = 1) -> None:
+        self.interval: list[dict[int, float]] = [dict(DEFAULT_INTERVALS) for _ in range(max(1, channels))]
+        self.next_t: list[dict[int, float]] = [{} for _ in self.interval]
 
-    def set_interval(self, msgid: int, seconds: float | None) -> None:
-        """None: back to the default; negative: off."""
+    def set_interval(self, msgid: int, seconds: float | None, chan: int = 0) -> None:
+        """On link ``chan``: None, back to the default; negative, off."""
+        interval, next_t = self.interval[chan], self.next_t[chan]
         if seconds is None:
-            self.interval.pop(msgid, None)
+            interval.pop(msgid, None)
             if msgid in DEFAULT_INTERVALS:
-                self.interval[msgid] = DEFAULT_INTERVALS[msgid]
+                interval[msgid] = DEFAULT_INTERVALS[msgid]
         elif seconds < 0:
-            self.interval.pop(msgid, None)
+            interval.pop(msgid, None)
         else:
-            self.interval[msgid] = seconds
-        self.next_t.pop(msgid, None)
+            interval[msgid] = seconds
+        next_t.pop(msgid, None)
 
-    def request_data_stream(self, stream_id: int, rate_hz: int) -> None:
+    def request_data_stream(self, stream_id: int, rate_hz: int, chan: int = 0) -> None:
         groups = (
             STREAM_GROUPS.values()
             if stream_id == M.MAV_DATA_STREAM_ALL
@@ -200,16 +204,22 @@ class Streams:
         )
         for ids in groups:
             for msgid in ids:
-                self.set_interval(msgid, 1.0 / min(rate_hz, 200) if rate_hz > 0 else -1.0)
+                self.set_interval(msgid, 1.0 / min(rate_hz, 200) if rate_hz > 0 else -1.0, chan)
 
-    def send_now(self, v: Vehicle, msgid: int) -> None:
-        v.links.send(self.SENDERS[msgid](v))
+    def send_now(self, v: Vehicle, msgid: int, chan: int | None = None) -> None:
+        """One message now, on link ``chan`` (the one that asked; None: every link)."""
+        v.links.send(self.SENDERS[msgid](v), chan)
 
     def send_due(self, v: Vehicle) -> None:
         now = v.t
-        for msgid, iv in self.interval.items():
-            nt = self.next_t.get(msgid, now)
-            if now + 1e-9 >= nt:
-                v.links.send(self.SENDERS[msgid](v))
-                nt = nt + iv if now - nt < iv else now + iv
-                self.next_t[msgid] = nt
+        built: dict[int, object] = {}  # a message due on several links is built once
+        for chan, (intervals, next_t) in enumerate(zip(self.interval, self.next_t, strict=True)):
+            for msgid, iv in intervals.items():
+                nt = next_t.get(msgid, now)
+                if now + 1e-9 >= nt:
+                    msg = built.get(msgid)
+                    if msg is None:
+                        msg = built[msgid] = self.SENDERS[msgid](v)
+                    v.links.send(msg, chan)
+                    nt = nt + iv if now - nt < iv else now + iv
+                    next_t[msgid] = nt

@@ -56,7 +56,7 @@ class Vehicle:
         self.range_alt = rules.RangefinderAlt()
         self.ticks = 0
         self.land = rules.LandDetector(CONTROL_HZ)
-        self.streams = Streams()
+        self.streams = Streams(len(links.conns))
         self.armed = False
         self.estop = False
         self.mode = modes.STABILIZE
@@ -195,8 +195,10 @@ class Vehicle:
     def _send_event(self, name: str, t: float, value: float) -> None:
         self.links.send(mavlink.MAVLink_named_value_float_message(int(t * 1000), name.encode(), float(value)))
 
-    def ack(self, command: int, result: int, progress: int = 0) -> None:
-        self.links.send(mavlink.MAVLink_command_ack_message(command, result, progress, 0, 0, 0))
+    def ack(self, command: int, result: int, progress: int = 0, chan: int | None = None) -> None:
+        """COMMAND_ACK on the link the command came from (``chan``), as ArduCopter answers on the
+        channel that asked; None: every link."""
+        self.links.send(mavlink.MAVLink_command_ack_message(command, result, progress, 0, 0, 0), chan)
 
     # -- one control tick ----------------------------------------------------------------------
     def tick(self) -> None:

@@ -73,7 +73,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dt", type=float, default=None, help="integration step, s")
     p.add_argument("--plot", type=Path, help="write a PNG of the landing here")
     p.add_argument("--csv", type=Path, help="write the 200 Hz trajectory here")
-    p.set_defaults(handler=run)
+    # its files are closed when run returns: the process may end without the interpreter's teardown
+    p.set_defaults(handler=run, exit_without_teardown=True)
 
 
 def build_model(args: argparse.Namespace) -> Model:

@@ -97,3 +97,67 @@ def test_the_map_kinds_written_out_are_the_reports() -> None:
     from slopelander.envelope_cli import MAP_KINDS as CLI_KINDS
 
     assert CLI_KINDS == MAP_KINDS
+
+
+def test_a_named_command_imports_only_its_own_module() -> None:
+    """`slopelander simulate ...` builds the simulate parser alone: the leg driver, pyserial and
+    the other commands' modules are not imported (the whole parser is built for `--help`)."""
+    code = """
+import json, sys
+from slopelander.cli import main
+try:
+    main(sys.argv[1:])
+except SystemExit as exc:
+    print(json.dumps(sorted(m for m in sys.modules if m.startswith("slopelander.") or m == "serial")))
+    sys.exit(exc.code)
+"""
+    done = _fresh(code, "simulate", "--slope", "x")
+    assert done.returncode == 2 and "invalid float value: 'x'" in done.stderr, done.stderr
+    imported = set(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert "slopelander.simulate_cli" in imported
+    others = {"serial", "slopelander.legs.driver", "slopelander.land_cli", "slopelander.ident.cli"}
+    assert not imported & others, imported & others
+
+
+@pytest.mark.parametrize("argv", [["simulate", "--help"], ["legs", "set", "--help"], ["fit", "--help"]])
+def test_a_command_alone_parses_and_helps_as_in_the_whole_parser(argv: list[str], capsys) -> None:
+    from slopelander.cli import build_parser, named_command
+
+    texts = []
+    for parser in (build_parser(), build_parser(named_command(argv))):
+        with pytest.raises(SystemExit):
+            parser.parse_args(argv)
+        texts.append(capsys.readouterr().out)
+    assert texts[0] == texts[1] and "usage: slopelander " + argv[0] in texts[0]
+    assert named_command(["--help"]) is None and named_command(["nosuch"]) is None
+
+
+def test_simulate_from_its_own_command_line_ends_without_teardown_its_output_complete(tmp_path) -> None:
+    """The interpreter's teardown (numba, LLVM, numpy: 0.3-0.4 s of CPU) is skipped once
+    `simulate` has finished: an exit handler does not run, yet every line is printed through
+    the pipe, the CSV is whole and the exit status is the command's."""
+    csv_path = tmp_path / "t.csv"
+    code = (
+        "import atexit, sys; atexit.register(lambda: print('TEARDOWN')); "
+        "from slopelander.cli import main; sys.exit(main())"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    argv = ["simulate", "--slope", "20", "--csv", str(csv_path)]
+    done = subprocess.run(
+        [sys.executable, "-c", code, *argv], capture_output=True, text=True, env=env, timeout=600
+    )
+    assert done.returncode == 0, done.stderr
+    assert "TEARDOWN" not in done.stdout
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("landing: 20 deg slope") and lines[-1] == f"trajectory: {csv_path}", lines
+    rows = csv_path.read_text().splitlines()
+    assert rows[0].startswith("t_s,") and len(rows) > 100 and rows[-1].count(",") == 6
+    # called with its arguments (a test, another program) it returns as before
+    inproc = subprocess.run(
+        [sys.executable, "-c", code.replace("main()", "main(sys.argv[1:])"), *argv],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
+    assert inproc.returncode == 0 and inproc.stdout.rstrip().endswith("TEARDOWN"), inproc.stdout
