@@ -62,12 +62,15 @@ local THRUST_DECAY_MS = 100
 local RANGE_PERIOD_MS = 50
 -- left the roof (slid off an edge, or high above it): this many distinct samples in a row, each
 -- with all three of
---  * the body within LEAVE_TILT_DEG of level. The beam runs along the body's down axis: tilted
---    more, it meets a roof at a grazing angle or misses it (pointing sideways or up, a tumbling or
---    flipped vehicle reads out of range high while it lies on the roof), so its range says nothing
---    of the ground below; and the autopilot could not fly such a vehicle, only spin its motors up
---    on the roof. A vehicle sliding off a roof is tilted like it: 60 deg covers the steepest roof
---    the feet hold on (about 50 deg) with 10 deg for the pivot;
+--  * the body within LEAVE_TILT_DEG of level, and staying within it should the autopilot stop
+--    its rotation at once: tilt + w^2 / (2 * ATT_ACCEL_DEGS2) <= LEAVE_TILT_DEG, w the body rate.
+--    The beam runs along the body's down axis: tilted more, it meets a roof at a grazing angle or
+--    misses it (pointing sideways or up, a tumbling or flipped vehicle reads out of range high
+--    while it lies on the roof), so its range says nothing of the ground below; and the autopilot
+--    could not fly such a vehicle, only spin its motors up on the roof. A vehicle sliding off a
+--    roof is tilted like it: 60 deg covers the steepest roof the feet hold on (about 50 deg) with
+--    10 deg for the pivot. A vehicle cartwheeling down the roof (200-360 deg/s) passes upright
+--    between its bounces, airborne, its beam along the roof: its rotation keeps it out;
 --  * the beam's vertical share, range * cos(tilt), farther than the cut height plus
 --    LEAVE_MARGIN_M (or out of range high). The margin covers a beam tilted by the touchdown's
 --    pivot on a steep roof;
@@ -81,6 +84,9 @@ local RANGE_PERIOD_MS = 50
 local LEAVE_SAMPLES = 2
 local LEAVE_MARGIN_M = 0.30
 local LEAVE_TILT_DEG = 60
+-- the fastest the attitude controller changes a roll or pitch rate: ArduCopter's default
+-- ATC_ACCEL_R_MAX / ATC_ACCEL_P_MAX (AC_AttitudeControl.h, ACCEL_RP_MAX_DEFAULT_CDSS 110000 cdeg/s/s)
+local ATT_ACCEL_DEGS2 = 1100
 local FALL_SUPPORT = 0.5 * GRAVITY
 -- still enough to disarm: body rates and the autopilot's velocity estimate both small
 local STILL_GYRO_RADS = math.rad(5)
@@ -343,11 +349,13 @@ local function handle(msg, chan, t)
 end
 
 -- whether a sample of range g (m) says the vehicle is off the roof (see LEAVE_SAMPLES): upright
--- enough for the beam to point at the ground below, that ground far below, and falling
+-- enough for the beam to point at the ground below, and to be flown; that ground far below; falling
 local function off_roof(g, cut_m)
   local roll, pitch = ahrs:get_roll(), ahrs:get_pitch()
   local c = math.cos(roll) * math.cos(pitch) -- cos(tilt): the beam's vertical share
-  if c < math.cos(math.rad(LEAVE_TILT_DEG)) or g * c <= cut_m + LEAVE_MARGIN_M then return false end
+  local w = math.deg(ins:get_gyro(0):length())
+  local stopped_at = math.deg(math.acos(math.max(-1, math.min(1, c)))) + w * w / (2 * ATT_ACCEL_DEGS2)
+  if stopped_at > LEAVE_TILT_DEG or g * c <= cut_m + LEAVE_MARGIN_M then return false end
   ---@type Vector3f_ud
   local a = ins:get_accel(0)
   -- the body's specific force rotated to the earth frame's down axis (ZYX Euler angles)

@@ -535,16 +535,16 @@ SLIDE_ALONG = G * _C45 * (_S45 - 0.8 * _C45)
 
 
 @pytest.mark.parametrize(
-    ("pitch_deg", "up", "reading"),
+    ("pitch_deg", "rate_degs", "up", "reading"),
     [
-        (-136.0, SLIDE_UP, BEYOND),  # tumbling over on the roof: the beam points up the roof
-        (-136.0, 0.0, BEYOND),  # ... at the moment a pivot unloads it
-        (-121.0, SLIDE_UP, good(0.97)),
-        (-180.0, SLIDE_UP, BEYOND),  # on its back: the beam points at the sky
-        (30.0, SLIDE_UP, good(2.5)),  # pitched toward the valley: the beam grazes the roof
-        (30.0, SLIDE_UP, BEYOND),
-        (0.0, SLIDE_UP, BEYOND),  # level, sliding: a beam 45 deg off the roof's normal, a glitch
-        (-70.0, 0.0, BEYOND),  # falling but past 60 deg: the autopilot could not fly it
+        (-136.0, 0.0, SLIDE_UP, BEYOND),  # tumbling over on the roof: the beam points up the roof
+        (-136.0, 0.0, 0.0, BEYOND),  # ... at the moment a pivot unloads it
+        (-121.0, 0.0, SLIDE_UP, good(0.97)),
+        (-180.0, 0.0, SLIDE_UP, BEYOND),  # on its back: the beam points at the sky
+        (30.0, 0.0, SLIDE_UP, good(2.5)),  # pitched toward the valley: the beam grazes the roof
+        (30.0, 0.0, SLIDE_UP, BEYOND),
+        (0.0, 0.0, SLIDE_UP, BEYOND),  # level, sliding: a beam 45 deg off the roof's normal, a glitch
+        (-70.0, 0.0, 0.0, BEYOND),  # falling but past 60 deg: the autopilot could not fly it
     ],
     ids=[
         "tumbling",
@@ -559,13 +559,13 @@ SLIDE_ALONG = G * _C45 * (_S45 - 0.8 * _C45)
 )
 @pytest.mark.parametrize("stage", ["RVT", "HOLD"])
 def test_a_vehicle_on_the_roof_whose_beam_reads_far_keeps_its_motors_held(
-    bench: Bench, pitch_deg: float, up: float, reading: RangeReading, stage: str
+    bench: Bench, pitch_deg: float, rate_degs: float, up: float, reading: RangeReading, stage: str
 ) -> None:
     """Issue 21, seen on the 45 deg roof: a fast landing tumbled over on the roof; its beam,
     pointing up the roof, read out of range high for 0.25 s, and the range rule alone took that
     for leaving the roof and gave the motors of a vehicle tilted 136 deg to the autopilot. The
-    range counts only with the body within 60 deg of level (its vertical share past the cut
-    height plus 0.3 m) and the vehicle falling (the roof carrying under half its weight)."""
+    range counts only with the body within 60 deg of level, its vertical share past the cut
+    height plus 0.3 m, and the vehicle falling (the roof carrying under half its weight)."""
     cut_now(bench)
     impact(bench)
     if stage == "HOLD":
@@ -574,11 +574,43 @@ def test_a_vehicle_on_the_roof_whose_beam_reads_far_keeps_its_motors_held(
         bench.run(20)
     assert bench.io.state() == S[stage]
     pose(bench, pitch_deg, up, SLIDE_ALONG)
+    bench.io.gyro_rads = (0.0, math.radians(rate_degs), 0.0)
     bench.io.range = reading
     bench.run(6 * SAMPLE_MS if stage == "HOLD" else 4 * SAMPLE_MS)
     assert bench.io.state() == S[stage], bench.io.sl_texts()
     assert bench.outputs() == ([1500] * 4 if stage == "HOLD" else [reverse_pwm_of(PCT)] * 4)
     assert "SL: left the roof: motors released" not in bench.io.sl_texts()
+
+
+@pytest.mark.parametrize("stage", ["RVT", "HOLD"])
+def test_a_vehicle_cartwheeling_down_the_roof_keeps_its_motors_held(bench: Bench, stage: str) -> None:
+    """Seen on the 45 deg roof after the rule above: a fast landing cartwheeled down the roof
+    (200-360 deg/s); between two bounces it flew 0.3 m off the roof, falling, and swept through
+    upright with its beam pitched toward the valley, along the roof: range out of range high,
+    then 1.44 m at 33 deg, and its motors were released. A sample counts only if the body stays
+    within 60 deg of level once the autopilot stops its rotation at ArduCopter's default
+    1100 deg/s² (ATC_ACCEL_P_MAX): tilt + w² / 2200 <= 60. Here the beam reads past the margin
+    only beyond about 30 deg, where 240 deg/s adds 26 deg."""
+    cut_now(bench)
+    impact(bench)
+    bench.run(int(DUR_MS) + 20 if stage == "HOLD" else 20)
+    assert bench.io.state() == S[stage]
+    rate, height, slope = -240.0, 0.3, 45.0  # deg/s, m off the roof along its normal, deg
+    pitch0, t0 = 80.0, bench.io.now_ms
+    released = []
+
+    def each(t: int) -> None:
+        pitch = pitch0 + rate * (t - t0) / 1000
+        pose(bench, pitch, up=0.0)  # airborne: nothing carries it
+        bench.io.gyro_rads = (0.0, math.radians(rate), 0.0)
+        off_normal = math.radians(pitch + slope)  # the beam's angle to the roof's normal
+        beyond = off_normal >= math.radians(89.0)
+        bench.io.range = BEYOND if beyond else good(min(3.5, height / math.cos(off_normal)))
+        if bench.io.state() == IDLE and not released:
+            released.append(pitch)
+
+    bench.run(int((80.0 + 10.0) / -rate * 1000), each)  # from 80 deg nose up to 10 deg nose down
+    assert not released and bench.io.state() in (RVT, HOLD), (released, bench.io.sl_texts())
 
 
 def reverse_pwm_of(pct: float) -> int:
