@@ -685,6 +685,21 @@ def test_a_link_lost_before_contact_and_back_after_it_judges_the_vehicle_on_the_
     assert not {"release", "set_mode"} & {c[0] for c in act.calls[n:]}
 
 
+def test_the_timeout_while_the_link_is_out_after_the_script_landed_keeps_the_motors_held():
+    """Found by the property test: the link lost in ARMED, the script's last word RVT (it met the
+    roof meanwhile), then the landing's timeout: no state had marked an impact, and the abort
+    went through (reflex abort, release, LOITER). The script's RVT or HOLD is contact too."""
+    m, act, _ = make()
+    t = run_to(m, "ARMED")
+    m.step(replace(OK, t=t + 0.02, range_m=1.0, script_state=10, link_ok=False))
+    assert m.name == "LINK_LOST"
+    n = len(act.calls)
+    out = replace(OK, t=t + 1.0, range_m=1.0, script_state=12, link_ok=False)
+    m.transition("ABORTED", "landing not finished within 120 s", out)
+    assert m.name != "ABORTED", m.history[-1]
+    assert not {"release", "reflex_abort", "set_mode"} & {c[0] for c in act.calls[n:]}
+
+
 def test_a_script_that_disarmed_as_asked_is_not_taken_for_one_that_let_go():
     """The script says IDLE as it disarms; the HEARTBEAT saying disarmed comes up to a second
     later (found flying: SETTLED aborted "the script gave the motors back" 1 s before LANDED)."""

@@ -18,6 +18,7 @@ from test_machine import Recorder  # the same recording stand-in for the actions
 
 from slopelander.controller.config import load_config
 from slopelander.controller.machine import STATES, Machine
+from slopelander.controller.runner import ENDINGS
 from slopelander.controller.states.base import Context, Inputs
 from slopelander.controller.states.settled import DISARM_RETRY_S
 
@@ -145,6 +146,20 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
     @rule(dt=st.floats(0.005, 0.2), req=st.booleans())
     def takeoff_request(self, dt: float, req: bool) -> None:
         self._step(dt, takeoff_request=req)
+
+    @rule(dt=st.floats(0.005, 0.2))
+    def landing_times_out(self, dt: float) -> None:
+        """The runner's wall-clock timeout (Lander.run) aborts from any state but its endings."""
+        if self.m.name in ENDINGS:
+            return
+        self.inp = replace(self.inp, t=self.inp.t + dt)
+        n, before = len(self.act.calls), self.m.name
+        self.m.transition("ABORTED", "landing not finished within 120 s", self.inp)
+        names = [c[0] for c in self.act.calls[n:]]
+        if self.on_roof and self.inp.armed and self.inp.script_state in SCRIPT_HOLDS:
+            assert self.m.name == "SETTLED", f"timeout in {before} moved to {self.m.name}, armed on the roof"
+            assert not RELEASES & set(names), f"{names} at the timeout in {before}, armed, script holding"
+        self._step(0.0)
 
     @rule(dt=st.floats(0.005, 0.2), press=st.integers(0, 4))
     def emergency_stop(self, dt: float, press: int) -> None:
