@@ -722,3 +722,28 @@ def test_a_script_that_disarmed_as_asked_is_not_taken_for_one_that_let_go():
     m2.step(replace(rest, t=t + 0.05, script_state=0, speed_mps=0.3))
     m2.step(replace(rest, t=t + 0.5, script_state=0, speed_mps=0.3))
     assert m2.name == "ABORTED" and "gave the motors back" in m2.history[-1]["reason"]
+
+
+@pytest.mark.parametrize(
+    ("range_m", "armed", "back_to"),
+    [(0.2, True, "TAKEOFF"), (0.2, False, "LANDED"), (None, True, "TAKEOFF"), (2.0, True, "ABORTED")],
+    ids=["armed-on-the-roof", "disarmed-on-the-roof", "range-unknown", "clear-of-the-roof"],
+)
+def test_a_link_lost_in_the_takeoff_and_back_never_leaves_it_armed_on_the_roof_in_loiter(
+    range_m, armed, back_to
+):
+    """TAKEOFF row: a vehicle still below the clear height when the link comes back is not aborted
+    to LOITER armed on the roof (seen on the stand-in: it slid 20 m down the roof that way)."""
+    m, act, _ = make()
+    run_to(m, "LANDED")
+    t = 300.0
+    m.step(replace(OK, t=t, range_m=0.1, armed=False, takeoff_request=True))
+    assert m.name == "TAKEOFF"
+    m.step(replace(OK, t=t + 0.1, range_m=0.2, link_ok=False, takeoff_request=True))
+    assert m.name == "LINK_LOST"
+    n = len(act.calls)
+    back = replace(OK, t=t + 3.0, range_m=range_m, range_ok=range_m is not None, armed=armed)
+    m.step(back)
+    assert m.history[-1]["from"] == "LINK_LOST" and m.history[-1]["to"] == back_to, m.history[-1]
+    if back_to != "ABORTED":
+        assert ("set_mode", "LOITER") not in act.calls[n:]
