@@ -60,11 +60,34 @@ local RESEED_MS = 600
 -- spin-down (twice the model's 50 ms time constant) and one range sample to judge by
 local THRUST_DECAY_MS = 100
 local RANGE_PERIOD_MS = 50
--- left the roof (slid off an edge, or high above it): this many distinct samples, each reading
--- farther than the cut height plus LEAVE_MARGIN_M (or out of range high). The margin covers a
--- beam tilted by the touchdown's pivot on a steep roof.
+-- left the roof (slid off an edge, or high above it): this many distinct samples in a row, each
+-- with all three of
+--  * the body within LEAVE_TILT_DEG of level, and staying within it should the autopilot stop
+--    its rotation at once: tilt + w^2 / (2 * ATT_ACCEL_DEGS2) <= LEAVE_TILT_DEG, w the body rate.
+--    The beam runs along the body's down axis: tilted more, it meets a roof at a grazing angle or
+--    misses it (pointing sideways or up, a tumbling or flipped vehicle reads out of range high
+--    while it lies on the roof), so its range says nothing of the ground below; and the autopilot
+--    could not fly such a vehicle, only spin its motors up on the roof. A vehicle sliding off a
+--    roof is tilted like it: 60 deg covers the steepest roof the feet hold on (about 50 deg) with
+--    10 deg for the pivot. A vehicle cartwheeling down the roof (200-360 deg/s) passes upright
+--    between its bounces, airborne, its beam along the roof: its rotation keeps it out;
+--  * the beam's vertical share, range * cos(tilt), farther than the cut height plus
+--    LEAVE_MARGIN_M (or out of range high). The margin covers a beam tilted by the touchdown's
+--    pivot on a steep roof;
+--  * the vehicle falling: the accelerometer's upward specific force in the earth frame under
+--    FALL_SUPPORT. On a roof of slope a the roof carries all of the weight but the downward part
+--    of a slide's acceleration, g * sin(a) * (sin(a) - mu * cos(a)) <= g * sin(a)^2: at least
+--    g / 2 up to 45 deg even on ice (0.9 g on shingles, mu_k 0.8). Off the roof nothing carries
+--    it: 0 with the motors stopped, below 0 with reverse thrust pushing it down.
+-- Found on a 45 deg roof: a vehicle tumbling over on the roof read out of range high (its beam
+-- pointing up the roof) and had its motors released by the range rule alone.
 local LEAVE_SAMPLES = 2
 local LEAVE_MARGIN_M = 0.30
+local LEAVE_TILT_DEG = 60
+-- the fastest the attitude controller changes a roll or pitch rate: ArduCopter's default
+-- ATC_ACCEL_R_MAX / ATC_ACCEL_P_MAX (AC_AttitudeControl.h, ACCEL_RP_MAX_DEFAULT_CDSS 110000 cdeg/s/s)
+local ATT_ACCEL_DEGS2 = 1100
+local FALL_SUPPORT = 0.5 * GRAVITY
 -- still enough to disarm: body rates and the autopilot's velocity estimate both small
 local STILL_GYRO_RADS = math.rad(5)
 local STILL_SPEED_MPS = 0.10
@@ -325,12 +348,27 @@ local function handle(msg, chan, t)
   if why then say(SEV_WARNING, why) end
 end
 
+-- whether a sample of range g (m) says the vehicle is off the roof (see LEAVE_SAMPLES): upright
+-- enough for the beam to point at the ground below, and to be flown; that ground far below; falling
+local function off_roof(g, cut_m)
+  local roll, pitch = ahrs:get_roll(), ahrs:get_pitch()
+  local c = math.cos(roll) * math.cos(pitch) -- cos(tilt): the beam's vertical share
+  local w = math.deg(ins:get_gyro(0):length())
+  local stopped_at = math.deg(math.acos(math.max(-1, math.min(1, c)))) + w * w / (2 * ATT_ACCEL_DEGS2)
+  if stopped_at > LEAVE_TILT_DEG or g * c <= cut_m + LEAVE_MARGIN_M then return false end
+  ---@type Vector3f_ud
+  local a = ins:get_accel(0)
+  -- the body's specific force rotated to the earth frame's down axis (ZYX Euler angles)
+  local down = -math.sin(pitch) * a:x() + math.sin(roll) * math.cos(pitch) * a:y() + c * a:z()
+  return -down < FALL_SUPPORT
+end
+
 -- a new rangefinder sample: the newest ground evidence, and how long it has read off the roof
 local function note_sample(cut_m)
   local g = ground_range()
   if g == nil then return end -- no data says nothing: the last evidence stands
   last_d = g
-  if cut_m ~= nil and g > cut_m + LEAVE_MARGIN_M then far_count = far_count + 1 else far_count = 0 end
+  if cut_m ~= nil and off_roof(g, cut_m) then far_count = far_count + 1 else far_count = 0 end
 end
 
 -- the reflex: cut on a trusted range at or below the cut height, reverse at impact

@@ -685,6 +685,21 @@ def test_a_link_lost_before_contact_and_back_after_it_judges_the_vehicle_on_the_
     assert not {"release", "set_mode"} & {c[0] for c in act.calls[n:]}
 
 
+def test_the_timeout_while_the_link_is_out_after_the_script_landed_keeps_the_motors_held():
+    """Found by the property test: the link lost in ARMED, the script's last word RVT (it met the
+    roof meanwhile), then the landing's timeout: no state had marked an impact, and the abort
+    went through (reflex abort, release, LOITER). The script's RVT or HOLD is contact too."""
+    m, act, _ = make()
+    t = run_to(m, "ARMED")
+    m.step(replace(OK, t=t + 0.02, range_m=1.0, script_state=10, link_ok=False))
+    assert m.name == "LINK_LOST"
+    n = len(act.calls)
+    out = replace(OK, t=t + 1.0, range_m=1.0, script_state=12, link_ok=False)
+    m.transition("ABORTED", "landing not finished within 120 s", out)
+    assert m.name != "ABORTED", m.history[-1]
+    assert not {"release", "reflex_abort", "set_mode"} & {c[0] for c in act.calls[n:]}
+
+
 def test_a_script_that_disarmed_as_asked_is_not_taken_for_one_that_let_go():
     """The script says IDLE as it disarms; the HEARTBEAT saying disarmed comes up to a second
     later (found flying: SETTLED aborted "the script gave the motors back" 1 s before LANDED)."""
@@ -707,3 +722,28 @@ def test_a_script_that_disarmed_as_asked_is_not_taken_for_one_that_let_go():
     m2.step(replace(rest, t=t + 0.05, script_state=0, speed_mps=0.3))
     m2.step(replace(rest, t=t + 0.5, script_state=0, speed_mps=0.3))
     assert m2.name == "ABORTED" and "gave the motors back" in m2.history[-1]["reason"]
+
+
+@pytest.mark.parametrize(
+    ("range_m", "armed", "back_to"),
+    [(0.2, True, "TAKEOFF"), (0.2, False, "LANDED"), (None, True, "TAKEOFF"), (2.0, True, "ABORTED")],
+    ids=["armed-on-the-roof", "disarmed-on-the-roof", "range-unknown", "clear-of-the-roof"],
+)
+def test_a_link_lost_in_the_takeoff_and_back_never_leaves_it_armed_on_the_roof_in_loiter(
+    range_m, armed, back_to
+):
+    """TAKEOFF row: a vehicle still below the clear height when the link comes back is not aborted
+    to LOITER armed on the roof (seen on the stand-in: it slid 20 m down the roof that way)."""
+    m, act, _ = make()
+    run_to(m, "LANDED")
+    t = 300.0
+    m.step(replace(OK, t=t, range_m=0.1, armed=False, takeoff_request=True))
+    assert m.name == "TAKEOFF"
+    m.step(replace(OK, t=t + 0.1, range_m=0.2, link_ok=False, takeoff_request=True))
+    assert m.name == "LINK_LOST"
+    n = len(act.calls)
+    back = replace(OK, t=t + 3.0, range_m=range_m, range_ok=range_m is not None, armed=armed)
+    m.step(back)
+    assert m.history[-1]["from"] == "LINK_LOST" and m.history[-1]["to"] == back_to, m.history[-1]
+    if back_to != "ABORTED":
+        assert ("set_mode", "LOITER") not in act.calls[n:]

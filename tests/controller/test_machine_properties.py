@@ -2,7 +2,10 @@
 injected clock): whatever the vehicle, the link, the legs and the pilot do, and in whatever order,
 the machine never raises, never commands reverse thrust or a disarm before an impact, never arms
 the motor cut without a valid range, never loosens the legs on the ground, obeys the emergency
-stop at once, and never stays in a waiting state for ever."""
+stop at once, and never stays in a waiting state for ever. After contact, while the vehicle is
+armed and the script holds its motors, no state releases the script or aborts its reflex (the
+tilted vehicle on the roof handed back of issue 21); LANDED is entered only with the HEARTBEAT
+saying disarmed, and an armed HEARTBEAT there has the disarm asked again, never just kept."""
 
 from __future__ import annotations
 
@@ -15,7 +18,9 @@ from test_machine import Recorder  # the same recording stand-in for the actions
 
 from slopelander.controller.config import load_config
 from slopelander.controller.machine import STATES, Machine
+from slopelander.controller.runner import ENDINGS
 from slopelander.controller.states.base import Context, Inputs
+from slopelander.controller.states.settled import DISARM_RETRY_S
 
 CFG = load_config()
 # states the machine may stay in while nothing changes: the autopilot flies, or it is over, or
@@ -23,7 +28,14 @@ CFG = load_config()
 # asked for until the HEARTBEAT says it was made: a landing does not end on a command sent
 MAY_PERSIST = {"DESCEND", "ARMED", "TAKEOFF", "LANDED", "READY", "ABORTED", "ESTOP", "LINK_LOST", "SETTLED"}
 AFTER_CONTACT = {"CUT", "REVERSE", "SETTLED", "LANDED"}
+#: states only a vehicle that met the roof is in (CUT may still be falling: it counts once the
+#: impact or the script's RVT/HOLD was seen)
+ON_THE_ROOF = {"REVERSE", "SETTLED", "LANDED"}
 MOTOR_STOPPERS = {"disarm", "reverse"}
+#: the script's CUT, RVT and HOLD: it holds the motors stopped or reversed on the roof
+SCRIPT_HOLDS = {11, 12, 13}
+#: what would hand the motors of a vehicle on the roof to the autopilot's mixer
+RELEASES = {"release", "reflex_abort"}
 # readings at the thresholds that matter, and the ones a broken sensor gives
 RANGES = [None, -1.0, 0.0, 0.29, 0.3, 0.31, 0.79, 0.8, 1.5, 1.51, 5.0, 50.0, float("nan"), float("inf")]
 
@@ -36,6 +48,9 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         self.m = Machine(ctx, None, start)
         self.inp = Inputs(t=0.0, range_m=3.0, range_ok=True, legs_ready=False, script_state=0)
         self.impact_seen = start in ("LANDED", "TAKEOFF")  # it has landed before
+        # on the roof since a contact state (or LANDED) and no take-off since
+        self.on_roof = start == "LANDED"
+        self.disarm_asked_at: float | None = None
         self.estop_seen = False
         self._step(0.02)
 
@@ -43,15 +58,36 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         self.inp = replace(self.inp, t=self.inp.t + dt, **changes)
         if self.inp.impact or self.inp.script_state in (12, 13):
             self.impact_seen = True
-        n, before = len(self.act.calls), self.m.name
+        n, before, seen = len(self.act.calls), self.m.name, len(self.m.history)
+        held = self.inp.script_state in (12, 13)  # the script's RVT or HOLD: it met the roof
+        if before in ON_THE_ROOF or (before == "CUT" and (self.inp.impact or held)):
+            self.on_roof = True
+        if before == "LINK_LOST" and held:  # it came down while the link was out
+            self.on_roof = True
         self.m.step(self.inp)  # must never raise
         new = self.act.calls[n:]
         names = [c[0] for c in new]
+        visited = [h["to"] for h in self.m.history[seen:]]
         if self.m.name == "LANDED" and before != "LANDED":
             assert not self.inp.armed, f"LANDED entered from {before} with the vehicle armed"
-        if before in AFTER_CONTACT and self.m.name in AFTER_CONTACT and self.inp.armed:
-            # after contact, armed: the script keeps the motors; only a take-off gives them back
-            assert not {"release", "reflex_abort"} & set(names), f"{names} in {self.m.name}, armed"
+        if self.on_roof and self.inp.armed and self.inp.script_state in SCRIPT_HOLDS and not self.inp.estop:
+            # after contact, armed, the script holding the motors: whatever the machine does (a
+            # timeout, an abort, a link loss and back), nothing gives them to the mixer; only a
+            # take-off asks the script for them (the script checks the tilt), and the pilot's
+            # emergency stop releases everything (the stop itself keeps the motors off)
+            assert not RELEASES & set(names), f"{names} from {before} via {visited}, armed, script holding"
+            if "release_for_takeoff" in names:
+                assert self.inp.takeoff_request, f"take-off release from {before} unasked"
+        if "disarm" in names:
+            self.disarm_asked_at = self.inp.t
+        if self.m.name == "LANDED" and before == "LANDED" and self.inp.armed and not self.inp.takeoff_request:
+            # LANDED never keeps an armed vehicle as it is: the disarm is asked again
+            last = self.disarm_asked_at
+            assert last is not None and self.inp.t - last <= DISARM_RETRY_S + 0.5, (
+                f"LANDED kept armed since {last} (now {self.inp.t:.2f}) without a disarm asked"
+            )
+        if "TAKEOFF" in visited:
+            self.on_roof = False
         if not self.impact_seen:
             assert not MOTOR_STOPPERS & set(names), f"{names} before any impact, in {self.m.name}"
         if "reflex_arm" in names:
@@ -110,6 +146,20 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
     @rule(dt=st.floats(0.005, 0.2), req=st.booleans())
     def takeoff_request(self, dt: float, req: bool) -> None:
         self._step(dt, takeoff_request=req)
+
+    @rule(dt=st.floats(0.005, 0.2))
+    def landing_times_out(self, dt: float) -> None:
+        """The runner's wall-clock timeout (Lander.run) aborts from any state but its endings."""
+        if self.m.name in ENDINGS:
+            return
+        self.inp = replace(self.inp, t=self.inp.t + dt)
+        n, before = len(self.act.calls), self.m.name
+        self.m.transition("ABORTED", "landing not finished within 120 s", self.inp)
+        names = [c[0] for c in self.act.calls[n:]]
+        if self.on_roof and self.inp.armed and self.inp.script_state in SCRIPT_HOLDS:
+            assert self.m.name == "SETTLED", f"timeout in {before} moved to {self.m.name}, armed on the roof"
+            assert not RELEASES & set(names), f"{names} at the timeout in {before}, armed, script holding"
+        self._step(0.0)
 
     @rule(dt=st.floats(0.005, 0.2), press=st.integers(0, 4))
     def emergency_stop(self, dt: float, press: int) -> None:

@@ -3,6 +3,7 @@ reverse thrust, HOLD, and the rules for lapses and missed impacts."""
 
 from __future__ import annotations
 
+import math
 import random
 
 import pytest
@@ -475,15 +476,34 @@ def impact(bench: Bench) -> None:
     assert bench.io.state() == RVT
 
 
-@pytest.mark.parametrize("reading", [good(2.5), RangeReading(3.5, 3, 100, 0.1, 3.0)], ids=["far", "beyond"])
+G = 9.80665
+BEYOND = RangeReading(3.5, 3, 100, 0.1, 3.0)  # beyond the sensor: status OutOfRangeHigh
+
+
+def specific_force(pitch_deg: float, up: float, along: float = 0.0) -> tuple[float, float, float]:
+    """The body-frame (FRD) specific force of a vehicle pitched ``pitch_deg`` whose non-gravity
+    force per mass is ``up`` m/s² upward and ``along`` m/s² north, in the earth frame."""
+    th = math.radians(pitch_deg)
+    north, down = along, -up
+    return (math.cos(th) * north - math.sin(th) * down, 0.0, math.sin(th) * north + math.cos(th) * down)
+
+
+def pose(bench: Bench, pitch_deg: float, up: float, along: float = 0.0) -> None:
+    bench.io.attitude_rad = (0.0, math.radians(pitch_deg), 0.0)
+    bench.io.accel_body = specific_force(pitch_deg, up, along)
+
+
+@pytest.mark.parametrize("reading", [good(2.5), BEYOND], ids=["far", "beyond"])
 def test_reverse_thrust_ends_when_the_vehicle_leaves_the_roof(bench: Bench, reading) -> None:
-    """Issue 21: reverse thrust kept on through a slide off an edge. Two distinct samples farther
-    than the cut height plus 0.3 m (or beyond the sensor): the motors go back to the autopilot,
-    which is armed in its flying mode and can fly; stopped or reversed they would drop it."""
+    """Issue 21: reverse thrust kept on through a slide off an edge. Two distinct samples far
+    below, upright and falling (the reverse thrust pushes it down: the specific force points
+    down): the motors go back to the autopilot, which is armed in its flying mode and can fly;
+    stopped or reversed they would drop it."""
     cut_now(bench)
     impact(bench)
     bench.run(50)
     bench.io.range = reading
+    pose(bench, -40.0, up=-3.0)  # slid off a 45 deg roof, tilted like it, thrust pushing it down
     bench.run(2 * SAMPLE_MS + 5)
     assert bench.io.state() == IDLE
     bench.run(40)
@@ -496,11 +516,102 @@ def test_one_far_sample_on_the_roof_keeps_the_motors_held(bench: Bench) -> None:
     impact(bench)
     bench.run(int(DUR_MS) + 20)
     assert bench.io.state() == HOLD
+    pose(bench, 0.0, up=0.0)
     bench.io.range = good(2.5)
     bench.run(SAMPLE_MS)
     bench.io.range = good(0.2)
     bench.run(200)
     assert bench.io.state() == HOLD and bench.outputs() == [1500] * 4
-    bench.io.range = RangeReading(3.5, 3, 100, 0.1, 3.0)  # off the edge from HOLD too
+    bench.io.range = BEYOND  # off the edge from HOLD too: falling with the motors stopped
     bench.run(2 * SAMPLE_MS + 5)
     assert bench.io.state() == IDLE
+
+
+# A vehicle on a 45 deg roof, sliding down it (mu_k 0.8): the roof carries all of its weight but
+# the downward part of the slide's acceleration, g * sin(a) * (sin(a) - mu * cos(a)) = 0.1 g.
+_S45, _C45 = math.sin(math.radians(45)), math.cos(math.radians(45))
+SLIDE_UP = G * (1 - _S45 * (_S45 - 0.8 * _C45))
+SLIDE_ALONG = G * _C45 * (_S45 - 0.8 * _C45)
+
+
+@pytest.mark.parametrize(
+    ("pitch_deg", "rate_degs", "up", "reading"),
+    [
+        (-136.0, 0.0, SLIDE_UP, BEYOND),  # tumbling over on the roof: the beam points up the roof
+        (-136.0, 0.0, 0.0, BEYOND),  # ... at the moment a pivot unloads it
+        (-121.0, 0.0, SLIDE_UP, good(0.97)),
+        (-180.0, 0.0, SLIDE_UP, BEYOND),  # on its back: the beam points at the sky
+        (30.0, 0.0, SLIDE_UP, good(2.5)),  # pitched toward the valley: the beam grazes the roof
+        (30.0, 0.0, SLIDE_UP, BEYOND),
+        (0.0, 0.0, SLIDE_UP, BEYOND),  # level, sliding: a beam 45 deg off the roof's normal, a glitch
+        (-70.0, 0.0, 0.0, BEYOND),  # falling but past 60 deg: the autopilot could not fly it
+    ],
+    ids=[
+        "tumbling",
+        "tumbling-unloaded",
+        "tumbling-0.97",
+        "on-its-back",
+        "grazing",
+        "grazing-beyond",
+        "level-sliding",
+        "falling-70deg",
+    ],
+)
+@pytest.mark.parametrize("stage", ["RVT", "HOLD"])
+def test_a_vehicle_on_the_roof_whose_beam_reads_far_keeps_its_motors_held(
+    bench: Bench, pitch_deg: float, rate_degs: float, up: float, reading: RangeReading, stage: str
+) -> None:
+    """Issue 21, seen on the 45 deg roof: a fast landing tumbled over on the roof; its beam,
+    pointing up the roof, read out of range high for 0.25 s, and the range rule alone took that
+    for leaving the roof and gave the motors of a vehicle tilted 136 deg to the autopilot. The
+    range counts only with the body within 60 deg of level, its vertical share past the cut
+    height plus 0.3 m, and the vehicle falling (the roof carrying under half its weight)."""
+    cut_now(bench)
+    impact(bench)
+    if stage == "HOLD":
+        bench.run(int(DUR_MS) + 20)
+    else:
+        bench.run(20)
+    assert bench.io.state() == S[stage]
+    pose(bench, pitch_deg, up, SLIDE_ALONG)
+    bench.io.gyro_rads = (0.0, math.radians(rate_degs), 0.0)
+    bench.io.range = reading
+    bench.run(6 * SAMPLE_MS if stage == "HOLD" else 4 * SAMPLE_MS)
+    assert bench.io.state() == S[stage], bench.io.sl_texts()
+    assert bench.outputs() == ([1500] * 4 if stage == "HOLD" else [reverse_pwm_of(PCT)] * 4)
+    assert "SL: left the roof: motors released" not in bench.io.sl_texts()
+
+
+@pytest.mark.parametrize("stage", ["RVT", "HOLD"])
+def test_a_vehicle_cartwheeling_down_the_roof_keeps_its_motors_held(bench: Bench, stage: str) -> None:
+    """Seen on the 45 deg roof after the rule above: a fast landing cartwheeled down the roof
+    (200-360 deg/s); between two bounces it flew 0.3 m off the roof, falling, and swept through
+    upright with its beam pitched toward the valley, along the roof: range out of range high,
+    then 1.44 m at 33 deg, and its motors were released. A sample counts only if the body stays
+    within 60 deg of level once the autopilot stops its rotation at ArduCopter's default
+    1100 deg/s² (ATC_ACCEL_P_MAX): tilt + w² / 2200 <= 60. Here the beam reads past the margin
+    only beyond about 30 deg, where 240 deg/s adds 26 deg."""
+    cut_now(bench)
+    impact(bench)
+    bench.run(int(DUR_MS) + 20 if stage == "HOLD" else 20)
+    assert bench.io.state() == S[stage]
+    rate, height, slope = -240.0, 0.3, 45.0  # deg/s, m off the roof along its normal, deg
+    pitch0, t0 = 80.0, bench.io.now_ms
+    released = []
+
+    def each(t: int) -> None:
+        pitch = pitch0 + rate * (t - t0) / 1000
+        pose(bench, pitch, up=0.0)  # airborne: nothing carries it
+        bench.io.gyro_rads = (0.0, math.radians(rate), 0.0)
+        off_normal = math.radians(pitch + slope)  # the beam's angle to the roof's normal
+        beyond = off_normal >= math.radians(89.0)
+        bench.io.range = BEYOND if beyond else good(min(3.5, height / math.cos(off_normal)))
+        if bench.io.state() == IDLE and not released:
+            released.append(pitch)
+
+    bench.run(int((80.0 + 10.0) / -rate * 1000), each)  # from 80 deg nose up to 10 deg nose down
+    assert not released and bench.io.state() in (RVT, HOLD), (released, bench.io.sl_texts())
+
+
+def reverse_pwm_of(pct: float) -> int:
+    return int(1500 - 5 * pct + 0.5)

@@ -96,7 +96,10 @@ def assert_hovering_safe(rig: Rig) -> None:
 
 # ----------------------------------------------------------------------------- link cuts
 def test_a_3s_cut_in_takeoff_goes_link_lost_and_never_loosens_the_legs_low(rig):
-    """TAKEOFF row: LINK_LOST; back: ABORTED (LOITER). The legs keep their torque throughout."""
+    """TAKEOFF row: LINK_LOST; back: ABORTED (LOITER) once clear of the roof. Still below the clear
+    height: armed, the take-off goes on (TAKEOFF again, to READY); disarmed, LANDED. Never armed
+    in LOITER on the roof (seen before: it slid 20 m down it, docs/reliability.md). The legs keep
+    their torque until the vehicle is clear."""
     ready_over_roof(rig)
     lander = Lander(rig.link, config(reflex=CUT), PRESET, legs=rig.legs)
     assert lander.run(60.0) == "LANDED", lander.machine.history[-3:]
@@ -105,16 +108,24 @@ def test_a_3s_cut_in_takeoff_goes_link_lost_and_never_loosens_the_legs_low(rig):
     rig.relay.cut(3.0)
     poll_for(lander, 2.5)
     assert lander.machine.name == "LINK_LOST", lander.machine.history
-    link_back(rig, lander)
-    states = [h["to"] for h in lander.machine.history]
-    assert states[-3:] == ["TAKEOFF", "LINK_LOST", "ABORTED"], states
     assert all(lg.state.name != "LOOSE" for lg in rig.legs.status.legs), rig.legs.status
-    x = rig.track.pos[-1][1]
-    if rig.height() - rig.surface_z(x) > 0.4:  # the take-off got through: the abort holds in LOITER
+    rig.fly_until(lambda: lander.poll() != "LINK_LOST", 60.0, "see the link come back", wall_s=30.0)
+    hist = lander.machine.history
+    i = max(k for k, h in enumerate(hist) if h["to"] == "LINK_LOST")
+    assert hist[i]["from"] == "TAKEOFF" and i + 1 < len(hist), hist[i - 1 :]
+    back = hist[i + 1]
+    if back["to"] == "ABORTED":  # the take-off got through: clear of the roof, LOITER holds it
+        rig.wait(1.5, tick=lander.poll)
         assert_hovering_safe(rig)
-    else:  # it was lost in the cut: still on the roof, the legs clamped (asserted above); not yet
-        # explained: once seen armed there, slid 20 m down the roof (docs/reliability.md)
-        assert rig.mode() != GUIDED or not rig.armed(), (rig.mode(), rig.armed())
+        return
+    # still near the roof. Armed: the take-off asked for goes on. Disarmed (the arm never came):
+    # LANDED, and the pilot's take-off request, still standing, starts it again from there
+    assert back["to"] in ("TAKEOFF", "LANDED"), back
+    reason = "taking off again" if back["to"] == "TAKEOFF" else "disarmed on the roof"
+    assert reason in back["reason"], back
+    assert run_until(rig, lander, ("READY", "ABORTED")) == "READY", lander.machine.history[i:]
+    x = rig.track.pos[-1][1]
+    assert rig.armed() and rig.height() - rig.surface_z(x) > 0.5, rig.track.pos[-1]
 
 
 @pytest.mark.parametrize("state", ["DESCEND", "REVERSE"])

@@ -98,13 +98,14 @@ class Machine:
 
     def held_on_the_roof(self, inp: Inputs) -> bool:
         """Whether this landing has met the roof (an impact, or the script's landing sequence
-        reported after the cut) and the script still holds the motors of an armed vehicle."""
-        return (
-            self._started
-            and self.ctx.marks.get("impact") is not None
-            and inp.armed
-            and inp.script_state in LANDING
+        reported after the cut) and the script still holds the motors of an armed vehicle. The
+        script's own RVT or HOLD is that evidence too: a vehicle that came down while the link was
+        out is on the roof before any state of this machine marked an impact."""
+        met = self.ctx.marks.get("impact") is not None or inp.script_state in (
+            ScriptState.RVT,
+            ScriptState.HOLD,
         )
+        return self._started and met and inp.armed and inp.script_state in LANDING
 
     def transition(self, new: str, reason: str, inp: Inputs) -> None:
         """Leave the current state, enter ``new``; a refused enter aborts (the reason recorded).

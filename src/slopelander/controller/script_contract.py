@@ -2,8 +2,9 @@
 
 The script's state numbers, its command ids, actions and parameter ranges, and :class:`ScriptClient`,
 the one object that sends it requests. Every request carries a request number in COMMAND_LONG
-param 7; the script echoes it in COMMAND_ACK ``result_param2`` (a MAVLink 2 extension field), so
-each ACK answers its own request: an old refresh's ACK can no longer mark a later abort accepted.
+param 7; the script echoes it in COMMAND_ACK ``result_param2`` (a MAVLink 2 extension field), and
+the link's own request tracking (:meth:`Link.command` with ``request``) matches each ACK to its
+request by that number: an old refresh's ACK can no longer mark a later abort accepted.
 ``tests/firmware/test_script_contract.py`` holds this table to the Lua script.
 """
 
@@ -12,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum
 
-from slopelander.controller.link import Link, LinkError, mavlink
+from slopelander.controller.link import CommandHandle, Link, LinkError
 
 #: the contract version this companion speaks (the script's SL_VER must be at least this):
 #: 2 ends the reverse thrust on a refresh, 3 ramps it down, 4 numbers every request and adds
@@ -116,47 +117,67 @@ PARAM_LIMITS: dict[tuple[int, int], dict[int, tuple[float, float]]] = {
 
 @dataclass
 class ScriptRequest:
-    """One request to the script: poll ``state`` ('pending', 'accepted', 'rejected', 'unanswered')."""
+    """One request to the script: poll ``state`` ('pending', 'accepted', 'rejected', 'unanswered').
+
+    A view of the link's :class:`~slopelander.controller.link.CommandHandle` for it (sent with the
+    request number, so only the ACK echoing that number in ``result_param2`` answers it), plus
+    the script's STATUSTEXT reason for a refusal."""
 
     number: int
     kind: str
-    command: int
-    params: tuple[float, ...]
-    retries: int
-    timeout_s: float
-    state: str = "pending"
-    #: the ACK's MAV_RESULT (None until answered)
-    result: int | None = None
+    handle: CommandHandle
     #: the script's STATUSTEXT reason for a refusal ("SL: ..." without the prefix), when it came
     reason: str | None = None
-    tries: int = 0
-    sent_at: float = 0.0
+
+    @property
+    def command(self) -> int:
+        return self.handle.command
+
+    @property
+    def params(self) -> tuple[float, ...]:
+        return self.handle.params
+
+    @property
+    def result(self) -> int | None:
+        """The ACK's MAV_RESULT (None until answered)."""
+        return self.handle.result
+
+    @property
+    def tries(self) -> int:
+        return self.handle.tries
+
+    @property
+    def state(self) -> str:
+        s = self.handle.state
+        return "unanswered" if s == "timeout" else s
 
     @property
     def done(self) -> bool:
         """Answered, or out of tries."""
-        return self.state != "pending"
+        return self.handle.done
 
     @property
     def ok(self) -> bool:
         """The script accepted it."""
-        return self.state == "accepted"
+        return self.handle.ok
 
 
 class ScriptClient:
-    """Sends the script's requests and matches each COMMAND_ACK to its own request by number.
+    """Sends the script's requests through the link, each with its own request number.
 
-    Sending never waits: each call returns a :class:`ScriptRequest` that is re-sent (same number)
-    every ``timeout_s`` until answered, at most ``retries`` times, then marked 'unanswered'. Any
-    number of requests may be in flight at once, of any kind. Retries run from :meth:`poll`,
-    which the client also calls on every message from the autopilot."""
+    The link (:meth:`Link.command` with ``request``) sends, re-sends (same number) every
+    ``timeout_s`` until answered, at most ``retries`` times, and matches each COMMAND_ACK to its
+    request by the number the script echoes in ``result_param2``: one ACK-matching path for every
+    command the companion sends. Any number of requests may be in flight at once, of any kind.
+    This client numbers them, keeps them by number and kind, and attaches the script's reason to a
+    refusal (the STATUSTEXT the script sends right after its ACK)."""
 
     def __init__(self, link: Link, retries: int = 2, timeout_s: float = 0.5) -> None:
         self.link = link
         self.retries = int(retries)
         self.timeout_s = float(timeout_s)
         self._next = 1
-        self._pending: list[ScriptRequest] = []
+        self._open: list[ScriptRequest] = []  # sent, not yet seen answered
         #: every request by number, the newest ``KEEP`` of them
         self.requests: dict[int, ScriptRequest] = {}
         #: the newest request of each kind ('arm', 'abort', 'disarm', ...)
@@ -213,16 +234,9 @@ class ScriptClient:
         return "unknown" if r is None else r.state
 
     def poll(self) -> None:
-        """Re-send what is due; mark as 'unanswered' what ran out of tries."""
-        now = self.link.monotonic()
-        for r in self._pending:
-            if r.done or now - r.sent_at < r.timeout_s:
-                continue
-            if r.tries > r.retries:
-                r.state = "unanswered"
-            else:
-                self._transmit(r)
-        self._pending = [r for r in self._pending if not r.done]
+        """Read what has come and re-send what is due (the link's poll: it owns the retries)."""
+        self.link.poll()
+        self._note_answers()
 
     # ------------------------------------------------------------------ internals
     def _send(self, kind: str, command: int, action: int, *params: float) -> ScriptRequest:
@@ -232,38 +246,36 @@ class ScriptClient:
         self._next = 1 if self._next >= REQUEST_MAX else self._next + 1
         p = [float(action), *(float(x) for x in params)]
         p += [0.0] * (REQUEST_PARAM - 1 - len(p))
-        r = ScriptRequest(number, kind, command, (*p, float(number)), self.retries, self.timeout_s)
+        h = self.link.command(
+            command, *p, float(number), retries=self.retries, timeout_s=self.timeout_s, request=number
+        )
+        r = ScriptRequest(number, kind, h)
         self.requests[number] = r
         if len(self.requests) > self.KEEP:
             del self.requests[next(iter(self.requests))]
         self.last[kind] = r
-        self._transmit(r)
-        self._pending.append(r)
+        self._open.append(r)
         return r
 
-    def _transmit(self, r: ScriptRequest) -> None:
-        info = self.link.info
-        if info is None:
-            return
-        self.link.conn.mav.command_long_send(
-            info.system, info.component, r.command, min(r.tries, 255), *r.params
-        )
-        r.tries += 1
-        r.sent_at = self.link.monotonic()
+    def _note_answers(self) -> None:
+        """The requests the link has seen answered since the last look: the newest refusal waits
+        for the script's reason; an acceptance after it means that reason is not coming."""
+        still = []
+        for r in self._open:
+            if not r.done:
+                still.append(r)
+            elif r.state == "rejected":
+                self._refused = r
+            elif r.ok:
+                self._refused = None
+        self._open = still
 
     def _on_message(self, msg) -> None:
-        mtype = msg.get_type()
-        if mtype == "COMMAND_ACK" and msg.command in (CMD_ACTUATOR, CMD_REFLEX):
-            r = self.requests.get(int(getattr(msg, "result_param2", 0) or 0))
-            answered = msg.result != mavlink.MAV_RESULT_IN_PROGRESS
-            if r is not None and r.command == msg.command and not r.done and answered:
-                r.result = int(msg.result)
-                r.state = "accepted" if msg.result == mavlink.MAV_RESULT_ACCEPTED else "rejected"
-                self._refused = None if r.ok else r
-        elif mtype == "STATUSTEXT" and self._refused is not None:
+        # the link calls its listeners before it applies a COMMAND_ACK: an ACK's effect is seen
+        # here from the next message on, which is where its STATUSTEXT reason comes
+        self._note_answers()
+        if msg.get_type() == "STATUSTEXT" and self._refused is not None:
             text = msg.text.rstrip("\x00") if isinstance(msg.text, str) else ""
             if text.startswith("SL: "):
                 self._refused.reason = text[4:]
                 self._refused = None
-        if self._pending:
-            self.poll()

@@ -11,7 +11,9 @@ AFTER_CONTACT = ("CUT", "REVERSE", "SETTLED")
 
 class LinkLost(State):
     """On board: GUID_TIMEOUT stops the descent, the reflex validity lapses, a HOLD disarms when its
-    validity lapses. When the link returns: a landing lost before contact is aborted to LOITER; one
+    validity lapses. When the link returns: a take-off lost with the vehicle still below the clear
+    height goes on (TAKEOFF) if it is armed and is LANDED if not; a landing lost before contact is
+    aborted to LOITER; one
     lost after contact is judged as it lies (SETTLED: disarmed at rest, handed to the pilot armed if
     it slides), because releasing a script that is still reversing or holding the motors on a roof
     and asking a grounded vehicle for LOITER is no safer than finishing the landing."""
@@ -28,6 +30,15 @@ class LinkLost(State):
         # lost before contact but the script reports its landing sequence: the vehicle came down
         # while the link was out, and a tilted vehicle on a roof is not handed to LOITER
         landed_meanwhile = inp.script_state in LANDING
+        if ctx.marks.get("lost_in") == "TAKEOFF" and not landed_meanwhile:
+            # lost during the take-off: a vehicle still near the roof is not handed to LOITER
+            # armed there (seen: armed on the roof in LOITER, it slid 20 m down it). Disarmed
+            # (the arm never came), it is landed; armed, the take-off asked for goes on.
+            clear = inp.range_valid and inp.range_m >= ctx.cfg["takeoff.clear_height_m"]
+            if not clear and not inp.armed:
+                return ("LANDED", "link back during the take-off: disarmed on the roof")
+            if not clear:
+                return ("TAKEOFF", "link back during the take-off, near the roof: taking off again")
         if ctx.marks.get("lost_in") in AFTER_CONTACT or landed_meanwhile:
             if not inp.armed:
                 return ("LANDED", "link back: the script disarmed on the ground")
