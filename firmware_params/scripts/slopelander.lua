@@ -36,6 +36,13 @@ local RF_LOW, RF_HIGH, RF_GOOD = 2, 3, 4 -- RangeFinder::Status OutOfRangeLow, O
 local MOTORS = { 0, 1, 2, 3 } -- SERVO1..4, 0-based channel index
 local PWM_STOP = 1500
 local OVERRIDE_MS = 30 -- each override lapses this soon unless refreshed
+-- On the ground (RVT, HOLD) the override outlasts a stalled scripting thread. ArduPilot counts an
+-- override's timeout in main-loop ticks (SRV_Channels::set_output_pwm_chan_timeout), not in the
+-- script's own runs: a scripting thread starved for more than OVERRIDE_MS hands the outputs back
+-- to the mixer, and an armed mixer on a steep roof fights the tilt at full forward thrust (seen on
+-- ArduCopter SITL at 55 deg: 40 ms at 1600-1976 us, twice in 25 s). Stopped or reversed motors on
+-- the ground are the safe side of a stall, so they hold this long; leaving RVT/HOLD clears them.
+local GROUND_OVERRIDE_MS = 250
 local FAST_MS = 2 -- update period while anything is active
 local IDLE_MS = 10 -- update period otherwise (command latency)
 local ANNOUNCE_MS = 200 -- SL_STATE at 5 Hz
@@ -129,10 +136,22 @@ local function enter(new, t, why)
   end
 end
 
-local function output(pwm)
+local long_override = false -- outputs set with GROUND_OVERRIDE_MS, to clear when they end
+
+local function output(pwm, timeout_ms)
+  timeout_ms = timeout_ms or OVERRIDE_MS
   for _, ch in ipairs(MOTORS) do
-    SRV_Channels:set_output_pwm_chan_timeout(ch, pwm, OVERRIDE_MS)
+    SRV_Channels:set_output_pwm_chan_timeout(ch, pwm, timeout_ms)
   end
+  long_override = timeout_ms > OVERRIDE_MS
+end
+
+-- a zero timeout clears the override at once (SRV_Channels::set_output_pwm_chan_timeout)
+local function clear_outputs()
+  for _, ch in ipairs(MOTORS) do
+    SRV_Channels:set_output_pwm_chan_timeout(ch, PWM_STOP, 0)
+  end
+  long_override = false
 end
 
 local function reverse_pwm(pct) return math.floor(PWM_STOP - 5 * pct + 0.5) end
@@ -471,14 +490,18 @@ local function update()
   end
   if reflex ~= nil then run_reflex(t, fresh) end
 
-  if state == STOP or state == CUT or state == HOLD then
+  if state == HOLD then
+    output(PWM_STOP, GROUND_OVERRIDE_MS)
+  elseif state == STOP or state == CUT then
     output(PWM_STOP)
   elseif state == REVERSE then
     output(reverse_pwm(reverse_pct))
   elseif state == RVT then
     local pct = reflex.pct
     if reflex.ramp_from ~= nil then pct = pct * (1 - (t - reflex.ramp_from) / reflex.ramp_ms) end
-    output(reverse_pwm(pct))
+    output(reverse_pwm(pct), GROUND_OVERRIDE_MS)
+  elseif long_override then
+    clear_outputs() -- released, disarmed or emergency stop: the mixer (or nothing) at once
   end
 
   if t - last_announce >= ANNOUNCE_MS then announce(t) end

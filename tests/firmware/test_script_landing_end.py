@@ -93,6 +93,36 @@ def test_take_off_release_only_level_enough(bench: Bench) -> None:
     assert bench.io.state() == ScriptState.IDLE and bench.outputs() == [None] * 4 and bench.io.armed
 
 
+def stall(bench: Bench, ms: int) -> None:
+    """The vehicle's clock runs on while the scripting thread is not scheduled (a loaded host)."""
+    bench.io.now_ms += ms
+
+
+def test_a_stalled_script_keeps_the_held_motors_stopped(bench: Bench) -> None:
+    """ArduPilot counts an override's timeout in main-loop ticks: a held vehicle on the roof must
+    not get its (armed) mixer back because the script was not run for a while."""
+    held(bench)
+    stall(bench, 200)
+    assert bench.outputs() == [1500] * 4
+    bench.run(1)
+    assert bench.io.state() == ScriptState.HOLD and bench.outputs() == [1500] * 4
+
+
+def test_a_stalled_script_keeps_the_reverse_thrust(bench: Bench) -> None:
+    cut_now(bench)
+    impact(bench)
+    assert bench.io.state() == ScriptState.RVT
+    stall(bench, 100)
+    assert bench.outputs() == [1500 - 5 * int(PCT)] * 4
+
+
+def test_a_disarm_gives_the_outputs_back_at_once(bench: Bench) -> None:
+    """The long hold is cleared when the landing ends, not left to lapse."""
+    held(bench)
+    assert bench.command(CMD_REFLEX, Reflex.DISARM, wait_ms=2).result == ACCEPTED
+    assert not bench.io.armed and bench.outputs() == [None] * 4
+
+
 def test_take_off_release_refused_during_the_reverse_thrust(bench: Bench) -> None:
     cut_now(bench)
     impact(bench)
