@@ -8,7 +8,9 @@ Prints, with the load average before and after each part:
 * each candidate's own compile: its seam law, typed and handed to the integrator (seconds, not
   a whole integrator);
 * the wall time of ``slopelander diagnose DATASET --candidates ... --cma-evals 300 --workers 2``
-  on 12 synthetic drops (this checkout's code, run as a separate process, warm cache).
+  on 12 synthetic drops (this checkout's code, run as a separate process, warm cache), and its
+  CPU time with its workers' (on a shared machine the wall time is mostly waiting: CPU time
+  divided by the cores is the wall time the same run needs on an idle machine).
 
 Candidates: the five documented example effects (docs/examples) and two of the test suite's
 (tests/ident/effects: ground_power, slip_weakening). The drops: the shipped model, 12 paper-like
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -71,6 +74,12 @@ def _load() -> str:
     return f"load average {one:.1f} / {five:.1f} / {fifteen:.1f} (1 / 5 / 15 min, {os.cpu_count()} cores)"
 
 
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes and their reaped workers."""
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
 def _compile_times(cache: str | None, label: str) -> None:
     print(f"\n{label} ({_load()})", flush=True)
     t0 = time.perf_counter()
@@ -119,13 +128,19 @@ def main() -> int:
         ]
         print(f"\nslopelander diagnose, {len(CANDIDATES)} candidate files, {args.drops} drops ({_load()})")
         t0 = time.perf_counter()
+        cpu0 = _children_cpu()
         r = subprocess.run(cmd, env=_env(None), capture_output=True, text=True)
         wall = time.perf_counter() - t0
+        cpu = _children_cpu() - cpu0
         print(r.stdout.rstrip())
         if r.returncode:
             print(r.stderr[-3000:])
             return 1
         print(f"\ndiagnose wall time: {wall:.0f} s ({_load()})")
+        print(
+            f"diagnose CPU time: {cpu:.0f} s, its workers included: at least {cpu / os.cpu_count():.0f} s "
+            f"of wall time on {os.cpu_count()} idle cores"
+        )
     return 0
 
 

@@ -112,7 +112,7 @@ def compiling_notice(
                 return  # the compile it was armed for is over: the next one arms it again
             state["said"] = True
         print(
-            f"slopelander: compiling {what} (first run after an install or an effect change, "
+            f"slopelander: compiling {what} (first run after an install or an update, "
             "about half a minute; later runs use the cache)...",
             file=sys.stderr,
             flush=True,
