@@ -152,6 +152,9 @@ layout.drop_stale_cache(__file__)
 
 
 # --- seams --------------------------------------------------------------------------------
+# The stages and seam helpers below are inlined into the step where numba compiles it
+# (inline="always"): a call would pass the workspace tuple and count references to each of its
+# arrays, which made a landing 2.7 times slower.
 # Every jitted entry point takes the seam table ``sx = (laws, slots, up)`` (see seams.py): per
 # seam the compiled laws of the model's effects, how many are in use, and the slices of the
 # user parameters ``up`` they read. Each stage below runs the built-in law first, then the
@@ -159,12 +162,12 @@ layout.drop_stale_cache(__file__)
 # so this one compiled integrator serves every model and every candidate effect.
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _n_laws(sx, seam):
     return sx[1][seam, 0]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _params(sx, seam, k):
     """The user parameters the k-th law of a seam reads."""
     row = sx[1][seam]
@@ -172,7 +175,7 @@ def _params(sx, seam, k):
     return sx[2][a : a + row[2 + 2 * k]]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _seam_force(sx, t, st, ctx, out):
     laws = sx[0][SEAM_FORCE]
     for k in range(SEAM_SLOTS):
@@ -180,7 +183,7 @@ def _seam_force(sx, t, st, ctx, out):
             laws[k](t, st, ctx, _params(sx, SEAM_FORCE, k), out)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _seam_point_force(sx, t, st, ctx, out):
     laws = sx[0][SEAM_POINT_FORCE]
     for k in range(SEAM_SLOTS):
@@ -188,7 +191,7 @@ def _seam_point_force(sx, t, st, ctx, out):
             laws[k](t, st, ctx, _params(sx, SEAM_POINT_FORCE, k), out)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _seam_joint_torque(sx, t, st, ctx, leg, angle, rate, tau):
     laws = sx[0][SEAM_JOINT_TORQUE]
     for k in range(SEAM_SLOTS):
@@ -197,7 +200,7 @@ def _seam_joint_torque(sx, t, st, ctx, leg, angle, rate, tau):
     return tau
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _seam_foot_friction(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
     laws = sx[0][SEAM_FOOT_FRICTION]
     for k in range(SEAM_SLOTS):
@@ -206,13 +209,13 @@ def _seam_foot_friction(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
     return mu
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _seam_normal_force(sx, t, st, ctx, point, depth, rate):
     """The one normal law a model may set (check_user_effects allows one)."""
     return sx[0][SEAM_NORMAL_FORCE][0](t, st, ctx, _params(sx, SEAM_NORMAL_FORCE, 0), point, depth, rate)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def has_normal_law(sx):
     return _n_laws(sx, SEAM_NORMAL_FORCE) > 0
 
@@ -473,7 +476,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, sx):
     return began
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _surface(ctx):
     """Surface normal n (out of the ground), tangent t (toward +x) and the downhill sign
     along t (the slip speeds users read are downhill-positive)."""
@@ -482,7 +485,7 @@ def _surface(ctx):
     return sa, ca, ca, -sa, 1.0 if sa >= 0.0 else -1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _joint_constants(p, fl):
     """(rigid, flex, q_end, q_max, q_zone, k_eot, b_eot, k_flex, b_flex, implicit springs)."""
     rigid = fl[F_RIGID] != 0
@@ -499,7 +502,7 @@ def _joint_constants(p, fl):
     return rigid, flex, q_end, q_max, q_zone, ke, be, kq, bq, ik
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _applied_forces(p, fl, ctx, st, ws, sx):
     """Stage 1: the explicit forces at the start of the step into ``f``: the force seams'
     (generalised and at named points), the external force on the body, rotor thrust.
@@ -539,7 +542,7 @@ def _applied_forces(p, fl, ctx, st, ws, sx):
     return user_forces
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def joint_torque_law(p, fl, st, leg, tau):
     """The built-in slip torque of a leg's friction joint: its preset, grown by eq. 3 on the
     leg whose foot is pushed outward (its friction points inward): on a slope the downhill
@@ -549,7 +552,7 @@ def joint_torque_law(p, fl, st, leg, tau):
     return tau
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _joint_law(p, fl, ctx, st, h, ws, sx):
     """Stage 2: each friction joint's slip torque (built-in law, then the joint-torque seam),
     and what the joints add to the step: the flex spring-damper or the slipping joint's
@@ -614,7 +617,7 @@ def _joint_law(p, fl, ctx, st, h, ws, sx):
         r0[a] = acc + h * f[a]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _contacts(p, fl, ctx, st, ws, sx):
     """Stage 3: every contact point's distance and speeds, its normal law at the start of the
     step (built-in spring-damper or the normal-force seam), which points are in contact and
@@ -689,7 +692,7 @@ def _contacts(p, fl, ctx, st, ws, sx):
     return began
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def friction_coefficient(p, fl, tx, tz, vel, i, slip, touching, mu_s):
     """The built-in sliding friction coefficient of contact point i: mu_k; on a foot grown by
     eq. 4 with its leg's joint moving outward along the surface (downhill for the downhill
@@ -704,7 +707,7 @@ def friction_coefficient(p, fl, tx, tz, vel, i, slip, touching, mu_s):
     return mu
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _solve(p, fl, st, h, ws, sx):
     """Stage 4: the implicit solve for the new velocities ``vn``, with the contacts' normal
     and friction forces linearised in it, repeated while a contact's mode changes (a point
@@ -828,7 +831,7 @@ def _solve(p, fl, st, h, ws, sx):
             break
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces):
     """Stage 5: the forces the solve applied (outputs, the next step's laws, energy
     bookkeeping), every point's slip speed, the force seams' work, and the locked joints'
@@ -921,7 +924,7 @@ def _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces):
                 lam[j] = acc / h
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _integrate(p, fl, st, h, u0, u1, ws):
     """Stage 6: the rotors' work, the new velocities and positions (semi-implicit Euler), the
     friction joints, the rotors' speeds, and the landing's bookkeeping."""
@@ -942,7 +945,7 @@ def _integrate(p, fl, st, h, u0, u1, ws):
     _bookkeeping(st, t, h, active)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rotor_work(st, h, ws):
     """The work the rotors' thrust did over the step (at the new velocities, the start pitch)."""
     J, vn = ws[4], ws[9]
@@ -954,7 +957,7 @@ def _rotor_work(st, h, ws):
         st[S_DISS + D_ROTOR] += st[S_THR + rr] * vz * h
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _friction_joints(p, fl, st, h, ws, qc_old0, qc_old1):
     """The friction joints' massless frames, updated exactly over the step in their mode
     (stuck, slipping, slipping in the end-of-travel zone), then their mode changes; without
@@ -1033,7 +1036,7 @@ def _friction_joints(p, fl, st, h, ws, qc_old0, qc_old1):
             st[S_QE + j] = qE
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rotor_speeds(p, fl, st, h, u0, u1):
     """Rotors: a direction change waits out the reversal delay, the speed is first order."""
     for rr in range(2):
@@ -1061,7 +1064,7 @@ def _rotor_speeds(p, fl, st, h, u0, u1):
         st[S_W + rr] = target + (st[S_W + rr] - target) * e
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bookkeeping(st, t, h, active):
     """Time, the first contact (time and place), the smallest joint angles, the pitch range."""
     st[S_T] = t + h
