@@ -16,7 +16,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT)]
 
-from slopelander.ident.fit import fit, resolve_params  # noqa: E402
+from slopelander.ident.fit import Identifier, resolve_params  # noqa: E402
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize  # noqa: E402
 from slopelander.model import Model  # noqa: E402
 
@@ -26,15 +26,18 @@ def run(label: str, noise: NoiseModel, seed: int, args: argparse.Namespace) -> N
     drops = synthesize(truth, paper_drops(6, seed=0), noise, seed=seed)
     params = resolve_params(truth)
     t0 = time.perf_counter()
-    r = fit(
-        truth,
-        drops,
-        params,
-        cma_evals=args.cma_evals,
-        ls_evals=args.ls_evals,
-        seed=seed,
-        restarts=args.restarts,
-        from_centre=True,  # from the truth, it would say nothing about the search
+    r = (
+        Identifier(
+            truth,
+            params,
+            cma_evals=args.cma_evals,
+            ls_evals=args.ls_evals,
+            seed=seed,
+            restarts=args.restarts,
+            from_centre=True,  # from the truth, it would say nothing about the search
+        )
+        .fit(drops)
+        .result_
     )
     dt = time.perf_counter() - t0
     print(f"\n{label}: {dt:.1f} s, {r.nfev} simulations of 6 drops, training NRMSE {r.train_nrmse:.4f}")

@@ -5,9 +5,10 @@ Runs ``slopelander simulate`` as separate processes (this checkout's code) and p
 * the wall time of each run; and, in a separate process doing what ``simulate`` does, the time
   from interpreter start to the landing starting (imports done) and to its outcome (compiled
   code loaded from the cache, or compiled, and run);
-* the size of numba's cache (``.nbi``/``.nbc`` files next to the model and the generated
-  user-effect kernels) before and after, which must not grow once warm;
-* the same for a user effect file, run twice, then edited (compiled once more), then run again.
+* the size of numba's cache (``.nbi``/``.nbc`` files next to the model) before and after, which
+  must not grow once warm;
+* the same for a user effect file, run twice, then edited, then run again (a user effect runs
+  on the same compiled integrator: only its own functions compile, in memory).
 
 ``--cold`` empties the caches first so that the first run compiles everything.
 

@@ -113,3 +113,49 @@ def test_declarations_are_checked():
     assert e.parameters["gain"] == EffectParameter(0.5, "1", 0.0, 1.0)
     with pytest.raises(ParameterError, match="outside"):
         e.with_values(gain=-1.0)
+
+
+SEAM_LIMITS = textwrap.dedent(
+    """
+    import numba
+    from slopelander.model.effects import UserEffect
+
+
+    @numba.njit
+    def push(t, st, ctx, up, out):
+        out[0] += up[0]
+
+
+    @numba.njit
+    def whole_newtons(t, st, ctx, up, leg, angle, rate, tau):
+        return 0  # an int: the seam's float is made of it
+
+
+    PUSHES = [UserEffect(f"push_{i}", "a push", force=push, parameters={f"push_{i}_n": (0.0, "N")})
+              for i in range(5)]
+    FREE = UserEffect("free_joints", "no joint torque", joint_torque=whole_newtons)
+    EFFECTS = [*PUSHES, FREE]
+    """
+)
+
+
+def test_seam_limits_and_return_types(tmp_path, model):
+    """A seam takes four effects' laws, the fifth is refused by name; a law returning an int
+    is converted to the seam's float (joints that hold nothing: the legs fold to their stop)."""
+    from slopelander.model.seams import SLOTS
+
+    path = tmp_path / "limits.py"
+    path.write_text(SEAM_LIMITS)
+    effects = load_effects(path)
+    pushes = [e for e in effects if e.name.startswith("push_")]
+    (free,) = [e for e in effects if e.name == "free_joints"]
+    assert SLOTS == 4 and len(pushes) == 5
+    crowded = model
+    for e in pushes:
+        crowded = crowded.with_user_effect(e)
+    with pytest.raises(EffectError, match="'push_4': more than 4 effects plug into the force seam"):
+        simulate(LandingConditions(), crowded)
+    c = LandingConditions(slope_deg=10.0, speed=2.0)
+    base = simulate(c, model, full_horizon=False).result
+    loose = simulate(c, model.with_user_effect(free), full_horizon=False).result
+    assert loose.compression_down > base.compression_down + 0.2

@@ -323,27 +323,27 @@ def register_fit(subparsers: argparse._SubParsersAction) -> None:
 
 def run_fit(args: argparse.Namespace) -> int:
     check_output(args.out, "--out")
-    from slopelander.ident.fit import FitError, fit_subsets, resolve_params
+    from slopelander.ident.fit import FitError, Identifier, fit_subsets
     from slopelander.ident.recording import load_dataset
 
     drops = load_dataset(args.dataset)
     model = build_model(args)
     names, bounds = _fit_spec(args.fit)
-    try:
-        params = resolve_params(model, names, bounds)
-    except FitError as exc:
-        raise IdentCliError(str(exc)) from None
+    settings = _search_settings(args)
+    repeats, seed = settings.pop("repeats"), settings.pop("seed")
     bar = _Bar(args.quiet, "fit")
     try:
-        sf = fit_subsets(
+        ident = Identifier(
             model,
-            drops,
-            params,
-            **_search_settings(args),
+            names,
+            bounds,
+            **settings,
             progress=bar,
             restarts=args.restarts,
             from_centre=args.start == "centre",
         )
+        ident.fit_params()  # an unknown name or bounds fail here, before any drop is simulated
+        sf = fit_subsets(ident, drops, repeats=repeats, seed=seed)
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:

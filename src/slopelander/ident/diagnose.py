@@ -33,9 +33,9 @@ from slopelander.ident.fit import (
     FitError,
     FitParam,
     FitResult,
+    Identifier,
     Problem,
     effect_of,
-    fit,
     make_param,
     resolve_params,
 )
@@ -492,28 +492,25 @@ def diagnose(
         )
     ranges = state_ranges(drops)
     splits = fold_splits(drops, folds, repeats, seed)
-    kw = {"ranges": ranges, "workers": workers, "client": client, "progress": progress, "ls_evals": ls_evals}
     centre = [{}] if refit_from_centre else None
+    ident = Identifier(
+        model,
+        base_params,
+        ranges=ranges,
+        workers=workers,
+        client=client,
+        progress=progress,
+        ls_evals=ls_evals,
+    )
+    # a refit (the control's, a candidate's) searches near its start with the refit budget
+    refit = ident.with_(cma_evals=refit_evals, sigma=0.25, starts=centre)
     base_fits, control = [], []
     for k, (tr, va) in enumerate(splits):
         train, held = [drops[i] for i in tr], [drops[i] for i in va]
-        b = fit(model, train, base_params, seed=seed + k, cma_evals=cma_evals, validation=held, **kw)
+        b = ident.with_(seed=seed + k, cma_evals=cma_evals).fit(train, held).result_
         base_fits.append(b)
         # the control: the base searched again from its optimum with a candidate's budget
-        control.append(
-            fit(
-                model,
-                train,
-                base_params,
-                seed=seed + k,
-                cma_evals=refit_evals,
-                validation=held,
-                start=b.values,
-                sigma=0.25,
-                starts=centre,
-                **kw,
-            )
-        )
+        control.append(refit.with_(seed=seed + k, start=b.values).fit(train, held).result_)
     base_nrmse, base_mse = _heldout(control, splits, drops, ranges)
     scr = screen(control[0].model, drops, cands, base_params, ranges, bounds)
     order = sorted(cands, key=lambda c: -scr[c.name].share)
@@ -528,24 +525,16 @@ def diagnose(
             # a parameter without a neutral value starts at the centre of its bounds: its
             # shipped or declared value would be the truth of a synthetic proof
             off = {**{p.name: p.value(0.5) for p in params[len(base_params) :]}, **off}
+            cand = refit.with_(model=c.add_to(model), params=params)
             for k, (tr, va) in enumerate(splits):
-                res.fits.append(
-                    fit(
-                        c.add_to(model),
-                        [drops[j] for j in tr],
-                        params,
-                        seed=seed + k,
-                        cma_evals=refit_evals,
-                        validation=[drops[j] for j in va],
-                        start={**base_fits[k].values, **off},
-                        # the control's optimum with the candidate off: a nested candidate's
-                        # training cost cannot end above the control's
-                        also=[{**control[k].values, **off}],
-                        sigma=0.25,
-                        starts=centre,
-                        **kw,
-                    )
+                one = cand.with_(
+                    seed=seed + k,
+                    start={**base_fits[k].values, **off},
+                    # the control's optimum with the candidate off: a nested candidate's
+                    # training cost cannot end above the control's
+                    also=[{**control[k].values, **off}],
                 )
+                res.fits.append(one.fit([drops[j] for j in tr], [drops[j] for j in va]).result_)
             res.heldout, res.heldout_mse = _heldout(res.fits, splits, drops, ranges)
         results.append(res)
     fitted = [r for r in results if r.fits]
@@ -562,16 +551,18 @@ def diagnose(
     if m is not None:
         # the decision used held-out drops; the estimate uses them all, from the groups' mean
         mean = {p.name: float(np.mean([f.values[p.name] for f in m.fits])) for p in m.fits[0].params}
-        d.final = fit(
-            m.candidate.add_to(model),
-            drops,
-            list(m.fits[0].params),
-            seed=seed,
-            cma_evals=refit_evals,
-            start=mean,
-            also=[f.values for f in m.fits],
-            sigma=0.1,
-            **kw,
+        d.final = (
+            refit.with_(
+                model=m.candidate.add_to(model),
+                params=list(m.fits[0].params),
+                seed=seed,
+                start=mean,
+                also=[f.values for f in m.fits],
+                sigma=0.1,
+                starts=None,
+            )
+            .fit(drops)
+            .result_
         )
         m.final = d.final
     return d

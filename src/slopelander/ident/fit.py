@@ -12,6 +12,7 @@ import math
 import multiprocessing as mp
 import os
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -207,6 +208,8 @@ class Evaluator:
         self.client = client
         self.workers = workers if workers is not None else (os.cpu_count() or 1)
         self._pool = None
+        # the user effects' laws compiled here, once, before the workers fork (they inherit them)
+        problem.model.kernel()
         if client is None and self.workers > 1 and "fork" in mp.get_all_start_methods():
             self._pool = mp.get_context("fork").Pool(self.workers, _init_worker, (problem,))
         self.nfev = 0
@@ -256,6 +259,8 @@ class FitResult:
     start_cost: float = math.nan
     start_nrmse: float = math.nan
     """Training NRMSE at the start: a fit never ends worse in cost, and says so if its NRMSE is."""
+    ranges: np.ndarray | None = None
+    """The states' normalising ranges the NRMSEs were taken with."""
 
 
 def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> np.ndarray:
@@ -348,83 +353,138 @@ def identifiability(
     return ci, warnings
 
 
-def fit(
-    model: Model,
-    drops: list[Drop],
-    params: list[FitParam] | None = None,
-    *,
-    ranges: np.ndarray | None = None,
-    cma_evals: int = 400,
-    ls_evals: int = 30,
-    seed: int = 0,
-    workers: int | None = None,
-    client=None,
-    progress: Callable[[int], None] | None = None,
-    validation: list[Drop] | None = None,
-    start: dict[str, float] | None = None,
-    sigma: float = 0.3,
-    also: list[dict[str, float]] | None = None,
-    restarts: int = 0,
-    starts: list[dict[str, float]] | None = None,
-    from_centre: bool = False,
-) -> FitResult:
-    """Identify ``params`` (default: the paper's seven the model has) from ``drops``.
+@dataclass
+class Identifier:
+    """Identification as an estimator, in the scikit-learn / PySINDy habit: the configuration
+    is given once, :meth:`fit` learns the named parameters from drops, :meth:`predict`
+    simulates drops with the fitted model and :meth:`score` says how well it matches them.
 
-    ``cma_evals`` bounds the global search, ``ls_evals`` the local iterations; ``progress`` is
-    called with the number of new model evaluations (for a progress bar). The search starts
-    from the model's own values (clipped into the bounds), or from the centre of the bounds with
+    ``params``: what to identify (names or :class:`FitParam`; default the paper's seven the
+    model has), ``bounds`` override the default search bounds. ``cma_evals`` bounds the global
+    search (CMA-ES), ``ls_evals`` the least-squares polish. The search starts from the model's
+    own values (clipped into the bounds), or from the centre of the bounds with
     ``from_centre``, with ``start`` (values by name, e.g. a previous fit's) overriding either;
-    the start is evaluated first and kept if nothing beats it, so a fit never ends worse in
-    cost than where it began; ``sigma`` is the initial search width in units of the bounds. Points in
-    ``also`` (values by name; unnamed ones from ``start``) are evaluated first and kept if best.
-    ``restarts`` splits the global budget over that many more CMA-ES runs from random points
-    (a noisy cost has false basins one run can fall into). ``starts`` adds one CMA-ES run from
-    each of these points (values by name; unnamed ones at the centre of the bounds), sharing
-    the budget likewise.
+    the start is evaluated first and kept if nothing beats it, so a fit never ends worse in cost
+    than where it began. ``sigma`` is the initial search width in units of the bounds. Points
+    in ``also`` (values by name; unnamed ones from ``start``) are evaluated first and kept if
+    best. ``restarts`` splits the global budget over that many more CMA-ES runs from random
+    points (a noisy cost has false basins one run can fall into); ``starts`` adds one run from
+    each of these points (unnamed values at the centre of the bounds). ``ranges`` fixes the
+    states' normalising ranges (default: those of the drops fitted and validated on).
+    ``progress`` is called with the number of new model evaluations (a progress bar).
+
+    After :meth:`fit`: ``result_`` (the :class:`FitResult`: values, intervals, warnings),
+    ``model_`` (the fitted model) and ``values_``.
     """
+
+    model: Model
+    params: Sequence[str | FitParam] | None = None
+    bounds: dict[str, tuple[float, float]] | None = None
+    cma_evals: int = 400
+    ls_evals: int = 30
+    seed: int = 0
+    sigma: float = 0.3
+    from_centre: bool = False
+    start: dict[str, float] | None = None
+    also: list[dict[str, float]] | None = None
+    restarts: int = 0
+    starts: list[dict[str, float]] | None = None
+    ranges: np.ndarray | None = None
+    workers: int | None = None
+    client: object = None
+    progress: Callable[[int], None] | None = None
+    result_: FitResult | None = field(default=None, init=False, repr=False)
+
+    def with_(self, **changes: object) -> Identifier:
+        """A copy with some settings changed (unfitted): one per fold of a cross-fit."""
+        return replace(self, **changes)
+
+    def fit_params(self) -> list[FitParam]:
+        """The parameters this identifier fits, resolved against its model."""
+        ps = self.params
+        if ps is not None and all(isinstance(p, FitParam) for p in ps):
+            return list(ps)  # type: ignore[arg-type]
+        names = None if ps is None else [p.name if isinstance(p, FitParam) else p for p in ps]
+        return resolve_params(self.model, names, self.bounds)
+
+    def fit(self, drops: list[Drop], validation: list[Drop] | None = None) -> Identifier:
+        """Identify the parameters from ``drops`` (``validation``: drops it reports the fitted
+        model's NRMSE on, never fitted to). Returns the identifier, fitted."""
+        if not drops:
+            raise FitError("no drops to fit")
+        self.result_ = _search(self, list(drops), validation)
+        return self
+
+    @property
+    def model_(self) -> Model:
+        return self._fitted().model
+
+    @property
+    def values_(self) -> dict[str, float]:
+        return dict(self._fitted().values)
+
+    def predict(self, drops: list[Drop]) -> list[np.ndarray]:
+        """The fitted model's six states at each drop's sample times."""
+        return [predict(self.model_, d, outcome=False)[0] for d in drops]
+
+    def score(self, drops: list[Drop]) -> float:
+        """The fitted model's combined NRMSE on ``drops`` (the paper's measure: lower is
+        better, unlike scikit-learn's scores), normalised by this fit's state ranges."""
+        ranges = self.ranges if self.ranges is not None else self._fitted().ranges
+        return compare(self.model_, drops, ranges).nrmse
+
+    def _fitted(self) -> FitResult:
+        if self.result_ is None:
+            raise FitError("this identifier is not fitted yet: call fit(drops) first")
+        return self.result_
+
+
+def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None) -> FitResult:
+    """CMA-ES from the start, then least squares; intervals and warnings at the optimum."""
     import cma
     from scipy.optimize import least_squares
 
     t0 = time.perf_counter()
-    params = params or resolve_params(model)
-    ranges = state_ranges(drops + (validation or [])) if ranges is None else ranges
+    model, seed, sigma, workers = ident.model, ident.seed, ident.sigma, ident.workers
+    cma_evals, ls_evals = ident.cma_evals, ident.ls_evals
+    params = ident.fit_params()
+    ranges = state_ranges(drops + (validation or [])) if ident.ranges is None else ident.ranges
     prob = Problem(model, drops, params, ranges)
     n = len(params)
-    tick = progress or (lambda k: None)
-    here = {} if from_centre else {p.name: model.parameter(p.name) for p in params}
-    start = {**here, **(start or {})}
+    tick = ident.progress or (lambda k: None)
+    here = {} if ident.from_centre else {p.name: model.parameter(p.name) for p in params}
+    start = {**here, **(ident.start or {})}
     x0 = np.array([p.unit(start[p.name]) if p.name in start else 0.5 for p in params])
     x0 = np.clip(x0, 0.0, 1.0)
     start_values = dict(zip([p.name for p in params], prob.values(x0), strict=True))
-    with Evaluator(prob, workers, client) as ev:
+    with Evaluator(prob, workers, ident.client) as ev:
         best_u, best_c = x0, math.inf
         firsts = [x0]
-        for extra in also or []:
-            merged = {**(start or {}), **extra}
+        for extra in ident.also or []:
+            merged = {**(ident.start or {}), **extra}
             point = [p.unit(merged[p.name]) if p.name in merged else 0.5 for p in params]
             firsts.append(np.clip(point, 0.0, 1.0))
-        start_cost = math.nan
-        if firsts:
-            costs0 = [float(r @ r) for r in ev.residuals(firsts)]
-            start_cost = costs0[0]
-            i0 = int(np.argmin(costs0))
-            best_u, best_c = np.asarray(firsts[i0], dtype=float), costs0[i0]
+        costs0 = [float(r @ r) for r in ev.residuals(firsts)]
+        start_cost = costs0[0]
+        i0 = int(np.argmin(costs0))
+        best_u, best_c = np.asarray(firsts[i0], dtype=float), costs0[i0]
         if cma_evals > 0 and n == 1:  # CMA-ES needs two dimensions: scan the line instead
             X = [np.array([x]) for x in np.linspace(0.0, 1.0, max(3, min(cma_evals, 41)))]
             costs = [float(r @ r) for r in ev.residuals(X)]
             tick(len(X))
             i = int(np.argmin(costs))
-            best_u, best_c = X[i].copy(), costs[i]
+            if costs[i] < best_c:
+                best_u, best_c = X[i].copy(), costs[i]
         elif cma_evals > 0:
             popsize = max(8, 4 + int(3 * math.log(n)))
             if workers is None or workers > 1:
                 popsize += popsize % max(1, ev.workers)
             origins = [x0]
-            for point in starts or []:
+            for point in ident.starts or []:
                 origins.append(
                     np.clip([p.unit(point[p.name]) if p.name in point else 0.5 for p in params], 0.0, 1.0)
                 )
-            for run in range(max(0, restarts)):
+            for run in range(max(0, ident.restarts)):
                 origins.append(np.random.default_rng(seed + 1 + run).uniform(0.2, 0.8, n))
             runs = len(origins)
             for run, origin in enumerate(origins):
@@ -507,7 +567,26 @@ def fit(
         start_values,
         start_cost,
         start_nrmse,
+        ranges,
     )
+
+
+def fit(
+    model: Model,
+    drops: list[Drop],
+    params: list[FitParam] | None = None,
+    *,
+    validation: list[Drop] | None = None,
+    **settings: object,
+) -> FitResult:
+    """Deprecated: ``Identifier(model, params, **settings).fit(drops, validation).result_``."""
+    warnings.warn(
+        "slopelander.ident.fit.fit is deprecated: use Identifier(model, params, ...).fit(drops)",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    ident = Identifier(model, params, **settings)  # type: ignore[arg-type]
+    return ident.fit(drops, validation)._fitted()
 
 
 def subsets(
@@ -571,29 +650,23 @@ class SubsetFits:
 
 
 def fit_subsets(
-    model: Model,
+    ident: Identifier | Model,
     drops: list[Drop],
     params: list[FitParam] | None = None,
     *,
     repeats: int = 3,
     train: int | None = None,
     seed: int = 0,
-    **kw,
+    **settings,
 ) -> SubsetFits:
     """The paper's procedure: ``repeats`` fits on different training subsets, each validated on
-    the drops it did not see."""
-    ranges = state_ranges(drops)
+    the drops it did not see. ``ident`` is the configured :class:`Identifier` (or a model, with
+    ``params`` and ``settings`` those of an Identifier)."""
+    if not isinstance(ident, Identifier):
+        ident = Identifier(ident, params, **settings)
+    ident = ident.with_(ranges=state_ranges(drops))
     fits = []
     for k, (tr, va) in enumerate(subsets(len(drops), repeats, train, seed)):
-        fits.append(
-            fit(
-                model,
-                [drops[i] for i in tr],
-                params,
-                ranges=ranges,
-                seed=seed + k,
-                validation=[drops[i] for i in va],
-                **kw,
-            )
-        )
+        one = ident.with_(seed=seed + k).fit([drops[i] for i in tr], [drops[i] for i in va])
+        fits.append(one._fitted())
     return SubsetFits(fits)

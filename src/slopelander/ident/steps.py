@@ -13,7 +13,7 @@ import numpy as np
 
 from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.diagnose import NEUTRAL, Candidate, candidate_params
-from slopelander.ident.fit import DEFAULT_BOUNDS, FitResult, fit, resolve_params, subsets
+from slopelander.ident.fit import DEFAULT_BOUNDS, FitResult, Identifier, resolve_params, subsets
 from slopelander.ident.recording import STATES, Drop
 from slopelander.model import Model
 
@@ -124,7 +124,9 @@ def run_steps(
     ranges = state_ranges(drops)
     splits = subsets(len(drops), repeats, seed=seed)
     params = resolve_params(model, names, bounds)
-    kw = {"ranges": ranges, "workers": workers, "client": client, "progress": progress, "ls_evals": ls_evals}
+    ident = Identifier(
+        model, params, ranges=ranges, workers=workers, client=client, progress=progress, ls_evals=ls_evals
+    )
     out: list[Step] = []
     prev: list[FitResult] = []
     current = model
@@ -133,23 +135,17 @@ def run_steps(
             c = effects[i - 1]
             params = candidate_params(current, c, params, bounds)
             current = c.add_to(current)
+        step = ident.with_(
+            model=current,
+            params=params,
+            cma_evals=refit_evals if prev else cma_evals,
+            also=[NEUTRAL] if prev else None,
+            sigma=0.2 if prev else 0.3,
+        )
         fits = []
         for k, (tr, va) in enumerate(splits):
-            start = prev[k].values if prev else None
-            fits.append(
-                fit(
-                    current,
-                    [drops[j] for j in tr],
-                    params,
-                    seed=seed + k,
-                    cma_evals=refit_evals if prev else cma_evals,
-                    start=start,
-                    also=[NEUTRAL] if prev else None,
-                    sigma=0.2 if prev else 0.3,
-                    validation=[drops[j] for j in va],
-                    **kw,
-                )
-            )
+            one = step.with_(seed=seed + k, start=prev[k].values if prev else None)
+            fits.append(one.fit([drops[j] for j in tr], [drops[j] for j in va]).result_)
         comps = [
             compare(f.model, [drops[j] for j in va], ranges) for f, (_, va) in zip(fits, splits, strict=True)
         ]

@@ -16,6 +16,13 @@ Why this shape (``docs/model.md`` has the full account):
 * Everything is plain float arrays (parameters in ``PARAMETER_NAMES`` order, one flat
   state vector) so the same step serves the whole-landing function, the batch path and the
   1200 Hz stepper of the simulated vehicle.
+* A step is a sequence of stages, each a small compiled function (:func:`_substep` lists
+  them): forces at the start, the joints' law, the contacts with the feet's friction law, the
+  implicit solve, the forces it applied, the integration. Where an effect has a law (the
+  joint's torque, the foot's friction, the ground's normal force, extra forces), the stage runs
+  the built-in law and then the laws plugged into that seam, passed in as first-class compiled
+  functions (the seam table, :mod:`slopelander.model.seams`): one compiled integrator serves
+  the shipped model, a user's effects and every candidate of a diagnosis.
 
 Coordinates: x downhill-positive horizontal, z up, angles counter-clockwise positive.
 Q = (x, z, pitch, q_C, q_D); q_C is the left (-x) leg's angle below the body plane, q_D the
@@ -27,7 +34,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from slopelander.model import layout
 from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's names
@@ -132,63 +139,85 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     S_W,
     S_WAIT,
     S_X0,
+    SEAM_FOOT_FRICTION,
+    SEAM_FORCE,
+    SEAM_JOINT_TORQUE,
+    SEAM_NORMAL_FORCE,
+    SEAM_POINT_FORCE,
+    SEAM_SLOTS,
     STICK_SPEED,
 )
 
 layout.drop_stale_cache(__file__)
 
 
-# --- user-effect seams ------------------------------------------------------------------
-# The defaults below change nothing. A model with user effects runs a generated copy of this
-# module (see usercode.py) in which the block between the HOOKS markers binds the users'
-# functions and sets the HAS_* switches. The hooks are module globals, never arguments:
-# numba's cache keys a function passed as an argument by that function object's identity,
-# new in every process, so each run compiled and saved new variants. The switches are
-# compile-time constants, so a seam no effect uses is compiled out (costs nothing).
+# --- seams --------------------------------------------------------------------------------
+# The stages and seam helpers below are inlined into the step where numba compiles it
+# (inline="always"): a call would pass the workspace tuple and count references to each of its
+# arrays, which made a landing 2.7 times slower.
+# Every jitted entry point takes the seam table ``sx = (laws, slots, up)`` (see seams.py): per
+# seam the compiled laws of the model's effects, how many are in use, and the slices of the
+# user parameters ``up`` they read. Each stage below runs the built-in law first, then the
+# seam's laws in turn. The laws are first-class functions typed by their signature alone,
+# so this one compiled integrator serves every model and every candidate effect.
 
 
-@njit(cache=True)
-def no_extra_force(t, st, ctx, up, out):  # pragma: no cover - compiled
-    """Default generalised-force hook: adds nothing."""
-    return
+@njit(cache=True, inline="always")
+def _n_laws(sx, seam):
+    return sx[1][seam, 0]
 
 
-@njit(cache=True)
-def no_point_force(t, st, ctx, up, out):  # pragma: no cover - compiled
-    """Default named-point force hook: adds nothing."""
-    return
+@njit(cache=True, inline="always")
+def _params(sx, seam, k):
+    """The user parameters the k-th law of a seam reads."""
+    row = sx[1][seam]
+    a = row[1 + 2 * k]
+    return sx[2][a : a + row[2 + 2 * k]]
 
 
-@njit(cache=True)
-def same_joint_torque(t, st, ctx, up, leg, angle, rate, tau):  # pragma: no cover - compiled
-    """Default joint-torque law: the built-in torque."""
+@njit(cache=True, inline="always")
+def _seam_force(sx, t, st, ctx, out):
+    laws = sx[0][SEAM_FORCE]
+    for k in range(SEAM_SLOTS):
+        if k < _n_laws(sx, SEAM_FORCE):
+            laws[k](t, st, ctx, _params(sx, SEAM_FORCE, k), out)
+
+
+@njit(cache=True, inline="always")
+def _seam_point_force(sx, t, st, ctx, out):
+    laws = sx[0][SEAM_POINT_FORCE]
+    for k in range(SEAM_SLOTS):
+        if k < _n_laws(sx, SEAM_POINT_FORCE):
+            laws[k](t, st, ctx, _params(sx, SEAM_POINT_FORCE, k), out)
+
+
+@njit(cache=True, inline="always")
+def _seam_joint_torque(sx, t, st, ctx, leg, angle, rate, tau):
+    laws = sx[0][SEAM_JOINT_TORQUE]
+    for k in range(SEAM_SLOTS):
+        if k < _n_laws(sx, SEAM_JOINT_TORQUE):
+            tau = laws[k](t, st, ctx, _params(sx, SEAM_JOINT_TORQUE, k), leg, angle, rate, tau)
     return tau
 
 
-@njit(cache=True)
-def same_foot_friction(t, st, ctx, up, leg, slip_speed, normal_force, mu):  # pragma: no cover
-    """Default foot-friction law: the built-in coefficient."""
+@njit(cache=True, inline="always")
+def _seam_foot_friction(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
+    laws = sx[0][SEAM_FOOT_FRICTION]
+    for k in range(SEAM_SLOTS):
+        if k < _n_laws(sx, SEAM_FOOT_FRICTION):
+            mu = laws[k](t, st, ctx, _params(sx, SEAM_FOOT_FRICTION, k), leg, slip_speed, normal_force, mu)
     return mu
 
 
-@njit(cache=True)
-def no_normal_force(t, st, ctx, up, point, depth, rate):  # pragma: no cover - compiled
-    """Placeholder normal-force law (never called: the built-in spring-damper is used)."""
-    return 0.0, 0.0, 0.0
+@njit(cache=True, inline="always")
+def _seam_normal_force(sx, t, st, ctx, point, depth, rate):
+    """The one normal law a model may set (check_user_effects allows one)."""
+    return sx[0][SEAM_NORMAL_FORCE][0](t, st, ctx, _params(sx, SEAM_NORMAL_FORCE, 0), point, depth, rate)
 
 
-# USER-EFFECT-HOOKS-BEGIN
-_extra_force = no_extra_force
-_point_force = no_point_force
-_joint_torque = same_joint_torque
-_foot_friction = same_foot_friction
-_normal_force = no_normal_force
-HAS_FORCE = False
-HAS_POINT_FORCE = False
-HAS_JOINT_TORQUE = False
-HAS_FOOT_FRICTION = False
-HAS_NORMAL_FORCE = False
-# USER-EFFECT-HOOKS-END
+@njit(cache=True, inline="always")
+def has_normal_law(sx):
+    return _n_laws(sx, SEAM_NORMAL_FORCE) > 0
 
 
 @njit(cache=True)
@@ -406,7 +435,7 @@ _make_workspace_jit = njit(cache=True)(make_workspace)
 
 
 @njit(cache=True)
-def step(p, fl, ctx, st, h, u0, u1, ws, up):
+def step(p, fl, ctx, st, h, u0, u1, ws, sx):
     """Advance the state ``st`` by ``h`` seconds with rotor commands u0, u1 in [-1, 1].
 
     A step in which a contact begins is redone as REFINE sub-steps, and so are the next
@@ -416,38 +445,49 @@ def step(p, fl, ctx, st, h, u0, u1, ws, up):
     if st[S_REFINE] > 0.0:
         st[S_REFINE] -= 1.0
         for _ in range(REFINE):
-            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, up)
+            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, sx)
         return
     backup = ws[12]
     backup[:] = st
-    if _substep(p, fl, ctx, st, h, u0, u1, ws, up) > 0:
+    if _substep(p, fl, ctx, st, h, u0, u1, ws, sx) > 0:
         st[:] = backup
         st[S_REFINE] = REFINE_WINDOW - 1
         for _ in range(REFINE):
-            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, up)
+            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, sx)
 
 
 @njit(cache=True)
-def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
-    """One semi-implicit step; returns how many impacts (contacts beginning fast) it had."""
-    M, f, pts, vel, J, A0, r0, A, r, vn, fx, JNT = ws[:12]
-    cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
-    d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
-    nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
-    kgp, bgp, was_in = cs_[9], cs_[10], cs_[11]
-    tau, zone, lam = js[0], js[1], js[2]
-    began = 0
+def _substep(p, fl, ctx, st, h, u0, u1, ws, sx):
+    """One semi-implicit step; returns how many impacts (contacts beginning fast) it had.
+
+    Stages, in order (each reads what the ones before left in the workspace ``ws``):
+    forces at the start of the step, the joints' law, the contacts (with each foot's friction
+    law), the implicit solve with its active set of contact modes, the forces that solve
+    applied, and the integration of positions, friction joints and rotors.
+    """
+    M, f, pts, vel, J = ws[0], ws[1], ws[2], ws[3], ws[4]
     kinematics(p, st, M, f, pts, vel, J)
-    V = st[S_V : S_V + 5]
-    t = st[S_T]
+    user_forces = _applied_forces(p, fl, ctx, st, ws, sx)
+    _joint_law(p, fl, ctx, st, h, ws, sx)
+    began = _contacts(p, fl, ctx, st, ws, sx)
+    _solve(p, fl, st, h, ws, sx)
+    _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces)
+    _integrate(p, fl, st, h, u0, u1, ws)
+    return began
+
+
+@njit(cache=True, inline="always")
+def _surface(ctx):
+    """Surface normal n (out of the ground), tangent t (toward +x) and the downhill sign
+    along t (the slip speeds users read are downhill-positive)."""
     sa = ctx[C_SIN]
     ca = ctx[C_COS]
-    # surface normal n (out of the ground) and tangent t (toward +x)
-    nx, nz = sa, ca
-    tx, tz = ca, -sa
-    # downhill sign along the surface tangent (for the slip speeds users read)
-    dsg = 1.0 if sa >= 0.0 else -1.0
+    return sa, ca, ca, -sa, 1.0 if sa >= 0.0 else -1.0
 
+
+@njit(cache=True, inline="always")
+def _joint_constants(p, fl):
+    """(rigid, flex, q_end, q_max, q_zone, k_eot, b_eot, k_flex, b_flex, implicit springs)."""
     rigid = fl[F_RIGID] != 0
     flex = fl[F_FLEX] != 0 and not rigid
     q_end = (p[P_QMAX] - p[P_TRAVEL]) * DEG
@@ -459,21 +499,29 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
     kq = p[P_KQ] * p[P_NJ]
     bq = p[P_BQ] * p[P_NJ]
     ik = 1.0 if fl[F_IMPLICIT_K] != 0 else 0.0
+    return rigid, flex, q_end, q_max, q_zone, ke, be, kq, bq, ik
 
-    # Implicit terms go straight into A0 = M - h D - h^2 K; f keeps only the explicit part,
-    # so that r0 = M v + h f.
-    user_forces = HAS_FORCE or HAS_POINT_FORCE
+
+@njit(cache=True, inline="always")
+def _applied_forces(p, fl, ctx, st, ws, sx):
+    """Stage 1: the explicit forces at the start of the step into ``f``: the force seams'
+    (generalised and at named points), the external force on the body, rotor thrust.
+    Returns whether any force seam is in use (its work is booked at the end)."""
+    f, J, fx, pf = ws[1], ws[4], ws[10], ws[17]
+    t = st[S_T]
+    n_force = _n_laws(sx, SEAM_FORCE)
+    n_point = _n_laws(sx, SEAM_POINT_FORCE)
+    user_forces = n_force > 0 or n_point > 0
     if user_forces:
         for a in range(5):
             fx[a] = 0.0
-        if HAS_FORCE:
-            _extra_force(t, st, ctx, up, fx)
-        if HAS_POINT_FORCE:
-            pf = ws[17]
+        if n_force > 0:
+            _seam_force(sx, t, st, ctx, fx)
+        if n_point > 0:
             for i in range(N_FORCE_POINTS):
                 pf[i, 0] = 0.0
                 pf[i, 1] = 0.0
-            _point_force(t, st, ctx, up, pf)
+            _seam_point_force(sx, t, st, ctx, pf)
             for i in range(N_POINTS):
                 for b in range(5):
                     fx[b] += J[i, 0, b] * pf[i, 0] + J[i, 1, b] * pf[i, 1]
@@ -483,7 +531,6 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
             f[a] += fx[a]
     for a in range(3):
         f[a] += ctx[C_FEXT + a]
-
     # rotors: thrust along body z at the hubs, from the speed at the start of the step
     bzx = -math.sin(st[S_Q + 2])
     bzz = math.cos(st[S_Q + 2])
@@ -492,24 +539,44 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         st[S_THR + rr] = T
         for b in range(5):
             f[b] += J[4 + rr, 0, b] * T * bzx + J[4 + rr, 1, b] * T * bzz
+    return user_forces
 
+
+@njit(cache=True, inline="always")
+def joint_torque_law(p, fl, st, leg, tau):
+    """The built-in slip torque of a leg's friction joint: its preset, grown by eq. 3 on the
+    leg whose foot is pushed outward (its friction points inward): on a slope the downhill
+    leg, on level ground both; no switch at 0 deg."""
+    if fl[F_TAU_GROWTH] != 0:
+        tau *= 1.0 + p[P_FTAU] * max(0.0, (1.0 if leg == 0 else -1.0) * st[S_FT + leg])
+    return tau
+
+
+@njit(cache=True, inline="always")
+def _joint_law(p, fl, ctx, st, h, ws, sx):
+    """Stage 2: each friction joint's slip torque (built-in law, then the joint-torque seam),
+    and what the joints add to the step: the flex spring-damper or the slipping joint's
+    torque into ``f``, their implicit parts into ``A0`` (= M + those); then r0 = M v + h f.
+
+    Implicit terms go straight into A0 = M - h D - h^2 K; f keeps only the explicit part."""
+    M, f, A0, r0 = ws[0], ws[1], ws[5], ws[6]
+    js = ws[16]
+    tau, zone, lam = js[0], js[1], js[2]
+    V = st[S_V : S_V + 5]
+    t = st[S_T]
+    rigid, flex, _, _, q_zone, ke, be, kq, bq, ik = _joint_constants(p, fl)
+    n_torque = _n_laws(sx, SEAM_JOINT_TORQUE)
     for a in range(5):
         for b in range(5):
             A0[a, b] = M[a, b]
-
-    # friction joints
     for j in range(2):
         zone[j] = 0.0
         lam[j] = 0.0
-        tj = ctx[C_TAU + j]
-        if fl[F_TAU_GROWTH] != 0:
-            # eq. 3 on the leg whose foot is pushed outward (its friction points inward): on a
-            # slope the downhill leg, on level ground both; no switch at 0 deg
-            tj *= 1.0 + p[P_FTAU] * max(0.0, (1.0 if j == 0 else -1.0) * st[S_FT + j])
-        if HAS_JOINT_TORQUE:
+        tj = joint_torque_law(p, fl, st, j, ctx[C_TAU + j])
+        if n_torque > 0:
             # the leg's rate (a smooth state): the joint's own rate from the last step would
             # feed a speed-dependent law back into the joint's stick-slip switching
-            tj = max(0.0, _joint_torque(t, st, ctx, up, j, st[S_QE + j], V[3 + j], tj))
+            tj = max(0.0, _seam_joint_torque(sx, t, st, ctx, j, st[S_QE + j], V[3 + j], tj))
         tau[j] = tj
         qi = 3 + j
         if rigid:
@@ -543,23 +610,38 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                 f[qi] += -tj * m + zj * ke * (q_zone - qc)
                 A0[qi, qi] += h * be * zj + h * h * ke * zj * ik
                 # -b_e v is implicit: nothing explicit left
-
     for a in range(5):
         acc = 0.0
         for b in range(5):
             acc += M[a, b] * V[b]
         r0[a] = acc + h * f[a]
 
-    # --- contacts: an active-set loop over modes --------------------------------------------
+
+@njit(cache=True, inline="always")
+def _contacts(p, fl, ctx, st, ws, sx):
+    """Stage 3: every contact point's distance and speeds, its normal law at the start of the
+    step (built-in spring-damper or the normal-force seam), which points are in contact and
+    in what mode (a new contact slides if it arrives sliding), and each foot's friction
+    coefficient (built-in law, then the foot-friction seam). Returns the impacts: contacts
+    that began faster than IMPACT_SPEED."""
+    pts, vel, J, JNT = ws[2], ws[3], ws[4], ws[11]
+    cs_, active = ws[13], ws[14]
+    d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
+    nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
+    kgp, bgp, was_in = cs_[9], cs_[10], cs_[11]
+    t = st[S_T]
+    nx, nz, tx, tz, dsg = _surface(ctx)
+    rigid = fl[F_RIGID] != 0
+    normal_law = has_normal_law(sx)
+    friction_laws = _n_laws(sx, SEAM_FOOT_FRICTION) > 0
+    began = 0
     # the rigid gear's feet are stiff plastic skids: a contact of their own that rebounds
     for i in range(N_POINTS):
         kgp[i] = p[P_KR] if rigid and i < 2 else p[P_KG]
         bgp[i] = p[P_BR] if rigid and i < 2 else p[P_BG]
     kt = p[P_KT]
-    bt = p[P_BT]
     mus = p[P_MUS]
     stiction = fl[F_STICTION] != 0
-    regular = fl[F_REGULARISED] != 0
     for i in range(N_POINTS):
         d0[i] = nx * pts[i, 0] + nz * pts[i, 1]
         dd0[i] = nx * vel[i, 0] + nz * vel[i, 1]
@@ -569,17 +651,17 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         was_in[i] = 1.0 if st[S_CM + i] != 0.0 else 0.0
         if stiction and st[S_CM + i] == 1.0:
             pad[i] = 0.5 * kt * (s0[i] - st[S_ANC + i]) ** 2
-        if HAS_NORMAL_FORCE:
+        if normal_law:
             N0 = 0.0
             nN[i] = 0.0
             nk[i] = 0.0
             nb[i] = 0.0
             if d0[i] < 0.0:
-                # the user's law in penetration (into the ground) and its rate; it may read
+                # the seam's law in penetration (into the ground) and its rate; it may read
                 # the model's own ground at this point (a law scaling it reduces to it)
                 ctx[C_KG] = kgp[i]
                 ctx[C_BG] = bgp[i]
-                N0, kk, bb = _normal_force(t, st, ctx, up, i, -d0[i], -dd0[i])
+                N0, kk, bb = _seam_normal_force(sx, t, st, ctx, i, -d0[i], -dd0[i])
                 nN[i] = N0
                 nk[i] = kk
                 nb[i] = bb
@@ -604,17 +686,48 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                 st[S_ANC + i] = s0[i]
         else:
             st[S_CM + i] = 0.0
-        mu[i] = p[P_MUK]
-        if i < 2 and fl[F_MU_GROWTH] != 0:
-            # eq. 4: a foot's friction grows with its leg's joint moving outward along the
-            # surface (downhill for the downhill leg, as the paper); it only raises friction
-            vj = (-1.0 if i == 0 else 1.0) * (tx * vel[2 + i, 0] + tz * vel[2 + i, 1])
-            mu[i] *= max(1.0, 1.0 + p[P_FMU] * vj)
-        if fl[F_STRIBECK] != 0 and active[i]:
-            mu[i] = stribeck(mu[i], mus, sd0[i], p[P_VSTR], p[P_DSTR])
-        if HAS_FOOT_FRICTION and i < 2 and active[i]:
-            mu[i] = max(0.0, _foot_friction(t, st, ctx, up, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
+        mu[i] = friction_coefficient(p, fl, tx, tz, vel, i, sd0[i], active[i], mus)
+        if friction_laws and i < 2 and active[i]:
+            mu[i] = max(0.0, _seam_foot_friction(sx, t, st, ctx, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
+    return began
 
+
+@njit(cache=True, inline="always")
+def friction_coefficient(p, fl, tx, tz, vel, i, slip, touching, mu_s):
+    """The built-in sliding friction coefficient of contact point i: mu_k; on a foot grown by
+    eq. 4 with its leg's joint moving outward along the surface (downhill for the downhill
+    leg, as the paper; it only raises friction); then velocity weakening (Stribeck) while
+    touching."""
+    mu = p[P_MUK]
+    if i < 2 and fl[F_MU_GROWTH] != 0:
+        vj = (-1.0 if i == 0 else 1.0) * (tx * vel[2 + i, 0] + tz * vel[2 + i, 1])
+        mu *= max(1.0, 1.0 + p[P_FMU] * vj)
+    if fl[F_STRIBECK] != 0 and touching:
+        mu = stribeck(mu, mu_s, slip, p[P_VSTR], p[P_DSTR])
+    return mu
+
+
+@njit(cache=True, inline="always")
+def _solve(p, fl, st, h, ws, sx):
+    """Stage 4: the implicit solve for the new velocities ``vn``, with the contacts' normal
+    and friction forces linearised in it, repeated while a contact's mode changes (a point
+    pulling on the ground lets go, a stuck foot whose force leaves the friction cone slides,
+    a sliding foot that reverses sticks). Locked joints (rigid gear, a stuck joint without
+    leg flex) keep their coordinate fixed."""
+    A0, r0, A, r, vn, JNT = ws[5], ws[6], ws[7], ws[8], ws[9], ws[11]
+    cs_, active, locked = ws[13], ws[14], ws[15]
+    d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
+    nN, nk, nb = cs_[5], cs_[6], cs_[7]
+    kgp, bgp = cs_[9], cs_[10]
+    rigid = fl[F_RIGID] != 0
+    flex = fl[F_FLEX] != 0 and not rigid
+    ik = 1.0 if fl[F_IMPLICIT_K] != 0 else 0.0
+    normal_law = has_normal_law(sx)
+    kt = p[P_KT]
+    bt = p[P_BT]
+    mus = p[P_MUS]
+    stiction = fl[F_STICTION] != 0
+    regular = fl[F_REGULARISED] != 0
     for a in range(5):
         locked[a] = False
     for j in range(2):
@@ -629,7 +742,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         for i in range(N_POINTS):
             if not active[i]:
                 continue
-            if HAS_NORMAL_FORCE:
+            if normal_law:
                 # N(v') ~ N0 + b (rate' - rate0) + k h rate' (rate = -normal speed)
                 nc0 = nN[i] + nb[i] * dd0[i]
                 cn = h * h * nk[i] * ik + h * nb[i]
@@ -658,14 +771,14 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                     for a in range(5):
                         jta = JNT[i, 1, a]
                         if jta != 0.0:
-                            if HAS_NORMAL_FORCE:
+                            if normal_law:
                                 r[a] += h * jta * (-sg * mu[i] * nc0)
                             else:
                                 r[a] += h * jta * (sg * mu[i] * kgp[i] * d0[i])
                             for b in range(5):
                                 A[a, b] += -sg * mu[i] * cn * jta * JNT[i, 0, b]
             elif regular:
-                N0 = nN[i] if HAS_NORMAL_FORCE else -kgp[i] * d0[i] - bgp[i] * dd0[i]
+                N0 = nN[i] if normal_law else -kgp[i] * d0[i] - bgp[i] * dd0[i]
                 xx = sd0[i] / p[P_VS]
                 th_ = math.tanh(xx)
                 gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
@@ -690,7 +803,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
             if not active[i]:
                 continue
             ddn, sdn = _contact_rates(JNT, i, vn)
-            if HAS_NORMAL_FORCE:
+            if normal_law:
                 Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
             else:
                 dn = d0[i] + h * ddn
@@ -717,13 +830,32 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         if not changed:
             break
 
-    # --- forces actually applied this step (for outputs, effects and energy bookkeeping) ----
+
+@njit(cache=True, inline="always")
+def _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces):
+    """Stage 5: the forces the solve applied (outputs, the next step's laws, energy
+    bookkeeping), every point's slip speed, the force seams' work, and the locked joints'
+    constraint torques (a locked joint slips when its torque exceeds the preset)."""
+    J, A0, r0, vn, fx, JNT = ws[4], ws[5], ws[6], ws[9], ws[10], ws[11]
+    cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
+    d0, dd0, s0, mu = cs_[0], cs_[1], cs_[2], cs_[4]
+    nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
+    kgp, bgp, was_in = cs_[9], cs_[10], cs_[11]
+    lam = js[2]
+    nx, nz, tx, tz, dsg = _surface(ctx)
+    rigid = fl[F_RIGID] != 0
+    flex = fl[F_FLEX] != 0 and not rigid
+    normal_law = has_normal_law(sx)
+    kt = p[P_KT]
+    bt = p[P_BT]
+    stiction = fl[F_STICTION] != 0
+    regular = fl[F_REGULARISED] != 0
     for i in range(N_POINTS):
         st[S_NF + i] = 0.0
         st[S_FT + i] = 0.0
         if not active[i]:
             st[S_DISS + D_FOOT] += pad[i]  # lifted off stuck: the pad's spring lets go
-            if was_in[i] != 0.0 and not HAS_NORMAL_FORCE:
+            if was_in[i] != 0.0 and not normal_law:
                 # let go still pressed in (a rebounding foot's force reaches zero first): the
                 # massless contact's spring relaxes into its damper
                 acc = 0.0
@@ -734,7 +866,7 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                     st[S_DISS + D_GROUND] += 0.5 * kgp[i] * de * de
             continue
         ddn, sdn = _contact_rates(JNT, i, vn)
-        if HAS_NORMAL_FORCE:
+        if normal_law:
             Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
             # no potential is known for a user's law: its net work (stored + lost) is booked,
             # at the step's mean speed (what the kinetic energy's change sees)
@@ -791,22 +923,48 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                         acc -= h * (JNT[i, 0, qi] * st[S_NF + i] + JNT[i, 1, qi] * st[S_FT + i])
                 lam[j] = acc / h
 
-    # rotor work
-    for rr in range(2):
-        vz = bzx * (J[4 + rr, 0, 0] * vn[0] + J[4 + rr, 0, 2] * vn[2])
-        vz += bzz * (J[4 + rr, 1, 1] * vn[1] + J[4 + rr, 1, 2] * vn[2])
-        st[S_DISS + D_ROTOR] += st[S_THR + rr] * vz * h
 
-    # --- advance positions ------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _integrate(p, fl, st, h, u0, u1, ws):
+    """Stage 6: the rotors' work, the new velocities and positions (semi-implicit Euler), the
+    friction joints, the rotors' speeds, and the landing's bookkeeping."""
+    vn, active = ws[9], ws[14]
+    t = st[S_T]
+    _rotor_work(st, h, ws)
     qc_old0 = st[S_Q + 3]
     qc_old1 = st[S_Q + 4]
     for a in range(5):
         st[S_V + a] = vn[a]
         st[S_Q + a] += h * vn[a]
-
-    # --- friction joints: exact update of the massless frames, then mode changes -----------
     qe_old0 = st[S_QE]
     qe_old1 = st[S_QE + 1]
+    _friction_joints(p, fl, st, h, ws, qc_old0, qc_old1)
+    st[S_QED] = (st[S_QE] - qe_old0) / h
+    st[S_QED + 1] = (st[S_QE + 1] - qe_old1) / h
+    _rotor_speeds(p, fl, st, h, u0, u1)
+    _bookkeeping(st, t, h, active)
+
+
+@njit(cache=True, inline="always")
+def _rotor_work(st, h, ws):
+    """The work the rotors' thrust did over the step (at the new velocities, the start pitch)."""
+    J, vn = ws[4], ws[9]
+    bzx = -math.sin(st[S_Q + 2])
+    bzz = math.cos(st[S_Q + 2])
+    for rr in range(2):
+        vz = bzx * (J[4 + rr, 0, 0] * vn[0] + J[4 + rr, 0, 2] * vn[2])
+        vz += bzz * (J[4 + rr, 1, 1] * vn[1] + J[4 + rr, 1, 2] * vn[2])
+        st[S_DISS + D_ROTOR] += st[S_THR + rr] * vz * h
+
+
+@njit(cache=True, inline="always")
+def _friction_joints(p, fl, st, h, ws, qc_old0, qc_old1):
+    """The friction joints' massless frames, updated exactly over the step in their mode
+    (stuck, slipping, slipping in the end-of-travel zone), then their mode changes; without
+    leg flex the joint is the leg and only its mode and limits change."""
+    vn, js = ws[9], ws[16]
+    tau, zone, lam = js[0], js[1], js[2]
+    rigid, flex, q_end, q_max, q_zone, ke, be, kq, bq, _ = _joint_constants(p, fl)
     for j in range(2):
         qi = 3 + j
         qc0 = qc_old0 if j == 0 else qc_old1
@@ -877,10 +1035,10 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
                 st[S_JM + j] = 0.0
             st[S_QE + j] = qE
 
-    st[S_QED] = (st[S_QE] - qe_old0) / h
-    st[S_QED + 1] = (st[S_QE + 1] - qe_old1) / h
 
-    # --- rotors: direction changes wait out the reversal delay, speed is first order -------
+@njit(cache=True, inline="always")
+def _rotor_speeds(p, fl, st, h, u0, u1):
+    """Rotors: a direction change waits out the reversal delay, the speed is first order."""
     for rr in range(2):
         u = u0 if rr == 0 else u1
         if fl[F_ROTORS] == 0:
@@ -905,7 +1063,10 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         e = math.exp(-h / p[P_TAUM])
         st[S_W + rr] = target + (st[S_W + rr] - target) * e
 
-    # --- bookkeeping ----------------------------------------------------------------------
+
+@njit(cache=True, inline="always")
+def _bookkeeping(st, t, h, active):
+    """Time, the first contact (time and place), the smallest joint angles, the pitch range."""
     st[S_T] = t + h
     if st[S_TIMP] < 0.0:
         for i in range(N_POINTS):
@@ -922,7 +1083,6 @@ def _substep(p, fl, ctx, st, h, u0, u1, ws, up):
         st[S_PMIN] = th
     if th > st[S_PMAX]:
         st[S_PMAX] = th
-    return began
 
 
 # --- whole landings -------------------------------------------------------------------------
@@ -1080,7 +1240,7 @@ def thrust_off_time(cond):
 
 
 @njit(cache=True)
-def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, up, res):
+def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res):
     """Simulate one landing from first contact; fill ``res``; return the samples recorded.
 
     ``rec`` (n x N_STATE) receives a copy of the state every ``rec_every`` steps (if
@@ -1108,7 +1268,7 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, up, res):
         u = 0.0
         if st[S_TIMP] >= 0.0:
             u = reverse_command(cond, t - st[S_TIMP])
-        step(p, fl, ctx, st, h, u, u, ws, up)
+        step(p, fl, ctx, st, h, u, u, ws, sx)
         k += 1
         if rec_every > 0 and k % rec_every == 0 and n_rec < rec.shape[0]:
             rec[n_rec, :] = st
@@ -1139,28 +1299,30 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, up, res):
     return n_rec
 
 
-@njit(cache=True, parallel=True)
-def run_batch(p, fl, conds, h, crit, stop_at_settle, up, out):
-    """Outcomes of many landings (rows of ``conds``), spread over all cores."""
-    n = conds.shape[0]
-    for i in prange(n):
+@njit(cache=True, nogil=True)
+def run_batch(p, fl, conds, h, crit, stop_at_settle, sx, out):
+    """Outcomes of many landings (rows of ``conds``). It releases the GIL: ``simulate_batch``
+    runs chunks of a batch on several threads at once (a numba parallel loop cannot take the
+    seam table's compiled functions)."""
+    for i in range(conds.shape[0]):
         rec = np.zeros((0, N_STATE))
-        run_landing(p, fl, conds[i], h, crit, stop_at_settle, 0, rec, up, out[i])
+        run_landing(p, fl, conds[i], h, crit, stop_at_settle, 0, rec, sx, out[i])
 
 
 @njit(cache=True)
-def advance(p, fl, ctx, st, h, n, u0, u1, ws, up):
+def advance(p, fl, ctx, st, h, n, u0, u1, ws, sx):
     """``n`` steps of ``h`` with fixed rotor commands (one call per stepper tick)."""
     for _ in range(n):
-        step(p, fl, ctx, st, h, u0, u1, ws, up)
+        step(p, fl, ctx, st, h, u0, u1, ws, sx)
 
 
 @njit(cache=True)
-def mechanical_energy(p, fl, ctx, st, ws, out):
+def mechanical_energy(p, fl, ctx, st, ws, sx, out):
     """Kinetic, gravitational, ground-spring, stiction-spring, flex-spring and EOT-spring
     energy of the state (J), in that order."""
     M, f, pts, vel, J = ws[0], ws[1], ws[2], ws[3], ws[4]
     kinematics(p, st, M, f, pts, vel, J)
+    normal_law = has_normal_law(sx)
     ke = 0.0
     for a in range(5):
         for b in range(5):
@@ -1185,7 +1347,7 @@ def mechanical_energy(p, fl, ctx, st, ws, out):
         d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
         # a point pressed in but let go holds no spring energy (booked as lost when it let go);
         # a user's law: booked as dissipated (ground)
-        if d < 0.0 and st[S_CM + i] != 0.0 and not HAS_NORMAL_FORCE:
+        if d < 0.0 and st[S_CM + i] != 0.0 and not normal_law:
             kgi = p[P_KR] if fl[F_RIGID] != 0 and i < 2 else p[P_KG]
             eg += 0.5 * kgi * d * d
         if st[S_CM + i] == 1.0 and fl[F_STICTION] != 0:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numba
@@ -23,11 +25,11 @@ from slopelander.model.effects import (
     check_effect_names,
     check_user_effects,
     flags_for,
-    user_parameter_values,
 )
 from slopelander.model.outcome import RESULT_DTYPE, RESULT_FIELDS, Outcome, OutcomeCriteria
 from slopelander.model.parameters import ModelParams
-from slopelander.model.usercode import compiling_notice, kernel_for
+from slopelander.model.seams import seam_table
+from slopelander.model.usercode import compiling_notice
 
 DEFAULT_DT = 1.0 / 2400.0
 """Integration step (s): 12 steps per 200 Hz motion-capture sample, 2 per 1200 Hz SITL tick;
@@ -136,8 +138,9 @@ class Model:
         )
 
     def kernel(self):
-        """The compiled integrator for this model and its user effects' parameter array."""
-        return kernel_for(self.user_effects), user_parameter_values(self.user_effects)
+        """The compiled integrator (one for every model) and this model's seam table: its
+        user effects' compiled laws and parameters (see :mod:`slopelander.model.seams`)."""
+        return k, seam_table(self.user_effects)
 
     @property
     def rigid_gear(self) -> bool:
@@ -300,7 +303,7 @@ def simulate(
     n_max = int((model.criteria.horizon + conditions.thrust_off_time) / (every * h)) + 8
     rec = np.zeros((n_max, k.N_STATE))
     res = np.zeros(k.N_RESULT)
-    km, up = model.kernel()
+    km, sx = model.kernel()
     with compiling_notice(dispatcher=km.run_landing):
         n = km.run_landing(
             model.params.as_array(),
@@ -311,7 +314,7 @@ def simulate(
             not full_horizon,
             every,
             rec,
-            up,
+            sx,
             res,
         )
     raw = rec[:n].copy()
@@ -339,21 +342,50 @@ def simulate_batch(
     _validate_rows(arr, model)
     conds = arr.view(np.float64).reshape(len(arr), k.N_COND).copy()
     out = np.zeros((len(arr), k.N_RESULT))
-    km, up = model.kernel()
+    km, sx = model.kernel()
     if len(arr):
-        args = (model.params.as_array(), model.flags(), conds, h, model.criteria_array(), stop_at_rest, up)
+        args = (model.params.as_array(), model.flags(), conds, h, model.criteria_array(), stop_at_rest, sx)
         if not km.run_batch.signatures:
             # compile (or load from the cache) on an empty batch, so that the notice times the
             # compiling alone, never a long batch of landings
             with compiling_notice(dispatcher=km.run_batch):
                 km.run_batch(*args[:2], conds[:0], *args[3:], out[:0])
-        # landings last from 0.1 to 2 s: hand them out a few at a time, not in two halves
-        with numba.parallel_chunksize(4):
-            km.run_batch(*args, out)
+        _run_threaded(km.run_batch, args, out)
     result = np.zeros(len(arr), dtype=RESULT_DTYPE)
     for i, n in enumerate(RESULT_FIELDS):
         result[n] = out[:, i]
     return result
+
+
+BATCH_CHUNK = 4
+"""Landings a thread takes at a time: they last from 0.1 to 2 s simulated, so a batch is handed
+out a few at a time, not in equal shares."""
+
+
+def _run_threaded(run_batch, args: tuple, out: np.ndarray) -> None:
+    """Run a batch on numba's number of threads (one per core unless NUMBA_NUM_THREADS says
+    otherwise): the compiled batch releases the GIL, so the threads run side by side."""
+    conds = args[2]
+    n = len(conds)
+    threads = min(numba.get_num_threads(), max(1, n // BATCH_CHUNK))
+    if threads <= 1:
+        run_batch(*args, out)
+        return
+    chunks = iter(range(0, n, BATCH_CHUNK))
+    lock = threading.Lock()
+
+    def work() -> None:
+        while True:
+            with lock:
+                a = next(chunks, None)
+            if a is None:
+                return
+            b = min(a + BATCH_CHUNK, n)
+            run_batch(*args[:2], conds[a:b], *args[3:], out[a:b])
+
+    with ThreadPoolExecutor(threads) as pool:
+        for f in [pool.submit(work) for _ in range(threads)]:
+            f.result()
 
 
 def _validate_rows(arr: np.ndarray, model: Model) -> None:

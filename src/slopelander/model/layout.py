@@ -228,6 +228,11 @@ SEAMS: dict[str, str] = {
 }
 
 
+SEAM_INDEX: dict[str, int] = {name: i for i, name in enumerate(SEAMS)}
+SEAM_SLOTS = 4  # laws one seam can take in one model
+SEAM_FORCE, SEAM_POINT_FORCE, SEAM_JOINT_TORQUE, SEAM_FOOT_FRICTION, SEAM_NORMAL_FORCE = range(5)
+
+
 def layout_digest() -> str:
     """Hash of the files that fix the array layouts: a compiled integrator built against
     other layouts must not be reused (numba's cache only watches the function's own file)."""

@@ -51,7 +51,7 @@ class Stepper:
             raise ConditionError("slope_deg", slope_deg, "must lie within -75..75 deg")
         self._p = self.model.params.as_array()
         self._fl = self.model.flags()
-        self._k, self._up = self.model.kernel()
+        self._k, self._sx = self.model.kernel()
         self._compiled = False
         self._ws = k.make_workspace()
         self.st = np.zeros(k.N_STATE)
@@ -176,7 +176,7 @@ class Stepper:
         u_right = min(1.0, max(-1.0, float(u_right)))
         n = max(1, math.ceil(dt / self.model.dt - 1e-9))
         v0 = self.st[k.S_V : k.S_V + 2].copy()
-        args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._up)
+        args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._sx)
         if self._compiled:
             self._k.advance(*args)
         else:
@@ -233,7 +233,7 @@ class Stepper:
 
     def energy(self) -> dict[str, float]:
         out = np.zeros(len(ENERGY_TERMS))
-        self._k.mechanical_energy(self._p, self._fl, self.ctx, self.st, self._ws, out)
+        self._k.mechanical_energy(self._p, self._fl, self.ctx, self.st, self._ws, self._sx, out)
         return dict(zip(ENERGY_TERMS, out.tolist(), strict=True))
 
     def dissipated(self) -> dict[str, float]:
