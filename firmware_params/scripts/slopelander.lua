@@ -12,6 +12,8 @@
 -- keeps a landed vehicle's motors stopped until it is disarmed or released level for take-off.
 -- Contract (commands, states, validity rules): docs/onboard-script.md in slopelander.
 
+-- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
+-- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
 local VERSION = 4 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
@@ -24,15 +26,14 @@ local VERSION = 4 -- 2: a refresh during RVT sets its duration (the companion en
 --    companion's HOLD disarms only while still; the impact threshold is at least 2 g.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
-local ACT_RELEASE, ACT_STOP, ACT_REVERSE = 0, 1, 2
-local RFX_ABORT, RFX_ARM, RFX_END_REVERSE, RFX_SETUP, RFX_TAKEOFF_RELEASE, RFX_DISARM = 0, 1, 2, 3, 4, 5
+local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
+local RFX = { ABORT = 0, ARM = 1, END_REVERSE = 2, SETUP = 3, TAKEOFF_RELEASE = 4, DISARM = 5 }
 local REQUEST_MAX = 16777215 -- request numbers: whole numbers a float32 parameter holds exactly
-local MSG_COMMAND_LONG = 76
-local MSG_COMMAND_ACK = 77
+local MSG = { COMMAND_LONG = 76, COMMAND_ACK = 77 }
 local ACCEPTED, TEMP_REJECTED, DENIED = 0, 1, 2
-local SEV_WARNING, SEV_INFO = 4, 6
+local SEV = { WARNING = 4, INFO = 6 }
 local DOWN = 25 -- rangefinder orientation: pitch 270, facing down
-local RF_LOW, RF_HIGH, RF_GOOD = 2, 3, 4 -- RangeFinder::Status OutOfRangeLow, OutOfRangeHigh, Good
+local RF = { LOW = 2, HIGH = 3, GOOD = 4 } -- RangeFinder::Status OutOfRangeLow, OutOfRangeHigh, Good
 local MOTORS = { 0, 1, 2, 3 } -- SERVO1..4, 0-based channel index
 local PWM_STOP = 1500
 local OVERRIDE_MS = 30 -- each override lapses this soon unless refreshed
@@ -131,7 +132,7 @@ local function enter(new, t, why)
   if new ~= state then
     state = new
     entered_ms = t
-    if why then say(SEV_INFO, why) end
+    if why then say(SEV.INFO, why) end
     announce(t)
   end
 end
@@ -158,7 +159,7 @@ local function reverse_pwm(pct) return math.floor(PWM_STOP - 5 * pct + 0.5) end
 
 local function ack(chan, command, result, request, sysid, compid)
   local payload = string.pack("<HBBiBB", command, result, 0, request, sysid, compid)
-  mavlink:send_chan(chan, MSG_COMMAND_ACK, payload)
+  mavlink:send_chan(chan, MSG.COMMAND_ACK, payload)
 end
 
 local function bad(x, lo, hi) return x ~= x or x < lo or x > hi end
@@ -191,7 +192,7 @@ end
 
 -- a downward range the cut may rely on, or nil
 local function trusted_range()
-  if rangefinder:status_orient(DOWN) ~= RF_GOOD then return nil end
+  if rangefinder:status_orient(DOWN) ~= RF.GOOD then return nil end
   local d = rangefinder:distance_orient(DOWN)
   if d < rangefinder:min_distance_orient(DOWN) or d > rangefinder:max_distance_orient(DOWN) then return nil end
   if rangefinder:signal_quality_pct_orient(DOWN) == 0 then return nil end
@@ -202,8 +203,8 @@ end
 -- math.huge when beyond the sensor, nil when it says nothing
 local function ground_range()
   local status = rangefinder:status_orient(DOWN)
-  if status == RF_LOW then return 0 end
-  if status == RF_HIGH then return math.huge end
+  if status == RF.LOW then return 0 end
+  if status == RF.HIGH then return math.huge end
   return trusted_range()
 end
 
@@ -238,9 +239,9 @@ end
 -- the actuator command: release, stop, reverse at N %
 local function actuator(p, t)
   local action = p[1]
-  if action ~= ACT_RELEASE and action ~= ACT_STOP and action ~= ACT_REVERSE then return DENIED, "unknown action" end
+  if action ~= ACT.RELEASE and action ~= ACT.STOP and action ~= ACT.REVERSE then return DENIED, "unknown action" end
   if landing() then return TEMP_REJECTED, "motors held: disarm or take-off release" end
-  if action == ACT_RELEASE then
+  if action == ACT.RELEASE then
     release(t, "released")
     return ACCEPTED
   end
@@ -248,13 +249,13 @@ local function actuator(p, t)
   if bad(p[3], 20, 5000) then return DENIED, "validity out of 20..5000 ms" end
   if not arming:is_armed() then return TEMP_REJECTED, "disarmed" end
   if state == ESTOP then return TEMP_REJECTED, "emergency stop" end
-  if action == ACT_REVERSE and (armed_cut_m == nil or last_d == nil or last_d > armed_cut_m) then
+  if action == ACT.REVERSE and (armed_cut_m == nil or last_d == nil or last_d > armed_cut_m) then
     return TEMP_REJECTED, "reverse: range above the cut height"
   end
   reflex = nil
   reverse_pct = p[2]
   valid_until = t + p[3]
-  enter(action == ACT_STOP and STOP or REVERSE, t)
+  enter(action == ACT.STOP and STOP or REVERSE, t)
   return ACCEPTED
 end
 
@@ -267,7 +268,7 @@ local function arm_reflex(p, t)
   if bad(p[6], 100, 10000) then return DENIED, "validity out of 100..10000 ms" end
   if not arming:is_armed() then return TEMP_REJECTED, "disarmed" end
   if state == ESTOP then return TEMP_REJECTED, "emergency stop" end
-  if action == RFX_END_REVERSE then
+  if action == RFX.END_REVERSE then
     if not landing() then return TEMP_REJECTED, "no landing under way" end
     valid_until = t + p[6]
     if state == RVT and reflex.ramp_from == nil then reflex.dur_ms = 0 end
@@ -323,20 +324,20 @@ end
 -- the landing reflex: set up, arm (or refresh), end the reverse thrust, abort, release, disarm
 local function reflex_command(p, t)
   local action = p[1]
-  if action == RFX_ABORT then
+  if action == RFX.ABORT then
     if landing() then return TEMP_REJECTED, "motors held: disarm or take-off release" end
     if state == ARMED or reflex ~= nil then release(t, "reflex aborted") end
     return ACCEPTED
-  elseif action == RFX_ARM or action == RFX_END_REVERSE then
+  elseif action == RFX.ARM or action == RFX.END_REVERSE then
     return arm_reflex(p, t)
-  elseif action == RFX_SETUP then
+  elseif action == RFX.SETUP then
     if bad(p[2], 0, 3000) then return DENIED, "reverse ramp out of 0..3000 ms" end
     if bad(p[3], 0.1, 3.0) then return DENIED, "descent rate out of 0.1..3.0 m/s" end
     setup = { ramp_ms = p[2], descent_mps = p[3] }
     return ACCEPTED
-  elseif action == RFX_TAKEOFF_RELEASE then
+  elseif action == RFX.TAKEOFF_RELEASE then
     return takeoff_release(p, t)
-  elseif action == RFX_DISARM then
+  elseif action == RFX.DISARM then
     return disarm_request(t)
   end
   return DENIED, "unknown reflex action"
@@ -344,7 +345,7 @@ end
 
 local function handle(msg, chan, t)
   local msgid = string.unpack("<I3", msg, 10)
-  if msgid ~= MSG_COMMAND_LONG then return end
+  if msgid ~= MSG.COMMAND_LONG then return end
   local sysid, compid = string.unpack("<BB", msg, 8)
   local p1, p2, p3, p4, p5, p6, p7, command, tsys, tcomp = string.unpack("<fffffffHBB", msg, 13)
   if command ~= CMD_ACTUATOR and command ~= CMD_REFLEX then return end
@@ -364,7 +365,7 @@ local function handle(msg, chan, t)
     end
   end
   ack(chan, command, result, request, sysid, compid)
-  if why then say(SEV_WARNING, why) end
+  if why then say(SEV.WARNING, why) end
 end
 
 -- whether a sample of range g (m) says the vehicle is off the roof (see LEAVE_SAMPLES): upright
@@ -452,7 +453,7 @@ local function run_reflex(t, fresh)
         release(t, "companion silent after landing: disarmed")
       elseif not silent_said then
         silent_said = true
-        say(SEV_WARNING, "companion silent, " .. why .. ": holding")
+        say(SEV.WARNING, "companion silent, " .. why .. ": holding")
       end
     else
       silent_said = false
@@ -514,8 +515,8 @@ local function update()
 end
 
 mavlink:init(8, 1)
-mavlink:register_rx_msgid(MSG_COMMAND_LONG)
+mavlink:register_rx_msgid(MSG.COMMAND_LONG)
 mavlink:block_command(CMD_ACTUATOR)
 mavlink:block_command(CMD_REFLEX)
-gcs:send_text(SEV_INFO, "SL: slopelander script v" .. VERSION .. " ready")
+gcs:send_text(SEV.INFO, "SL: slopelander script v" .. VERSION .. " ready")
 return update, IDLE_MS

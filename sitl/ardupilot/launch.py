@@ -109,15 +109,15 @@ def start_arducopter(
     binary: str | Path | None = None,
     speedup: float = 4.0,
     params: list[Path] | dict | None = None,
-    script: bool = True,
+    script: bool | Path = True,
     keep: bool = False,
     timeout: float = 120.0,
 ) -> ArduCopterProcess:
     """Start ArduCopter SITL (:func:`arducopter_binary`) with the project's JSON parameter file
     (plus ``params``: more .parm files, or a dict of name → value), the on-board script unless
-    ``script`` is False, and the physics of ``scenario``; returns once ArduCopter sends its first
-    HEARTBEAT. ``speedup`` is ArduCopter's ``--speedup`` (it runs in lock-step with the physics,
-    so a loaded machine only slows it down)."""
+    ``script`` is False (another Lua script when it is a path), and the physics of
+    ``scenario``; returns once ArduCopter sends its first HEARTBEAT. ``speedup`` is ArduCopter's
+    ``--speedup`` (it runs in lock-step with the physics, so a loaded machine only slows it down)."""
     exe = arducopter_binary(binary)
     tmp = tempfile.TemporaryDirectory(prefix="sl-arducopter-")
     folder = Path(tmp.name) / "ap"
@@ -138,6 +138,8 @@ def start_arducopter(
         cmd += ["--params", str(p)]
     if not script:
         cmd.append("--no-script")
+    elif isinstance(script, Path):
+        cmd += ["--script", str(script)]
     proc, line = start_ready_process(
         isolated_command(cmd), "arducopter ready", tmp, "ArduCopter SITL", timeout
     )

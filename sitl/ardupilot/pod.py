@@ -50,6 +50,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--speedup", type=float, default=1.0, help="ArduCopter's --speedup")
     ap.add_argument("--params", type=Path, action="append", default=[], help="extra .parm files")
     ap.add_argument("--no-script", action="store_true", help="boot without the on-board script")
+    ap.add_argument(
+        "--script", type=Path, default=SCRIPT, help="the Lua script to run (default: slopelander's)"
+    )
     return ap.parse_args(argv)
 
 
@@ -133,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     if not a.no_script:
         (folder / "scripts").mkdir(exist_ok=True)
-        shutil.copy(SCRIPT, folder / "scripts" / SCRIPT.name)
+        shutil.copy(a.script, folder / "scripts" / a.script.name)
     scenario = yaml.safe_load(a.scenario.read_text()) if a.scenario else None
     try:
         physics = start_json_physics(

@@ -19,6 +19,8 @@ from typing import Protocol
 
 from lupa import lua53
 
+from sitl.vehicle.lua_limits import ardupilot_load_error
+
 MAVLINK_MSG_T_PAYLOAD = 255  # payload bytes the script sees, zero-filled as in mavlink_message_t
 INSTRUCTION_LIMIT = 100_000  # Lua VM instructions per callback before the script is stopped
 MEMORY_LIMIT = 1 << 20  # bytes of Lua heap (the prelude included) before the script is stopped
@@ -281,6 +283,9 @@ class ScriptHost:
             chunk = self._lua.compile(source)
         except lua53.LuaSyntaxError as exc:
             raise ScriptError(f"{self.path.name}: {exc}") from None
+        limit = ardupilot_load_error(source)  # a limit ArduPilot's Lua has and stock Lua has not
+        if limit is not None:
+            raise ScriptError(f"{self.path.name}: {limit}")
         self._next: tuple[object, int] | None = None
         self.running = True
         self._call(chunk)

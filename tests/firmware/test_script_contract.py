@@ -32,8 +32,12 @@ DENIED = 2
 
 
 def lua_locals(source: str) -> dict[str, float]:
-    """Every ``local A, B = 1, 2`` number constant of the script."""
+    """Every ``local A, B = 1, 2`` number constant of the script, and every field of a constants
+    table ``local T = { A = 1, B = 2 }`` as ``T_A``."""
     out = {}
+    for table, body in re.findall(r"^local\s+([A-Z][A-Z0-9_]*)\s*=\s*\{([^}]*)\}", source, re.M):
+        for name, value in re.findall(r"([A-Z][A-Z0-9_]*)\s*=\s*([-0-9.]+)", body):
+            out[f"{table}_{name}"] = float(value)
     pattern = r"^local\s+([A-Z_][A-Z0-9_, ]*)=\s*([-0-9., ]+?)\s*(?:--.*)?$"
     for names, values in re.findall(pattern, source, re.M):
         ns = [n.strip() for n in names.split(",")]

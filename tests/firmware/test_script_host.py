@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v10 import ardupilotmega as mavlink1
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
-from script_bench import Bench, TestVehicle
+from script_bench import SCRIPT, Bench, TestVehicle
 
 from sitl.vehicle.scripting import ScriptError, ScriptHost
 
@@ -143,3 +143,22 @@ def test_an_unpacked_message_is_refused_clearly(bench: Bench) -> None:
     cmd = mavlink2.MAVLink_command_long_message(1, 1, 31010, 0, 1, 0, 500, 0, 0, 0, 0)
     with pytest.raises(ValueError, match="packed or received"):
         bench.host.deliver(cmd, 0)
+
+
+def test_a_script_past_ardupilots_100_locals_is_refused_as_ardupilot_refuses_it(tmp_path) -> None:
+    """Stock Lua 5.3 takes 200 locals per function, ArduPilot's takes 100 (MAXVARS,
+    libraries/AP_Scripting/lua/src/lparser.c; held to the real binary in
+    tests/json_physics/test_real_ardupilot.py): the stand-in refuses what the autopilot would."""
+    from sitl.vehicle.lua_limits import MAXVARS, locals_per_function
+
+    def body(n: int) -> str:
+        return "".join(f"local v{i} = {i}\n" for i in range(n)) + "return\n"
+
+    ScriptHost(script(tmp_path, body(100)), TestVehicle())
+    with pytest.raises(ScriptError, match=r"too many local variables \(limit is 100\) in main function"):
+        ScriptHost(script(tmp_path, body(101)), TestVehicle())
+    inner = "local function f()\n" + body(101).replace("return\n", "") + "end\nreturn\n"
+    with pytest.raises(ScriptError, match=r"in function at line 1"):
+        ScriptHost(script(tmp_path, inner), TestVehicle())
+    shipped = max(f.most_at_once for f in locals_per_function(SCRIPT.read_text()))
+    assert shipped <= MAXVARS, f"slopelander.lua declares {shipped} locals at once in one function"

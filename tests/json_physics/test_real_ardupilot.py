@@ -125,3 +125,32 @@ def test_the_rig_runs_arducopter_at_the_speedup_asked() -> None:
         rig.wait(4.0)
         ratio = (rig.now - t0) / (time.monotonic() - w0)
     assert 0.2 < ratio < 1.25, ratio
+
+
+def _locals_script(n: int) -> str:
+    """A script whose main chunk declares ``n`` locals, then says so and ends."""
+    decls = "".join(f"local v{i} = {i}\n" for i in range(n - 1))
+    return decls + f'local last = {n}\ngcs:send_text(6, "locals probe {n} ran")\nreturn\n'
+
+
+@pytest.mark.parametrize("n", [100, 101])
+def test_arducopters_lua_allows_100_locals_per_function(n: int, tmp_path) -> None:
+    """The rule the stand-in mirrors (sitl/vehicle/lua_limits.py, MAXVARS in ArduPilot's
+    libraries/AP_Scripting/lua/src/lparser.c): 100 locals load, the 101st is refused, though
+    stock Lua 5.3 (the stand-in's lupa) takes 200."""
+    from sitl.vehicle.lua_limits import ardupilot_load_error
+
+    binary = _binary()
+    script = tmp_path / "probe.lua"
+    script.write_text(_locals_script(n))
+    with start_arducopter(binary=binary, script=script) as ap:
+        deadline = time.monotonic() + 30.0
+        while time.monotonic() < deadline and not any(
+            "locals probe" in ln or "Lua: Error" in ln for ln in ap.statustexts()
+        ):
+            time.sleep(0.2)
+        texts = ap.statustexts()
+    ran = any(f"locals probe {n} ran" in ln for ln in texts)
+    refused = any("Lua: Error: ./scripts/probe.lua" in ln and "too man" in ln for ln in texts)
+    assert (ran, refused) == ((True, False) if n <= 100 else (False, True)), texts
+    assert (ardupilot_load_error(script.read_text()) is None) == ran  # the stand-in agrees
