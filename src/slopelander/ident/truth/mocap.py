@@ -90,7 +90,7 @@ def observe(
     """Frame times and the six recorded states of one drop. ``truth(times)`` gives the true
     (x, z, pitch, ...) at any times (s from first contact)."""
     dt = 1.0 / mocap.sample_rate
-    phase = rng.uniform(0.0, dt)  # the cameras do not know when the feet touch
+    phase = round(rng.uniform(0.0, dt), 6)  # the cameras do not know when the feet touch (1 us: the export)
     t = np.arange(math.ceil((-before - phase) / dt), math.floor((duration - phase) / dt) + 1) * dt + phase
     pose = truth(t - mocap.latency)
     body = np.asarray(mocap.markers, dtype=float)
