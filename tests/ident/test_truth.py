@@ -33,11 +33,12 @@ def plain(base):
 def test_with_nothing_hidden_it_agrees_with_the_model(base, plain):
     """Two integrations of the same equations (solve_ivp at rtol 1e-7 against the kernel's
     0.42 ms semi-implicit step): they differ, but by less than the motion capture's noise.
-    Measured 2026-11-26 on this drop: x 1.2 mm, z 0.7 mm, pitch 0.004 rad at most."""
+    Measured 2026-11-26 on this drop: x 1.6 mm, z 0.4 mm, pitch 0.0017 rad (0.1 deg)
+    at most; the motion capture's pose noise is 0.5 mm and 0.3 deg a frame."""
     kernel, _ = true_states(base, COND, T)
     diff = np.abs(plain - kernel).max(axis=0)
     assert diff[0] < 3e-3 and diff[1] < 3e-3, diff  # m
-    assert diff[2] < math.radians(0.6), diff  # rad
+    assert diff[2] < math.radians(0.3), diff  # rad
     assert diff[0] > 0 or diff[1] > 0  # not the same integration
 
 
