@@ -96,18 +96,18 @@ def _found(base, user_effects, hidden, drops, seed, **budget):
 
 
 @pytest.mark.parametrize("seed", [1, 2])
-@pytest.mark.xfail(
-    reason=(
-        "known since diagnose's sign-flip rule and fit starting from the given model (2026-11-26): "
-        "seed 2 of the normal-force law is not found under the new rule; not yet re-measured"
-    ),
-    strict=False,
-)
 def test_hidden_normal_force_law_is_found_from_its_file(base, user_effects, seed):
     """A Hunt-Crossley ground (docs/examples/effect_normal_force.py at its declared values) in
     the truth, the linear spring-damper in the analysed model. Its damping alpha, which sets how
     much of the impact the ground takes, comes back within 15 %; its stiffness, which sets a
-    sink of a fraction of a millimetre, only roughly (the motion capture's noise is 1 mm)."""
+    sink of a fraction of a millimetre, only roughly (the motion capture's noise is 1 mm).
+
+    Marked a known failure on seed 2 "under the new decision rule, not yet re-measured" (the
+    sign-flip test over held-out drops, 2026-11-26). Re-measured with that rule as it stands
+    (the mean gain, the 2 % minimum, the missing candidate refitted on every drop): seed 2 is
+    found, p = 0.0107 over 1024 sign flips of 10 drops, held-out NRMSE 0.0634 -> 0.0409 (-36 %),
+    hc_damping 0.514, hc_stiffness 2.0e6 (the fits of the two groups, on 5 drops each, had
+    scattered 6.8e6..8.8e6 and 0.24..0.51: the values asserted are the refit on all drops)."""
     hc = user_effects["hunt_crossley_ground"]
     truth = base.with_user_effect(hc)
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed, duration=0.6)

@@ -1,0 +1,265 @@
+"""The truth's physics: the model's equations integrated by solve_ivp, with one hidden effect.
+
+Why not the analysis' own simulation: a proof that generates its data with the integrator it
+then fits shares that integrator's step, its contact and stick-slip logic and its errors with
+the analysis (an "inverse crime": the fit can match them exactly). Here the landing is
+integrated by :class:`slopelander.model.reference.ReferenceLanding` (scipy's Radau at rtol
+1e-7 between mode changes, each change found as a root), which shares only the kinematics (mass
+matrix, Jacobians) and the initial state with the compiled kernel, never its fixed 0.42 ms step
+or its implicit contact solve. The hidden effects are written here in plain Python from their
+formulas, not taken from the candidate files the analysis is given, so a mistake in a file's
+law is not copied into the truth.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from slopelander.ident.synth import ballistic
+from slopelander.model import LandingConditions, Model, Outcome
+from slopelander.model import kernel as k
+from slopelander.model.reference import ReferenceLanding
+
+
+@dataclass(frozen=True)
+class HiddenEffect:
+    """An effect the truth has and the analysed model lacks. Each seam's law defaults to the
+    built-in (nothing hidden there)."""
+
+    name: str
+    """The candidate that describes it (what diagnose should name)."""
+    seam: str
+    values: dict[str, float] = field(default_factory=dict)
+    """Its parameters by the candidate's names: what the fit should recover."""
+
+    def joint_torque(self, t: float, leg: int, rate: float, tau: float) -> float:
+        """Slip torque of a joint (N*m) given the leg's angular rate (rad/s) and the built-in."""
+        return tau
+
+    def foot_friction(self, t: float, leg: int, slip_speed: float, mu: float) -> float:
+        """Sliding friction coefficient of a foot given its slip speed (m/s) and the built-in."""
+        return mu
+
+    def normal_force(self, depth: float, rate: float) -> float | None:
+        """Normal force (N, unclipped) at a penetration depth (m) and rate (m/s, pressing in
+        positive); None: the built-in spring-damper."""
+        return None
+
+    def point_forces(self, t: float, t_touch: float | None, pitch: float) -> list[tuple[int, float, float]]:
+        """(point, world fx, world fz) forces in N; points as ``layout.PT_*`` (hubs 4, 5)."""
+        return []
+
+
+@dataclass(frozen=True)
+class ViscousJoint(HiddenEffect):
+    """tau * (1 + g |leg rate|): a joint whose torque grows with its speed."""
+
+    def joint_torque(self, t, leg, rate, tau):
+        return tau * (1.0 + self.values["joint_viscous_gain"] * abs(rate))
+
+
+@dataclass(frozen=True)
+class SlipWeakening(HiddenEffect):
+    """mu / (1 + c |v|): a foot's grip fades as it slides faster."""
+
+    def foot_friction(self, t, leg, slip_speed, mu):
+        return mu / (1.0 + self.values["slip_weakening"] * abs(slip_speed))
+
+
+@dataclass(frozen=True)
+class HuntCrossley(HiddenEffect):
+    """k d^1.5 (1 + 1.5 alpha d'): a Hertzian ground whose damping grows with the sink."""
+
+    def normal_force(self, depth, rate):
+        return self.values["hc_stiffness"] * depth**1.5 * (1.0 + 1.5 * self.values["hc_damping"] * rate)
+
+
+SPIN_DOWN_TIME = 0.15
+"""s: the rotors' coast-down time constant of the hidden spin-down."""
+
+
+@dataclass(frozen=True)
+class RotorSpinDown(HiddenEffect):
+    """T0 exp(-(t - t_touch) / 0.15 s) per rotor along the body's axis, after first contact."""
+
+    def point_forces(self, t, t_touch, pitch):
+        if t_touch is None or t < t_touch:
+            return []
+        f = self.values["spin_down_thrust"] * math.exp(-(t - t_touch) / SPIN_DOWN_TIME)
+        return [(4 + r, -f * math.sin(pitch), f * math.cos(pitch)) for r in range(2)]
+
+
+HIDDEN: dict[str, HiddenEffect] = {
+    "joint_law": ViscousJoint("viscous_joint", "joint torque", {"joint_viscous_gain": 0.05}),
+    "foot_friction": SlipWeakening("slip_weakening", "foot friction", {"slip_weakening": 1.0}),
+    "normal_force": HuntCrossley(
+        "hunt_crossley_ground", "normal force", {"hc_stiffness": 2.0e6, "hc_damping": 0.5}
+    ),
+    "point_force": RotorSpinDown("rotor_spin_down", "point force", {"spin_down_thrust": 3.0}),
+}
+"""One hidden effect per seam, at the values of the project's hidden-effect tests; each is
+described by a candidate file of docs/examples or tests/ident/effects (``name``)."""
+
+
+class TruthLanding(ReferenceLanding):
+    """The reference integration with a hidden effect at its seam (``hidden=None``: none).
+
+    The right-hand side is the reference's, with the four seams where the kernel has them: the
+    joint's slip torque (given the leg's rate), the feet's sliding friction (after the built-in
+    velocity weakening), the normal force of every pressed-in point, forces at named points.
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        cond: LandingConditions,
+        hidden: HiddenEffect | None = None,
+        rtol: float = 1e-7,
+        atol: float = 1e-9,
+    ):
+        super().__init__(model, cond, rtol, atol)
+        self.hidden = hidden or HiddenEffect("none", "none")
+
+    def _normal(self, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
+        """Each point's normal force before clipping (the ground's or the hidden law's). A law
+        of its own is applied at every point, zero depth above the ground: a switch to the
+        built-in at the surface would be a jump the solver cannot step over."""
+        if self.hidden.normal_force(0.0, 0.0) is None:
+            return -self.kg * d - self.bg * dd
+        return np.array([self.hidden.normal_force(max(-d[i], 0.0), -dd[i]) for i in range(k.N_POINTS)])
+
+    def _compute(self, t: float, y: np.ndarray) -> dict:
+        """ReferenceLanding._compute with the hidden effect's seams (kept line for line with it
+        otherwise, so the two read side by side)."""
+        p, st, ws, h = self.p, self.st, self.ws, self.hidden
+        st[k.S_Q : k.S_Q + 5] = y[0:5]
+        st[k.S_V : k.S_V + 5] = y[5:10]
+        M, f, pts, vel, J = ws[:5]
+        k.kinematics(p, st, M, f, pts, vel, J)
+        M = M.copy()
+        f = f.copy()
+        V = y[5:10]
+        qE = y[10:12]
+        w = y[12:14]
+        th = y[2]
+        bz = np.array([-math.sin(th), math.cos(th)])
+        if self.fl[k.F_ROTORS]:
+            for r in range(2):
+                f += J[4 + r].T @ (k._thrust(p, w[r]) * bz)
+        for row, fx, fz in h.point_forces(t, self.t_impact, th):  # seam: forces at named points
+            f += J[row].T @ np.array([fx, fz])
+        d = pts @ self.n
+        dd = vel @ self.n
+        s = pts @ self.tv
+        sd = vel @ self.tv
+        Nraw = self._normal(d, dd)  # seam: the normal-force law
+        N = np.maximum(0.0, Nraw)
+        Ft = np.zeros(k.N_POINTS)
+        mu = np.full(k.N_POINTS, p[k.P_MUK])
+        if self.fl[k.F_MU_GROWTH]:
+            for j, out in ((0, -1.0), (1, 1.0)):
+                mu[j] *= max(1.0, 1.0 + p[k.P_FMU] * out * (vel[2 + j] @ self.tv))
+        if self.fl[k.F_STRIBECK]:
+            weak = np.exp(-((np.abs(sd) / p[k.P_VSTR]) ** p[k.P_DSTR]))
+            mu = mu + np.maximum(0.0, p[k.P_MUS] - mu) * weak
+        dsg = 1.0 if self.ctx[k.C_SIN] >= 0.0 else -1.0
+        for i in range(2):  # seam: the feet's friction law (slip speed downhill-positive)
+            if self.modes.contact[i] != 0:
+                mu[i] = max(0.0, h.foot_friction(t, i, dsg * sd[i], mu[i]))
+        for i in range(k.N_POINTS):
+            m = self.modes.contact[i]
+            if m == 0:
+                continue
+            if self.fl[k.F_STICTION]:
+                if m == 1:
+                    Ft[i] = -p[k.P_KT] * (s[i] - self.modes.anchor[i]) - p[k.P_BT] * sd[i]
+                else:
+                    Ft[i] = -(1.0 if m == 2 else -1.0) * mu[i] * N[i]
+            elif self.fl[k.F_REGULARISED]:
+                Ft[i] = -mu[i] * N[i] * math.tanh(sd[i] / p[k.P_VS])
+            f += J[i].T @ (N[i] * self.n + Ft[i] * self.tv)
+        tau = self.ctx[k.C_TAU : k.C_TAU + 2].copy()
+        if self.fl[k.F_TAU_GROWTH]:
+            for j, inward in ((0, 1.0), (1, -1.0)):
+                tau[j] *= 1.0 + p[k.P_FTAU] * max(0.0, inward * Ft[j])
+        for j in range(2):  # seam: the joints' torque law, given the leg's rate
+            tau[j] = max(0.0, h.joint_torque(t, j, V[3 + j], tau[j]))
+        qEd = np.zeros(2)
+        locked = np.zeros(5, dtype=bool)
+        net = np.zeros(2)
+        zone = np.zeros(2)
+        for j in range(2):
+            qi = 3 + j
+            qc, vc, m = y[qi], V[qi], self.modes.joint[j]
+            if self.rigid:
+                locked[qi] = True
+                continue
+            if self.flex:
+                z = 1.0 if qE[j] < self.q_zone else 0.0
+                zone[j] = z
+                if m == 0:
+                    T = self.kq * (qE[j] - qc) - self.bq * vc
+                    net[j] = T - z * self.ke * (self.q_zone - qE[j])
+                else:
+                    B = self.bq + z * self.be
+                    K = self.kq + z * self.ke
+                    c0 = -tau[j] * m + z * self.ke * self.q_zone + self.kq * qc + self.bq * vc
+                    qEd[j] = (c0 - K * qE[j]) / B
+                    T = self.kq * (qE[j] - qc) + self.bq * (qEd[j] - vc)
+                f[qi] += T
+            else:
+                z = 1.0 if qc < self.q_zone else 0.0
+                zone[j] = z
+                if m == 0:
+                    locked[qi] = True
+                else:
+                    f[qi] += -tau[j] * m + z * (self.ke * (self.q_zone - qc) - self.be * vc)
+                    qEd[j] = vc
+        free = ~locked
+        acc = np.zeros(5)
+        acc[free] = np.linalg.solve(M[np.ix_(free, free)], f[free])
+        lam = M @ acc - f
+        for j in range(2):
+            if not self.flex and not self.rigid and self.modes.joint[j] == 0:
+                net[j] = lam[3 + j] - zone[j] * self.ke * (self.q_zone - y[3 + j])
+        wd = np.zeros(2)
+        if self.fl[k.F_ROTORS]:
+            wd = (self._rotor_target(t) - w) / p[k.P_TAUM]
+        return dict(acc=acc, qEd=qEd, wd=wd, d=d, dd=dd, sd=sd, N=N, Nraw=Nraw, Ft=Ft, net=net, tau=tau, s=s)
+
+
+STATE_COLUMNS = (0, 1, 2, 5, 6, 7)
+"""The six recorded states (x, z, pitch and their rates) in the reference's state vector."""
+
+
+def truth_states(
+    model: Model,
+    cond: LandingConditions,
+    t: np.ndarray,
+    hidden: HiddenEffect | None = None,
+    *,
+    resolution: float = 4000.0,
+    rtol: float = 1e-7,
+) -> tuple[np.ndarray, Outcome | None]:
+    """The truth's six states at times ``t`` (s from first contact; flight before it), and
+    ``Outcome.FLIP`` if it flipped, else None: the other outcomes are judged at rest, which a
+    0.6 s recording does not reach, and the recording format lets a drop leave its outcome
+    unsaid (the kernel's, over its 2 s horizon, would not be the truth's). The integration is
+    sampled at ``resolution`` Hz and interpolated linearly (at 4 kHz that moves a position by
+    under 1e-6 m: far below any motion capture's noise). After a flip the last state is held."""
+    if model.user_effects:
+        raise ValueError("the truth's hidden effect is its own; give a model without user effects")
+    span = float(t[-1]) + 0.01
+    m = replace(model, criteria=replace(model.criteria, horizon=max(span, 0.05)))
+    ref = TruthLanding(m, cond, hidden, rtol=rtol, atol=rtol * 1e-2)
+    ts, ys, flipped = ref.run(span, sample_rate=resolution)
+    t0 = ref.t_impact or 0.0  # the run starts at first contact; kept in case it does not
+    tt = np.clip(t + t0, 0.0, None)
+    out = np.column_stack([np.interp(tt, ts, ys[:, c]) for c in STATE_COLUMNS])
+    pre = t < 0
+    if pre.any():
+        out[pre] = ballistic(cond, t[pre], float(ys[0, 1]), model.params["gravity"])
+    return out, (Outcome.FLIP if flipped else None)
