@@ -221,7 +221,7 @@ local function moving()
 end
 
 local function tilt_deg()
-  local c = math.cos(ahrs:get_roll()) * math.cos(ahrs:get_pitch())
+  local c = math.cos(ahrs:get_roll_rad()) * math.cos(ahrs:get_pitch_rad())
   return math.deg(math.acos(math.max(-1, math.min(1, c))))
 end
 
@@ -371,7 +371,7 @@ end
 -- whether a sample of range g (m) says the vehicle is off the roof (see LEAVE_SAMPLES): upright
 -- enough for the beam to point at the ground below, and to be flown; that ground far below; falling
 local function off_roof(g, cut_m)
-  local roll, pitch = ahrs:get_roll(), ahrs:get_pitch()
+  local roll, pitch = ahrs:get_roll_rad(), ahrs:get_pitch_rad()
   local c = math.cos(roll) * math.cos(pitch) -- cos(tilt): the beam's vertical share
   local w = math.deg(ins:get_gyro(0):length())
   local stopped_at = math.deg(math.acos(math.max(-1, math.min(1, c)))) + w * w / (2 * ATT_ACCEL_DEGS2)

@@ -159,6 +159,10 @@ function RangeFinder_State_ud:distance() return self._d end
 function RangeFinder_State_ud:signal_quality() return self._q end
 
 ahrs = {}
+-- ArduPilot 4.7 names these get_roll_rad/get_pitch_rad; the old names still answer, with a
+-- "Use get_roll_rad" warning (seen on ArduCopter SITL V4.7.0-dev)
+function ahrs:get_roll_rad() local r, p, y = P.attitude(); return r end
+function ahrs:get_pitch_rad() local r, p, y = P.attitude(); return p end
 function ahrs:get_roll() local r, p, y = P.attitude(); return r end
 function ahrs:get_pitch() local r, p, y = P.attitude(); return p end
 function ahrs:get_yaw() local r, p, y = P.attitude(); return y end

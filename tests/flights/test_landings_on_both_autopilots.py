@@ -100,7 +100,11 @@ def speed(p: tuple) -> float:
 
 
 #: what ArduCopter did at 55 deg: 2 of 4 flights of 2026-11-26 failed (machine load 10-15), so the
-#: mark is not strict (a strict one would fail the suite on a lucky flight)
+#: mark is not strict (a strict one would fail the suite on a lucky flight). Since the script holds
+#: its ground outputs 250 ms (docs/onboard-script.md), 3 of 3 flights (09:05-09:10, load 4-6) ended
+#: SETTLED, held, and failed earlier in the test, on its premise: the model with the thrust held
+#: read FLIP for the flown contact (1.05 m/s; min pitch -80.02 deg against the -80 deg line), a
+#: contact state on the line. Not yet re-checked: whether the held outputs still leave the stop band.
 HOLD_LAPSES = (
     "ArduCopter: while the script holds the motors stopped on the 55 deg roof (HOLD, the vehicle "
     "sliding, armed), the outputs leave the stop band for tens of ms (SERVO_OUTPUT_RAW "
