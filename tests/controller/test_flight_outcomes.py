@@ -20,10 +20,12 @@ With the ramp the same landing stays where it rested.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
 from sitl.rig import Flight, Rig, config
+from sitl.vehicle.vehicle import CONTROL_HZ, PHYSICS_HZ
 from slopelander.controller.landing import expected_impact_speed, leg_geometry
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.model.landing import simulate
@@ -41,8 +43,26 @@ def contact_range(slope_deg: float) -> float:
     )
 
 
-#: a model prediction whose pitch comes within this of the flip line (deg) may go either way
-BOUNDARY_DEG = 2.0
+#: how well the vehicle's report pins the contact state: it reports the state after the first
+#: physics step in contact (PHYSICS_HZ), so the touch itself lies up to one step earlier, and the
+#: reversed outputs are stepped at CONTROL_HZ, so the reverse delay is known to one control step
+CONTACT_STEP_S = 1.0 / PHYSICS_HZ
+OUTPUT_STEP_S = 1.0 / CONTROL_HZ
+
+
+def input_uncertainty(cond) -> list:
+    """The conditions the vehicle's report cannot tell from ``cond``: the contact state taken one
+    physics step earlier (vertical speed less g*dt, pitch less the rate times dt) and the reverse
+    delay one output step either way."""
+    earlier = replace(
+        cond,
+        speed=max(0.0, cond.speed - 9.80665 * CONTACT_STEP_S),
+        pitch_deg=cond.pitch_deg - cond.pitch_rate_dps * CONTACT_STEP_S,
+    )
+    delays = [
+        replace(cond, reverse_delay=max(0.0, cond.reverse_delay + d)) for d in (-OUTPUT_STEP_S, OUTPUT_STEP_S)
+    ]
+    return [earlier, *delays]
 
 
 def model_class(outcome: Outcome) -> str:
@@ -138,12 +158,14 @@ def check_against_the_model(rig: Rig, fall_m: float, timeout_s: float = 90.0) ->
     assert cond.reverse_ramp == cfg["reflex.reverse_ramp_ms"] / 1000.0
     predicted = simulate(cond).result
     flown, figures = flight.classify(rig.slope_deg)
-    expected = {model_class(predicted.outcome)}
-    if abs(predicted.pitch_margin_deg()) < BOUNDARY_DEG:
-        # the model's own call sits on its flip line (it once predicted -80.1 deg against the 80 deg
-        # line, from a contact state that the flight's timing varies run to run): either class
-        expected |= {"landed", "flipped"}
-    assert flown in expected, (source, cond, figures, predicted.summary())
+    # Near the flip line the model's call turns on details the report does not pin down; a
+    # flipped prediction stops at the line, so its pitch margin says nothing of how near it was.
+    # Either class the model gives for a condition within the report's resolution is accepted
+    # (once: -80.1 deg predicted against the 80 deg line, landed flown).
+    expected = {model_class(predicted.outcome)} | {
+        model_class(simulate(c).result.outcome) for c in input_uncertainty(cond)
+    }
+    assert flown in expected, (source, cond, figures, predicted.summary(), expected)
     if flown == "landed":
         assert abs(figures["slide_m"] - predicted.slide) < 0.15, (figures, predicted.summary())
 

@@ -11,6 +11,7 @@ import pytest
 from slopelander.controller.config import load_config
 from slopelander.controller.machine import Machine
 from slopelander.controller.states.base import Context, Inputs
+from slopelander.controller.states.settled import DISARM_RETRY_S
 from slopelander.controller.states.takeoff import HOLD_S
 
 
@@ -213,6 +214,30 @@ def test_failsafe_row(state, failure, expect, sent):
     assert new == sent
     if expect == "ABORTED" and "set_mode" in sent:
         assert ("set_mode", "LOITER") in act.calls
+
+
+# LANDED with the vehicle armed again (a pilot's arm, a late HEARTBEAT): the script accepts a
+# disarm only in HOLD or STOP (docs/onboard-script.md) and went IDLE when the vehicle disarmed, so
+# an IDLE (or absent) script is not asked: the companion's own unforced disarm goes, which
+# ArduCopter accepts only with its land detector saying landed (docs/failsafes.md)
+LANDED_ARMED_ROWS = [
+    ({"script_state": 0}, ["disarm_on_ground"]),
+    ({"script_state": 0, "script_present": False}, ["disarm_on_ground"]),
+    ({"script_state": 13}, ["disarm"]),
+    ({"script_state": 1}, ["disarm"]),
+]
+
+
+@pytest.mark.parametrize(("inputs", "sent"), LANDED_ARMED_ROWS)
+def test_landed_armed_row(inputs, sent):
+    m, act, _ = make()
+    t = run_to(m, "LANDED")
+    before = len(act.calls)
+    t += DISARM_RETRY_S  # past the retry period of SETTLED's own last request
+    for i in range(1, 4):  # 0.06 s: one request, the next only after DISARM_RETRY_S
+        m.step(replace(OK, t=t + 0.02 * i, range_m=0.2, armed=True, **inputs))
+    assert m.name == "LANDED"
+    assert [c[0] for c in act.calls[before:] if c[0] != "statustext"] == sent
 
 
 def test_link_back_after_loss_aborts_to_loiter():

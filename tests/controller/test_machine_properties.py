@@ -31,7 +31,7 @@ AFTER_CONTACT = {"CUT", "REVERSE", "SETTLED", "LANDED"}
 #: states only a vehicle that met the roof is in (CUT may still be falling: it counts once the
 #: impact or the script's RVT/HOLD was seen)
 ON_THE_ROOF = {"REVERSE", "SETTLED", "LANDED"}
-MOTOR_STOPPERS = {"disarm", "reverse"}
+MOTOR_STOPPERS = {"disarm", "disarm_on_ground", "reverse"}
 #: the script's CUT, RVT and HOLD: it holds the motors stopped or reversed on the roof
 SCRIPT_HOLDS = {11, 12, 13}
 #: what would hand the motors of a vehicle on the roof to the autopilot's mixer
@@ -78,10 +78,20 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
             assert not RELEASES & set(names), f"{names} from {before} via {visited}, armed, script holding"
             if "release_for_takeoff" in names:
                 assert self.inp.takeoff_request, f"take-off release from {before} unasked"
-        if "disarm" in names:
+        # the disarm is asked of whoever can make it: the script only in HOLD or STOP (an idle
+        # script refuses it), the autopilot itself (unforced: only if landed) otherwise
+        script_disarms = self.inp.script_present and self.inp.script_state in (1, 13)
+        if ("disarm" in names and script_disarms) or "disarm_on_ground" in names:
             self.disarm_asked_at = self.inp.t
-        if self.m.name == "LANDED" and before == "LANDED" and self.inp.armed and not self.inp.takeoff_request:
-            # LANDED never keeps an armed vehicle as it is: the disarm is asked again
+        if (
+            self.m.name == "LANDED"
+            and before == "LANDED"
+            and self.inp.armed
+            and self.inp.link_ok
+            and not self.inp.takeoff_request
+        ):
+            # LANDED never keeps an armed vehicle as it is: the disarm is asked again (a lost
+            # link's armed flag is stale and nothing sent arrives: asked once it is back)
             last = self.disarm_asked_at
             assert last is not None and self.inp.t - last <= DISARM_RETRY_S + 0.5, (
                 f"LANDED kept armed since {last} (now {self.inp.t:.2f}) without a disarm asked"

@@ -192,6 +192,12 @@ class MavActions:
         station's before its land detector fires (docs/onboard-script.md, "Disarm")."""
         self.pending["disarm"] = self.script.disarm()
 
+    def disarm_on_ground(self) -> None:
+        """The companion's own disarm, unforced (param 2 is 0, not 21196): ArduCopter runs its
+        checks and refuses it unless its land detector says landed (AP_Arming_Copter::disarm),
+        for a vehicle whose script is idle and so refuses to disarm it."""
+        self._cmd("disarm_on_ground", mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0)
+
     def takeoff(self, height_m: float) -> None:
         self.set_mode("GUIDED")
         self._cmd("arm", mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
