@@ -441,9 +441,15 @@ def _uphill_angle_before_cut(tele: Telemetry, history: list[dict], uphill: tuple
     return sum(before[-1][i] for i in uphill) / len(uphill)
 
 
-def first_contact_speed(tele: Telemetry, t_from: float, t_to: float, spike_mps2: float) -> float | None:
+def first_contact_speed(
+    tele: Telemetry, t_from: float, t_to: float, spike_mps2: float, t_impact: float | None = None
+) -> float | None:
     """Vertical speed (m/s, down) at the first foot contact, the first accelerometer spike above
-    ``spike_mps2`` between ``t_from`` and ``t_to`` (vehicle time).
+    ``spike_mps2`` between ``t_from`` and ``t_to`` (vehicle time). With ``t_impact``, the on-board
+    script's impact (the companion's REVERSE): a first touch whose 50 Hz RAW_IMU samples all stayed
+    under ``spike_mps2`` (the script reads every IMU sample, the telemetry a few) is still the
+    contact, found as the highest reading above 1 g in the 50 ms up to it; without this a later,
+    harder second contact was measured instead.
 
     The velocity is reported at 50 Hz, too seldom for a fall: from the last report before the
     contact the speed is carried on with the accelerometer, ``g - |a|`` per sample (free fall reads
@@ -451,7 +457,13 @@ def first_contact_speed(tele: Telemetry, t_from: float, t_to: float, spike_mps2:
     speed the model and the table call the impact speed; a faster descent after it (the vehicle
     pivoting onto its downhill foot) belongs to the landing, not to its start."""
     acc = list(zip(tele.accel_t, tele.accel, strict=True))
-    spike = next((k for k, (t, a) in enumerate(acc) if t_from <= t <= t_to and a > spike_mps2), None)
+    last = t_to if t_impact is None else min(t_to, t_impact)
+    spike = next((k for k, (t, a) in enumerate(acc) if t_from <= t <= last and a > spike_mps2), None)
+    if spike is None and t_impact is not None:
+        near = [k for k, (t, a) in enumerate(acc) if t_impact - 0.05 <= t <= t_impact and a > G_MPS2]
+        spike = max(near, key=lambda k: acc[k][1]) if near else None
+    if spike is None and t_impact is not None:
+        spike = next((k for k, (t, a) in enumerate(acc) if t_from <= t <= t_to and a > spike_mps2), None)
     if spike is None:
         return None
     onset = spike
@@ -478,7 +490,7 @@ def _landing_figures(
     t_cut, t_landed, t_armed = times.get("CUT"), times.get("LANDED"), times.get("ARMED")
     if t_cut is None or t_landed is None or t_armed is None:
         return None, None, None
-    impact = first_contact_speed(tele, t_armed, t_landed, spike_mps2)
+    impact = first_contact_speed(tele, t_armed, t_landed, spike_mps2, times.get("REVERSE"))
     xs = [x for t, x in zip(tele.x_t, tele.x, strict=True) if t_cut + 0.05 <= t <= t_landed]
     slide = (max(xs) - min(xs)) if xs else None
     pitches = [p for t, p in zip(tele.pitch_t, tele.pitch_deg, strict=True) if t_cut <= t <= t_landed]

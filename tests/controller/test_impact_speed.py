@@ -36,3 +36,24 @@ def test_free_fall_from_the_cut_on_level_ground_matches_the_prediction(airborne)
     print(f"level ground: predicted {expected:.2f} m/s, measured {measured:.2f} m/s")
     assert measured == pytest.approx(expected, rel=0.15)
     assert measured > cfg["descent.rate_mps"] * 2  # it did fall freely after the cut
+
+
+def test_a_first_touch_under_the_spike_threshold_is_still_the_contact_when_the_script_saw_it():
+    """The telemetry's accelerometer samples a first touch at 19.8 m/s^2, under the 20 m/s^2
+    threshold (the script, reading every IMU sample, saw it and reversed); the second contact
+    0.15 s later is harder. The speed is the one at the first touch, not at the second."""
+    g = 9.80665
+    tele = Telemetry()
+    tele.t, tele.vz_up = [0.0, 0.02, 0.04], [-0.5, -0.5, -0.5]
+    # 200 Hz: 1 g of hover, the first touch (19.8), free fall to 0 g, the second contact (45)
+    series = [(0.05 + 0.005 * k, g) for k in range(4)]
+    series += [(0.07, 19.8), (0.075, 12.0)] + [(0.08 + 0.005 * k, 0.0) for k in range(30)]
+    series += [(0.23, 45.0), (0.235, 20.0)]
+    tele.accel_t, tele.accel = [t for t, _ in series], [a for _, a in series]
+    without = first_contact_speed(tele, 0.0, 1.0, 20.0)
+    with_impact = first_contact_speed(tele, 0.0, 1.0, 20.0, t_impact=0.072)
+    assert with_impact == pytest.approx(0.5, abs=1e-9)  # 1 g up to the touch: no speed gained
+    assert without > 0.5 + g * 0.1  # measured at the second contact, after the fall between them
+    # with a spike the script's time does not change the answer
+    tele.accel[4] = 25.0
+    assert first_contact_speed(tele, 0.0, 1.0, 20.0, 0.072) == first_contact_speed(tele, 0.0, 1.0, 20.0)
