@@ -428,24 +428,22 @@ def test_the_leg_board_unplugged_in_the_descent_aborts_to_loiter_before_the_cut(
     """Leg failure row: the port vanishes in DESCEND; the landing aborts before the motors stop
     and the pilot is told; the vehicle holds in LOITER clear of the roof."""
     with roof_rig(autopilot, seed=22) as rig:
-        fly_the_unplug(rig)
-
-
-def fly_the_unplug(rig: Rig) -> None:
-    ready_over_roof(rig)
-    lander = Lander(rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG)
-    told: list[str] = []
-    send = lander.link.send_statustext
-    lander.link.send_statustext = lambda text, *a: (told.append(text), send(text, *a))[1]
-    run_until(rig, lander, ("DESCEND",))
-    t0 = rig.now
-    with BoardControl(rig.board.control) as ctl:
-        ctl.inject("unplug")
-    assert lander.run(40.0, until=("ABORTED", "LANDED")) == "ABORTED", story(rig, lander)
-    rig.read_events()
-    h = lander.machine.history[-1]
-    assert h["reason"].startswith("leg failure") and h["from"] in ("DESCEND", "ARMED"), story(rig, lander)
-    assert not rig.track.event_times("EV_STOP", t0)  # aborted before the motors stop
-    assert any(t.startswith("SL ABORTED: leg failure") for t in told), told
-    rig.legs = None  # the port is gone
-    assert_hovering_safe(rig, lander, "leg failure")
+        ready_over_roof(rig)
+        lander = Lander(
+            rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG
+        )
+        told: list[str] = []
+        send = lander.link.send_statustext
+        lander.link.send_statustext = lambda text, *a: (told.append(text), send(text, *a))[1]
+        run_until(rig, lander, ("DESCEND",))
+        t0 = rig.now
+        with BoardControl(rig.board.control) as ctl:
+            ctl.inject("unplug")
+        assert lander.run(40.0, until=("ABORTED", "LANDED")) == "ABORTED", story(rig, lander)
+        rig.read_events()
+        h = lander.machine.history[-1]
+        assert h["reason"].startswith("leg failure") and h["from"] in ("DESCEND", "ARMED"), story(rig, lander)
+        assert not rig.track.event_times("EV_STOP", t0)  # aborted before the motors stop
+        assert any(t.startswith("SL ABORTED: leg failure") for t in told), told
+        rig.legs = None  # the port is gone
+        assert_hovering_safe(rig, lander, "leg failure")
