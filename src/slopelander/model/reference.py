@@ -124,18 +124,19 @@ class ReferenceLanding:
         w = y[12:14]
         th = y[2]
         bz = np.array([-math.sin(th), math.cos(th)])
-        thrust = np.zeros(2)
         if self.fl[k.F_ROTORS]:
             for r in range(2):
-                thrust[r] = k._thrust(p, w[r])
-                f += J[4 + r].T @ (thrust[r] * bz)
+                f += J[4 + r].T @ (k._thrust(p, w[r]) * bz)
+        for row, fx, fz in self._point_forces(t, th):
+            f += J[row].T @ np.array([fx, fz])
         # contacts
         d = pts @ self.n
         dd = vel @ self.n
         s = pts @ self.tv
         sd = vel @ self.tv
         # while a point is pressed in, the ground pushes but never pulls: max(0, k d + b d')
-        N = np.maximum(0.0, -self.kg * d - self.bg * dd)
+        Nraw = self._normal(d, dd)
+        N = np.maximum(0.0, Nraw)
         Ft = np.zeros(k.N_POINTS)
         mu = np.full(k.N_POINTS, p[k.P_MUK])
         if self.fl[k.F_MU_GROWTH]:  # eq. 4 per leg: its joint's speed outward along the surface
@@ -144,6 +145,7 @@ class ReferenceLanding:
         if self.fl[k.F_STRIBECK]:
             weak = np.exp(-((np.abs(sd) / p[k.P_VSTR]) ** p[k.P_DSTR]))
             mu = mu + np.maximum(0.0, p[k.P_MUS] - mu) * weak
+        mu = self._foot_friction(t, sd, mu)
         for i in range(k.N_POINTS):
             m = self.modes.contact[i]
             if m == 0:
@@ -161,6 +163,7 @@ class ReferenceLanding:
         if self.fl[k.F_TAU_GROWTH]:  # eq. 3 per leg: its foot's friction pointing inward
             for j, inward in ((0, 1.0), (1, -1.0)):
                 tau[j] *= 1.0 + p[k.P_FTAU] * max(0.0, inward * Ft[j])
+        tau = self._joint_torque(t, V, tau)
         qEd = np.zeros(2)
         locked = np.zeros(5, dtype=bool)
         net = np.zeros(2)  # torque the friction must hold while a joint is stuck
@@ -201,11 +204,26 @@ class ReferenceLanding:
                 net[j] = lam[3 + j] - zone[j] * self.ke * (self.q_zone - y[3 + j])
         wd = np.zeros(2)
         if self.fl[k.F_ROTORS]:
-            target = self._rotor_target(t)
-            wd = (target - w) / p[k.P_TAUM]
-        # the spring-damper's own force: a rebounding foot lets go when it would pull
-        Nraw = -self.kg * d - self.bg * dd
+            wd = (self._rotor_target(t) - w) / p[k.P_TAUM]
+        # Nraw, the spring-damper's own force: a rebounding foot lets go when it would pull
         return dict(acc=acc, qEd=qEd, wd=wd, d=d, dd=dd, sd=sd, N=N, Nraw=Nraw, Ft=Ft, net=net, tau=tau, s=s)
+
+    # The seams, where a subclass adds an effect (slopelander.ident.truth); here, the model's own.
+    def _point_forces(self, t: float, pitch: float) -> list[tuple[int, float, float]]:
+        """Extra forces (point row, fx, fz) on the body's points."""
+        return []
+
+    def _normal(self, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
+        """Each point's normal force before the ground's no-pull clip."""
+        return -self.kg * d - self.bg * dd
+
+    def _foot_friction(self, t: float, sd: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """The points' sliding friction coefficients, given their slip speeds."""
+        return mu
+
+    def _joint_torque(self, t: float, V: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """The two joints' slip torques, given the velocities."""
+        return tau
 
     def _rotor_target(self, t: float) -> float:
         if self.t_impact is None or self.cond.reverse_percent == 0.0:

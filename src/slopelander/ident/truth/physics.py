@@ -107,7 +107,8 @@ described by a candidate file of docs/examples or tests/ident/effects (``name``)
 class TruthLanding(ReferenceLanding):
     """The reference integration with a hidden effect at its seam (``hidden=None``: none).
 
-    The right-hand side is the reference's, with the four seams where the kernel has them: the
+    The right-hand side is the reference's (model/reference.py), through the four seams where the
+    kernel has them: the
     joint's slip torque (given the leg's rate), the feet's sliding friction (after the built-in
     velocity weakening), the normal force of every pressed-in point, forces at named points.
     """
@@ -131,104 +132,21 @@ class TruthLanding(ReferenceLanding):
             return -self.kg * d - self.bg * dd
         return np.array([self.hidden.normal_force(max(-d[i], 0.0), -dd[i]) for i in range(k.N_POINTS)])
 
-    def _compute(self, t: float, y: np.ndarray) -> dict:
-        """ReferenceLanding._compute with the hidden effect's seams (kept line for line with it
-        otherwise, so the two read side by side)."""
-        p, st, ws, h = self.p, self.st, self.ws, self.hidden
-        st[k.S_Q : k.S_Q + 5] = y[0:5]
-        st[k.S_V : k.S_V + 5] = y[5:10]
-        M, f, pts, vel, J = ws[:5]
-        k.kinematics(p, st, M, f, pts, vel, J)
-        M = M.copy()
-        f = f.copy()
-        V = y[5:10]
-        qE = y[10:12]
-        w = y[12:14]
-        th = y[2]
-        bz = np.array([-math.sin(th), math.cos(th)])
-        if self.fl[k.F_ROTORS]:
-            for r in range(2):
-                f += J[4 + r].T @ (k._thrust(p, w[r]) * bz)
-        for row, fx, fz in h.point_forces(t, self.t_impact, th):  # seam: forces at named points
-            f += J[row].T @ np.array([fx, fz])
-        d = pts @ self.n
-        dd = vel @ self.n
-        s = pts @ self.tv
-        sd = vel @ self.tv
-        Nraw = self._normal(d, dd)  # seam: the normal-force law
-        N = np.maximum(0.0, Nraw)
-        Ft = np.zeros(k.N_POINTS)
-        mu = np.full(k.N_POINTS, p[k.P_MUK])
-        if self.fl[k.F_MU_GROWTH]:
-            for j, out in ((0, -1.0), (1, 1.0)):
-                mu[j] *= max(1.0, 1.0 + p[k.P_FMU] * out * (vel[2 + j] @ self.tv))
-        if self.fl[k.F_STRIBECK]:
-            weak = np.exp(-((np.abs(sd) / p[k.P_VSTR]) ** p[k.P_DSTR]))
-            mu = mu + np.maximum(0.0, p[k.P_MUS] - mu) * weak
+    def _point_forces(self, t: float, pitch: float) -> list[tuple[int, float, float]]:
+        return self.hidden.point_forces(t, self.t_impact, pitch)
+
+    def _foot_friction(self, t: float, sd: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """The feet's friction law (slip speed downhill-positive), on the feet in contact."""
         dsg = 1.0 if self.ctx[k.C_SIN] >= 0.0 else -1.0
-        for i in range(2):  # seam: the feet's friction law (slip speed downhill-positive)
+        mu = mu.copy()
+        for i in range(2):
             if self.modes.contact[i] != 0:
-                mu[i] = max(0.0, h.foot_friction(t, i, dsg * sd[i], mu[i]))
-        for i in range(k.N_POINTS):
-            m = self.modes.contact[i]
-            if m == 0:
-                continue
-            if self.fl[k.F_STICTION]:
-                if m == 1:
-                    Ft[i] = -p[k.P_KT] * (s[i] - self.modes.anchor[i]) - p[k.P_BT] * sd[i]
-                else:
-                    Ft[i] = -(1.0 if m == 2 else -1.0) * mu[i] * N[i]
-            elif self.fl[k.F_REGULARISED]:
-                Ft[i] = -mu[i] * N[i] * math.tanh(sd[i] / p[k.P_VS])
-            f += J[i].T @ (N[i] * self.n + Ft[i] * self.tv)
-        tau = self.ctx[k.C_TAU : k.C_TAU + 2].copy()
-        if self.fl[k.F_TAU_GROWTH]:
-            for j, inward in ((0, 1.0), (1, -1.0)):
-                tau[j] *= 1.0 + p[k.P_FTAU] * max(0.0, inward * Ft[j])
-        for j in range(2):  # seam: the joints' torque law, given the leg's rate
-            tau[j] = max(0.0, h.joint_torque(t, j, V[3 + j], tau[j]))
-        qEd = np.zeros(2)
-        locked = np.zeros(5, dtype=bool)
-        net = np.zeros(2)
-        zone = np.zeros(2)
-        for j in range(2):
-            qi = 3 + j
-            qc, vc, m = y[qi], V[qi], self.modes.joint[j]
-            if self.rigid:
-                locked[qi] = True
-                continue
-            if self.flex:
-                z = 1.0 if qE[j] < self.q_zone else 0.0
-                zone[j] = z
-                if m == 0:
-                    T = self.kq * (qE[j] - qc) - self.bq * vc
-                    net[j] = T - z * self.ke * (self.q_zone - qE[j])
-                else:
-                    B = self.bq + z * self.be
-                    K = self.kq + z * self.ke
-                    c0 = -tau[j] * m + z * self.ke * self.q_zone + self.kq * qc + self.bq * vc
-                    qEd[j] = (c0 - K * qE[j]) / B
-                    T = self.kq * (qE[j] - qc) + self.bq * (qEd[j] - vc)
-                f[qi] += T
-            else:
-                z = 1.0 if qc < self.q_zone else 0.0
-                zone[j] = z
-                if m == 0:
-                    locked[qi] = True
-                else:
-                    f[qi] += -tau[j] * m + z * (self.ke * (self.q_zone - qc) - self.be * vc)
-                    qEd[j] = vc
-        free = ~locked
-        acc = np.zeros(5)
-        acc[free] = np.linalg.solve(M[np.ix_(free, free)], f[free])
-        lam = M @ acc - f
-        for j in range(2):
-            if not self.flex and not self.rigid and self.modes.joint[j] == 0:
-                net[j] = lam[3 + j] - zone[j] * self.ke * (self.q_zone - y[3 + j])
-        wd = np.zeros(2)
-        if self.fl[k.F_ROTORS]:
-            wd = (self._rotor_target(t) - w) / p[k.P_TAUM]
-        return dict(acc=acc, qEd=qEd, wd=wd, d=d, dd=dd, sd=sd, N=N, Nraw=Nraw, Ft=Ft, net=net, tau=tau, s=s)
+                mu[i] = max(0.0, self.hidden.foot_friction(t, i, dsg * sd[i], mu[i]))
+        return mu
+
+    def _joint_torque(self, t: float, V: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """The joints' torque law, given the leg's rate."""
+        return np.array([max(0.0, self.hidden.joint_torque(t, j, V[3 + j], tau[j])) for j in range(2)])
 
 
 STATE_COLUMNS = (0, 1, 2, 5, 6, 7)
