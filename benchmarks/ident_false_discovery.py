@@ -30,18 +30,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
+from ident_candidates import FILES, NAMES  # noqa: E402  (beside this script)
+
 from slopelander.ident.diagnose import ABOVE_FLOOR, ALPHA, MIN_GAIN, NOT_AMONG, diagnose  # noqa: E402
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize  # noqa: E402
 from slopelander.model import Model, load_effects  # noqa: E402
 
-FILES = [
-    ROOT / "docs" / "examples" / "effect_joint_torque.py",
-    ROOT / "docs" / "examples" / "effect_foot_friction.py",
-    ROOT / "docs" / "examples" / "effect_normal_force.py",
-    ROOT / "tests" / "ident" / "effects" / "slip_weakening.py",
-    ROOT / "tests" / "ident" / "effects" / "rotor_spin_down.py",
-]
-NAMES = ["ground_damping", "flex_stiffness", "flex_damping"]
 HIDDEN = {
     "viscous_joint": ("joint_viscous_gain", 0.05, True),
     "slip_weakening": ("slip_weakening", 1.0, True),

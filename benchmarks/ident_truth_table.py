@@ -35,6 +35,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
+from ident_candidates import FILES, NAMES  # noqa: E402  (beside this script)
 from tqdm import tqdm  # noqa: E402
 
 from slopelander.ident.diagnose import diagnose  # noqa: E402
@@ -43,14 +44,6 @@ from slopelander.ident.truth import HIDDEN, MotionCapture  # noqa: E402
 from slopelander.ident.truth.dataset import truth_dataset  # noqa: E402
 from slopelander.model import Model, load_effects  # noqa: E402
 
-FILES = [
-    ROOT / "docs" / "examples" / "effect_joint_torque.py",
-    ROOT / "docs" / "examples" / "effect_foot_friction.py",
-    ROOT / "docs" / "examples" / "effect_normal_force.py",
-    ROOT / "tests" / "ident" / "effects" / "slip_weakening.py",
-    ROOT / "tests" / "ident" / "effects" / "rotor_spin_down.py",
-]
-NAMES = ["ground_damping", "flex_stiffness", "flex_damping"]
 SETS = ["joint_law", "foot_friction", "normal_force", "point_force", "control"]
 STEEP = {"joint_law", "foot_friction"}
 
