@@ -17,6 +17,7 @@ from slopelander.model.conditions import (
     LandingConditions,
     conditions_array,
 )
+from slopelander.model.dispatch import call
 from slopelander.model.effects import (
     BUILTIN_EFFECTS,
     EffectError,
@@ -305,7 +306,8 @@ def simulate(
     res = np.zeros(k.N_RESULT)
     km, sx = model.kernel()
     with compiling_notice(dispatcher=km.run_landing):
-        n = km.run_landing(
+        n = call(
+            km.run_landing,
             model.params.as_array(),
             model.flags(),
             row,

@@ -1,0 +1,49 @@
+"""Calling a compiled integrator without numba's per-call type inference.
+
+numba types every argument of every call to pick the compiled overload. For the seam table
+(nested tuples of first-class functions) that costs about 2.7 ms, half of a whole landing: an
+identification run of 15,000 landings spent 40 s of its 146 s typing arguments. The types of
+the arguments the integrator receives follow from a few cheap Python facts (array dtype,
+dimensions, layout; a law's seam), so the overload is looked up once per such key and called
+directly afterwards.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+_ENTRIES: dict[tuple, Callable[..., Any]] = {}
+
+
+def _key(a: object) -> object:
+    """What numba's type of ``a`` depends on, computed without numba."""
+    if isinstance(a, np.ndarray):
+        f = a.flags
+        return ("a", a.dtype.str, a.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+    if isinstance(a, tuple):
+        return ("t", *(_key(x) for x in a))
+    seam = getattr(a, "seam", None)
+    if seam is not None:
+        return ("law", seam)  # a seam law's type is the seam's signature, whatever the function
+    return type(a)
+
+
+def call(dispatcher: Any, *args: object) -> Any:
+    """``dispatcher(*args)``, through the overload already compiled for these argument types.
+
+    The first call with a new key goes through numba (compiling if need be); later calls go
+    straight to the compiled entry point.
+    """
+    key = (id(dispatcher), _key(args))
+    entry = _ENTRIES.get(key)
+    if entry is not None:
+        return entry(*args)
+    out = dispatcher(*args)
+    sig = tuple(dispatcher.typeof_pyval(a) for a in args)
+    cres = dispatcher.overloads.get(sig)
+    if cres is not None:
+        _ENTRIES[key] = cres.entry_point
+    return out

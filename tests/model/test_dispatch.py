@@ -1,0 +1,36 @@
+"""The integrator called through its cached overload gives what numba's own dispatch gives."""
+
+import numpy as np
+from numba import njit
+
+from slopelander.model import LandingConditions, Model, dispatch, simulate
+
+
+@njit
+def _first(a):
+    return a[0, 1]
+
+
+def test_a_landing_through_the_cached_overload_equals_numbas_dispatch():
+    m = Model.default()
+    c = LandingConditions(slope_deg=30.0, speed=1.5)
+    first = simulate(c, m)
+    again = simulate(c, m)  # the second call goes straight to the compiled entry point
+    km, _ = m.kernel()
+    assert any(key[0] == id(km.run_landing) for key in dispatch._ENTRIES)
+    np.testing.assert_array_equal(first.states, again.states)
+    assert first.result == again.result
+
+
+def test_arguments_numba_types_differently_get_their_own_overload():
+    c = np.arange(6.0).reshape(2, 3)
+    f = np.asfortranarray(c)
+    assert dispatch._key((c,)) != dispatch._key((f,))
+    ro = c.copy()
+    ro.flags.writeable = False
+    assert dispatch._key((c,)) != dispatch._key((ro,))
+    assert dispatch._key((1,)) != dispatch._key((1.0,))
+    for a in (c, f, ro, c[:, ::2]):
+        assert dispatch.call(_first, a) == a[0, 1]
+        assert dispatch.call(_first, a) == a[0, 1]  # through the cached entry
+    assert len({k for k in dispatch._ENTRIES if k[0] == id(_first)}) == 4
