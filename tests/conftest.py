@@ -29,6 +29,14 @@ settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Inside a parallel worker the identification's evaluations run in that worker alone: a pool
+    of one process per core in each of two workers put four busy processes on two cores and
+    starved the lock-stepped flights beside them (a fit's search does not depend on it)."""
+    if hasattr(config, "workerinput"):
+        os.environ.setdefault("SLOPELANDER_WORKERS", "1")
+
+
 def work_unit(item: pytest.Item) -> str | None:
     """The xdist group of a test: its module's path, or None for a test of a ``spread`` module;
     every test marked ``arducopter`` (it flies real ArduCopter SITL) in one group, so no two

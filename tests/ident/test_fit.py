@@ -81,3 +81,34 @@ def test_repeated_fits_give_mean_and_sigma(model):
     ((m, s),) = sf.mean_sd().values()
     assert m == pytest.approx(0.8, rel=0.05) and s >= 0
     assert sf.validation_nrmse > 0 and "friction_kinetic" in sf.table()
+
+
+def test_a_seed_searches_alike_on_one_process_or_two(model):
+    """Seven parameters (CMA-ES's own population, 9, is odd): the search is the same whether
+    one process evaluates it or a pool of two, so a fit does not depend on the machine's cores."""
+    drops = synthesize(model, paper_drops(2, seed=0), NoiseModel(), duration=0.3)
+    one, two = (
+        Identifier(model, cma_evals=30, ls_evals=0, workers=w, seed=3).fit(drops).result_ for w in (1, 2)
+    )
+    assert one.values == two.values
+    assert one.train_nrmse == two.train_nrmse
+
+
+def test_the_process_count_comes_from_the_environment_or_the_cores(monkeypatch):
+    from slopelander.ident.fit import WORKERS_ENV, default_workers
+
+    monkeypatch.setenv(WORKERS_ENV, "3")
+    assert default_workers() == 3
+    for bad in ("0", "-1", "two", "1.5"):
+        monkeypatch.setenv(WORKERS_ENV, bad)
+        with pytest.raises(FitError, match=f"{WORKERS_ENV}='{bad}'"):
+            default_workers()
+    monkeypatch.delenv(WORKERS_ENV)
+    assert default_workers() >= 1
+
+
+def test_search_settings_out_of_range_are_refused_before_any_work(model):
+    drops = synthesize(model, paper_drops(1, seed=0), NoiseModel(), duration=0.2)
+    for bad in ({"cma_evals": -1}, {"ls_evals": 2.5}, {"ls_evals": True}, {"workers": 0}):
+        with pytest.raises(FitError, match=next(iter(bad))):
+            Identifier(model, ["friction_kinetic"], **bad).fit(drops)

@@ -17,6 +17,21 @@ class IdentCliError(SlopelanderError):
     """A command-line setting of the identification commands that cannot be used."""
 
 
+def _count(least: int):
+    """An argparse type: a whole number of at least ``least``."""
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if n < least:
+            raise argparse.ArgumentTypeError(f"must be {least} or more, got {n}")
+        return n
+
+    return parse
+
+
 def _model_args(p: argparse.ArgumentParser, what: str) -> None:
     g = p.add_argument_group(f"{what} model")
     g.add_argument("--params", type=Path, metavar="FILE", help="model parameter YAML (default: shipped set)")
@@ -233,10 +248,15 @@ def _search_args(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--seed", type=int, default=0)
     g.add_argument(
-        "--cma-evals", type=int, default=600, help="model evaluations of the global search per fit"
+        "--cma-evals", type=_count(0), default=600, help="model evaluations of the global search per fit"
     )
-    g.add_argument("--ls-evals", type=int, default=30, help="local least-squares iterations per fit")
-    g.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    g.add_argument("--ls-evals", type=_count(0), default=30, help="local least-squares iterations per fit")
+    g.add_argument(
+        "--workers",
+        type=_count(1),
+        default=None,
+        help="processes (default: SLOPELANDER_WORKERS, else one per core)",
+    )
     g.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
     g.add_argument("--quiet", action="store_true", help="no progress bar")
 

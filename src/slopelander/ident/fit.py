@@ -199,6 +199,24 @@ def _dask_residuals(problem: Problem, u: np.ndarray) -> np.ndarray:
     return problem.residuals(u)
 
 
+WORKERS_ENV = "SLOPELANDER_WORKERS"
+
+
+def default_workers() -> int:
+    """Processes for the evaluations: ``SLOPELANDER_WORKERS`` if set (a machine shared with other
+    work, a test runner's worker), else one per core."""
+    raw = os.environ.get(WORKERS_ENV, "").strip()
+    if not raw:
+        return os.cpu_count() or 1
+    try:
+        n = int(raw)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise FitError(f"{WORKERS_ENV}={raw!r}: give a whole number of processes, 1 or more")
+    return n
+
+
 class Evaluator:
     """Evaluates residual vectors for many parameter points: in this process, on a pool of
     forked processes (one per core), or on a Dask cluster."""
@@ -206,7 +224,7 @@ class Evaluator:
     def __init__(self, problem: Problem, workers: int | None = None, client=None) -> None:
         self.problem = problem
         self.client = client
-        self.workers = workers if workers is not None else (os.cpu_count() or 1)
+        self.workers = workers if workers is not None else default_workers()
         self._pool = None
         # the user effects' laws compiled here, once, before the workers fork (they inherit them)
         problem.model.kernel()
@@ -412,6 +430,12 @@ class Identifier:
         model's NRMSE on, never fitted to). Returns the identifier, fitted."""
         if not drops:
             raise FitError("no drops to fit")
+        for name in ("cma_evals", "ls_evals"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise FitError(f"{name} must be a whole number, 0 or more, not {v!r}")
+        if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
+            raise FitError(f"workers must be a whole number, 1 or more, not {self.workers!r}")
         self.result_ = _search(self, list(drops), validation)
         return self
 
@@ -476,9 +500,9 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
             if costs[i] < best_c:
                 best_u, best_c = X[i].copy(), costs[i]
         elif cma_evals > 0:
+            # even, whatever the number of processes: a seed gives the same search on any machine
             popsize = max(8, 4 + int(3 * math.log(n)))
-            if workers is None or workers > 1:
-                popsize += popsize % max(1, ev.workers)
+            popsize += popsize % 2
             origins = [x0]
             for point in ident.starts or []:
                 origins.append(
@@ -523,19 +547,21 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
             tick(len(u))
             return J
 
-        u0 = np.clip(best_u, 1e-6, 1 - 1e-6)
-        ls = least_squares(
-            fun,
-            u0,
-            jac=jac,
-            bounds=(0.0, 1.0),
-            x_scale="jac",
-            max_nfev=ls_evals,
-            xtol=1e-8,
-            ftol=1e-10,
-            gtol=1e-10,
-        )
-        u = ls.x if 2 * ls.cost <= best_c else best_u
+        u = best_u
+        if ls_evals > 0:  # 0: the search's best point as it is, no polish
+            ls = least_squares(
+                fun,
+                np.clip(best_u, 1e-6, 1 - 1e-6),
+                jac=jac,
+                bounds=(0.0, 1.0),
+                x_scale="jac",
+                max_nfev=ls_evals,
+                xtol=1e-8,
+                ftol=1e-10,
+                gtol=1e-10,
+            )
+            if 2 * ls.cost <= best_c:
+                u = ls.x
         r = fun(u)
         J = jac(u)
         values = dict(zip([p.name for p in params], prob.values(u), strict=True))
