@@ -9,6 +9,9 @@ and the point force act on every drop and are shown on the whole spread. The bas
 k_g's damping and the leg's flex; mu_k is taken as measured (a tilt test): fitted together
 with a slip-speed friction law on so few drops, the two trade off and the fit fixes their
 combination, not each (docs/effects.md has the numbers).
+
+The first seed of each runs in the default suite; the others are marked ``seeds``
+(``python3 -m pytest -m seeds``).
 """
 
 from pathlib import Path
@@ -53,7 +56,13 @@ FOOT = ("slip_weakening", "slip_weakening", 1.0)
 
 @pytest.mark.parametrize(
     ("hidden", "parameter", "value", "seed"),
-    [(*JOINT, 1), (*JOINT, 2), (*FOOT, 1), (*FOOT, 2), (*FOOT, 3)],
+    [
+        (*JOINT, 1),
+        pytest.param(*JOINT, 2, marks=pytest.mark.seeds),
+        (*FOOT, 1),
+        pytest.param(*FOOT, 2, marks=pytest.mark.seeds),
+        pytest.param(*FOOT, 3, marks=pytest.mark.seeds),
+    ],
     ids=[
         "joint_torque_law-1",
         "joint_torque_law-2",
@@ -95,7 +104,7 @@ def _found(base, user_effects, hidden, drops, seed, **budget):
     return d, best
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.seeds)])
 def test_hidden_normal_force_law_is_found_from_its_file(base, user_effects, seed):
     """A Hunt-Crossley ground (docs/examples/effect_normal_force.py at its declared values) in
     the truth, the linear spring-damper in the analysed model. Its damping alpha, which sets how
@@ -117,7 +126,7 @@ def test_hidden_normal_force_law_is_found_from_its_file(base, user_effects, seed
     assert 0.5 < values["hc_stiffness"] / hc.parameters["hc_stiffness"].value < 2.0, d.table()
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.seeds)])
 def test_hidden_point_force_is_found_from_its_file(base, user_effects, seed):
     """Rotors coasting down after a motor cut at touchdown (tests/ident/effects/
     rotor_spin_down.py): a force at the rotor hubs, 3 N each at touchdown."""
