@@ -16,6 +16,10 @@ from typing import Any
 import numpy as np
 
 _ENTRIES: dict[tuple, Callable[..., Any]] = {}
+_TUPLES: dict[int, tuple[tuple, object]] = {}
+"""Keys of tuples seen before (a model's seam table is passed on every step), by identity; the
+tuple is kept so that its id is not reused."""
+_TUPLES_MAX = 4096
 
 
 def _key(a: object) -> object:
@@ -24,7 +28,13 @@ def _key(a: object) -> object:
         f = a.flags
         return ("a", a.dtype.str, a.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
     if isinstance(a, tuple):
-        return ("t", *(_key(x) for x in a))
+        hit = _TUPLES.get(id(a))
+        if hit is not None and hit[0] is a:
+            return hit[1]
+        key = ("t", *(_key(x) for x in a))
+        if len(_TUPLES) < _TUPLES_MAX:
+            _TUPLES[id(a)] = (a, key)
+        return key
     seam = getattr(a, "seam", None)
     if seam is not None:
         return ("law", seam)  # a seam law's type is the seam's signature, whatever the function

@@ -14,6 +14,7 @@ import numpy as np
 
 from slopelander.model import kernel as k
 from slopelander.model.conditions import CONDITION_FIELDS, ConditionError, LandingConditions
+from slopelander.model.dispatch import call
 from slopelander.model.landing import Model
 from slopelander.model.usercode import compiling_notice
 
@@ -178,10 +179,10 @@ class Stepper:
         v0 = self.st[k.S_V : k.S_V + 2].copy()
         args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._sx)
         if self._compiled:
-            self._k.advance(*args)
+            call(self._k.advance, *args)
         else:
             with compiling_notice():
-                self._k.advance(*args)
+                call(self._k.advance, *args)
             self._compiled = True
         self._accel = (self.st[k.S_V : k.S_V + 2] - v0) / dt
 
@@ -233,7 +234,7 @@ class Stepper:
 
     def energy(self) -> dict[str, float]:
         out = np.zeros(len(ENERGY_TERMS))
-        self._k.mechanical_energy(self._p, self._fl, self.ctx, self.st, self._ws, self._sx, out)
+        call(self._k.mechanical_energy, self._p, self._fl, self.ctx, self.st, self._ws, self._sx, out)
         return dict(zip(ENERGY_TERMS, out.tolist(), strict=True))
 
     def dissipated(self) -> dict[str, float]:
