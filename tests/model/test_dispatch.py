@@ -34,3 +34,17 @@ def test_arguments_numba_types_differently_get_their_own_overload():
         assert dispatch.call(_first, a) == a[0, 1]
         assert dispatch.call(_first, a) == a[0, 1]  # through the cached entry
     assert len({k for k in dispatch._ENTRIES if k[0] == id(_first)}) == 4
+
+
+def test_the_stepper_with_its_seam_table_boxed_steps_as_the_kernel_with_the_tuple():
+    from slopelander.model import kernel as k
+    from slopelander.model.stepper import Stepper
+
+    boxed, plain = Stepper(slope_deg=20.0), Stepper(slope_deg=20.0)
+    for i in range(600):  # a fall onto the roof: contact, friction, the legs' joints
+        u = 0.3 if i < 300 else 0.0
+        boxed.step(1 / 1200, u, u)
+        n = max(1, int(np.ceil((1 / 1200) / plain.model.dt - 1e-9)))
+        k.advance(plain._p, plain._fl, plain.ctx, plain.st, (1 / 1200) / n, n, u, u, plain._ws, plain._sx)
+    assert boxed.in_contact()
+    np.testing.assert_array_equal(boxed.st, plain.st)

@@ -53,6 +53,10 @@ class Stepper:
         self._p = self.model.params.as_array()
         self._fl = self.model.flags()
         self._k, self._sx = self.model.kernel()
+        from slopelander.model.boxed import advance_boxed, box  # compiles on first use: not at import
+
+        self._box = box(self._sx)
+        self._advance = advance_boxed
         self._compiled = False
         self._ws = k.make_workspace()
         self.st = np.zeros(k.N_STATE)
@@ -177,12 +181,12 @@ class Stepper:
         u_right = min(1.0, max(-1.0, float(u_right)))
         n = max(1, math.ceil(dt / self.model.dt - 1e-9))
         v0 = self.st[k.S_V : k.S_V + 2].copy()
-        args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._sx)
+        args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._box)
         if self._compiled:
-            call(self._k.advance, *args)
+            call(self._advance, *args)
         else:
             with compiling_notice():
-                call(self._k.advance, *args)
+                call(self._advance, *args)
             self._compiled = True
         self._accel = (self.st[k.S_V : k.S_V + 2] - v0) / dt
 
