@@ -170,6 +170,9 @@ def _interrupt_a_map(kind: str, out: Path, ready: Path) -> subprocess.CompletedP
         stderr=subprocess.PIPE,
         text=True,
         env=env,
+        # Ctrl-C as at a terminal: a suite started in the background (``nohup ... &``) passes
+        # its ignored SIGINT on to its children, and Python then never raises KeyboardInterrupt
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     deadline = time.monotonic() + 60
     while not ready.exists() and time.monotonic() < deadline and proc.poll() is None:

@@ -4,8 +4,9 @@ For leg flexibility and the control, the truth is the shipped model without the 
 downhill-leg factors, so the candidates the analysed model lacks are leg flexibility and both
 factors. factor_tau is hidden at 5e-3 1/N (at the paper's value it is below the noise), factor_mu
 at the paper's 0.57 s/m on the steep drops where feet slide. Noise is motion-capture-like.
-The first seed of each proof runs in the default suite; the others are marked ``seeds`` (run them
-with ``python3 -m pytest -m seeds``; docs/ident.md has the last such run).
+In the default suite: leg flexibility found and nothing found in the control, one seed each; the
+other proofs and seeds take minutes each and are marked ``proof`` (``python3 -m pytest -m proof``;
+docs/ident.md has the last such run).
 """
 
 import pytest
@@ -21,7 +22,7 @@ def truth(model):
     return model.without("downhill_torque_growth", "downhill_friction_growth")
 
 
-@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.seeds)])
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.proof)])
 def test_hidden_leg_flex_is_found(truth, seed):
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
     d = diagnose(truth.without("leg_flex"), drops, seed=seed, **BUDGET)
@@ -40,7 +41,7 @@ def test_hidden_leg_flex_is_found(truth, seed):
     assert all(r.fits for r in d.results)
 
 
-@pytest.mark.parametrize("seed", [3, pytest.param(4, marks=pytest.mark.seeds)])
+@pytest.mark.parametrize("seed", [3, pytest.param(4, marks=pytest.mark.proof)])
 def test_nothing_missing_when_nothing_is(truth, seed):
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
     d = diagnose(truth, drops, seed=seed, **BUDGET)
@@ -79,7 +80,8 @@ def test_steps_error_falls_where_the_effect_is_added(truth, tmp_path):
     assert st.plot(tmp_path / "steps.png").stat().st_size > 10_000
 
 
-@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.seeds)])
+@pytest.mark.proof
+@pytest.mark.parametrize("seed", [1, 2])
 def test_hidden_torque_growth_is_found(model, seed):
     """factor_tau at the paper's 5.8e-4 1/N changes these drops by less than the noise (see
     docs/ident.md), so the truth uses 5e-3 1/N. Since eq. 3 acts on every leg whose foot is
@@ -103,9 +105,8 @@ def _survivable_steep_drops(truth, seed):
     return synthesize(truth, conds, NoiseModel(), seed=seed, duration=0.6)
 
 
-@pytest.mark.parametrize(
-    "seed", [1, pytest.param(2, marks=pytest.mark.seeds), pytest.param(3, marks=pytest.mark.seeds)]
-)
+@pytest.mark.proof
+@pytest.mark.parametrize("seed", [1, 2, 3])
 def test_hidden_friction_growth_at_the_paper_value_is_found(model, seed):
     """factor_mu at the paper's 0.57 s/m, on drops where the feet slide. mu_k is taken as
     measured (a tilt test): fitted together with factor_mu from so few drops the two trade off

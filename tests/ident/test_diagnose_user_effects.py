@@ -10,8 +10,8 @@ k_g's damping and the leg's flex; mu_k is taken as measured (a tilt test): fitte
 with a slip-speed friction law on so few drops, the two trade off and the fit fixes their
 combination, not each (docs/effects.md has the numbers).
 
-The first seed of each runs in the default suite; the others are marked ``seeds``
-(``python3 -m pytest -m seeds``).
+In the default suite: the foot's friction law found from its file, one seed; the other seams and
+seeds take minutes each and are marked ``proof`` (``python3 -m pytest -m proof``).
 """
 
 from pathlib import Path
@@ -57,11 +57,11 @@ FOOT = ("slip_weakening", "slip_weakening", 1.0)
 @pytest.mark.parametrize(
     ("hidden", "parameter", "value", "seed"),
     [
-        (*JOINT, 1),
-        pytest.param(*JOINT, 2, marks=pytest.mark.seeds),
+        pytest.param(*JOINT, 1, marks=pytest.mark.proof),
+        pytest.param(*JOINT, 2, marks=pytest.mark.proof),
         (*FOOT, 1),
-        pytest.param(*FOOT, 2, marks=pytest.mark.seeds),
-        pytest.param(*FOOT, 3, marks=pytest.mark.seeds),
+        pytest.param(*FOOT, 2, marks=pytest.mark.proof),
+        pytest.param(*FOOT, 3, marks=pytest.mark.proof),
     ],
     ids=[
         "joint_torque_law-1",
@@ -104,7 +104,8 @@ def _found(base, user_effects, hidden, drops, seed, **budget):
     return d, best
 
 
-@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.seeds)])
+@pytest.mark.proof
+@pytest.mark.parametrize("seed", [1, 2])
 def test_hidden_normal_force_law_is_found_from_its_file(base, user_effects, seed):
     """A Hunt-Crossley ground (docs/examples/effect_normal_force.py at its declared values) in
     the truth, the linear spring-damper in the analysed model. Its damping alpha, which sets how
@@ -126,7 +127,8 @@ def test_hidden_normal_force_law_is_found_from_its_file(base, user_effects, seed
     assert 0.5 < values["hc_stiffness"] / hc.parameters["hc_stiffness"].value < 2.0, d.table()
 
 
-@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.seeds)])
+@pytest.mark.proof
+@pytest.mark.parametrize("seed", [1, 2])
 def test_hidden_point_force_is_found_from_its_file(base, user_effects, seed):
     """Rotors coasting down after a motor cut at touchdown (tests/ident/effects/
     rotor_spin_down.py): a force at the rotor hubs, 3 N each at touchdown."""
