@@ -46,6 +46,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument(
         "--lockstep", action="store_true", help="wait for a companion's TIMESYNC echo (50 ms lead)"
     )
+    ap.add_argument(
+        "--give-up",
+        type=float,
+        default=1.0,  # sitl.vehicle.vehicle.LOCKSTEP_GIVE_UP_S
+        help="lock-step: wall seconds without an echo before the vehicle runs free "
+        "(default 1; longer on a loaded machine)",
+    )
     ap.add_argument("--tlog", type=Path, default=None, help="write every message sent to this telemetry log")
     return ap.parse_args(argv)
 
@@ -59,6 +66,8 @@ def main(argv: list[str] | None = None) -> int:
 
     if a.speed < 0 or a.speed != a.speed:
         return fail(f"--speed {a.speed} must be >= 0")
+    if not (a.give_up > 0 and math.isfinite(a.give_up)):
+        return fail(f"--give-up {a.give_up} must be a positive number of seconds")
     params_path = a.params or DEFAULT_PARAMS
     if not params_path.is_file():
         return fail(f"parameter file {params_path} not found (give --params FILE)")
@@ -100,7 +109,14 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         v = Vehicle(
-            links, params, scenario, script=script, speed=a.speed, lockstep=a.lockstep, legs_link=legs
+            links,
+            params,
+            scenario,
+            script=script,
+            speed=a.speed,
+            lockstep=a.lockstep,
+            legs_link=legs,
+            give_up_s=a.give_up,
         )
     except Exception as exc:
         links.close()

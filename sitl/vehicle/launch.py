@@ -80,6 +80,7 @@ def start_vehicle(
     legboard_period_ms: float | None = None,
     extra_endpoints: list[str] | None = None,
     timeout: float = 60.0,
+    give_up_s: float | None = None,
 ) -> VehicleProcess:
     """Start ``python -m sitl.vehicle`` listening on a free TCP port; returns once it is ready.
     ``params`` may be a dict written to a .parm file. Raises RuntimeError with its stderr if it fails."""
@@ -112,6 +113,8 @@ def start_vehicle(
         cmd += ["--scenario", str(sp)]
     if lockstep:
         cmd.append("--lockstep")
+    if give_up_s is not None:
+        cmd += ["--give-up", str(give_up_s)]
     if legboard_control is not None:
         cmd += ["--legboard-control", str(legboard_control)]
     if legboard_period_ms is not None:

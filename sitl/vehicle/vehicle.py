@@ -38,9 +38,11 @@ class Vehicle:
         speed: float = 1.0,
         lockstep: bool = False,
         legs_link=None,
+        give_up_s: float = LOCKSTEP_GIVE_UP_S,
     ) -> None:
         self.links, self.params, self.scn = links, params, scenario
         self.speed, self.lockstep, self.legs = speed, lockstep, legs_link
+        self.give_up_s = give_up_s
         self.rng = np.random.default_rng(scenario.seed)
         self.stepper, self.world = start_on_ground(scenario)
         self.judge = LandingJudge(self.stepper)  # each landing's record, as the model judges it
@@ -389,7 +391,7 @@ class Vehicle:
             # else it reads may carry a newer stamp, and both would wait for the give-up
             self.links.send(system_time(self))
         while self.running and self.echo_t is not None and self.t - self.echo_t > LOCKSTEP_LEAD_S:
-            if time.monotonic() - self.echo_wall > LOCKSTEP_GIVE_UP_S:
+            if time.monotonic() - self.echo_wall > self.give_up_s:
                 self.echo_t = None  # the companion went away: run free until it echoes again
                 return
             got = self.links.receive()
