@@ -299,8 +299,9 @@ class Rig:
         """``arducopter_speedup``: ArduCopter's ``--speedup``. It is lock-stepped with the physics
         only, not with the companion or the leg board, so at 4 a second of vehicle time (the board's
         silence limit, the reflex's validity) can be a quarter second of wall time; 1 is real time.
-        The default 2 leaves a loaded machine's companion room (at 4 the reflex's validity lapsed
-        in 3 of 24 landings on a machine at load 5-17, at 1 in none of 24)."""
+        The default is real time, as on a vehicle: at 4 the reflex's validity lapsed in 3 of 24
+        landings on a machine at load 5-17 (at 1 in none of 24), and at 2 it lapsed with two CPU
+        hogs beside the flight (2026-11-26)."""
         if autopilot not in AUTOPILOTS:
             raise ValueError(f"autopilot must be one of {', '.join(AUTOPILOTS)}, not {autopilot!r}")
         if not (math.isfinite(arducopter_speedup) and arducopter_speedup > 0):

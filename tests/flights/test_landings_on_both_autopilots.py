@@ -410,7 +410,7 @@ def test_a_short_cut_in_the_descent_is_ridden_out_and_a_long_one_in_reverse_ends
     if silent_wall < lander.cfg["link.link_loss_s"] - 0.2:
         assert "LINK_LOST" not in states and "ABORTED" not in states, story(rig, lander)
     # cut for 2.5 s of the companion's clock, which judges the loss (1.5 s): on the simulated
-    # vehicle 2.5 s of vehicle time (the relay paces it), on ArduCopter at twice real time 5 s
+    # vehicle 2.5 s of vehicle time (the relay paces it), on ArduCopter (real time in the rig) 2.5 s
     rig.relay.cut(None)
     poll_for(lander, 2.5)
     lost = [h["to"] for h in lander.machine.history[i_reverse(lander) :]]
