@@ -132,8 +132,10 @@ def row(s: float, h: float, results: list[tuple[object, float]], cfg) -> str:
                 if 0 <= pilot <= 60:
                     tally[1] += 1
                     tally[0] += pilot_refusal(float(pilot), est, bound) is not None
-    took = np.mean([t for _e, t in results])
     ok, n = len(errs), len(results)
+    if not n:
+        return f"{s:5.0f}  {h:5.1f}  no pass flown"
+    took = np.mean([t for _e, t in results])
     if not ok:
         return f"{s:5.0f}  {h:5.1f}  all {n} refused{'':70}{took:8.1f}"
     return (
