@@ -30,6 +30,20 @@ def plain(base):
     return truth_states(base, COND, T)[0]
 
 
+def test_a_sliding_drop_agrees_past_the_slide_criterion(base):
+    """The steepest drop of the hidden-effect sets slides on past the model's slide criterion:
+    both integrations keep it sliding. Until 2026-11-26 the model's recording stopped at the
+    decision (x held at 0.654 m from 0.49 s while the truth slid to 0.893 m at 0.59 s), which
+    read as a systematic model error of 1.8 noise floors on the control and hid slip-weakening
+    feet. Measured after the fix: 9 mm apart at 0.59 s."""
+    cond = LandingConditions(slope_deg=42.9, speed=2.79, tau_up=1.1, tau_down=2.3)
+    t = np.arange(-2, 121) * 0.005
+    truth = truth_states(base, cond, t)[0]
+    kernel = true_states(base, cond, t)[0]
+    assert truth[-1, 0] - truth[60, 0] > 0.3  # it slides on (m, 0.3 s to 0.6 s)
+    assert np.abs(truth[:, 0] - kernel[:, 0]).max() < 0.02
+
+
 def test_with_nothing_hidden_it_agrees_with_the_model(base, plain):
     """Two integrations of the same equations (solve_ivp at rtol 1e-7 against the kernel's
     0.42 ms semi-implicit step): they differ, but by less than the motion capture's noise.

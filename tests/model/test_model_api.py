@@ -1,5 +1,7 @@
 """The three entry points agree, and bad conditions are refused by name."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -35,6 +37,23 @@ def test_recording_to_the_horizon_does_not_change_the_outcome(model):
     assert full.result == short.result
     assert full.t[-1] == pytest.approx(model.criteria.horizon, abs=0.01)
     assert np.all(np.diff(full.t) == pytest.approx(0.005))
+
+
+def test_a_slide_is_recorded_to_the_horizon_still_sliding(model):
+    """A landing that slides past the slide criterion (the outcome is decided there) is
+    recorded on to the horizon, moving: a recording cut at the decision held the vehicle still
+    mid-slide, and a fit then compared sliding drops with a model frozen 24 cm short (a 42.9 deg
+    drop, 0.6 s after contact)."""
+    c = LandingConditions(slope_deg=42.9, speed=2.79, tau_up=1.1, tau_down=2.3)
+    model = model.without("downhill_torque_growth", "downhill_friction_growth")  # (with: it flips)
+    full = simulate(c, model, full_horizon=True)
+    short = simulate(c, model, full_horizon=False)
+    assert dataclasses.astuple(full.result) == pytest.approx(dataclasses.astuple(short.result), nan_ok=True)
+    assert full.result.outcome == Outcome.SLID
+    assert full.t[-1] == pytest.approx(model.criteria.horizon, abs=0.01)
+    assert short.t[-1] < 1.0  # decided mid-slide
+    after = full.t > short.t[-1] + 0.1
+    assert np.all(np.diff(full.states[after, 0]) > 0), "the vehicle stopped in the recording"
 
 
 def test_stepper_lands_like_simulate(model):

@@ -1294,7 +1294,10 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res):
             if settled:
                 res[O_TSETTLE] = st[S_T] - st[S_TIMP] - st[S_REST]
             frozen = True
-            if stop_at_settle or not settled or over:
+            # the outcome is decided; a recording of the whole horizon goes on after a settle
+            # or a slide (a sliding vehicle keeps moving: cut short, a fit would compare
+            # measured drops with a model frozen mid-slide), not after a flip
+            if stop_at_settle or flip or over:
                 break
     return n_rec
 

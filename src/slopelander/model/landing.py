@@ -295,7 +295,8 @@ def simulate(
     """Simulate one landing and sample it at ``sample_rate`` Hz (motion capture: 200 Hz).
 
     With ``full_horizon`` the recording goes on to the end of the horizon after the vehicle
-    settles; the outcome is the same either way.
+    settles or once it has slid past the slide criterion (it ends at a flip); the outcome is
+    the same either way.
     """
     conditions = conditions or LandingConditions()
     model, h = _prepare(model, dt)
