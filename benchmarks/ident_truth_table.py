@@ -54,6 +54,47 @@ def conditions(name: str, seed: int):
     return paper_drops(10, seed=seed)
 
 
+class DiskCache:
+    """The truth's dense integrations kept in a folder (``--cache``), one ``.npz`` per drop and
+    hidden effect, so that a run split over processes or stopped and resumed integrates each
+    drop once. Keyed by a hash of the drop's full description (effect, values, conditions,
+    duration) and of the truth's own source, so a changed truth is integrated again."""
+
+    def __init__(self, folder: Path):
+        import hashlib
+
+        from slopelander.ident.truth import physics
+
+        self.folder = folder
+        folder.mkdir(parents=True, exist_ok=True)
+        self._salt = hashlib.sha256(Path(physics.__file__).read_bytes()).hexdigest()[:12]
+
+    def _path(self, key) -> Path:
+        import hashlib
+
+        return self.folder / (hashlib.sha256(f"{self._salt}{key!r}".encode()).hexdigest()[:24] + ".npz")
+
+    def __contains__(self, key) -> bool:
+        return self._path(key).exists()
+
+    def __getitem__(self, key):
+        import numpy as np
+
+        from slopelander.model import Outcome
+
+        with np.load(self._path(key)) as z:
+            code = int(z["outcome"])
+            return z["states"], (Outcome(code) if code >= 0 else None)
+
+    def __setitem__(self, key, value) -> None:
+        import numpy as np
+
+        states, outcome = value
+        tmp = self._path(key).with_suffix(".tmp.npz")
+        np.savez(tmp, states=states, outcome=np.int64(int(outcome) if outcome is not None else -1))
+        tmp.replace(self._path(key))  # whole or absent: a stopped run leaves no half file
+
+
 def table(rows: list[dict]) -> str:
     """The markdown table of saved runs."""
     out = [
@@ -94,6 +135,7 @@ def main() -> int:
     ap.add_argument("--ls-evals", type=int, default=5)
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", type=Path, help="append one JSON line per run here")
+    ap.add_argument("--cache", type=Path, help="keep the truth integrations here (reused)")
     ap.add_argument("--table", type=Path, nargs="+", help="only print the table of saved runs (--out files)")
     args = ap.parse_args()
     if args.table:
@@ -103,7 +145,7 @@ def main() -> int:
     base = Model.default().without("downhill_torque_growth", "downhill_friction_growth")
     users = [e for f in FILES for e in load_effects(f)]
     mocap = MotionCapture()
-    cache: dict = {}
+    cache = DiskCache(args.cache) if args.cache else {}
     rows = []
     runs = [(name, seed) for seed in range(args.seeds[0], args.seeds[1] + 1) for name in args.sets]
     for name, seed in tqdm(runs, desc="diagnose runs", unit="run", file=sys.stderr):
