@@ -37,6 +37,10 @@ from slopelander.legs.errors import LegTimeout
 ROOF_X_M = 3.0
 ROOF_Z_M = 0.5
 OVER_ROOF_X_M = 5.5
+#: m between the ridge and the straight line the vehicle's origin flies over it (its feet hang
+#: about 0.2 m below the origin; ArduCopter's descent is slower than its forward flight, so its
+#: path bends above the straight line)
+RIDGE_CLEARANCE_M = 0.3
 # A lock-stepped vehicle may run slower than real time on a loaded machine, while the companion
 # counts link silence in local time: heartbeats at 5 Hz of vehicle time keep a slow simulation
 # from reading as a lost link (ArduPilot honours SET_MESSAGE_INTERVAL for HEARTBEAT as well).
@@ -543,10 +547,21 @@ class Rig:
         self.fly_until(there, vehicle_s, f"reach x={x:.2f} z={z:.2f}", send=throttled)
 
     def go_over_roof(self, height_m: float = 2.0, x: float = OVER_ROOF_X_M, vehicle_s: float = 60.0) -> None:
-        """Hover ``height_m`` above the roof surface at world ``x`` (over the pad first if needed)."""
+        """Hover ``height_m`` above the roof surface at world ``x`` (over the pad first if needed).
+
+        From the pad side the vehicle climbs to the target's height if it is lower, then flies
+        straight to the target unless that line passes within :data:`RIDGE_CLEARANCE_M` of the
+        ridge: then it crosses level, clear of it, and descends over the target. A spot low on a
+        steep roof is below the ridge (60 deg, 1 m over the surface at x = 5.5: 3.3 m below it),
+        and the straight line from the pad ran into the roof: the vehicle never arrived."""
         z = self.surface_z(x) + height_m
         if self.track.pos and self.track.pos[-1][1] < ROOF_X_M:
-            self.goto(self.track.pos[-1][1], max(z, self.height()), vehicle_s)
+            x0 = self.track.pos[-1][1]
+            z0 = max(z, self.height())
+            self.goto(x0, z0, vehicle_s)
+            z_ridge = z0 + (z - z0) * (ROOF_X_M - x0) / (x - x0) if x > ROOF_X_M else z0
+            if z_ridge < ROOF_Z_M + RIDGE_CLEARANCE_M:
+                self.goto(x, max(z0, ROOF_Z_M + RIDGE_CLEARANCE_M), vehicle_s)
         self.goto(x, z, vehicle_s)
 
     def land(

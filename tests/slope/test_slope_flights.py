@@ -178,3 +178,31 @@ def test_no_survey_on_a_vehicle_on_the_ground(why: str) -> None:
     assert took == 0.0
     assert not est.ok and est.slope_deg is None
     assert "too little seen" in est.refusal and ("GUIDED" in est.refusal or why in est.refusal), est.refusal
+
+
+def test_a_pass_low_over_a_60_deg_roof_turns_back_uphill_before_the_roof() -> None:
+    """1 m over a 60 deg roof the pass's first metre south (uphill) would rise the roof 1.7 m
+    into the vehicle (before 2026-11-26 it did: the uphill feet touched, range 0.49 m): it turns
+    back where the range will fall below ``slope.survey_min_range_m`` by the time the vehicle
+    has braked, and nothing touches the roof. Too little is then seen uphill to trust an
+    estimate: refused, as a bad estimate must be (measured: 0.27 m seen south, 0.3 m needed)."""
+    cfg = config()
+    notes: list[str] = []
+    with Rig(slope_deg=60.0, seed=60) as rig:
+        rig.take_off(3.0)
+        rig.go_over_roof(1.0)
+        track = SurfaceTrack(cfg["slope.pair_window_s"])
+        rig.link.add_listener(track.feed)
+        t0 = rig.now
+        est, took = measure_slope(rig.link, cfg, track, tick=rig.poll, note=notes.append)
+        contacts = rig.track.event_times("EV_CONTACT", t0)
+        ranges = [r for t, r in track.ranges if t >= t0]
+        south = min(p[1] for p in rig.track.pos if p[0] >= t0)
+    assert took > 0 and not contacts, (took, contacts)
+    assert any("turned back" in n for n in notes), notes
+    assert min(ranges) > 0.6, min(ranges)  # the uphill feet are about 0.5 m nearer the roof
+    assert south > 5.5 - 0.5, south  # turned well short of the pass's 1 m south
+    if est.refusal is not None:  # refused for what it could not see, not for the pass
+        assert "south of the spot" in est.refusal, est.refusal
+    else:
+        assert abs(est.slope_deg - 60.0) < 3 * est.sigma_deg, est.describe()

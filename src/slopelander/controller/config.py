@@ -84,6 +84,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "slope.height_walk_m": (0.0, 1.0, False),
     "slope.survey_length_m": (0.4, 20.0, False),
     "slope.survey_speed_mps": (0.05, 3.0, False),
+    "slope.survey_min_range_m": (0.2, 3.0, False),
     "slope.survey_timeout_s": (1.0, 600.0, False),
 }
 RC_PRESET_LIMITS = {

@@ -3,7 +3,8 @@ spot, and when that is too little, a short survey pass the companion flies itsel
 
 The pass: in GUIDED, armed, at the hover's height (NED down held), a position target moving at
 ``slope.survey_speed_mps`` from the spot ``slope.survey_length_m``/2 south, then the whole length
-north, then back to the spot, where the vehicle must come to rest before the landing starts. It
+north, then back to the spot, where the vehicle must come to rest before the landing starts; it
+turns back early where the range falls below ``slope.survey_min_range_m`` (the roof rising). It
 is flown before the state machine starts because the preset (PRESET, the first state) is chosen
 from the slope. A vehicle not in GUIDED or not armed is not flown: the estimate is refused.
 See docs/slope-estimate.md.
@@ -24,6 +25,15 @@ SEND_HZ = 10.0
 #: at the spot again: within this (m) and slower than this (m/s)
 AT_SPOT_M = 0.15
 AT_REST_MPS = 0.1
+#: a range reading older than this (s of vehicle time) does not guard the pass
+RANGE_FRESH_S = 0.3
+#: the range's fall rate is read over this much of the newest readings (s)
+RATE_WINDOW_S = 0.25
+#: a turned-back vehicle brakes for about this long (s): its range falls on meanwhile (the
+#: simulated vehicle at 0.35 m/s: 0.15 m in 0.5 s)
+STOP_LOOKAHEAD_S = 0.6
+#: after a turn the guard waits for a range this much above the minimum before it turns again
+REARM_M = 0.1
 
 
 def survey_refusal(link: Link) -> str | None:
@@ -72,7 +82,7 @@ def measure_slope(
         return est, 0.0
     note(f"survey: {est.refusal}; flying {cfg['slope.survey_length_m']:g} m along north over the spot")
     t0 = link.clock.now()
-    done = _fly_pass(link, cfg, track, (spot_n, spot_e, spot_d), tick, wall_s)
+    done = _fly_pass(link, cfg, track, (spot_n, spot_e, spot_d), tick, wall_s, note)
     took = link.clock.now() - t0
     est = estimate(track.points(), spot_n, st)
     if done is not None:
@@ -80,14 +90,47 @@ def measure_slope(
     return est, took
 
 
-def _fly_pass(link: Link, cfg, track: SurfaceTrack, spot, tick, wall_s: float) -> str | None:
-    """Fly the pass; None when the vehicle is back at rest over the spot, else why not."""
+def low_range(track: SurfaceTrack, now: float, min_range_m: float) -> float | None:
+    """The range the vehicle will read once stopped, if the newest reading is fresh (within
+    RANGE_FRESH_S of vehicle time ``now``) and that range is below ``min_range_m``, else None.
+
+    Once stopped: the newest reading less its fall over STOP_LOOKAHEAD_S at the rate of the
+    last RATE_WINDOW_S of readings (a vehicle turned back keeps going while it brakes, and over
+    a 60 deg roof the range falls 0.7 m/s at the pass's 0.4 m/s)."""
+    if not track.ranges:
+        return None
+    t, r = track.ranges[-1]
+    if abs(now - t) > RANGE_FRESH_S:
+        return None
+    fall = 0.0
+    for t_old, r_old in reversed(track.ranges):
+        if t - t_old >= RATE_WINDOW_S:
+            fall = max(0.0, (r_old - r) / (t - t_old))
+            break
+    ahead = r - fall * STOP_LOOKAHEAD_S
+    return ahead if ahead < min_range_m else None
+
+
+def _fly_pass(
+    link: Link, cfg, track: SurfaceTrack, spot, tick, wall_s: float, note: Callable[[str], None] = print
+) -> str | None:
+    """Fly the pass; None when the vehicle is back at rest over the spot, else why not.
+
+    The target moves at the survey speed toward each end in turn, then back to the spot. The
+    pass holds its height while the surface may rise under it: where the range reads below
+    ``slope.survey_min_range_m`` (or will, by the time a vehicle turned now has stopped) the
+    target turns back at once (uphill on a steep roof: at
+    60 deg, 1 m of the pass rises the roof 1.7 m, into a vehicle hovering 1 m over the spot)."""
     n0, e0, d0 = spot
     half = cfg["slope.survey_length_m"] / 2
     v = cfg["slope.survey_speed_mps"]
-    legs = [(n0, n0 - half), (n0 - half, n0 + half), (n0 + half, n0)]
-    durations = [abs(b - a) / v for a, b in legs]
+    min_range = cfg["slope.survey_min_range_m"]
+    goals = [n0 - half, n0 + half, n0]
+    leg = 0
+    guard = True
+    target = n0
     t0 = link.clock.now()
+    last_t = t0
     limit = cfg["slope.survey_timeout_s"]
     end_wall = time.monotonic() + wall_s
     last_sent = -1.0
@@ -101,17 +144,30 @@ def _fly_pass(link: Link, cfg, track: SurfaceTrack, spot, tick, wall_s: float) -
         if el > limit or time.monotonic() > end_wall:
             _send(link, n0, e0, d0)
             return f"not back over the spot within {limit:g} s"
-        target = n0
-        rest = el
-        for (a, b), dur in zip(legs, durations, strict=True):
-            if rest <= dur:
-                target = a + (b - a) * (rest / dur if dur > 0 else 1.0)
-                break
-            rest -= dur
+        step = v * max(0.0, now - last_t)
+        last_t = now
+        if leg < len(goals):
+            goal = goals[leg]
+            if abs(goal - target) <= step:
+                target = goal
+                leg += 1
+            else:
+                target += step if goal > target else -step
+        r = low_range(track, now, min_range + REARM_M)
+        if r is None and track.ranges and abs(now - track.ranges[-1][0]) <= RANGE_FRESH_S:
+            guard = True  # clear of the surface again after a turn
+        if leg < 2 and guard and r is not None and r < min_range:  # going out: the surface rose
+            here = link.last.get("LOCAL_POSITION_NED")
+            if here is not None:  # the target leads the vehicle: turn where the vehicle is
+                target = float(here.x)
+            note(f"survey: range falling to {r:.2f} m {target - n0:+.2f} m north of the spot: turned back")
+            leg += 1
+            guard = False  # the vehicle lags the target: the next low readings are this rise's
+            last_sent = -1.0  # the new direction goes out now
         if now - last_sent >= 1.0 / SEND_HZ or now < last_sent:
             _send(link, target, e0, d0)
             last_sent = now
-        if el > sum(durations):
+        if leg >= len(goals):
             p = link.last.get("LOCAL_POSITION_NED")
             if (
                 p is not None
