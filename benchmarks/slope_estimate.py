@@ -36,7 +36,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import itertools
 
 from sitl.vehicle.world import Beam, World, beam_at
 from slopelander.controller.config import load_config
@@ -47,31 +46,49 @@ from slopelander.controller.slope_estimate import (
     estimate,
     pilot_refusal,
 )
+from slopelander.controller.survey import low_range
 
 SPOT_X = 5.5
 G = 9.80665
 RANGE_MAX_M = 3.0  # RNGFND1_MAX of every parameter file: the TeraRanger Evo 3m
 
 
-def pass_profile(length: float, speed: float, accel: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def pass_profile(
+    length: float, speed: float, accel: float, dt: float, range_at=None, min_range: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """x(t) and its acceleration of the pass: a target moving at ``speed`` through the legs, the
-    vehicle following with at most ``accel``; 1.5 s of settling at the end."""
-    legs = [SPOT_X, SPOT_X - length / 2, SPOT_X + length / 2, SPOT_X]
+    vehicle following with at most ``accel``; 1.5 s of settling at the end. With ``range_at``
+    (x -> the range a level body reads there) the companion's guard turns an outward leg back
+    where the range will fall below ``min_range`` (controller/survey.py: ``low_range`` on the
+    20 Hz readings, 50 ms old)."""
+    goals = [SPOT_X - length / 2, SPOT_X + length / 2, SPOT_X]
     xs, acc = [SPOT_X], [0.0]
     x, v = SPOT_X, 0.0
-    for a, b in itertools.pairwise(legs):
-        d = math.copysign(1.0, b - a)
-        while (b - x) * d > 1e-3:
-            # brake to stop at b, else speed up to `speed`
-            stop = v * v / (2 * accel)
-            want = 0.0 if abs(b - x) <= stop + 1e-9 else d * speed
-            dv = max(-accel * dt, min(accel * dt, want - v))
-            v += dv
-            x += v * dt
-            xs.append(x)
-            acc.append(dv / dt)
-            if abs(v) < 1e-6 and want == 0.0:
-                break
+    seen = SurfaceTrack(0.1)
+    t = 0.0
+    k = 0
+    while k < len(goals):
+        b = goals[k]
+        d = math.copysign(1.0, b - x)
+        # brake to stop at b, else speed up to `speed`
+        stop = v * v / (2 * accel)
+        want = 0.0 if abs(b - x) <= stop + 1e-9 else d * speed
+        dv = max(-accel * dt, min(accel * dt, want - v))
+        v += dv
+        x += v * dt
+        t += dt
+        xs.append(x)
+        acc.append(dv / dt)
+        if range_at is not None and round(t * 1000) % 50 == 25:
+            r = range_at(xs[max(0, len(xs) - 1 - round(0.05 / dt))])
+            if math.isfinite(r) and r < RANGE_MAX_M:
+                seen.add(t, range_m=r)
+                guarded = k == 0 or (k == 1 and x >= SPOT_X)
+                if guarded and low_range(seen, t, min_range) is not None:
+                    k += 1  # turned back where the vehicle is
+                    continue
+        if ((b - x) * d <= 1e-3) or (abs(v) < 1e-6 and want == 0.0):
+            k += 1
     for _ in range(int(1.5 / dt)):
         xs.append(x)
         acc.append(0.0)
@@ -83,10 +100,10 @@ def one_pass(
 ) -> tuple[object, float]:
     world = World(slope_deg, 3.0, 0.5, beam=Beam(args.beam_deg, args.ret, 0.1))
     dt = 0.0025  # the vehicle's 400 Hz control tick
-    xs, acc = pass_profile(2.0, 0.4, 1.0, dt)
-    t = np.arange(xs.size) * dt
     surf = world.roof_z - (SPOT_X - world.roof_x) * math.tan(math.radians(slope_deg))
     z_up = surf + height
+    xs, acc = pass_profile(2.0, 0.4, 1.0, dt, lambda x: beam_at(world, x, z_up, 0.0), args.min_range)
+    t = np.arange(xs.size) * dt
     bias = math.radians(rng.normal(0, args.att_bias))
     drift = np.cumsum(rng.normal(0, 0.01 * math.sqrt(dt), xs.size))
     tr = SurfaceTrack(0.1)
@@ -294,6 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         summarize(args.summarize, cfg)
         return 0
     st = EstimateSettings.from_config(cfg)
+    args.min_range = cfg["slope.survey_min_range_m"]
     slopes = [float(v) for v in args.slopes.split(",")]
     heights = [float(v) for v in args.heights.split(",")]
     if args.autopilot == "ardupilot" and not args.flown:

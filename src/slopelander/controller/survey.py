@@ -32,8 +32,6 @@ RATE_WINDOW_S = 0.25
 #: a turned-back vehicle brakes for about this long (s): its range falls on meanwhile (the
 #: simulated vehicle at 0.35 m/s: 0.15 m in 0.5 s)
 STOP_LOOKAHEAD_S = 0.6
-#: after a turn the guard waits for a range this much above the minimum before it turns again
-REARM_M = 0.1
 
 
 def survey_refusal(link: Link) -> str | None:
@@ -127,7 +125,6 @@ def _fly_pass(
     min_range = cfg["slope.survey_min_range_m"]
     goals = [n0 - half, n0 + half, n0]
     leg = 0
-    guard = True
     target = n0
     t0 = link.clock.now()
     last_t = t0
@@ -153,16 +150,16 @@ def _fly_pass(
                 leg += 1
             else:
                 target += step if goal > target else -step
-        r = low_range(track, now, min_range + REARM_M)
-        if r is None and track.ranges and abs(now - track.ranges[-1][0]) <= RANGE_FRESH_S:
-            guard = True  # clear of the surface again after a turn
-        if leg < 2 and guard and r is not None and r < min_range:  # going out: the surface rose
-            here = link.last.get("LOCAL_POSITION_NED")
-            if here is not None:  # the target leads the vehicle: turn where the vehicle is
-                target = float(here.x)
+        here = link.last.get("LOCAL_POSITION_NED")
+        north = float(here.x) if here is not None else target
+        # guarded: going out south, and north of the spot going out north (between the south
+        # end and the spot the vehicle has just flown; a turn there would undo the pass)
+        guarded = leg == 0 or (leg == 1 and north >= n0)
+        r = low_range(track, now, min_range) if guarded else None
+        if r is not None:  # the surface rises ahead
+            target = north  # the target leads the vehicle: turn where the vehicle is
             note(f"survey: range falling to {r:.2f} m {target - n0:+.2f} m north of the spot: turned back")
             leg += 1
-            guard = False  # the vehicle lags the target: the next low readings are this rise's
             last_sent = -1.0  # the new direction goes out now
         if now - last_sent >= 1.0 / SEND_HZ or now < last_sent:
             _send(link, target, e0, d0)
