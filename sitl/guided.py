@@ -27,6 +27,27 @@ def armed_in(link) -> tuple[int | None, bool]:
     return hb.custom_mode, bool(hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
 
+#: the throttle stick at the bottom (RC3_MIN of every parameter file)
+THROTTLE_DOWN_US = 1000
+
+
+def throttle_override(link, pwm: int) -> None:
+    """Override RC channel 3 with ``pwm`` (0: release it), the other channels untouched, as the
+    pilot's ground station: ArduCopter takes RC overrides only from its system id
+    (MAV_GCS_SYSID, 255), not from the companion's."""
+    if link.info is None:
+        return
+    ignore = 65535  # UINT16_MAX: not overridden
+    msg = GCS_ENCODER.rc_channels_override_encode(
+        link.info.system, link.info.component, ignore, ignore, pwm, *([ignore] * 5)
+    )
+    link.conn.write(msg.pack(GCS_ENCODER))
+
+
+#: packs messages as the ground station (system 255, MAVProxy's component 190)
+GCS_ENCODER = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+
+
 def arm_in_guided(
     link,
     poll: Callable[[], None],
@@ -35,12 +56,17 @@ def arm_in_guided(
     wall_s: float = 300.0,
 ) -> None:
     """Put the vehicle in GUIDED and arm it; raises TimeoutError (with the autopilot's last words)
-    when it has not within ``vehicle_s`` of vehicle time or ``wall_s`` of wall time."""
+    when it has not within ``vehicle_s`` of vehicle time or ``wall_s`` of wall time.
+
+    The pilot holds the throttle stick down meanwhile (an RC override of channel 3, released once
+    armed): ArduCopter arms only with it down, from a ground station in GUIDED too
+    (AP_Arming::rc_arm_checks, RC_OPTIONS bit 5), and a scenario's pilot may hold it centred."""
     t0, end = link.clock.now(), time.monotonic() + wall_s
     asked, handle = -1e9, None
     while True:
         mode, armed = armed_in(link)
         if mode == GUIDED and armed:
+            throttle_override(link, 0)  # released: the scenario's stick again
             return
         now = link.clock.now()
         if now - t0 > vehicle_s or time.monotonic() > end:
@@ -51,6 +77,7 @@ def arm_in_guided(
             if mode != GUIDED:
                 handle = link.command(mavlink.MAV_CMD_DO_SET_MODE, 1, GUIDED)
             else:
+                throttle_override(link, THROTTLE_DOWN_US)
                 handle = link.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM if force else 0)
         poll()
         time.sleep(0.002)

@@ -95,6 +95,15 @@ class _Client:
                 return
         raise SequenceError(f"the vehicle did not {what} within {timeout_s:.0f} s")
 
+    def rc_throttle(self, pwm: int, settle_s: float = 0.5) -> None:
+        """Override RC channel 3 (the throttle) with ``pwm``, the other channels untouched, and
+        give the autopilot ``settle_s`` to read it (sent every 0.1 s meanwhile)."""
+        ignore = 65535  # UINT16_MAX: this channel is not overridden
+        end = time.monotonic() + settle_s
+        while time.monotonic() < end:
+            self.conn.mav.rc_channels_override_send(self.ts, self.tc, ignore, ignore, pwm, *([ignore] * 5))
+            self._recv(0.1)
+
     def height(self) -> float | None:
         lp = self.last.get("LOCAL_POSITION_NED")
         return None if lp is None else -lp.z
@@ -160,6 +169,11 @@ def run_sequence(
     rec("takeoff_disarmed", M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 2.0)
     rec("disarm_disarmed", M.MAV_CMD_COMPONENT_ARM_DISARM, 0)
     rec("unknown_command", M.MAV_CMD_USER_5)
+    # the pilot's throttle stick centred (an RC override; ArduCopter keeps it RC_OVERRIDE_TIME,
+    # 3 s): GUIDED arming from the ground station is refused all the same (RC_OPTIONS bit 5)
+    c.rc_throttle(1500)
+    rec("arm_throttle_centred", M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    c.rc_throttle(1000)
     rec("arm", M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     rec("arm_armed", M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     rec("servo_on_motor_1", M.MAV_CMD_DO_SET_SERVO, 1, 1500)

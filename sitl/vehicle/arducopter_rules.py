@@ -69,6 +69,7 @@ def arming_failure(
     arming_check: float,
     pilot_climb: bool,
     throttle_stick_up: bool,
+    rc_options: int = 32,
 ) -> str | None:
     """The first reason an arming attempt with checks fails (the STATUSTEXT it sends), or None.
 
@@ -78,7 +79,11 @@ def arming_failure(
     only from the GCS or a script, RTL/LAND/BRAKE never) "<MODE> mode not armable"; with
     ARMING_CHECK not 0, a lean acos(cos roll cos pitch) above ANGLE_MAX is "Leaning", and outside
     GCS/script arming in GUIDED, a pilot climb demand or (manual-throttle modes) throttle above
-    zero is "Throttle too high". The motor emergency stop: AP_Arming::estop_checks."""
+    zero is "Throttle too high". The motor emergency stop: AP_Arming::estop_checks. Then, for
+    every method, GCS in GUIDED too, AP_Arming::rc_arm_checks (libraries/AP_Arming/AP_Arming.cpp,
+    from AP_Arming::arm_checks): with RC_OPTIONS bit 5 (ARMING_CHECK_THROTTLE, ArduCopter's
+    default 32) the throttle's control input must be zero, the stick at the bottom within its
+    dead zone: "Throttle (RC3) is not neutral" (RC input is always present here, as in SITL)."""
     if estop:
         return "Arm: Motors Emergency Stopped"
     armable = modes.ARMABLE if method in (GCS, SCRIPTING) else modes.ARMABLE - {modes.GUIDED}
@@ -93,7 +98,20 @@ def arming_failure(
         manual = mode in modes.MANUAL_THROTTLE
         if pilot_climb or (manual and throttle_stick_up):
             return "Arm: Throttle too high"
+    if rc_options & RC_OPTION_ARMING_CHECK_THROTTLE and throttle_stick_up:
+        return "Arm: Throttle (RC3) is not neutral"
     return None
+
+
+#: RC_OPTIONS bit 5 (RC_Channels::Option::ARMING_CHECK_THROTTLE): arm only with the throttle down
+RC_OPTION_ARMING_CHECK_THROTTLE = 32
+
+
+def rc_override_accepted(source_system: int, gcs_sysid: int = 255) -> bool:
+    """GCS_MAVLINK::handle_rc_channels_override (libraries/GCS_MAVLink/GCS_Common.cpp) takes an
+    RC_CHANNELS_OVERRIDE only from the ground station's system id (MAV_GCS_SYSID, formerly
+    SYSID_MYGCS, default 255): a companion on the vehicle's own id 1 overrides nothing."""
+    return source_system == gcs_sysid
 
 
 # ---------------------------------------------------------------------------------------------

@@ -284,6 +284,8 @@ def _data_stream(v: Vehicle, chan: int, m) -> None:
 
 
 def _rc_override(v: Vehicle, chan: int, m) -> None:
+    if not rules.rc_override_accepted(m.get_srcSystem(), int(v.params["MAV_GCS_SYSID"])):
+        return
     for i in range(1, 9):
         pwm = getattr(m, f"chan{i}_raw")
         if pwm not in (0, 65535):

@@ -23,6 +23,8 @@ VEHICLE_DEFAULTS: dict[str, float] = {
     "PILOT_SPEED_DN": 0,
     "ANGLE_MAX": 3000,  # cdeg
     "ARMING_CHECK": 1,
+    "RC_OPTIONS": 32,  # ArduCopter's default: ARMING_CHECK_THROTTLE (arm with the throttle down)
+    "MAV_GCS_SYSID": 255,  # the ground station's system id: RC overrides only from it
     "INS_ACCEL_FILTER": 20,  # Hz
     "INS_GYRO_FILTER": 20,  # Hz
     "RNGFND1_TYPE": 0,

@@ -111,6 +111,7 @@ class Vehicle:
             self.params["ARMING_CHECK"],
             pilot_climb=self.mode in (modes.ALT_HOLD, modes.LOITER) and _stick(self.rc(3)) > 0,
             throttle_stick_up=self.rc(3) > 1000 + 30,
+            rc_options=int(self.params["RC_OPTIONS"]),
         )
 
     def arm(self, force: bool, source: str = rules.GCS) -> bool:

@@ -23,6 +23,28 @@ def test_ground_station_disarm_waits_for_the_land_detector_the_script_does_not()
     assert not r.disarm_refused(r.SCRIPTING, checks=True, land_complete=False, manual_throttle=False)
 
 
+def test_arming_in_guided_from_the_ground_station_needs_the_throttle_down():
+    """AP_Arming_Copter skips its "Throttle too high" for GCS arming in GUIDED, but
+    AP_Arming::rc_arm_checks (RC_OPTIONS bit 5, the default) still wants the stick at the bottom."""
+
+    def why(stick_up: bool, rc_options: int = 32, method: str = r.GCS, arming_check: float = 1) -> str | None:
+        return r.arming_failure(
+            modes.GUIDED, method, False, 0.0, 3000, arming_check, False, stick_up, rc_options
+        )
+
+    assert why(False) is None
+    assert why(True) == "Arm: Throttle (RC3) is not neutral"
+    assert why(True, method=r.SCRIPTING) == "Arm: Throttle (RC3) is not neutral"
+    assert why(True, rc_options=0) is None  # the check switched off
+    assert why(True, arming_check=0) is None  # no checks at all
+
+
+def test_rc_overrides_only_from_the_ground_station():
+    assert r.rc_override_accepted(255)
+    assert not r.rc_override_accepted(1)  # the companion's (and the vehicle's) own id
+    assert r.rc_override_accepted(7, gcs_sysid=7)
+
+
 def test_sitl_rangefinder_value_meaning():
     assert r.sitl_rangefinder(-1.0, 0.1, 3.0) == (0.0, r.OUT_OF_RANGE_LOW)  # too close, not a dropout
     assert r.sitl_rangefinder(math.nan, 0.1, 3.0)[1] == r.NO_DATA
