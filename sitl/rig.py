@@ -326,6 +326,7 @@ class Rig:
         self.leg_silences: list[
             tuple[float, str]
         ] = []  # (vehicle time, what) the rig reopened the board after
+        self._stick_held, self._stick_sent = False, -1e9  # pilot_stick_down_while_disarmed
         try:
             if autopilot == "ardupilot":
                 from sitl.ardupilot import start_arducopter
@@ -491,6 +492,22 @@ class Rig:
         return ROOF_Z_M - (x - ROOF_X_M) * math.tan(math.radians(self.slope_deg))
 
     # ------------------------------------------------------------------- flying
+    def pilot_stick_down_while_disarmed(self) -> None:
+        """The pilot's habit, for a scenario whose pilot holds the throttle centred: the stick
+        goes to the bottom while the vehicle is disarmed (ArduCopter arms only so, even for a
+        companion's take-off in GUIDED: AP_Arming::rc_arm_checks) and back up once it is armed.
+        Call it from the loop that polls; it sends at most twice a second."""
+        from sitl.guided import THROTTLE_DOWN_US, throttle_override
+
+        now = time.monotonic()
+        if self.armed():
+            if self._stick_held:
+                throttle_override(self.link, 0)
+                self._stick_held = False
+        elif now - self._stick_sent >= 0.5:
+            throttle_override(self.link, THROTTLE_DOWN_US)
+            self._stick_held, self._stick_sent = True, now
+
     def set_legs(self, up: float, down: float, vehicle_s: float = 30.0) -> None:
         op = self.legs.start_presets(up, down, tolerance_nm=0.15, timeout=vehicle_s)
         self.fly_until(lambda: op.done, vehicle_s, "set the legs")

@@ -772,3 +772,33 @@ def test_a_link_lost_in_the_takeoff_and_back_never_leaves_it_armed_on_the_roof_i
     assert m.history[-1]["from"] == "LINK_LOST" and m.history[-1]["to"] == back_to, m.history[-1]
     if back_to != "ABORTED":
         assert ("set_mode", "LOITER") not in act.calls[n:]
+
+
+class RefusesToArm(Recorder):
+    """An autopilot that answers every arm with a refusal (ArduCopter with the pilot's throttle
+    stick up: "Arm: Throttle (RC3) is not neutral")."""
+
+    def refused(self, key: str) -> bool:
+        return key == "arm"
+
+
+def test_a_take_off_the_autopilot_will_not_arm_for_is_asked_again_then_ends_landed():
+    """Found on ArduCopter's rule in the stand-in: TAKEOFF waited out its 15 s for a clear range
+    with the vehicle disarmed on the roof and ended READY ("legs left clamped"), as if it flew."""
+    from slopelander.controller.states.takeoff import ARM_RETRY_S, ARM_WAIT_S
+
+    act = RefusesToArm()
+    m = Machine(Context(cfg=load_config(), act=act, preset=(0.8, 1.5), next_preset=(0.6, 1.2)), io.StringIO())
+    t = run_to(m, "LANDED")
+    m.step(replace(OK, t=t + 0.02, range_m=0.1, armed=False, takeoff_request=True))
+    assert m.name == "TAKEOFF"
+    asked = act.names().count("takeoff")
+    t0 = t + 0.02
+    while m.name == "TAKEOFF" and t < t0 + ARM_WAIT_S + 1.0:
+        t += 0.1
+        m.step(replace(OK, t=t, range_m=0.1, armed=False))
+    assert m.name == "LANDED", m.history[-1]
+    assert "take-off refused" in m.history[-1]["reason"] and "throttle" in m.history[-1]["reason"]
+    again = act.names().count("takeoff") - asked
+    assert ARM_WAIT_S / ARM_RETRY_S - 2 <= again <= ARM_WAIT_S / ARM_RETRY_S + 1, again
+    assert "loosen" not in " ".join(act.names())  # legs clamped on the roof

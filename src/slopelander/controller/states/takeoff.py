@@ -18,6 +18,11 @@ RESEED_S = 1.0
 #: no believed clear range within this (vehicle time): the climb goes on without the legs
 #: loosened (clamped legs are safe in the air), the machine ends in READY and tells the pilot
 GIVE_UP_S = 15.0
+#: not armed this long after the take-off was asked (vehicle time): the autopilot refuses to arm
+#: (ArduCopter: the pilot's throttle stick not at the bottom, AP_Arming::rc_arm_checks): back to
+#: LANDED, disarmed on the roof, legs clamped; the arm is asked again every ARM_RETRY_S meanwhile
+ARM_WAIT_S = 10.0
+ARM_RETRY_S = 1.0
 
 
 def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> float:
@@ -58,9 +63,21 @@ class Takeoff(State):
         return None
 
     def step(self, ctx: Context, inp: Inputs):
+        m = ctx.marks
+        if not inp.armed:
+            waited = inp.t - ctx.entered_at
+            if waited > ARM_WAIT_S:
+                return (
+                    "LANDED",
+                    f"take-off refused: not armed within {ARM_WAIT_S:g} s (the autopilot refuses to arm: "
+                    "on ArduCopter the pilot's throttle stick must be at the bottom)",
+                )
+            if ctx.act.refused("arm") and inp.t - m.get("takeoff_sent", -1.0) >= ARM_RETRY_S:
+                m["takeoff_sent"] = inp.t  # refused (a stick up, a pre-arm check): ask again
+                ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+            # the readings below still seed the chain: the ground, before any spike
         if inp.t - ctx.entered_at > GIVE_UP_S:
             return ("READY", f"legs left clamped: no trustworthy clear range within {GIVE_UP_S:g} s")
-        m = ctx.marks
         if inp.armed and ctx.act.refused("takeoff") and inp.t - m.get("takeoff_sent", -1.0) >= 1.0:
             # on a lossy link the take-off can arrive before the arm (or the mode) and be refused
             # (found by the soak: armed on the roof, never climbing): send it again, armed now
