@@ -65,12 +65,9 @@ def problems(path: Path, ref: dict[str, dict]) -> list[str]:
             # cut at 300 characters like the values (sorted as text): a bit sorting after the
             # last listed one may have been cut (RC_OPTIONS lists 0-4, 10-13: bit 5 is cut off)
             cut = len(spec["bitmask"]) >= 300
-
-            def unknown(b: int) -> bool:
-                return b not in bits and not (cut and str(b) > keys[-1])
-
+            unknown = {b for b in range(32) if b not in bits and not (cut and str(b) > keys[-1])}
             iv = int(value)
-            if iv != value or iv < 0 or any((iv >> b) & 1 and unknown(b) for b in range(32)):
+            if iv != value or iv < 0 or any((iv >> b) & 1 for b in unknown):
                 found.append(f"{where}: {value:g} sets bits that do not exist")
     return found
 

@@ -126,7 +126,7 @@ def test_a_3s_cut_in_takeoff_goes_link_lost_and_never_loosens_the_legs_low(rig):
     assert reason in back["reason"], back
     assert run_until(rig, lander, ("READY", "ABORTED")) == "READY", lander.machine.history[i:]
     x = rig.track.pos[-1][1]
-    assert rig.armed() and rig.height() - rig.surface_z(x) > 0.5, (rig.track.pos[-1], lander.machine.history[i:])
+    assert rig.armed() and rig.height() - rig.surface_z(x) > 0.5, (rig.track.pos[-1], hist[i:])
 
 
 @pytest.mark.parametrize("state", ["REVERSE"])
