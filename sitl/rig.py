@@ -23,7 +23,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sitl.guided import arm_in_guided
+from sitl.guided import THROTTLE_DOWN_US, arm_in_guided, throttle_override
 from sitl.legs_clock import open_legs
 from sitl.linkfault import Relay
 from sitl.vehicle.launch import start_legboard, start_vehicle
@@ -497,8 +497,6 @@ class Rig:
         goes to the bottom while the vehicle is disarmed (ArduCopter arms only so, even for a
         companion's take-off in GUIDED: AP_Arming::rc_arm_checks) and back up once it is armed.
         Call it from the loop that polls; it sends at most twice a second."""
-        from sitl.guided import THROTTLE_DOWN_US, throttle_override
-
         now = time.monotonic()
         if self.armed():
             if self._stick_held:
