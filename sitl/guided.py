@@ -37,11 +37,17 @@ def throttle_override(link, pwm: int) -> None:
     (MAV_GCS_SYSID, 255), not from the companion's."""
     if link.info is None:
         return
-    ignore = 65535  # UINT16_MAX: not overridden
     msg = GCS_ENCODER.rc_channels_override_encode(
-        link.info.system, link.info.component, ignore, ignore, pwm, *([ignore] * 5)
+        link.info.system, link.info.component, *throttle_channels(pwm)
     )
     link.conn.write(msg.pack(GCS_ENCODER))
+
+
+def throttle_channels(pwm: int) -> list[int]:
+    """RC_CHANNELS_OVERRIDE's eight channels with only the throttle (3) set; UINT16_MAX leaves a
+    channel as it is."""
+    ignore = 65535
+    return [ignore, ignore, pwm, *([ignore] * 5)]
 
 
 #: packs messages as the ground station (system 255, MAVProxy's component 190)

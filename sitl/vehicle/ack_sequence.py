@@ -23,6 +23,8 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil
 
+from sitl.guided import throttle_channels
+
 M = mavutil.mavlink
 FORCE_DISARM = 21196  # GCS.h magic_force_arm_disarm_value
 TEXT_AFTER_ACK_S = 0.3
@@ -98,10 +100,9 @@ class _Client:
     def rc_throttle(self, pwm: int, settle_s: float = 0.5) -> None:
         """Override RC channel 3 (the throttle) with ``pwm``, the other channels untouched, and
         give the autopilot ``settle_s`` to read it (sent every 0.1 s meanwhile)."""
-        ignore = 65535  # UINT16_MAX: this channel is not overridden
         end = time.monotonic() + settle_s
         while time.monotonic() < end:
-            self.conn.mav.rc_channels_override_send(self.ts, self.tc, ignore, ignore, pwm, *([ignore] * 5))
+            self.conn.mav.rc_channels_override_send(self.ts, self.tc, *throttle_channels(pwm))
             self._recv(0.1)
 
     def height(self) -> float | None:
