@@ -319,6 +319,7 @@ class Rig:
         self.vehicle = None
         self.link: Link | None = None
         self.legs: LegBoard | None = None
+        self.calibration = None
         self.relay: Relay | None = None
         self.track = Track()
         self.last_flight: Flight | None = None  # for callers that fly a sequence of landings
@@ -589,16 +590,30 @@ class Rig:
         rest_s: float = 2.0,
         lander: Lander | None = None,
         until: tuple[str, ...] = ("LANDED", "ABORTED", "ESTOP", "READY"),
+        uphill_angle_deg: float | None = None,
     ) -> Flight:
         """One landing by the companion's controller (until it reaches a state in ``until``); then
-        ``rest_s`` of vehicle time with the controller still running."""
+        ``rest_s`` of vehicle time with the controller still running.
+
+        ``uphill_angle_deg`` is the uphill legs' angle the landing sets (the table's, as
+        ``slopelander land`` passes it); the flight keeps the angles the board reported when the
+        reflex was armed (ARMED: the legs change no more after it), which the model then reads."""
         cfg = cfg or load_config()
         t0 = self.now
-        angles = self.leg_angles()
         lander = lander or Lander(
-            self.link, cfg, preset, legs=self.legs, next_preset=next_preset, slope_deg=self.slope_deg
+            self.link,
+            cfg,
+            preset,
+            legs=self.legs,
+            next_preset=next_preset,
+            slope_deg=self.slope_deg,
+            uphill_angle_deg=uphill_angle_deg,
         )
-        end = lander.run(timeout_s, until=until)
+        start = time.monotonic()
+        end = lander.run(timeout_s, until=("ARMED", *until))
+        angles = self.leg_angles()
+        if end not in until:
+            end = lander.run(max(0.0, timeout_s - (time.monotonic() - start)), until=until)
         if end not in ("ABORTED", "ESTOP"):
             self.wait(rest_s, tick=lander.poll)
         self.read_events()
@@ -612,6 +627,24 @@ class Rig:
             self.track,
             lander,
             angles,
+        )
+
+    def plan(self, cfg: Config, slope_deg: float | None = None):
+        """The legs for a landing on ``slope_deg`` (the roof's by default) and the impact speed they
+        were chosen for, as ``slopelander land`` plans them (``controller.landing.plan_landing``):
+        the lookup table's torques and uphill angle, checked against the board's calibration."""
+        from slopelander.controller.landing import cut_dynamics, leg_geometry, plan_landing
+        from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+
+        return plan_landing(
+            cfg["descent.rate_mps"],
+            cfg["reflex.cut_height_m"],
+            self.slope_deg if slope_deg is None else slope_deg,
+            leg_geometry(),
+            LookupTable.load(DEFAULT_TABLE),
+            None,
+            self.calibration or load_calibration(),
+            cut_dynamics(cfg["reflex.cut_latency_s"]),
         )
 
     def leg_angles(self) -> tuple[float, float]:
