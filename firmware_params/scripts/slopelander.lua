@@ -53,6 +53,12 @@ local GRAVITY = 9.80665
 -- cut, and falls toward 0 g as the thrust decays: an impact threshold must lie well above 1 g.
 -- 2 g leaves a full g for the controller's corrections and the vibration left after the filter.
 local IMPACT_MIN = 2 * GRAVITY
+-- After the cut the specific force only falls (the thrust decays, the vehicle falls freely) until
+-- something pushes on the vehicle: the threshold counts from the lowest reading since the cut,
+-- threshold - 1 g above it, never more than the threshold itself. A soft first contact (an uphill
+-- leg near the horizontal slips at a small foot force) lifts a falling vehicle's 0.2 g by more than
+-- a g within milliseconds and is seen, where 2 g waited for the downhill feet (150-180 ms later on
+-- ArduCopter SITL at 45 and 55 deg); at the cut, before the thrust decays, it is the 2 g rule.
 -- ArduCopter reads the rangefinder at 20 Hz (ArduCopter/Copter.cpp), this script every 2-10 ms:
 -- only a new sample (a new driver reading time) counts. Two distinct samples at or below the cut
 -- height: one low glitch cannot cut.
@@ -113,6 +119,7 @@ local entered_ms = 0
 local below = 0
 local believed, believed_ms, disagree_ms, seed_ms, seed_d = nil, 0, nil, 0, 0
 local last_stamp = nil -- the driver's reading time of the newest sample seen
+local floor_a = nil -- the lowest filtered accel magnitude since the cut (m/s^2)
 local last_d = nil -- the newest sample's distance (0: too close, huge: too far), nil before any
 local far_count = 0
 local silent_said = false
@@ -425,12 +432,15 @@ local function run_reflex(t, fresh)
     if d <= reflex.cut_m then below = below + 1 else below = 0 end
     if below >= CUT_SAMPLES then
       far_count = 0
+      floor_a = nil
       enter(CUT, t)
     end
   elseif state == CUT then
     -- reverse thrust only on the ground: an impact with the range at or below the cut height
     local near = last_d ~= nil and last_d <= reflex.cut_m
-    if near and ins:get_accel(0):length() > reflex.impact then
+    local a = ins:get_accel(0):length()
+    if floor_a == nil or a < floor_a then floor_a = a end
+    if near and a > math.min(reflex.impact, floor_a + reflex.impact - GRAVITY) then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
       if last_d ~= nil and last_d > reflex.cut_m then

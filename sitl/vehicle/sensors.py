@@ -1,8 +1,12 @@
 """IMU and downward rangefinder as ArduPilot sees them, read from the model's Stepper.
 
-The IMU low-passes specific force and rate at INS_ACCEL_FILTER / INS_GYRO_FILTER (first order,
-at the physics rate) after adding noise, as ArduPilot's filtered ``ins:get_accel`` does. The
-rangefinder reads along the body down axis; faults from the scenario act on the reading.
+The IMU low-passes specific force and rate at INS_ACCEL_FILTER / INS_GYRO_FILTER after adding
+noise, as ArduPilot's filtered ``ins:get_accel`` does: a two-pole Butterworth low-pass at the
+sample rate (AP_InertialSensor.h: ``LowPassFilter2pVector3f _accel_filter``, "2-pole low-pass
+filter for accel (INS_ACCEL_FILTER)"; the biquad of libraries/Filter/LowPassFilter2p.cpp),
+started at the first sample. A first-order filter let a short impact through that ArduCopter's
+filter holds under the 2 g threshold. The rangefinder reads along the body down axis; faults from
+the scenario act on the reading.
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ class Imu:
         self.gyro = np.zeros(3)
         self.raw_accel = self.accel.copy()
         self.raw_gyro = self.gyro.copy()
+        self._accel_lp = LowPass2p()
+        self._gyro_lp = LowPass2p()
 
     def update(
         self,
@@ -47,15 +53,43 @@ class Imu:
         a[2] += spike
         g = np.array([0.0, pitch_rate, 0.0]) + self.gyro_noise * n[3:]
         self.raw_accel, self.raw_gyro = a, g
-        self.accel += _alpha(dt, cut_a_hz) * (a - self.accel)
-        self.gyro += _alpha(dt, cut_g_hz) * (g - self.gyro)
+        self.accel = self._accel_lp.apply(a, dt, cut_a_hz)
+        self.gyro = self._gyro_lp.apply(g, dt, cut_g_hz)
 
 
-def _alpha(dt: float, cutoff_hz: float) -> float:
-    if cutoff_hz <= 0:
-        return 1.0
-    rc = 1.0 / (2.0 * math.pi * cutoff_hz)
-    return dt / (dt + rc)
+class LowPass2p:
+    """Two-pole Butterworth low-pass (a biquad, direct form II), ArduPilot's ``LowPassFilter2p``:
+    coefficients from the sample rate and the cutoff (the bilinear transform: scipy's
+    ``butter(2, ...)``); a cutoff of 0, or at or above half the sample rate, passes the sample
+    through. The delay elements start at the first sample's steady state, so the filter does not
+    ring up from zero."""
+
+    def __init__(self) -> None:
+        self._d1: np.ndarray | None = None
+        self._d2: np.ndarray | None = None
+        self._key: tuple[float, float] | None = None
+        self._coef = (1.0, 2.0, 1.0, 0.0, 0.0)
+
+    def _coefficients(self, dt: float, cutoff_hz: float) -> tuple[float, float, float, float, float]:
+        if self._key != (dt, cutoff_hz):
+            ohm = math.tan(math.pi * cutoff_hz * dt)
+            c = 1.0 + 2.0 * math.cos(math.pi / 4.0) * ohm + ohm * ohm
+            b0 = ohm * ohm / c
+            a1 = 2.0 * (ohm * ohm - 1.0) / c
+            a2 = (1.0 - 2.0 * math.cos(math.pi / 4.0) * ohm + ohm * ohm) / c
+            self._key, self._coef = (dt, cutoff_hz), (b0, 2.0 * b0, b0, a1, a2)
+        return self._coef
+
+    def apply(self, x: np.ndarray, dt: float, cutoff_hz: float) -> np.ndarray:
+        if cutoff_hz <= 0.0 or dt <= 0.0 or cutoff_hz * dt >= 0.5:
+            return np.array(x, dtype=float)
+        b0, b1, b2, a1, a2 = self._coefficients(dt, cutoff_hz)
+        if self._d1 is None or self._d2 is None:
+            self._d1 = self._d2 = np.array(x, dtype=float) / (b0 + b1 + b2)
+        d0 = x - self._d1 * a1 - self._d2 * a2
+        out = d0 * b0 + self._d1 * b1 + self._d2 * b2
+        self._d2, self._d1 = self._d1, d0
+        return out
 
 
 BEAM_MISS_M = 999.0  # what the beam reads when it meets no surface (the JSON physics sends the same)

@@ -97,8 +97,28 @@ def test_impact_only_after_cut_first_large_sample_once():
     hit = d.feed(1.015, 12.0, 0, -17.0)
     assert hit is not None and hit.t == 1.015 and hit.accel_mps2 == pytest.approx(math.hypot(12, 17))
     assert d.feed(1.020, 0, 0, -90.0) is None and d.impact == hit
-    with pytest.raises(ValueError, match="positive"):
+    with pytest.raises(ValueError, match="above 1 g"):
         ImpactDetector(float("nan"))
+    with pytest.raises(ValueError, match="above 1 g"):
+        ImpactDetector(G)
+
+
+def test_a_soft_contact_counts_from_the_lowest_reading_since_the_cut():
+    """The thrust's 1 g at the cut decays: a contact that lifts the falling vehicle's reading by
+    the threshold less 1 g is an impact once the thrust is gone, not while it is still there."""
+    d = ImpactDetector(20.0)
+    d.arm_after_cut(1.0)
+    assert d.feed(1.002, 0, 0, -G) is None  # the thrust at the cut
+    assert d.feed(1.004, 0, 0, -G - 9.0) is None  # 1.9 g: under 2 g with the thrust still on
+    d = ImpactDetector(20.0)
+    d.arm_after_cut(1.0)
+    for k, a in enumerate((G, 6.0, 3.0, 1.5, 1.0)):  # the thrust decays: free fall
+        assert d.feed(1.002 + 0.005 * k, 0, 0, -a) is None
+    assert d.feed(1.030, 0, 0, -11.0) is None  # 11.0 - 1.0 < 20 - g
+    hit = d.feed(1.035, 3.0, 0, -11.0)  # |a| 11.4: 10.4 above the floor, 20 - g = 10.19
+    assert hit is not None and hit.t == 1.035 and d.floor == 1.0
+    d.reset()
+    assert d.floor is None and d.impact is None
 
 
 def test_impact_from_raw_imu_milli_g():

@@ -239,6 +239,30 @@ def test_impact_reverses_then_holds(bench: Bench) -> None:
     assert bench.outputs() == [1500] * 4
 
 
+def test_a_soft_contact_after_the_thrust_decayed_reverses(bench: Bench) -> None:
+    """The impact threshold counts from the lowest reading since the cut (never above the set
+    threshold): once the thrust has decayed, a contact that lifts the falling vehicle's 0.2 g by
+    more than the threshold less 1 g is seen; the same reading with the thrust's 1 g still on is
+    not. An uphill leg near the horizontal slips at a small foot force: its first contact read
+    1.6 g on ArduCopter SITL (45 deg roof, 0.78 m/s), under the 2 g the rule used to wait for."""
+    cut_now(bench)
+    bench.io.accel_body = (0.0, 0.0, -9.81)  # the thrust at the cut
+    bench.run(5)
+    bench.io.accel_body = (0.0, 0.0, -9.81 - 0.9 * (IMPACT - 9.81))  # under IMPACT, thrust on
+    bench.run(5)
+    assert bench.io.state() == CUT
+    for a in (6.0, 3.0, 1.5, 2.0):  # the thrust decays: the vehicle falls freely
+        bench.io.accel_body = (0.0, 0.0, -a)
+        bench.run(10)
+    assert bench.io.state() == CUT and bench.outputs() == [1500] * 4
+    bench.io.accel_body = (0.0, 0.0, -1.5 - 0.95 * (IMPACT - 9.81))  # under the rise still
+    bench.run(5)
+    assert bench.io.state() == CUT
+    bench.io.accel_body = (0.0, 0.0, -1.5 - 1.05 * (IMPACT - 9.81))  # 22.7 m/s^2: under IMPACT
+    bench.run(2)
+    assert bench.io.state() == RVT and bench.outputs() == [1500 - 5 * int(PCT)] * 4
+
+
 def test_a_refresh_during_reverse_thrust_sets_its_duration(bench: Bench) -> None:
     cut_now(bench)
     bench.io.accel_body = (0.0, 0.0, -45.0)
@@ -286,10 +310,12 @@ def test_accel_noise_below_the_threshold_does_not_fire(bench: Bench) -> None:
     bench.io.range = good(0.2)
 
     def mild(t: int) -> None:
-        bench.io.accel_body = (rng.uniform(-8, 8), rng.uniform(-8, 8), -9.81 + rng.uniform(-8, 8))
+        bench.io.accel_body = (rng.uniform(-5, 5), rng.uniform(-5, 5), -9.81 + rng.uniform(-5, 5))
 
     cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
-    bench.run(cut_at + BOUND_MS - bench.io.now_ms - 5, mild)  # |a| < 9.81 + 8 * sqrt(3) < 30
+    # resting on the roof after a soft contact: 4.8 <= |a| <= 16.4, so no reading is more than
+    # 11.6 above the lowest since the cut (the rule's 30 - g = 20.2) nor above 30
+    bench.run(cut_at + BOUND_MS - bench.io.now_ms - 5, mild)
     assert bench.io.state() == CUT
     assert bench.outputs() == [1500] * 4
     bench.run(10, mild)

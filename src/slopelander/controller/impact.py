@@ -1,12 +1,16 @@
 """The companion's impact detector: the same rule as the on-board reflex, on streamed IMU data.
 
-Rule: once the motors are cut, the vehicle falls freely and its accelerometer reads near zero
-specific force. Ground contact is the first IMU sample whose specific-force magnitude exceeds
-``threshold_mps2`` (``reflex.impact_threshold_mps2``), counted only after the cut and only on samples
-newer than the previous one (a repeated or reordered packet never counts twice).
+Rule: once the motors are cut, the vehicle falls freely and its accelerometer's specific force
+only falls (the thrust decays) until something pushes on the vehicle. Ground contact is the first
+IMU sample whose specific-force magnitude exceeds the lowest one since the cut by ``threshold_mps2``
+(``reflex.impact_threshold_mps2``, at least 2 g) less 1 g, or exceeds ``threshold_mps2`` itself:
+at the cut (1 g of thrust) that is the threshold; once the thrust has decayed a soft first contact
+(an uphill leg near the horizontal slips at a small foot force) is seen at about 1.2 g. Samples
+count only after the cut and only when newer than the previous one (a repeated or reordered
+packet never counts twice).
 
 Latency budget from contact to the companion's decision (RAW_IMU at 200 Hz):
-  autopilot 20 Hz low-pass filter (first order, time constant 1/(2*pi*20 Hz))  ~ 8 ms to rise
+  autopilot 20 Hz low-pass filter (two-pole, INS_ACCEL_FILTER)                  ~ 8-10 ms to rise
   sample interval of the stream (1/200 Hz)                                     <= 5 ms
   serial/UDP transit                                                           ~ 1-3 ms
   the companion's loop period (``link.poll_period_s``, 10 ms; every sample
@@ -42,22 +46,28 @@ class ImpactDetector:
     """Feed IMU samples; after :meth:`arm_after_cut`, :attr:`impact` is set by the first large one."""
 
     def __init__(self, threshold_mps2: float) -> None:
-        if not (math.isfinite(threshold_mps2) and threshold_mps2 > 0):
-            raise ValueError(f"impact threshold must be a positive number of m/s², got {threshold_mps2!r}")
+        if not (math.isfinite(threshold_mps2) and threshold_mps2 > G):
+            raise ValueError(
+                f"impact threshold must be a number of m/s² above 1 g ({G} m/s²: it counts above the "
+                f"thrust's share), got {threshold_mps2!r}"
+            )
         self.threshold = threshold_mps2
         self.cut_at: float | None = None
         self.impact: Impact | None = None
+        self.floor: float | None = None  # the lowest magnitude since the cut
         self._last_t = -math.inf
 
     def arm_after_cut(self, t_cut: float) -> None:
         """Watch samples later than vehicle time ``t_cut`` (s)."""
         self.cut_at = t_cut
         self.impact = None
+        self.floor = None
 
     def reset(self) -> None:
         """Stop watching."""
         self.cut_at = None
         self.impact = None
+        self.floor = None
 
     def feed(self, t: float, ax: float, ay: float, az: float) -> Impact | None:
         """One sample at vehicle time ``t`` (s), m/s²; returns the impact when this sample is it."""
@@ -69,7 +79,8 @@ class ImpactDetector:
         a = math.sqrt(ax * ax + ay * ay + az * az)
         if not math.isfinite(a):
             return None  # a corrupt sample is not an impact; the range and the script still watch
-        if a > self.threshold:
+        self.floor = a if self.floor is None else min(self.floor, a)
+        if a > min(self.threshold, self.floor + self.threshold - G):
             self.impact = Impact(t, a)
             return self.impact
         return None
