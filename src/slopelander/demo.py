@@ -22,6 +22,16 @@ from pathlib import Path
 from slopelander.errors import SlopelanderError
 
 G_MPS2 = 9.80665
+#: a foot on the roof while the motors still hold the vehicle (the powered descent reads 1 g): a
+#: reading this far above 1 g before the cut (the cut latency lets the uphill foot of a steep
+#: roof touch first; under the 2 g of the script's rule, with the thrust's g in it)
+POWERED_TOUCH_MPS2 = 0.3 * G_MPS2
+#: a contact began where the reading rose this far above 1 g (the descent's corrections stay under)
+ONSET_MPS2 = 0.02 * G_MPS2
+#: the accelerometer's low-pass (ArduPilot's two-pole Butterworth at INS_ACCEL_FILTER, 20 Hz) delays
+#: a reading by sqrt(2) / (2 pi 20 Hz) = 11 ms: the velocity report before a contact is looked for
+#: that much before the reading's rise
+FILTER_DELAY_S = math.sqrt(2.0) / (2.0 * math.pi * 20.0)
 ROOF_X_M = 3.0  # world x of the roof's top edge
 ROOF_Z_M = 0.5  # its height above the pad
 CRUISE_HEIGHT_M = 3.0  # take-off height above the pad
@@ -442,10 +452,20 @@ def _uphill_angle_before_cut(tele: Telemetry, history: list[dict], uphill: tuple
 
 
 def first_contact_speed(
-    tele: Telemetry, t_from: float, t_to: float, spike_mps2: float, t_impact: float | None = None
+    tele: Telemetry,
+    t_from: float,
+    t_to: float,
+    spike_mps2: float,
+    t_impact: float | None = None,
+    t_cut: float | None = None,
 ) -> float | None:
-    """Vertical speed (m/s, down) at the first foot contact, the first accelerometer spike above
-    ``spike_mps2`` between ``t_from`` and ``t_to`` (vehicle time). With ``t_impact``, the on-board
+    """Vertical speed (m/s, down) at the first foot contact, the first accelerometer reading
+    between ``t_from`` and ``t_to`` (vehicle time) that the script's impact rule calls one: above
+    ``spike_mps2``, or above the lowest reading since ``t_cut`` (the motors' cut; default
+    ``t_from``) by ``spike_mps2`` less 1 g (docs/onboard-script.md). With ``t_cut``, a reading
+    ``POWERED_TOUCH_MPS2`` above 1 g before it is a foot on the roof under power (the uphill foot
+    of a steep roof can touch before the cut acts, its 1.3-2 g under the script's 2 g, and the
+    script then reverses at the harder contact that follows). With ``t_impact``, the on-board
     script's impact (the companion's REVERSE): a first touch whose 50 Hz RAW_IMU samples all stayed
     under ``spike_mps2`` (the script reads every IMU sample, the telemetry a few) is still the
     contact, found as the highest reading above 1 g in the 50 ms up to it; without this a later,
@@ -458,19 +478,37 @@ def first_contact_speed(
     pivoting onto its downhill foot) belongs to the landing, not to its start."""
     acc = list(zip(tele.accel_t, tele.accel, strict=True))
     last = t_to if t_impact is None else min(t_to, t_impact)
-    spike = next((k for k, (t, a) in enumerate(acc) if t_from <= t <= last and a > spike_mps2), None)
+
+    def first_impact(until: float) -> int | None:
+        floor = math.inf
+        for k, (t, a) in enumerate(acc):
+            if t > until:
+                return None
+            if t < t_from:
+                continue
+            if t_cut is not None and t < t_cut:
+                if a > G_MPS2 + POWERED_TOUCH_MPS2:  # a foot on the roof before the motors stop
+                    return k
+                continue
+            floor = min(floor, a)
+            if a > min(spike_mps2, floor + spike_mps2 - G_MPS2):
+                return k
+        return None
+
+    spike = first_impact(last)
     if spike is None and t_impact is not None:
         near = [k for k, (t, a) in enumerate(acc) if t_impact - 0.05 <= t <= t_impact and a > G_MPS2]
         spike = max(near, key=lambda k: acc[k][1]) if near else None
     if spike is None and t_impact is not None:
-        spike = next((k for k, (t, a) in enumerate(acc) if t_from <= t <= t_to and a > spike_mps2), None)
+        spike = first_impact(t_to)
     if spike is None:
         return None
     onset = spike
-    while onset > 0 and acc[onset - 1][1] > G_MPS2 and acc[onset - 1][0] >= t_from:
+    while onset > 0 and acc[onset - 1][1] > G_MPS2 + ONSET_MPS2 and acc[onset - 1][0] >= t_from:
         onset -= 1
     t_onset = acc[onset][0]
-    before = [(t, -v) for t, v in zip(tele.t, tele.vz_up, strict=True) if t <= t_onset]
+    # the filtered reading rises a filter's delay after the contact: the speed is taken before it
+    before = [(t, -v) for t, v in zip(tele.t, tele.vz_up, strict=True) if t <= t_onset - FILTER_DELAY_S]
     if not before:
         return None
     t_prev, speed = before[-1]
@@ -490,7 +528,7 @@ def _landing_figures(
     t_cut, t_landed, t_armed = times.get("CUT"), times.get("LANDED"), times.get("ARMED")
     if t_cut is None or t_landed is None or t_armed is None:
         return None, None, None
-    impact = first_contact_speed(tele, t_armed, t_landed, spike_mps2, times.get("REVERSE"))
+    impact = first_contact_speed(tele, t_armed, t_landed, spike_mps2, times.get("REVERSE"), t_cut)
     xs = [x for t, x in zip(tele.x_t, tele.x, strict=True) if t_cut + 0.05 <= t <= t_landed]
     slide = (max(xs) - min(xs)) if xs else None
     pitches = [p for t, p in zip(tele.pitch_t, tele.pitch_deg, strict=True) if t_cut <= t <= t_landed]

@@ -57,3 +57,21 @@ def test_a_first_touch_under_the_spike_threshold_is_still_the_contact_when_the_s
     # with a spike the script's time does not change the answer
     tele.accel[4] = 25.0
     assert first_contact_speed(tele, 0.0, 1.0, 20.0, 0.072) == first_contact_speed(tele, 0.0, 1.0, 20.0)
+
+
+def test_a_soft_first_touch_after_the_free_fall_is_the_contact():
+    """The script's rule: once the thrust has decayed, a reading 1 g above the lowest since the
+    cut is the impact. A flat uphill leg's first touch reads 16 m/s^2 from 0.5 g of free fall;
+    the downhill feet land 0.15 s later at 45 m/s^2: the speed is the first touch's."""
+    g = 9.80665
+    tele = Telemetry()
+    tele.t, tele.vz_up = [0.0, 0.02, 0.04], [-0.5, -0.5, -0.5]
+    series = [(0.05 + 0.005 * k, g) for k in range(4)]  # the thrust at the cut (0.05 s)
+    series += [(0.07 + 0.005 * k, 0.5 * g) for k in range(6)]  # decayed: falling at 0.5 g
+    series += [(0.10, 16.0), (0.105, 6.0)] + [(0.11 + 0.005 * k, 0.0) for k in range(24)]
+    series += [(0.25, 45.0), (0.255, 20.0)]
+    tele.accel_t, tele.accel = [t for t, _ in series], [a for _, a in series]
+    soft = first_contact_speed(tele, 0.0, 1.0, 20.0, t_cut=0.05)
+    assert soft == pytest.approx(0.5 + 0.5 * g * 0.03, abs=1e-9)  # half a g of gain to 0.10 s
+    tele.accel[10] = 14.0  # 9.1 above the floor: under the rule's 10.2, the second contact counts
+    assert first_contact_speed(tele, 0.0, 1.0, 20.0, t_cut=0.05) > soft + g * 0.1
