@@ -22,9 +22,10 @@ from pathlib import Path
 from slopelander.errors import SlopelanderError
 
 G_MPS2 = 9.80665
-#: a foot on the roof while the motors still hold the vehicle (the powered descent reads 1 g): a
-#: reading this far above 1 g before the cut (the cut latency lets the uphill foot of a steep
-#: roof touch first; under the 2 g of the script's rule, with the thrust's g in it)
+#: a foot on the roof while the motors still hold the vehicle (the powered descent reads 1 g, and
+#: after the cut the reading only falls): a reading this far above 1 g. The cut latency and the
+#: rotors' spin-down let the uphill foot of a steep roof touch under thrust, at 1.6-1.9 g: under
+#: the script's 2 g with the thrust's g in it, so the script reverses at the harder contact after
 POWERED_TOUCH_MPS2 = 0.3 * G_MPS2
 #: a contact began where the reading rose this far above 1 g (the descent's corrections stay under)
 ONSET_MPS2 = 0.02 * G_MPS2
@@ -462,10 +463,10 @@ def first_contact_speed(
     """Vertical speed (m/s, down) at the first foot contact, the first accelerometer reading
     between ``t_from`` and ``t_to`` (vehicle time) that the script's impact rule calls one: above
     ``spike_mps2``, or above the lowest reading since ``t_cut`` (the motors' cut; default
-    ``t_from``) by ``spike_mps2`` less 1 g (docs/onboard-script.md). With ``t_cut``, a reading
-    ``POWERED_TOUCH_MPS2`` above 1 g before it is a foot on the roof under power (the uphill foot
-    of a steep roof can touch before the cut acts, its 1.3-2 g under the script's 2 g, and the
-    script then reverses at the harder contact that follows). With ``t_impact``, the on-board
+    ``t_from``) by ``spike_mps2`` less 1 g (docs/onboard-script.md), or ``POWERED_TOUCH_MPS2``
+    above 1 g at any time: a foot on the roof under power (the uphill foot of a steep roof can
+    touch before the thrust has gone, at 1.6-1.9 g, and the script reverses at the harder contact
+    that follows). With ``t_impact``, the on-board
     script's impact (the companion's REVERSE): a first touch whose 50 Hz RAW_IMU samples all stayed
     under ``spike_mps2`` (the script reads every IMU sample, the telemetry a few) is still the
     contact, found as the highest reading above 1 g in the 50 ms up to it; without this a later,
@@ -479,19 +480,20 @@ def first_contact_speed(
     acc = list(zip(tele.accel_t, tele.accel, strict=True))
     last = t_to if t_impact is None else min(t_to, t_impact)
 
+    from slopelander.controller.impact import ImpactDetector
+
     def first_impact(until: float) -> int | None:
-        floor = math.inf
+        detector = ImpactDetector(spike_mps2)  # the script's rule, from the cut
+        after_cut = max(t_from, t_cut) if t_cut is not None else t_from
+        detector.arm_after_cut(math.nextafter(after_cut, -math.inf))
         for k, (t, a) in enumerate(acc):
             if t > until:
                 return None
             if t < t_from:
                 continue
-            if t_cut is not None and t < t_cut:
-                if a > G_MPS2 + POWERED_TOUCH_MPS2:  # a foot on the roof before the motors stop
-                    return k
-                continue
-            floor = min(floor, a)
-            if a > min(spike_mps2, floor + spike_mps2 - G_MPS2):
+            if a > G_MPS2 + POWERED_TOUCH_MPS2:  # a foot on the roof, the thrust still on or not
+                return k
+            if t >= after_cut and detector.feed(t, 0.0, 0.0, a) is not None:
                 return k
         return None
 
