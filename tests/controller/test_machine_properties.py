@@ -197,3 +197,17 @@ LandingUnderRandomEvents.TestCase.settings = settings(
     max_examples=400, stateful_step_count=40, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
 test_landing_under_random_events = LandingUnderRandomEvents.TestCase
+
+
+def test_a_script_report_after_rvt_does_not_undo_the_contact() -> None:
+    """Found by the property above (2026-11-26): the script's RVT seen, a timeout (SETTLED), then a
+    CUT report (a script never goes back, but a reordered or stale report can say so) and a second
+    timeout: the vehicle met the roof and is armed with the motors held, so it stays SETTLED."""
+    state = LandingUnderRandomEvents()
+    state.start(start="PRESET")
+    state.script_reports(dt=0.125, s=12)
+    state.landing_times_out(dt=0.125)
+    state.script_reports(dt=0.125, s=11)
+    state.landing_times_out(dt=0.125)
+    assert state.m.name == "SETTLED"
+    state.teardown()
