@@ -101,10 +101,15 @@ class Machine:
         reported after the cut) and the script still holds the motors of an armed vehicle. The
         script's own RVT or HOLD is that evidence too: a vehicle that came down while the link was
         out is on the roof before any state of this machine marked an impact."""
-        if inp.script_state in (ScriptState.RVT, ScriptState.HOLD) and "impact" not in self.ctx.marks:
-            self.ctx.marks["impact"] = inp.t  # kept: a later report does not undo the contact
+        self._note_contact(inp)
         met = self.ctx.marks.get("impact") is not None
         return self._started and met and inp.armed and inp.script_state in LANDING
+
+    def _note_contact(self, inp: Inputs) -> None:
+        """The script's RVT or HOLD is the contact, kept for the landing: a later (stale or
+        reordered) report does not undo it. A take-off clears the mark (states/takeoff.py)."""
+        if inp.script_state in (ScriptState.RVT, ScriptState.HOLD):
+            self.ctx.marks.setdefault("impact", inp.t)
 
     def transition(self, new: str, reason: str, inp: Inputs) -> None:
         """Leave the current state, enter ``new``; a refused enter aborts (the reason recorded).
@@ -140,7 +145,7 @@ class Machine:
 
     def step(self, inp: Inputs) -> str:
         """One control step; returns the state name after it."""
-        self.held_on_the_roof(inp)  # the script's RVT or HOLD marks the contact, once seen
+        self._note_contact(inp)
         if not self._started:
             self.transition(self._start, "landing requested", inp)
         for _ in range(len(STATES)):  # a chain of immediate transitions settles within one step
