@@ -99,8 +99,9 @@ def table(rows: list[dict]) -> str:
     """The markdown table of saved runs."""
     out = [
         "| set (hidden) | seeds | named missing: the hidden effect | a wrong effect | nothing missing | "
-        "other verdicts | parameter error when named (median, max) |",
-        "|---|---:|---:|---:|---:|---:|---|",
+        "other verdicts | parameter error when named (median, max) | runs with a second search "
+        "(groups) | s a run (median) |",
+        "|---|---:|---:|---:|---:|---:|---|---:|---:|",
     ]
     for name in SETS:
         rs = [r for r in rows if r["set"] == name]
@@ -117,9 +118,13 @@ def table(rows: list[dict]) -> str:
             errs.append(f"{par} {100 * e[len(e) // 2]:.1f} %, {100 * e[-1]:.1f} %")
         label = f"{name} ({r0})" if r0 else "control (none)"
         seeds = ", ".join(str(r["seed"]) for r in rs)
+        # runs saved before the second search existed have no count
+        again = [r["restarted"] for r in rs if "restarted" in r]
+        second = f"{sum(1 for n in again if n)} ({sum(again)})" if again else "-"
+        secs = sorted(r["seconds"] for r in rs)
         out.append(
             f"| {label} | {len(rs)} ({seeds}) | {len(right) if hidden else '-'} | {len(wrong)} | "
-            f"{len(nothing)} | {other} | {'; '.join(errs) or '-'} |"
+            f"{len(nothing)} | {other} | {'; '.join(errs) or '-'} | {second} | {secs[len(secs) // 2]:.0f} |"
         )
     return "\n".join(out)
 
@@ -180,6 +185,7 @@ def main() -> int:
             "heldout": d.base_validation,
             "floor": d.floor,
             "best_p": min((r.p for r in d.results if r.fits), default=None),
+            "restarted": sum(r.restarted for r in d.results),
             "conditions_seed": seed if args.vary_conditions else 0,
             "truth_seconds": round(t_truth, 1),
             "seconds": round(time.perf_counter() - t0, 1),

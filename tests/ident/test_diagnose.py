@@ -130,3 +130,25 @@ def test_hidden_friction_growth_at_the_paper_value_is_found(model, seed):
     assert d.results[0] is best
     assert 1 - best.validation_nrmse / d.base_validation >= 0.30, d.table()
     assert best.values()["factor_mu"] == pytest.approx(0.57, rel=0.15), d.table()
+
+
+def test_a_fit_that_never_left_off_is_told_apart_from_one_that_moved():
+    """The rule that sends a candidate's refit to a second start: every parameter with a neutral
+    value still at it (a thousandth of its range), on a linear and on a log-scaled range."""
+    from slopelander.ident.diagnose import stuck_at_neutral
+    from slopelander.ident.fit import make_param
+
+    thrust, gain = make_param("thrust", 0.0, 10.0), make_param("gain", 1e-4, 1.0)
+    assert gain.log and not thrust.log
+    neutral = {"thrust": 0.0}
+    assert stuck_at_neutral({"thrust": 8e-6}, [thrust], neutral)  # the seed that found 0 N, not 3 N
+    assert not stuck_at_neutral({"thrust": 0.02}, [thrust], neutral)
+    assert not stuck_at_neutral({"thrust": 2.9}, [thrust], neutral)
+    # no neutral value: nothing to be stuck at (such parameters start at the centre already)
+    assert not stuck_at_neutral({"gain": 1e-4}, [gain], {})
+    assert stuck_at_neutral({"gain": 1.0005e-4}, [gain], {"gain": 1e-4})
+    assert not stuck_at_neutral({"gain": 2e-4}, [gain], {"gain": 1e-4})  # log: 7.5 % of the range
+    # two parameters: stuck only when both are
+    both = {"thrust": 0.0, "gain": 1e-4}
+    assert not stuck_at_neutral({"thrust": 0.0, "gain": 0.01}, [thrust, gain], both)
+    assert stuck_at_neutral({"thrust": 0.0, "gain": 1e-4}, [thrust, gain], both)

@@ -109,6 +109,9 @@ class CandidateResult:
     nested_note: str = ""
     sensitivity: np.ndarray | None = None
     """Per drop: NRMSE of the change the screening step makes (where the effect acts)."""
+    restarted: int = 0
+    """Groups whose fit never left the candidate's neutral values and was searched again from
+    the centre of its bounds."""
 
     @property
     def validation_nrmse(self) -> float:
@@ -295,6 +298,12 @@ class Diagnosis:
         for r in self.results:
             if r.nested is False:
                 lines.append(f"{r.candidate.name} is not nested: {r.nested_note}")
+        again = [f"{r.candidate.name} ({r.restarted})" for r in self.results if r.restarted]
+        if again:
+            lines.append(
+                "searched again from the centre of the bounds, the first search having stayed at "
+                f"'off' (groups): {', '.join(again)}"
+            )
         return "\n".join(lines)
 
 
@@ -305,6 +314,17 @@ def neutral_values(cand: Candidate) -> dict[str, float]:
     if cand.user is not None:
         out.update({n: p.neutral for n, p in cand.user.parameters.items() if p.neutral is not None})
     return out
+
+
+STUCK = 1e-3
+"""A candidate's fitted parameter within this share of its bounds' range of its neutral value
+has not left "off"."""
+
+
+def stuck_at_neutral(values: dict[str, float], extra: list[FitParam], neutral: dict[str, float]) -> bool:
+    """Every candidate parameter that has a neutral value ended at it (and there is one)."""
+    named = [p for p in extra if p.name in neutral]
+    return bool(named) and all(abs(p.unit(values[p.name]) - p.unit(neutral[p.name])) <= STUCK for p in named)
 
 
 def candidate_params(
@@ -534,7 +554,18 @@ def diagnose(
                     # training cost cannot end above the control's
                     also=[{**control[k].values, **off}],
                 )
-                res.fits.append(one.fit([drops[j] for j in tr], [drops[j] for j in va]).result_)
+                train = [drops[j] for j in tr]
+                fit = one.fit(train, [drops[j] for j in va]).result_
+                if stuck_at_neutral(fit.values, params[len(base_params) :], neutral_values(c)):
+                    # the search never left "off": from the base optimum the effect can need
+                    # the base parameters to move with it (a valley no step along one axis
+                    # enters); search again from the centre of its bounds, the first answer kept
+                    # if still best
+                    centre_start = {p.name: p.value(0.5) for p in params[len(base_params) :]}
+                    again = one.with_(start={**base_fits[k].values, **centre_start}, also=[fit.values])
+                    fit = again.fit(train, [drops[j] for j in va]).result_
+                    res.restarted += 1
+                res.fits.append(fit)
             res.heldout, res.heldout_mse = _heldout(res.fits, splits, drops, ranges)
         results.append(res)
     fitted = [r for r in results if r.fits]
