@@ -83,7 +83,14 @@ class Steps:
         x = np.arange(len(self.steps))
         fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
         a.plot(x, [s.train for s in self.steps], "o-", label="training")
-        a.plot(x, [s.validation for s in self.steps], "s-", label="validation")
+        a.errorbar(
+            x,
+            [s.validation for s in self.steps],
+            yerr=[s.spread for s in self.steps],
+            fmt="s-",
+            capsize=4,
+            label="validation (+- s.e. over drops)",
+        )
         a.set_ylabel("NRMSE (angular x2)")
         a.set_title("error per step")
         a.legend()
