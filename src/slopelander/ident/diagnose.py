@@ -110,8 +110,8 @@ class CandidateResult:
     sensitivity: np.ndarray | None = None
     """Per drop: NRMSE of the change the screening step makes (where the effect acts)."""
     restarted: int = 0
-    """Groups whose fit never left the candidate's neutral values and was searched again from
-    the centre of its bounds."""
+    """Groups whose fit never left the candidate's neutral values while another group's did,
+    searched again from the centre of its bounds."""
 
     @property
     def validation_nrmse(self) -> float:
@@ -301,8 +301,8 @@ class Diagnosis:
         again = [f"{r.candidate.name} ({r.restarted})" for r in self.results if r.restarted]
         if again:
             lines.append(
-                "searched again from the centre of the bounds, the first search having stayed at "
-                f"'off' (groups): {', '.join(again)}"
+                "searched again from the centre of the bounds (groups whose search stayed at 'off' "
+                f"while another group's left it): {', '.join(again)}"
             )
         return "\n".join(lines)
 
@@ -546,6 +546,8 @@ def diagnose(
             # shipped or declared value would be the truth of a synthetic proof
             off = {**{p.name: p.value(0.5) for p in params[len(base_params) :]}, **off}
             cand = refit.with_(model=c.add_to(model), params=params)
+            extra, neutral = params[len(base_params) :], neutral_values(c)
+            runs = []
             for k, (tr, va) in enumerate(splits):
                 one = cand.with_(
                     seed=seed + k,
@@ -554,18 +556,24 @@ def diagnose(
                     # training cost cannot end above the control's
                     also=[{**control[k].values, **off}],
                 )
-                train = [drops[j] for j in tr]
-                fit = one.fit(train, [drops[j] for j in va]).result_
-                if stuck_at_neutral(fit.values, params[len(base_params) :], neutral_values(c)):
-                    # the search never left "off": from the base optimum the effect can need
-                    # the base parameters to move with it (a valley no step along one axis
-                    # enters); search again from the centre of its bounds, the first answer kept
-                    # if still best
-                    centre_start = {p.name: p.value(0.5) for p in params[len(base_params) :]}
-                    again = one.with_(start={**base_fits[k].values, **centre_start}, also=[fit.values])
-                    fit = again.fit(train, [drops[j] for j in va]).result_
-                    res.restarted += 1
-                res.fits.append(fit)
+                runs.append(one)
+                res.fits.append(one.fit([drops[j] for j in tr], [drops[j] for j in va]).result_)
+            stuck = [stuck_at_neutral(f.values, extra, neutral) for f in res.fits]
+            if any(stuck) and not all(stuck):
+                # some groups' searches left "off" and others never did: from the base optimum
+                # the effect can need the base parameters to move with it (a valley no step of
+                # the search enters). Those are searched again from the centre of the
+                # candidate's bounds, a start no drop chose; the first answer is kept if still
+                # best on the group's own training drops. (Another group's values are not used
+                # as a start: they were fitted on this group's held-out drops.)
+                centre = {p.name: p.value(0.5) for p in extra}
+                for k, (tr, va) in enumerate(splits):
+                    if stuck[k]:
+                        again = runs[k].with_(
+                            start={**base_fits[k].values, **centre}, also=[res.fits[k].values]
+                        )
+                        res.fits[k] = again.fit([drops[j] for j in tr], [drops[j] for j in va]).result_
+                        res.restarted += 1
             res.heldout, res.heldout_mse = _heldout(res.fits, splits, drops, ranges)
         results.append(res)
     fitted = [r for r in results if r.fits]
