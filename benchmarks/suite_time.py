@@ -2,7 +2,9 @@
 
 Runs ``python3 -m pytest`` (the README's command, which ``.ci/run`` runs) with
 SLOPELANDER_RECORD_DURATIONS set, prints the wall time, the load average before and after, the
-summed test time (the two workers' share) and the longest work units; ``--write`` saves the
+summed test time (the two workers' share), the CPU time of the run with every process it
+started and waited for (workers, simulated vehicles, ArduCopter, the leg boards: on 2 cores the
+wall time cannot fall below half of it) and the longest work units; ``--write`` saves the
 per-test times to tests/durations.json, from which tests/conftest.py hands the work units out
 longest first.
 
@@ -14,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -39,9 +42,12 @@ def main() -> int:
         out = Path(tmp) / "durations.json"
         env = {**os.environ, "SLOPELANDER_RECORD_DURATIONS": str(out)}
         load0 = os.getloadavg()
+        cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.monotonic()
         run = subprocess.run([sys.executable, "-m", "pytest", "-q", *a.pytest_args], cwd=REPO, env=env)
         wall = time.monotonic() - t0
+        cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
         load1 = os.getloadavg()
         if not out.exists():
             print("the run recorded no test times", file=sys.stderr)
@@ -57,6 +63,10 @@ def main() -> int:
         f"\nwall {wall / 60:.1f} min, exit {run.returncode}; load {load0[0]:.1f} before, {load1[0]:.1f} after"
     )
     print(f"{len(seconds)} tests, {total / 60:.1f} min of test time ({total / wall:.2f} workers busy)")
+    print(
+        f"CPU time, every process the run waited for: {cpu / 60:.1f} min ({cpu / wall:.2f} cores busy on "
+        f"average; on {os.cpu_count()} cores the run needs at least {cpu / os.cpu_count() / 60:.1f} min)"
+    )
     for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
         print(f"  {s:7.1f} s  {module}")
     return run.returncode
