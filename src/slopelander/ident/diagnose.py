@@ -541,12 +541,12 @@ def diagnose(
         res = CandidateResult(c, sc.share, nested=sc.nested, nested_note=sc.note, sensitivity=sc.sensitivity)
         if i < n_refit:
             params = candidate_params(model, c, base_params, bounds)
-            off = neutral_values(c)
+            extra, neutral = params[len(base_params) :], neutral_values(c)
+            centre = {p.name: p.value(0.5) for p in extra}
             # a parameter without a neutral value starts at the centre of its bounds: its
             # shipped or declared value would be the truth of a synthetic proof
-            off = {**{p.name: p.value(0.5) for p in params[len(base_params) :]}, **off}
+            off = {**centre, **neutral}
             cand = refit.with_(model=c.add_to(model), params=params)
-            extra, neutral = params[len(base_params) :], neutral_values(c)
             runs = []
             for k, (tr, va) in enumerate(splits):
                 one = cand.with_(
@@ -566,7 +566,6 @@ def diagnose(
                 # candidate's bounds, a start no drop chose; the first answer is kept if still
                 # best on the group's own training drops. (Another group's values are not used
                 # as a start: they were fitted on this group's held-out drops.)
-                centre = {p.name: p.value(0.5) for p in extra}
                 for k, (tr, va) in enumerate(splits):
                     if stuck[k]:
                         again = runs[k].with_(
