@@ -100,7 +100,9 @@ class Machine:
         """Whether this landing has met the roof (an impact, or the script's landing sequence
         reported after the cut) and the script still holds the motors of an armed vehicle. The
         script's own RVT or HOLD is that evidence too: a vehicle that came down while the link was
-        out is on the roof before any state of this machine marked an impact."""
+        out is on the roof before any state of this machine marked an impact. It is asked outside
+        a step too (the runner's interrupt and time-out), so it notes the contact in ``inp``
+        itself."""
         self._note_contact(inp)
         met = self.ctx.marks.get("impact") is not None
         return self._started and met and inp.armed and inp.script_state in LANDING
