@@ -3,11 +3,13 @@
 import numpy as np
 import pytest
 
-from slopelander.ident.compare import compare
+from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.fit import (
     PAPER_SEVEN,
+    Evaluator,
     FitError,
     Identifier,
+    Problem,
     fit,
     fit_subsets,
     make_param,
@@ -92,6 +94,34 @@ def test_a_seed_searches_alike_on_one_process_or_two(model):
     )
     assert one.values == two.values
     assert one.train_nrmse == two.train_nrmse
+
+
+def test_a_pool_shares_out_each_points_drops_and_joins_the_same_vector(model):
+    """A pool evaluates a point's drops in parts, one part a process (a least-squares step's
+    single point uses both cores): the joined vector is the one process's, bit for bit, for one
+    point and for an odd number; and a fit with its least-squares polish (single points,
+    Jacobian columns) ends the same on one process or two."""
+    drops = synthesize(model, paper_drops(3, seed=2), NoiseModel(), duration=0.3)
+    params = resolve_params(model, ["ground_stiffness", "friction_kinetic"])
+    prob = Problem(model, drops, params, state_ranges(drops))
+    points = [np.array([0.3, 0.6]), np.array([0.7, 0.2]), np.array([0.5, 0.5])]
+    whole = [prob.residuals(u) for u in points]
+    assert np.array_equal(np.concatenate([prob.residuals(points[0], [i]) for i in range(3)]), whole[0])
+    with Evaluator(prob, workers=2) as ev:
+        assert ev._pool is not None
+        for got, want in zip(ev.residuals(points), whole, strict=True):
+            assert np.array_equal(got, want)
+        (one,) = ev.residuals(points[:1])
+        assert np.array_equal(one, whole[0])
+    one, two = (
+        Identifier(
+            model, ["ground_stiffness", "friction_kinetic"], cma_evals=16, ls_evals=5, workers=w, seed=1
+        )
+        .fit(drops)
+        .result_
+        for w in (1, 2)
+    )
+    assert one.values == two.values and one.ci95 == two.ci95
 
 
 def test_the_process_count_comes_from_the_environment_or_the_cores(monkeypatch):

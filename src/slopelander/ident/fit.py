@@ -155,13 +155,17 @@ class Problem:
     def model_at(self, u: Sequence[float]) -> Model:
         return apply(self.model, self.params, self.values(u))
 
-    def residuals(self, u: Sequence[float]) -> np.ndarray:
+    def residuals(self, u: Sequence[float], which: Sequence[int] | None = None) -> np.ndarray:
+        """The residual vector at ``u``; ``which``: only these drops' parts, in this order (a
+        single point's evaluation shared between processes)."""
+        idx = range(len(self.drops)) if which is None else which
         try:
             m = self.model_at(u)
         except SlopelanderError:
-            return np.full(self.size, 10.0)
-        out = []
-        for d, sc in zip(self.drops, self._scale, strict=True):
+            return np.full(sum(int((self.drops[i].t >= 0).sum()) * 6 for i in idx), 10.0)
+        out = [np.zeros(0)]
+        for i in idx:
+            d, sc = self.drops[i], self._scale[i]
             sim, _ = predict(m, d, outcome=False)
             after = d.t >= 0
             out.append(((sim[after] - d.states[after]) * sc).ravel())
@@ -190,9 +194,9 @@ def _init_worker(problem: Problem) -> None:
     _WORKER_PROBLEM = problem
 
 
-def _worker_residuals(u: np.ndarray) -> np.ndarray:
+def _worker_part(task: tuple[np.ndarray, list[int]]) -> np.ndarray:
     assert _WORKER_PROBLEM is not None
-    return _WORKER_PROBLEM.residuals(u)
+    return _WORKER_PROBLEM.residuals(task[0], task[1])
 
 
 def _dask_residuals(problem: Problem, u: np.ndarray) -> np.ndarray:
@@ -237,8 +241,16 @@ class Evaluator:
         if self.client is not None:
             futs = self.client.map(_dask_residuals, [self.problem] * len(points), list(points), pure=False)
             return self.client.gather(futs)
-        if self._pool is not None and len(points) > 1:
-            return self._pool.map(_worker_residuals, list(points))
+        if self._pool is not None:
+            # each point's drops shared out between the processes, one part a task: a single
+            # point (a least-squares step) uses them all, and a population's slow points (long
+            # slides) do not leave a process idle; the parts join into the same vector in the
+            # same order
+            n = len(self.problem.drops)
+            chunks = [c.tolist() for c in np.array_split(np.arange(n), min(self.workers, n))]
+            parts = self._pool.map(_worker_part, [(u, c) for u in points for c in chunks], chunksize=1)
+            k = len(chunks)
+            return [np.concatenate(parts[i * k : (i + 1) * k]) for i in range(len(points))]
         return [self.problem.residuals(u) for u in points]
 
     def close(self) -> None:
@@ -542,10 +554,16 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
                 tick(1)
             return cache[key]
 
+        jacs: dict[bytes, np.ndarray] = {}
+
         def jac(u: np.ndarray) -> np.ndarray:
-            J = _jacobian(ev, np.asarray(u, dtype=float), fun(u))
-            tick(len(u))
-            return J
+            # kept: the intervals need the Jacobian at the optimum, where the polish has
+            # usually just computed it
+            key = np.asarray(u, dtype=float).tobytes()
+            if key not in jacs:
+                jacs[key] = _jacobian(ev, np.asarray(u, dtype=float), fun(u))
+                tick(len(u))
+            return jacs[key]
 
         u = best_u
         if ls_evals > 0:  # 0: the search's best point as it is, no polish
