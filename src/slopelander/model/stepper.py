@@ -14,7 +14,7 @@ import numpy as np
 
 from slopelander.model import kernel as k
 from slopelander.model.conditions import CONDITION_FIELDS, ConditionError, LandingConditions
-from slopelander.model.dispatch import call
+from slopelander.model.dispatch import call, entry
 from slopelander.model.landing import Model
 from slopelander.model.usercode import compiling_notice
 
@@ -58,6 +58,7 @@ class Stepper:
         self._box = box(self._sx)
         self._advance = advance_boxed
         self._compiled = False
+        self._entry = None  # the compiled step, looked up once (model/dispatch.py)
         self._ws = k.make_workspace()
         self.st = np.zeros(k.N_STATE)
         self.ctx = np.zeros(k.N_CTX)
@@ -182,12 +183,16 @@ class Stepper:
         n = max(1, math.ceil(dt / self.model.dt - 1e-9))
         v0 = self.st[k.S_V : k.S_V + 2].copy()
         args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._box)
-        if self._compiled:
+        if self._entry is not None:
+            # the arrays are this stepper's own, made once; the rest are a float and an int
+            self._entry(*args)
+        elif self._compiled:
             call(self._advance, *args)
         else:
             with compiling_notice():
                 call(self._advance, *args)
             self._compiled = True
+            self._entry = entry(self._advance, *args)
         self._accel = (self.st[k.S_V : k.S_V + 2] - v0) / dt
 
     # -- reading -----------------------------------------------------------------------------
@@ -231,7 +236,7 @@ class Stepper:
         return min(self._clearances())
 
     def in_contact(self) -> bool:
-        return bool(np.any(self.st[k.S_NF : k.S_NF + k.N_POINTS] > 0.0))
+        return float(self.st[k.S_NF : k.S_NF + k.N_POINTS].max()) > 0.0
 
     def thrust(self) -> tuple[float, float]:
         return float(self.st[k.S_THR]), float(self.st[k.S_THR + 1])
