@@ -35,6 +35,13 @@ def pytest_configure(config: pytest.Config) -> None:
     starved the lock-stepped flights beside them (a fit's search does not depend on it)."""
     if hasattr(config, "workerinput"):
         os.environ.setdefault("SLOPELANDER_WORKERS", "1")
+    if os.environ.get("SLOPELANDER_ZYGOTE", "1") != "0":
+        # the simulated vehicles and leg boards this process starts (one of each a landing) are
+        # forked from one warm process: about 2 s of CPU each for imports and the compiled model
+        # otherwise (sitl/zygote.py; SLOPELANDER_ZYGOTE=0 starts each fresh, as a user's does)
+        from sitl import zygote
+
+        zygote.enable()
 
 
 def work_unit(item: pytest.Item) -> str | None:

@@ -57,6 +57,20 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
+def warm() -> None:
+    """What every vehicle loads before its first tick (the imports, the compiled model from
+    numba's cache), loaded once in a process that vehicles are forked from (:mod:`sitl.zygote`)."""
+    import sitl.vehicle.legs_link
+    import sitl.vehicle.mavlink_endpoints
+    import sitl.vehicle.params
+    import sitl.vehicle.scripting
+    import sitl.vehicle.vehicle  # noqa: F401
+    from sitl.vehicle.scenario import load_scenario
+    from sitl.vehicle.world import start_on_ground
+
+    start_on_ground(load_scenario(None))
+
+
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
 

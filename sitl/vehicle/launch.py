@@ -9,13 +9,13 @@ from __future__ import annotations
 import os
 import socket
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import yaml
 
+from sitl import zygote
 from sitl.parent_watch import ENV
 
 REPO = Path(__file__).resolve().parents[2]
@@ -38,7 +38,9 @@ def child_env() -> dict[str, str]:
     return env
 
 
-def stop_process(proc: subprocess.Popen, tmp: tempfile.TemporaryDirectory, timeout: float = 5.0) -> int:
+def stop_process(
+    proc: subprocess.Popen | zygote.ZygoteProcess, tmp: tempfile.TemporaryDirectory, timeout: float = 5.0
+) -> int:
     """Terminate a child (killed if it does not end within ``timeout``), remove its temporary
     directory, and return its exit status."""
     if proc.poll() is None:
@@ -54,7 +56,11 @@ def stop_process(proc: subprocess.Popen, tmp: tempfile.TemporaryDirectory, timeo
 
 class VehicleProcess:
     def __init__(
-        self, proc: subprocess.Popen, port: int, ready: str, tmp: tempfile.TemporaryDirectory
+        self,
+        proc: subprocess.Popen | zygote.ZygoteProcess,
+        port: int,
+        ready: str,
+        tmp: tempfile.TemporaryDirectory,
     ) -> None:
         self.proc, self.port, self.ready_line, self._tmp = proc, port, ready, tmp
         self.mavlink_url = f"tcp:127.0.0.1:{port}"
@@ -87,9 +93,6 @@ def start_vehicle(
     tmp = tempfile.TemporaryDirectory(prefix="sl-vehicle-")
     port = free_port()
     cmd = [
-        sys.executable,
-        "-m",
-        "sitl.vehicle",
         "--endpoint",
         f"tcpin:127.0.0.1:{port}",
         "--speed",
@@ -120,7 +123,7 @@ def start_vehicle(
     if legboard_period_ms is not None:
         cmd += ["--legboard-period-ms", str(legboard_period_ms)]
     err = open(Path(tmp.name) / "stderr.txt", "w+")  # noqa: SIM115 - read back on failure
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True, env=child_env(), cwd=REPO)
+    proc = zygote.start("sitl.vehicle", cmd, env=child_env(), cwd=REPO, stdout=subprocess.PIPE, stderr=err)
     deadline = time.monotonic() + timeout
     line = ""
     while time.monotonic() < deadline:
@@ -140,7 +143,7 @@ def start_vehicle(
 class LegboardProcess:
     def __init__(
         self,
-        proc: subprocess.Popen,
+        proc: subprocess.Popen | zygote.ZygoteProcess,
         pty: str,
         control: Path,
         tmp: tempfile.TemporaryDirectory,
@@ -160,9 +163,6 @@ def start_legboard(speed: float = 1.0, clock: str = "wall", timeout: float = 30.
     tmp = tempfile.TemporaryDirectory(prefix="sl-legs-")
     link, ctl = Path(tmp.name) / "legs", Path(tmp.name) / "legs.ctl"
     cmd = [
-        sys.executable,
-        "-m",
-        "sitl.legboard",
         "--link",
         str(link),
         "--control",
@@ -172,8 +172,8 @@ def start_legboard(speed: float = 1.0, clock: str = "wall", timeout: float = 30.
         "--clock",
         clock,
     ]
-    proc = subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=child_env(), cwd=REPO
+    proc = zygote.start(
+        "sitl.legboard", cmd, env=child_env(), cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL
     )
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

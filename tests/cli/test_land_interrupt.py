@@ -19,6 +19,7 @@ from sitl.rig import Rig
 from sitl.vehicle.launch import free_port
 
 ENV = {**os.environ, "MAVLINK20": "1"}
+ABORTING = "aborting the landing: the autopilot holds position in LOITER"
 
 
 def fly_land_and_interrupt(tmp_path: Path, when: str, slope: float = 20.0):
@@ -80,7 +81,13 @@ def test_ctrl_c_in_the_descent_aborts_to_loiter_and_the_vehicle_stops_descending
     lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "-> DESCEND")
     try:
         assert sent_at is not None, lines
-        assert any(ln.startswith("interrupted in DESCEND: aborting the landing") for ln in lines), lines
+        # sent on the line "-> DESCEND"; the 1 s of vehicle time to the reflex's arming height can
+        # pass before the signal is handled (the vehicle runs free at 8x while this test waits on
+        # the next line; seen once in the suite of 2026-11-27): ARMED is the descent too, before
+        # the cut, and is aborted the same way (docs/failsafes.md)
+        said = [ln for ln in lines if ln.startswith("interrupted in ")]
+        assert len(said) == 1, lines
+        assert said[0] in (f"interrupted in {s}: {ABORTING}" for s in ("DESCEND", "ARMED")), lines
         assert any("-> ABORTED" in ln and "interrupted by the pilot" in ln for ln in lines), lines
         assert lines[-1] == "outcome: ABORTED" and status == 3, (lines[-3:], err[-500:])
         assert "Traceback" not in err, err

@@ -8,14 +8,20 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from sitl.vehicle.launch import REPO, child_env
 
 LAUNCHER = """
 import sys, time
+from sitl import zygote
+if sys.argv[1] == "zygote":
+    zygote.enable()
 from sitl.vehicle.launch import start_legboard, start_vehicle
 board = start_legboard(clock="external")
 vehicle = start_vehicle(speed=1.0, legboard_control=board.control)
-print(vehicle.proc.pid, board.proc.pid, flush=True)
+z = zygote.active()
+print(vehicle.proc.pid, board.proc.pid, *([z._proc.pid] if z else []), flush=True)
 time.sleep(600)
 """
 
@@ -33,16 +39,19 @@ def alive(pid: int) -> bool:
         return False
 
 
-def test_simulators_end_when_their_launcher_is_killed():
+@pytest.mark.parametrize("how", ["fresh", "zygote"])
+def test_simulators_end_when_their_launcher_is_killed(how: str):
+    """Started fresh, or forked from a zygote (sitl/zygote.py): the zygote ends with its
+    launcher, and its children with it."""
     env = child_env()
     env.pop("SLOPELANDER_PARENT_PID")  # the launcher itself is not watched
     launcher = subprocess.Popen(
-        [sys.executable, "-c", LAUNCHER], stdout=subprocess.PIPE, text=True, env=env, cwd=REPO
+        [sys.executable, "-c", LAUNCHER, how], stdout=subprocess.PIPE, text=True, env=env, cwd=REPO
     )
     try:
         line = launcher.stdout.readline()
         pids = [int(p) for p in line.split()]
-        assert len(pids) == 2, line
+        assert len(pids) == (3 if how == "zygote" else 2), line  # the zygote too: it must end
         time.sleep(1.0)
         assert all(alive(p) for p in pids), "the simulators should run while their launcher lives"
         launcher.send_signal(signal.SIGKILL)  # no clean-up runs in the launcher
