@@ -151,11 +151,10 @@ class Zygote:
         cwd: Path | str,
         stdout: int | IO | None = None,
         stderr: int | IO | None = None,
-        text: bool = True,
     ) -> ZygoteProcess:
         """``python -m module *argv`` forked from the zygote. ``stdout``/``stderr``:
-        ``subprocess.PIPE`` (stdout only), ``subprocess.DEVNULL``, an open file, or None (the
-        caller's own)."""
+        ``subprocess.PIPE`` (stdout only, read as text), ``subprocess.DEVNULL``, an open file,
+        or None (the caller's own)."""
         with self._lock:
             self._ensure()
             conn = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
@@ -191,9 +190,7 @@ class Zygote:
         finally:
             for fd in close_after:
                 os.close(fd)
-        out = open(read_end, encoding="utf-8") if read_end is not None and text else None  # noqa: SIM115
-        if read_end is not None and not text:
-            out = open(read_end, "rb")  # noqa: SIM115
+        out = open(read_end, encoding="utf-8") if read_end is not None else None  # noqa: SIM115
         return ZygoteProcess([module, *argv], pid, conn, out)
 
     def close(self) -> None:
