@@ -45,6 +45,8 @@ from sitl.parent_watch import ENV, GRACE_S, PERIOD_S
 #: modules a test run forks simulators of; each may define ``warm()``, run once in the zygote
 PRELOAD = ("sitl.vehicle.__main__", "sitl.legboard.__main__")
 MAX_MESSAGE = 1 << 20
+START_TIMEOUT_S = 900.0
+"""How long a zygote may take to say it is ready (its warm-up may compile the model)."""
 
 
 # -- the caller's side ------------------------------------------------------------------------
@@ -136,7 +138,9 @@ class Zygote:
         self._proc = subprocess.Popen(
             cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, text=True, env=child_env(), cwd=REPO
         )
-        line = self._proc.stdout.readline()
+        # a fresh checkout compiles the model here first (a minute or more on a loaded machine)
+        ready, _, _ = select.select([self._proc.stdout], [], [], START_TIMEOUT_S)
+        line = self._proc.stdout.readline() if ready else ""
         if not line.startswith("zygote ready"):
             self._proc.kill()
             self._proc.wait()
