@@ -53,6 +53,8 @@ def main() -> int:
             print("the run recorded no test times", file=sys.stderr)
             return 1
         seconds = json.loads(out.read_text())
+        cpu_out = out.with_suffix(".cpu.json")
+        test_cpu = json.loads(cpu_out.read_text()) if cpu_out.exists() else {}
         if a.write:
             shutil.copy(out, REPO / "tests" / "durations.json")
     per_module: dict[str, float] = defaultdict(float)
@@ -69,6 +71,16 @@ def main() -> int:
     )
     for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
         print(f"  {s:7.1f} s  {module}")
+    if test_cpu:
+        cpu_module: dict[str, float] = defaultdict(float)
+        for nodeid, s in test_cpu.items():
+            cpu_module[unit_of(nodeid)] += s
+        print(f"CPU by module (each test's process tree: {sum(test_cpu.values()) / 60:.1f} min in all):")
+        for module, s in sorted(cpu_module.items(), key=lambda kv: -kv[1])[: a.top]:
+            print(f"  {s:7.1f} s  {module}")
+        print("CPU by test:")
+        for nodeid, s in sorted(test_cpu.items(), key=lambda kv: -kv[1])[: a.top]:
+            print(f"  {s:7.1f} s  {nodeid.split('@')[0]}")
     return run.returncode
 
 

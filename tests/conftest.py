@@ -97,14 +97,69 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 _RECORD = os.environ.get("SLOPELANDER_RECORD_DURATIONS")  # benchmarks/suite_time.py sets it
 _measured: dict[str, float] = {}
+_cpu: dict[str, float] = {}
+_cpu_mark = 0.0
+
+
+def process_tree_cpu(root: int | None = None) -> float:
+    """CPU seconds of process ``root`` (this one) and every process under it, the ones that ended
+    and were waited for included: on a test's own clock, the vehicles, ArduCopters and leg boards
+    it started, however deep (Linux /proc)."""
+    root = os.getpid() if root is None else root
+    tick = os.sysconf("SC_CLK_TCK")
+    parent: dict[int, int] = {}
+    cpu: dict[int, float] = {}
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                st = f.read()
+        except OSError:
+            continue
+        f = st[st.rfind(")") + 2 :].split()
+        parent[int(d)] = int(f[1])
+        cpu[int(d)] = sum(int(x) for x in f[11:15]) / tick  # utime, stime, cutime, cstime
+
+    def under(pid: int) -> bool:
+        while pid > 1:
+            if pid == root:
+                return True
+            pid = parent.get(pid, 0)
+        return False
+
+    return sum(c for pid, c in cpu.items() if under(pid))
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    global _cpu_mark
+    if _RECORD:
+        _cpu_mark = process_tree_cpu()
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
+    """Each phase's CPU (the test's processes included) goes with its report to the controller."""
+    global _cpu_mark
+    outcome = yield
+    if _RECORD:
+        now = process_tree_cpu()
+        outcome.get_result().user_properties.append(("cpu_s", now - _cpu_mark))
+        _cpu_mark = now
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
     """Setup, call and teardown times per test (on the controller: every worker's reports)."""
     if _RECORD:
         _measured[report.nodeid] = _measured.get(report.nodeid, 0.0) + report.duration
+        cpu = dict(report.user_properties).get("cpu_s")
+        if cpu is not None:
+            _cpu[report.nodeid] = _cpu.get(report.nodeid, 0.0) + float(cpu)
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:
     if _RECORD and _measured and not hasattr(session.config, "workerinput"):
         Path(_RECORD).write_text(json.dumps(dict(sorted(_measured.items())), indent=0) + "\n")
+        cpu_path = Path(_RECORD).with_suffix(".cpu.json")
+        cpu_path.write_text(json.dumps(dict(sorted(_cpu.items())), indent=0) + "\n")

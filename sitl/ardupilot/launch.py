@@ -27,6 +27,9 @@ from sitl.netns import isolated_command
 from sitl.vehicle.launch import stop_process
 
 ENV = "SLOPELANDER_ARDUCOPTER"
+#: ArduCopter's speed-up from boot until its pre-arm checks pass (``sitl.ardupilot.pod``): in
+#: lock-step with the physics, so as fast as the two can step
+BOOT_SPEEDUP = 20.0
 
 
 class ArduCopterMissingError(LaunchError):
@@ -108,6 +111,7 @@ def start_arducopter(
     legs: Path | None = None,
     binary: str | Path | None = None,
     speedup: float = 4.0,
+    boot_speedup: float | None = BOOT_SPEEDUP,
     params: list[Path] | dict | None = None,
     script: bool | Path = True,
     keep: bool = False,
@@ -116,14 +120,19 @@ def start_arducopter(
     """Start ArduCopter SITL (:func:`arducopter_binary`) with the project's JSON parameter file
     (plus ``params``: more .parm files, or a dict of name → value), the on-board script unless
     ``script`` is False (another Lua script when it is a path), and the physics of
-    ``scenario``; returns once ArduCopter sends its first HEARTBEAT. ``speedup`` is ArduCopter's
-    ``--speedup`` (it runs in lock-step with the physics, so a loaded machine only slows it down)."""
+    ``scenario``. ``speedup`` is ArduCopter's ``--speedup`` (it runs in lock-step with the physics,
+    so a loaded machine only slows it down). With ``boot_speedup`` it boots at that speed-up until
+    its pre-arm checks pass (the EKF's alignment and origin: 20-25 s of vehicle time) and returns
+    at ``speedup``, ready to arm; with None it returns at its first HEARTBEAT, booting at
+    ``speedup``."""
     exe = arducopter_binary(binary)
     tmp = tempfile.TemporaryDirectory(prefix="sl-arducopter-")
     folder = Path(tmp.name) / "ap"
     folder.mkdir()
     cmd = [sys.executable, "-m", "sitl.ardupilot", "--dir", str(folder), "--binary", str(exe)]
     cmd += ["--speedup", f"{speedup:g}"]
+    if boot_speedup is not None:
+        cmd += ["--boot-speedup", f"{boot_speedup:g}"]
     if scenario is not None:
         sp = Path(tmp.name) / "scenario.yaml"
         sp.write_text(yaml.safe_dump(scenario))
