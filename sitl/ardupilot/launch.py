@@ -27,8 +27,8 @@ from sitl.netns import isolated_command
 from sitl.vehicle.launch import stop_process
 
 ENV = "SLOPELANDER_ARDUCOPTER"
-#: ArduCopter's speed-up from boot until its pre-arm checks pass (``sitl.ardupilot.pod``): in
-#: lock-step with the physics, so as fast as the two can step
+#: ArduCopter's speed-up from boot until it could arm (``sitl.ardupilot.fast_boot``): in lock-step
+#: with the physics, so as fast as the two can step
 BOOT_SPEEDUP = 20.0
 
 
@@ -122,9 +122,9 @@ def start_arducopter(
     ``script`` is False (another Lua script when it is a path), and the physics of
     ``scenario``. ``speedup`` is ArduCopter's ``--speedup`` (it runs in lock-step with the physics,
     so a loaded machine only slows it down). With ``boot_speedup`` it boots at that speed-up until
-    its pre-arm checks pass (the EKF's alignment and origin: 20-25 s of vehicle time) and returns
-    at ``speedup``, ready to arm; with None it returns at its first HEARTBEAT, booting at
-    ``speedup``."""
+    it could arm (``sitl.ardupilot.fast_boot``: the EKF's alignment, origin and position take
+    about 40 s of vehicle time) and returns at ``speedup``, ready to arm; with None it returns at
+    its first HEARTBEAT, booting at ``speedup``."""
     exe = arducopter_binary(binary)
     tmp = tempfile.TemporaryDirectory(prefix="sl-arducopter-")
     folder = Path(tmp.name) / "ap"

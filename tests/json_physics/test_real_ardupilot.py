@@ -43,6 +43,44 @@ def _collect(conn, types: list[str], until, timeout_s: float = 90.0) -> dict:
     return seen
 
 
+def test_it_boots_fast_and_is_handed_over_at_real_time_ready_to_arm_in_guided() -> None:
+    """The fast boot (sitl/ardupilot/fast_boot.py) on the real binary: ready once it could arm,
+    at the flight's speed-up, and then it arms in GUIDED at the first asking."""
+    binary = _binary()
+    from pymavlink import mavutil
+
+    from sitl.guided import GUIDED, THROTTLE_DOWN_US, throttle_channels
+
+    t0 = time.monotonic()
+    with start_arducopter(binary=binary, speedup=1.0) as ap:
+        boot_wall = time.monotonic() - t0
+        assert "pre-arm checks pass, EKF has a position; now at speed-up 1" in ap.ready_line, ap.ready_line
+        booted = float(ap.ready_line.split("boot=")[1].split("s")[0])
+        assert booted > 30.0  # the EKF's position comes at 38-41 s of vehicle time
+        assert boot_wall < booted, (boot_wall, booted)  # faster than real time
+        conn = mavutil.mavlink_connection(ap.gcs_url, source_system=255, source_component=190)
+        try:
+            assert conn.wait_heartbeat(timeout=30) is not None
+            conn.mav.command_long_send(1, 1, 511, 0, 2, 100_000, 0, 0, 0, 0, 0)  # SYSTEM_TIME
+            first = conn.recv_match(type="SYSTEM_TIME", blocking=True, timeout=10)
+            w0 = time.monotonic()
+            last = first
+            while time.monotonic() - w0 < 3.0:  # the newest SYSTEM_TIME after 3 s of wall time
+                m = conn.recv_match(type="SYSTEM_TIME", blocking=True, timeout=0.5)
+                last = m or last
+            rate = (last.time_boot_ms - first.time_boot_ms) / 1000.0 / (time.monotonic() - w0)
+            assert 0.5 < rate < 1.3, rate  # real time, not the boot's speed-up
+            conn.mav.command_long_send(1, 1, 176, 0, 1, GUIDED, 0, 0, 0, 0, 0)  # DO_SET_MODE
+            ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=5)
+            assert ack is not None and ack.result == 0, ack
+            conn.mav.rc_channels_override_send(1, 1, *throttle_channels(THROTTLE_DOWN_US))
+            conn.mav.command_long_send(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)  # arm, no force
+            ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=5)
+            assert ack is not None and ack.command == 400 and ack.result == 0, (ack, ap.statustexts()[-3:])
+        finally:
+            conn.close()
+
+
 def test_arducopter_flies_on_slopelanders_physics_in_its_own_namespace() -> None:
     binary = _binary()
     from pymavlink import mavutil
