@@ -35,6 +35,14 @@ def pytest_configure(config: pytest.Config) -> None:
     starved the lock-stepped flights beside them (a fit's search does not depend on it)."""
     if hasattr(config, "workerinput"):
         os.environ.setdefault("SLOPELANDER_WORKERS", "1")
+    elif not config.option.collectonly:
+        # before the workers start: one process compiles the model (tests/compile_once.py)
+        from tests.compile_once import compile_once
+
+        seconds, status = compile_once()
+        if status != 0:
+            raise pytest.UsageError("the model does not compile: its error is above")
+        config._slopelander_compile_s = seconds
     if os.environ.get("SLOPELANDER_ZYGOTE", "1") != "0":
         # the simulated vehicles and leg boards this process starts (one of each a landing) are
         # forked from one warm process: about 2 s of CPU each for imports and the compiled model
@@ -156,6 +164,11 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
         cpu = dict(report.user_properties).get("cpu_s")
         if cpu is not None:
             _cpu[report.nodeid] = _cpu.get(report.nodeid, 0.0) + float(cpu)
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    seconds = getattr(config, "_slopelander_compile_s", None)
+    return None if seconds is None else f"model compiled or loaded once before the tests: {seconds:.1f} s"
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:
