@@ -88,12 +88,14 @@ def encode_reply(fdm: Fdm) -> bytes:
     Formatted directly (float repr is JSON's number form): at 1,200 frames a second it costs
     less than ``json.dumps``."""
     values = (fdm.timestamp, *fdm.gyro, *fdm.accel_body, *fdm.position, *fdm.velocity, *fdm.attitude)
-    values = tuple(float(v) for v in values)
-    bad = [_name(i) for i, v in enumerate(values) if not math.isfinite(v)]
-    if fdm.rng_1 is not None and math.isinf(fdm.rng_1):
-        bad.append("rng_1")
-    if bad:
-        raise ProtocolError(f"non-finite value in {', '.join(bad)}: ArduPilot cannot parse it")
+    values = tuple(map(float, values))
+    # one check for all: a sum is finite only if every term is (short of 1e308, which no vehicle
+    # reaches); the names are found only for the error
+    if not math.isfinite(sum(values)) or (fdm.rng_1 is not None and math.isinf(fdm.rng_1)):
+        bad = [_name(i) for i, v in enumerate(values) if not math.isfinite(v)]
+        if fdm.rng_1 is not None and math.isinf(fdm.rng_1):
+            bad.append("rng_1")
+        raise ProtocolError(f"non-finite value in {', '.join(bad) or 'the sum'}: ArduPilot cannot parse it")
     text = _REPLY % values
     if fdm.rng_1 is not None:
         # "nan" is no JSON number, but ArduPilot reads each value with atof(), which takes it; its
