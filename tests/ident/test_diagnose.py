@@ -15,6 +15,10 @@ from slopelander.ident.diagnose import ALPHA, diagnose
 from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesize
 
 BUDGET = {"cma_evals": 300, "refit_evals": 150}
+#: s recorded after first contact, as the steps test and the user-effect proofs record: on seed 1
+#: leg flexibility comes back the same from 0.6 s as from 1 s (held-out NRMSE cut 0.644 both,
+#: flex_stiffness 15.85 vs 15.92 N m/rad of 16.4) for a third less CPU (73 vs 112 s, 2026-11-27)
+DURATION = 0.6
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +28,7 @@ def truth(model):
 
 @pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.proof)])
 def test_hidden_leg_flex_is_found(truth, seed):
-    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
+    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed, duration=DURATION)
     d = diagnose(truth.without("leg_flex"), drops, seed=seed, **BUDGET)
     best = d.results[0]
     assert d.missing is best and best.candidate.name == "leg_flex"
@@ -43,7 +47,7 @@ def test_hidden_leg_flex_is_found(truth, seed):
 
 @pytest.mark.parametrize("seed", [3, pytest.param(4, marks=pytest.mark.proof)])
 def test_nothing_missing_when_nothing_is(truth, seed):
-    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed)
+    drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed, duration=DURATION)
     d = diagnose(truth, drops, seed=seed, **BUDGET)
     assert d.missing is None
     assert all(r.p > ALPHA for r in d.results if r.fits), d.table()
