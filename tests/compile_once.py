@@ -9,9 +9,11 @@ it. With the cache warm this costs the few seconds of loading it.
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 _PROBE = """
 from slopelander.model import LandingConditions, Model, simulate
@@ -27,8 +29,16 @@ simulate_batch([LandingConditions(slope_deg=20, speed=2)] * 2, model)  # maps, t
 
 def compile_once() -> tuple[float, int]:
     """(wall seconds, exit status) of compiling, or loading, the model in a process of its own."""
+    import slopelander
+
+    # the package this run tests (pytest's pythonpath), not whichever one is installed: it is the
+    # one whose cache the workers read
+    src = str(Path(slopelander.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")]))}
     t0 = time.monotonic()
-    run = subprocess.run([sys.executable, "-W", "ignore", "-c", _PROBE], capture_output=True, text=True)
+    run = subprocess.run(
+        [sys.executable, "-W", "ignore", "-c", _PROBE], capture_output=True, text=True, env=env
+    )
     if run.returncode != 0:
         sys.stderr.write(run.stderr)
     return time.monotonic() - t0, run.returncode
