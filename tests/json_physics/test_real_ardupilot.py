@@ -86,7 +86,7 @@ def test_arducopter_flies_on_slopelanders_physics_in_its_own_namespace() -> None
     from pymavlink import mavutil
 
     quiet = {"noise": {"accel": 0.0, "gyro": 0.0, "range": 0.0}}
-    with start_arducopter(scenario=quiet, binary=binary) as ap:
+    with start_arducopter(scenario=quiet, binary=binary, boot_speedup=None) as ap:  # no arming
         conn = mavutil.mavlink_connection(ap.mavlink_url, source_system=255)
         try:
             assert conn.wait_heartbeat(timeout=30) is not None
@@ -124,18 +124,23 @@ def test_a_rangefinder_dropout_reaches_arducopter_as_no_data() -> None:
     from pymavlink import mavutil
 
     faults = [{"kind": "rangefinder_dropout", "start": 0.0, "end": 1e6}]
-    with start_arducopter(scenario={"faults": faults}, binary=binary) as ap:
+    # no arming: ready at its first HEARTBEAT (boot_speedup=None), at ArduCopter's speed-up 4
+    with start_arducopter(scenario={"faults": faults}, binary=binary, boot_speedup=None) as ap:
         conn = mavutil.mavlink_connection(ap.mavlink_url, source_system=255)
         try:
             conn.wait_heartbeat(timeout=30)
             conn.mav.command_long_send(1, 1, 511, 0, 132, 100_000, 0, 0, 0, 0, 0)
             conn.mav.command_long_send(1, 1, 511, 0, 1, 200_000, 0, 0, 0, 0, 0)  # SYS_STATUS
+            # until 10 readings, or 8 s of wall time (32 s of vehicle time at 4x: DISTANCE_SENSOR,
+            # asked at 10 Hz, has stopped) after the first SYS_STATUS; the newest status is judged
             readings, status, deadline = [], None, time.monotonic() + 40
             while time.monotonic() < deadline and (status is None or len(readings) < 10):
                 m = conn.recv_match(type=["DISTANCE_SENSOR", "SYS_STATUS"], blocking=True, timeout=1)
                 if m is None:
                     continue
                 if m.get_type() == "SYS_STATUS":
+                    if status is None:
+                        deadline = min(deadline, time.monotonic() + 8.0)
                     status = m
                 else:
                     readings.append(m.current_distance)
@@ -181,7 +186,8 @@ def test_arducopters_lua_allows_100_locals_per_function(n: int, tmp_path) -> Non
     binary = _binary()
     script = tmp_path / "probe.lua"
     script.write_text(_locals_script(n))
-    with start_arducopter(binary=binary, script=script) as ap:
+    # boot_speedup=None: ready at its first HEARTBEAT, as a script runs long before it could arm
+    with start_arducopter(binary=binary, script=script, boot_speedup=None) as ap:
         deadline = time.monotonic() + 30.0
         while time.monotonic() < deadline and not any(
             "locals probe" in ln or "Lua: Error" in ln for ln in ap.statustexts()
