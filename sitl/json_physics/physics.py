@@ -91,8 +91,12 @@ class JsonPhysics:
         if self.legs is not None:
             self.legs.update(self)
         if self.events is not None:
-            x, z = self.world.to_world(b.x, b.z)
-            self.events.after_physics_step(self.stepper, self.t, replace(b, x=x, z=z))
+            self.events.after_physics_step(self.stepper, self.t, lambda: self._world_body(b))
+
+    def _world_body(self, b):
+        """Body ``b`` in world coordinates."""
+        x, z = self.world.to_world(b.x, b.z)
+        return replace(b, x=x, z=z)
 
     def _trace_beam(self, b) -> float:
         """:func:`world_beam` for body ``b``, traced again only once the body or the world under

@@ -41,8 +41,9 @@ class Events:
         self.stopped = False
         self.reversing = False
 
-    def after_physics_step(self, stepper: Stepper, t: float, body: Body) -> None:
-        """Called after every physics step with the body in world coordinates."""
+    def after_physics_step(self, stepper: Stepper, t: float, world_body: Callable[[], Body]) -> None:
+        """Called after every physics step; ``world_body()`` gives the body in world coordinates,
+        read only at a contact (1,200 times a simulated second, the body is rarely needed)."""
         st = stepper
         if not self.clear:
             self.clear = not st.in_contact() and st.clearance() >= REARM_CLEARANCE_M
@@ -50,6 +51,7 @@ class Events:
         if not st.in_contact():
             return
         self.clear = False
+        body = world_body()
         self.send("EV_CONTACT", t, t)
         self.send("CT_VZ", t, -body.vz)
         self.send("CT_VX", t, body.vx)

@@ -240,9 +240,9 @@ class Vehicle:
                 landing_record.send(self, self.judge)
             fx, fz = self.stepper.specific_force_body()
             self.imu.update(
-                1.0 / PHYSICS_HZ, fx, fz, self.stepper.body().pitch_rate, ca, cg, self.scn.imu_spike(self.t)
+                1.0 / PHYSICS_HZ, fx, fz, self.stepper.pitch_rate, ca, cg, self.scn.imu_spike(self.t)
             )
-            self.events.after_physics_step(self.stepper, self.t, self._world_body())
+            self.events.after_physics_step(self.stepper, self.t, self._world_body)
         if rules.rangefinder_due(self.ticks, CONTROL_HZ):
             self._update_range()
         self.ticks += 1

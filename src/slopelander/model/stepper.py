@@ -200,6 +200,11 @@ class Stepper:
     def t(self) -> float:
         return float(self.st[k.S_T])
 
+    @property
+    def pitch_rate(self) -> float:
+        """rad/s, nose up: :meth:`body`'s ``pitch_rate`` without building the whole state."""
+        return float(self.st[k.S_V + 2])
+
     def body(self) -> BodyState:
         s = self.st
         return BodyState(
