@@ -25,31 +25,8 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
 from sitl.ardupilot.launch import BOOT_SPEEDUP, start_arducopter  # noqa: E402
 from sitl.guided import arm_in_guided  # noqa: E402
+from sitl.proc_cpu import process_tree_cpu  # noqa: E402
 from slopelander.controller.link import Link  # noqa: E402
-
-TICK = os.sysconf("SC_CLK_TCK")
-
-
-def tree_cpu(root: int) -> float:
-    """CPU seconds of ``root`` and every process under it, from /proc."""
-    parent, cpu = {}, {}
-    for d in os.listdir("/proc"):
-        if d.isdigit():
-            try:
-                with open(f"/proc/{d}/stat") as f:
-                    fields = f.read().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            parent[int(d)], cpu[int(d)] = int(fields[1]), sum(int(x) for x in fields[11:15]) / TICK
-
-    def under(pid: int) -> bool:
-        while pid > 1:
-            if pid == root:
-                return True
-            pid = parent.get(pid, 0)
-        return False
-
-    return sum(c for pid, c in cpu.items() if under(pid))
 
 
 def one(binary: str | None, fast: bool) -> tuple[float, float, float, float]:
@@ -71,7 +48,7 @@ def one(binary: str | None, fast: bool) -> tuple[float, float, float, float]:
             vehicle_s = link.clock.now()
         finally:
             link.close()
-        cpu = tree_cpu(ap.proc.pid)
+        cpu = process_tree_cpu(ap.proc.pid)
     finally:
         ap.stop()
     return ready, armed, vehicle_s, cpu

@@ -109,40 +109,12 @@ _cpu: dict[str, float] = {}
 _cpu_mark = 0.0
 
 
-def process_tree_cpu(root: int | None = None) -> float:
-    """CPU seconds of process ``root`` (this one) and every process under it, the ones that ended
-    and were waited for included: on a test's own clock, the vehicles, ArduCopters and leg boards
-    it started, however deep (Linux /proc)."""
-    root = os.getpid() if root is None else root
-    tick = os.sysconf("SC_CLK_TCK")
-    parent: dict[int, int] = {}
-    cpu: dict[int, float] = {}
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                st = f.read()
-        except OSError:
-            continue
-        f = st[st.rfind(")") + 2 :].split()
-        parent[int(d)] = int(f[1])
-        cpu[int(d)] = sum(int(x) for x in f[11:15]) / tick  # utime, stime, cutime, cstime
-
-    def under(pid: int) -> bool:
-        while pid > 1:
-            if pid == root:
-                return True
-            pid = parent.get(pid, 0)
-        return False
-
-    return sum(c for pid, c in cpu.items() if under(pid))
-
-
 @pytest.hookimpl(tryfirst=True)
 def pytest_runtest_setup(item: pytest.Item) -> None:
     global _cpu_mark
     if _RECORD:
+        from sitl.proc_cpu import process_tree_cpu
+
         _cpu_mark = process_tree_cpu()
 
 
@@ -152,6 +124,8 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
     global _cpu_mark
     outcome = yield
     if _RECORD:
+        from sitl.proc_cpu import process_tree_cpu
+
         now = process_tree_cpu()
         outcome.get_result().user_properties.append(("cpu_s", now - _cpu_mark))
         _cpu_mark = now
