@@ -144,7 +144,6 @@ class Console:
             if boot is not None and not boot.done:
                 boot.heard(kind, m)
                 if boot.done:
-                    set_asked = 0.0
                     self.ready.set()
 
     def stop(self) -> None:
