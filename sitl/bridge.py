@@ -19,8 +19,14 @@ from collections.abc import Callable
 CHUNK = 65536
 
 
-def splice(a: socket.socket, b: socket.socket, stop: threading.Event) -> None:
-    """Forward bytes both ways until either side closes or ``stop`` is set; then close both."""
+#: a reader of the bytes going one way through a bridge: called after they were forwarded; its
+#: ``close()``, if it has one, is called when the connection ends
+Tap = Callable[[bytes], None]
+
+
+def splice(a: socket.socket, b: socket.socket, stop: threading.Event, tap_a: Tap | None = None) -> None:
+    """Forward bytes both ways until either side closes or ``stop`` is set; then close both.
+    ``tap_a`` reads, after forwarding, each chunk that came from ``a``."""
     sel = selectors.DefaultSelector()
     sel.register(a, selectors.EVENT_READ, b)
     sel.register(b, selectors.EVENT_READ, a)
@@ -37,8 +43,13 @@ def splice(a: socket.socket, b: socket.socket, stop: threading.Event) -> None:
                     key.data.sendall(data)
                 except OSError:
                     return
+                if tap_a is not None and key.fileobj is a:
+                    tap_a(data)
     finally:
         sel.close()
+        closing = getattr(tap_a, "close", None)
+        if closing is not None:
+            closing()
         for s in (a, b):
             with contextlib.suppress(OSError):
                 s.shutdown(socket.SHUT_RDWR)
@@ -64,10 +75,17 @@ def connect_retrying(make: Callable[[], socket.socket], timeout_s: float) -> soc
 
 
 class Bridge:
-    """Accept on ``listener``; join each accepted connection to a new one from ``connect``."""
+    """Accept on ``listener``; join each accepted connection to a new one from ``connect``.
+    ``tap``: makes, for each connection, a reader of the bytes its client sends."""
 
-    def __init__(self, listener: socket.socket, connect: Callable[[], socket.socket], name: str) -> None:
-        self.listener, self.connect, self.name = listener, connect, name
+    def __init__(
+        self,
+        listener: socket.socket,
+        connect: Callable[[], socket.socket],
+        name: str,
+        tap: Callable[[], Tap] | None = None,
+    ) -> None:
+        self.listener, self.connect, self.name, self.tap = listener, connect, name, tap
         self.stop_event = threading.Event()
         self.errors: list[str] = []
         self.thread = threading.Thread(target=self._serve, name=f"bridge-{name}", daemon=True)
@@ -90,8 +108,9 @@ class Bridge:
                 continue
             client.settimeout(None)
             other.settimeout(None)
+            tap = self.tap() if self.tap is not None else None
             threading.Thread(
-                target=splice, args=(nodelay(client), other, self.stop_event), daemon=True
+                target=splice, args=(nodelay(client), other, self.stop_event, tap), daemon=True
             ).start()
 
     def close(self) -> None:
@@ -116,8 +135,15 @@ def tcp_to_unix(path: str, name: str, host: str = "127.0.0.1", port: int = 0) ->
     return Bridge(lst, connect, name), lst.getsockname()[1]
 
 
-def unix_to_tcp(path: str, port: int, name: str, connect_timeout_s: float = 30.0) -> Bridge:
-    """Listen on the UNIX socket ``path`` and join each client to TCP ``127.0.0.1:port``."""
+def unix_to_tcp(
+    path: str,
+    port: int,
+    name: str,
+    connect_timeout_s: float = 30.0,
+    tap: Callable[[], Tap] | None = None,
+) -> Bridge:
+    """Listen on the UNIX socket ``path`` and join each client to TCP ``127.0.0.1:port``
+    (``tap``: see :class:`Bridge`)."""
     lst = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     lst.bind(path)
     lst.listen(4)
@@ -127,4 +153,4 @@ def unix_to_tcp(path: str, port: int, name: str, connect_timeout_s: float = 30.0
             lambda: socket.create_connection(("127.0.0.1", port), timeout=2.0), connect_timeout_s
         )
 
-    return Bridge(lst, connect, name)
+    return Bridge(lst, connect, name, tap)

@@ -71,8 +71,8 @@ def add_autopilot_args(ap) -> None:
         "--speedup",
         type=float,
         default=4.0,
-        help="ArduCopter's --speedup (1: real time, for a loaded machine: it does not wait for the "
-        "companion or the leg board)",
+        help="ArduCopter's --speedup, the most it runs ahead of real time (the physics holds it "
+        "while the companion is behind: sitl/json_physics/companion_gate.py)",
     )
 
 
@@ -298,14 +298,15 @@ class Rig:
         autopilot: str = "sim",
         arducopter: str | None = None,
         extra_endpoints: list[str] | None = None,
-        arducopter_speedup: float = 1.0,
+        arducopter_speedup: float = 8.0,
     ) -> None:
-        """``arducopter_speedup``: ArduCopter's ``--speedup``. It is lock-stepped with the physics
-        only, not with the companion or the leg board, so at 4 a second of vehicle time (the board's
-        silence limit, the reflex's validity) can be a quarter second of wall time; 1 is real time.
-        The default is real time, as on a vehicle: at 4 the reflex's validity lapsed in 3 of 24
-        landings on a machine at load 5-17 (at 1 in none of 24), and at 2 it lapsed with two CPU
-        hogs beside the flight (2026-11-26)."""
+        """``arducopter_speedup``: ArduCopter's ``--speedup``, the most it runs ahead of real time.
+        It is lock-stepped with the physics, and the physics holds it while the companion is more
+        than 0.25 s of vehicle time behind (``sitl.json_physics.companion_gate``), so a loaded
+        machine slows the flight down instead of starving the companion and the leg board: their
+        limits (the board's silence, the reflex's validity: 1 s each) are kept on the vehicle's
+        time. Before that gate the rig flew ArduCopter at real time: at 4 the reflex's validity
+        lapsed in 3 of 24 landings on a machine at load 5-17 (2026-11-26)."""
         if autopilot not in AUTOPILOTS:
             raise ValueError(f"autopilot must be one of {', '.join(AUTOPILOTS)}, not {autopilot!r}")
         if not (math.isfinite(arducopter_speedup) and arducopter_speedup > 0):

@@ -116,6 +116,7 @@ def start_arducopter(
     script: bool | Path = True,
     keep: bool = False,
     timeout: float = 120.0,
+    companion_lockstep: bool = True,
 ) -> ArduCopterProcess:
     """Start ArduCopter SITL (:func:`arducopter_binary`) with the project's JSON parameter file
     (plus ``params``: more .parm files, or a dict of name → value), the on-board script unless
@@ -124,7 +125,9 @@ def start_arducopter(
     so a loaded machine only slows it down). With ``boot_speedup`` it boots at that speed-up until
     it could arm (``sitl.ardupilot.fast_boot``: the EKF's alignment, origin and position take
     about 40 s of vehicle time) and returns at ``speedup``, ready to arm; with None it returns at
-    its first HEARTBEAT, booting at ``speedup``."""
+    its first HEARTBEAT, booting at ``speedup``. With ``companion_lockstep`` the physics holds
+    ArduCopter while the companion on SERIAL1 is behind, once it echoes
+    (``sitl.json_physics.companion_gate``)."""
     exe = arducopter_binary(binary)
     tmp = tempfile.TemporaryDirectory(prefix="sl-arducopter-")
     folder = Path(tmp.name) / "ap"
@@ -145,6 +148,8 @@ def start_arducopter(
         params = [pp]
     for p in params or []:
         cmd += ["--params", str(p)]
+    if not companion_lockstep:
+        cmd.append("--no-companion-lockstep")
     if not script:
         cmd.append("--no-script")
     elif isinstance(script, Path):

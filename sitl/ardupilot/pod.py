@@ -11,6 +11,10 @@ SERIAL0 (TCP 5760), which ArduCopter waits for before it boots, is held by this 
 
 With ``--boot-speedup N``, ArduCopter boots at N times real time and is set to ``--speedup``
 before this process says it is ready (``sitl.ardupilot.fast_boot`` has the rules).
+
+The companion's TIMESYNC echoes on SERIAL1 are read on their way in (``sitl.ardupilot.echo_tap``)
+and the physics holds ArduCopter while the companion is behind
+(``sitl.json_physics.companion_gate``), unless ``--no-companion-lockstep``.
 """
 
 from __future__ import annotations
@@ -40,6 +44,8 @@ HOME = "47.3977,8.5456,400,0"
 #: SITL's MAVLink TCP ports with ``-I0``: SERIAL0, SERIAL1, SERIAL2
 CONSOLE_PORT, COMPANION_PORT, GCS_PORT = 5760, 5762, 5763
 JSON_PORT = 9002
+#: the physics' gate, where the companion's echoes go (sitl.json_physics.companion_gate)
+GATE_PORT = 9102
 #: SITL's RC input with ``-I0`` (``SIM::rcin_port``): the scenario's sticks and switches go there
 RC_PORT = 5501
 _PR_SET_PDEATHSIG = 1
@@ -60,6 +66,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )
     ap.add_argument("--params", type=Path, action="append", default=[], help="extra .parm files")
     ap.add_argument("--no-script", action="store_true", help="boot without the on-board script")
+    ap.add_argument(
+        "--no-companion-lockstep",
+        action="store_true",
+        help="let ArduCopter run ahead of the companion (its echoes are not read)",
+    )
     ap.add_argument(
         "--script", type=Path, default=SCRIPT, help="the Lua script to run (default: slopelander's)"
     )
@@ -164,6 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         bring_loopback_up()
     except NamespaceError as exc:
         return fail(str(exc))
+    from sitl.ardupilot.echo_tap import EchoTap
     from sitl.bridge import unix_to_tcp
     from sitl.json_physics.launch import start_json_physics
 
@@ -173,9 +185,15 @@ def main(argv: list[str] | None = None) -> int:
         (folder / "scripts").mkdir(exist_ok=True)
         shutil.copy(a.script, folder / "scripts" / a.script.name)
     scenario = yaml.safe_load(a.scenario.read_text()) if a.scenario else None
+    gate = None if a.no_companion_lockstep else GATE_PORT
     try:
         physics = start_json_physics(
-            scenario=scenario, legs=a.legs, port=JSON_PORT, events=folder / "events.jsonl", rc_port=RC_PORT
+            scenario=scenario,
+            legs=a.legs,
+            port=JSON_PORT,
+            events=folder / "events.jsonl",
+            rc_port=RC_PORT,
+            lockstep_port=gate,
         )
     except RuntimeError as exc:
         return fail(str(exc))
@@ -208,7 +226,12 @@ def main(argv: list[str] | None = None) -> int:
     watch_parent()
     try:
         bridges = [
-            unix_to_tcp(str(folder / "serial1.sock"), COMPANION_PORT, "serial1"),
+            unix_to_tcp(
+                str(folder / "serial1.sock"),
+                COMPANION_PORT,
+                "serial1",
+                tap=None if gate is None else (lambda: EchoTap(gate)),
+            ),
             unix_to_tcp(str(folder / "serial2.sock"), GCS_PORT, "serial2"),
         ]
         try:

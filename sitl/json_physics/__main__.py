@@ -41,6 +41,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="send the scenario's rc schedule to ArduPilot SITL's RC input on this UDP port of --host "
         "(5501 + 10 x instance); without it ArduPilot keeps its default sticks",
     )
+    ap.add_argument(
+        "--lockstep-port",
+        type=int,
+        default=None,
+        metavar="PORT",
+        help="hold ArduPilot while the companion is behind: its TIMESYNC echoes arrive on this UDP "
+        "port of --host (sitl/json_physics/companion_gate.py)",
+    )
     return ap.parse_args(argv)
 
 
@@ -55,7 +63,10 @@ def main(argv: list[str] | None = None) -> int:
         return fail(f"--port {a.port} must lie within 0..65535")
     if a.rc_port is not None and not 1 <= a.rc_port <= 65535:
         return fail(f"--rc-port {a.rc_port} must lie within 1..65535")
+    if a.lockstep_port is not None and not 1 <= a.lockstep_port <= 65535:
+        return fail(f"--lockstep-port {a.lockstep_port} must lie within 1..65535")
 
+    from sitl.json_physics.companion_gate import CompanionGate
     from sitl.json_physics.physics import JsonPhysics
     from sitl.json_physics.pilot_rc import PilotRc
     from sitl.json_physics.server import JsonServer, ServerError
@@ -87,14 +98,21 @@ def main(argv: list[str] | None = None) -> int:
     try:
         physics = JsonPhysics(scenario, legs, events)
         rc = PilotRc(scenario, a.rc_port, a.host) if a.rc_port is not None else None
-        server = JsonServer(physics, a.port, a.host, rc)
+        gate = None
+        if a.lockstep_port is not None:
+            try:
+                gate = CompanionGate(a.lockstep_port, a.host)
+            except OSError as exc:
+                where = f"udp {a.host}:{a.lockstep_port}"
+                raise ServerError(f"cannot listen on {where}: {exc.strerror}") from None
+        server = JsonServer(physics, a.port, a.host, rc, gate)
     except ServerError as exc:
         if legs is not None:
             legs.close()
         return fail(str(exc))
 
     def stop(signum: int, frame: object) -> None:
-        server.running = False
+        server.stop()
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
@@ -113,9 +131,13 @@ def main(argv: list[str] | None = None) -> int:
         if legs is not None:
             legs.close()
         c = server.count
+        held = ""
+        if gate is not None:
+            held = " " + gate.summary()
+            gate.close()
         print(
             f"json_physics stopped frames={c.frames} repeats={c.repeats} missed={c.missed} "
-            f"resets={c.resets} rejected={c.rejected}",
+            f"resets={c.resets} rejected={c.rejected}{held}",
             flush=True,
         )
     return 0

@@ -67,10 +67,12 @@ def start_json_physics(
     timeout: float = 90.0,
     events: Path | None = None,
     rc_port: int | None = None,
+    lockstep_port: int | None = None,
 ) -> PhysicsProcess:
     """Start ``python -m sitl.json_physics``; returns once it is ready. Raises RuntimeError with
-    its stderr if it fails. ``rc_port``: ArduPilot SITL's UDP RC input, where the scenario's
-    ``rc`` schedule is sent."""
+        its stderr if it fails. ``rc_port``: ArduPilot SITL's UDP RC input, where the scenario's
+        ``rc`` schedule is sent; ``lockstep_port``: where the companion's echoes arrive (the physics then
+    holds ArduPilot while the companion is behind, sitl/json_physics/companion_gate.py)."""
     tmp = tempfile.TemporaryDirectory(prefix="sl-json-")
     port = port or free_udp_port()
     cmd = [sys.executable, "-m", "sitl.json_physics", "--port", str(port)]
@@ -84,5 +86,7 @@ def start_json_physics(
         cmd += ["--events", str(events)]
     if rc_port is not None:
         cmd += ["--rc-port", str(rc_port)]
+    if lockstep_port is not None:
+        cmd += ["--lockstep-port", str(lockstep_port)]
     proc, line = start_ready_process(cmd, "json_physics ready", tmp, "json physics", timeout)
     return PhysicsProcess(proc, port, line, tmp)

@@ -5,7 +5,9 @@ it re-sends the same packet about once a second. So the server steps the physics
 frame count and answers a repeated frame count with the reply it already sent (the physics is
 not stepped twice). A frame count going backwards, or packets from a new address, is a
 restarted ArduPilot: the physics resets, and its timestamp going backwards tells ArduPilot so.
-A datagram that is not a servo packet gets no reply and one line on stderr.
+A datagram that is not a servo packet gets no reply and one line on stderr. With a
+:class:`~sitl.json_physics.companion_gate.CompanionGate` a new frame is stepped only once the
+companion is close enough behind (its module says why).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import sys
 import time
 from dataclasses import dataclass
 
+from sitl.json_physics.companion_gate import CompanionGate
 from sitl.json_physics.physics import JsonPhysics
 from sitl.json_physics.pilot_rc import PilotRc
 from sitl.json_physics.protocol import ProtocolError, decode_servo_packet, encode_reply
@@ -36,9 +39,15 @@ class Counters:
 
 class JsonServer:
     def __init__(
-        self, physics: JsonPhysics, port: int, host: str = "127.0.0.1", rc: PilotRc | None = None
+        self,
+        physics: JsonPhysics,
+        port: int,
+        host: str = "127.0.0.1",
+        rc: PilotRc | None = None,
+        gate: CompanionGate | None = None,
     ) -> None:
         self.physics = physics
+        self.gate = gate
         self.rc = rc  # the scenario's pilot on ArduPilot's RC input, sent as the physics time goes
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -53,6 +62,12 @@ class JsonServer:
         self.count = Counters()
         self.running = True
         self._warned: dict[str, float] = {}
+
+    def stop(self) -> None:
+        """From a signal handler: leave the serving loop, and any wait for the companion, soon."""
+        self.running = False
+        if self.gate is not None:
+            self.gate.stopping = True
 
     def close(self) -> None:
         self.sock.close()
@@ -98,6 +113,8 @@ class JsonServer:
         elif self.last_count is not None and frame.frame_count > self.last_count + 1:
             self.count.missed += frame.frame_count - self.last_count - 1
         self.last_count = frame.frame_count
+        if self.gate is not None:
+            self.gate.wait(self.physics.t)
         try:
             self.physics.step(frame.dt, frame.pwm[:4])
             reply = encode_reply(self.physics.fdm())
@@ -114,6 +131,8 @@ class JsonServer:
         self.count.resets += 1
         self._note(f"{why}: physics reset")
         self.physics.reset()
+        if self.gate is not None:
+            self.gate.reset()
 
     def _note(self, text: str) -> None:
         print(f"json_physics: {text}", file=sys.stderr, flush=True)

@@ -8,8 +8,9 @@ height set for the slope (the uphill foot's contact range plus a 0.1 m fall). A 
 the autopilot's HEARTBEAT says disarmed: a command sent is not an end.
 
 Which cases fly on both, and how (CI stays well under 30 minutes on 2 cores; the ArduCopter
-tests share one xdist group, one ArduCopter at a time; its boot and EKF start cost about 30 s of
-wall time, a landing 10-40 s more): every case below flies on both autopilots.
+tests share one xdist group, one ArduCopter at a time; its fast boot to armed costs about 13 s of
+wall time, a landing at up to 8x real time, held for the companion, 10-30 s more): every case
+below flies on both autopilots.
 
 - pad → roof at 0°, 20°, 35° and 45°: a vehicle each.
 - 55° with reverse thrust: a vehicle of its own (it ends sliding on the roof, held armed).
@@ -434,8 +435,8 @@ def test_a_short_cut_in_the_descent_is_ridden_out_and_a_long_one_in_reverse_ends
         lander.poll()
         rig.read_events()
         time.sleep(0.001)
-    # cut for 2.5 s of the companion's clock, which judges the loss (1.5 s): on the simulated
-    # vehicle 2.5 s of vehicle time (the relay paces it), on ArduCopter (real time in the rig) 2.5 s
+    # cut for 2.5 s of the companion's clock, which judges the loss (1.5 s): 2.5 s of vehicle time
+    # on both (the relay's echoes pace the simulated vehicle, and ArduCopter's physics, to real time)
     rig.relay.cut(None)
     poll_for(lander, 2.5)
     lost = [h["to"] for h in lander.machine.history[i_reverse(lander) :]]

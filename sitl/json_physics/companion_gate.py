@@ -1,0 +1,127 @@
+"""Lock-step with the companion: the physics holds ArduPilot while the companion is behind.
+
+ArduPilot SITL is lock-stepped with its JSON physics (it waits for each reply) but not with the
+companion, so at a speed-up above 1, or on a loaded machine, the companion can fall behind the
+vehicle by any amount: a second of vehicle time (the leg board's silence limit, the reflex's
+validity) can pass while the companion is not scheduled. The project's simulated vehicle solves
+this with the companion's TIMESYNC echo (``sitl.vehicle --lockstep``: at most 50 ms of its time
+ahead of the newest time the companion echoed); this gate gives ArduCopter the same rule from the
+physics side. The echoes are read off the companion's link by ``sitl.ardupilot.echo_tap`` and
+arrive here as UDP datagrams of one little-endian int64: the echoed vehicle time in microseconds,
+or ``GONE`` (-1) when the companion's connection closed.
+
+Before stepping a frame that would put the physics more than ``lead_s`` past the newest echo, the
+server waits for a newer one. No echo yet (no companion, or one that does not echo): no waiting.
+No newer echo for ``patience_s`` of wall time (the companion went away): the physics runs free
+until the companion echoes again, as the simulated vehicle does.
+
+The lead is longer than the simulated vehicle's 50 ms: ArduCopter cannot be told to say the time
+it waits at, and before the companion has asked for its streams the only stamped message it sends
+is the script's SL_STATE at 5 Hz, so a lead under 200 ms could hold it before its next stamp.
+"""
+
+from __future__ import annotations
+
+import select
+import socket
+import struct
+import time
+
+ECHO = struct.Struct("<q")
+#: the datagram's value when the companion disconnected: stop waiting for it now
+GONE = -1
+#: vehicle seconds the physics may run past the newest echo (see the module's note)
+LEAD_S = 0.25
+#: wall seconds without a newer echo after which the physics stops waiting
+PATIENCE_S = 5.0
+
+
+class CompanionGate:
+    """The echoes' UDP socket and the waiting rule; counts what it held."""
+
+    def __init__(
+        self, port: int, host: str = "127.0.0.1", lead_s: float = LEAD_S, patience_s: float = PATIENCE_S
+    ) -> None:
+        if not (lead_s > 0 and patience_s > 0):
+            raise ValueError(f"lead_s and patience_s must be positive, not {lead_s!r}, {patience_s!r}")
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self.sock.bind((host, port))
+        except OSError:
+            self.sock.close()
+            raise
+        self.sock.setblocking(False)
+        self.port = self.sock.getsockname()[1]
+        self.lead_s, self.patience_s = lead_s, patience_s
+        self.echo_t: float | None = None  # newest echoed vehicle time (s)
+        self.echo_wall = 0.0  # monotonic time it last moved forward
+        self.echoes = 0
+        self.holds = 0  # frames that waited
+        self.held_s = 0.0  # wall time spent waiting
+        self.give_ups = 0
+        self.rejected = 0
+        self.longest: tuple[float, float, float] = (0.0, 0.0, 0.0)  # (wall s, physics t, echo t)
+        self.stopping = False  # set by the server on its way out: no more waiting
+
+    def reset(self) -> None:
+        """ArduPilot restarted: its old echoes mean nothing."""
+        self.echo_t = None
+
+    def _drain(self) -> bool:
+        """Read every echo waiting; True when the newest moved forward."""
+        moved = False
+        while True:
+            try:
+                data = self.sock.recv(64)
+            except (BlockingIOError, InterruptedError):
+                return moved
+            except OSError:
+                return moved
+            if len(data) != ECHO.size:
+                self.rejected += 1
+                continue
+            us = ECHO.unpack(data)[0]
+            if us == GONE:
+                self.echo_t = None
+                moved = True
+                continue
+            t = us / 1e6
+            self.echoes += 1
+            if self.echo_t is None or t > self.echo_t:
+                self.echo_t = t
+                self.echo_wall = time.monotonic()
+                moved = True
+
+    def wait(self, t: float) -> None:
+        """Return once physics time ``t`` is within the lead of the newest echo, or the companion
+        has been silent for the patience (then run free until it echoes again)."""
+        self._drain()
+        if self.echo_t is None or t - self.echo_t <= self.lead_s:
+            return
+        self.holds += 1
+        start, echo0 = time.monotonic(), self.echo_t
+        try:
+            while not self.stopping and self.echo_t is not None and t - self.echo_t > self.lead_s:
+                left = self.patience_s - (time.monotonic() - self.echo_wall)
+                if left <= 0:
+                    self.give_ups += 1
+                    self.echo_t = None
+                    return
+                select.select([self.sock], [], [], min(left, 0.2))
+                self._drain()
+        finally:
+            took = time.monotonic() - start
+            self.held_s += took
+            if took > self.longest[0]:
+                self.longest = (took, t, echo0)
+
+    def summary(self) -> str:
+        took, t, echo = self.longest
+        return (
+            f"echoes={self.echoes} holds={self.holds} held={self.held_s:.1f}s "
+            f"longest={took:.2f}s(t={t:.2f},echo={echo:.2f}) give_ups={self.give_ups} "
+            f"bad_echoes={self.rejected}"
+        )
+
+    def close(self) -> None:
+        self.sock.close()

@@ -1,0 +1,157 @@
+"""The physics holds ArduPilot while the companion is behind (sitl/json_physics/companion_gate.py):
+the waiting rule on real UDP sockets, the server holding a stand-in ArduPilot's frame until the
+echo comes, and the pod's tap reading the echoes out of a MAVLink byte stream. Real ArduCopter
+held by it: tests/json_physics/test_real_ardupilot.py."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import pytest
+from pymavlink import mavutil
+
+from sitl.ardupilot.echo_tap import EchoTap
+from sitl.json_physics.ardupilot_side import ArduPilotSide
+from sitl.json_physics.companion_gate import ECHO, GONE, CompanionGate
+from sitl.json_physics.launch import free_udp_port, start_json_physics
+
+
+def _echo(port: int, t_s: float) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.sendto(ECHO.pack(round(t_s * 1e6)), ("127.0.0.1", port))
+
+
+@pytest.fixture
+def gate():
+    g = CompanionGate(0, lead_s=0.25, patience_s=0.6)
+    yield g
+    g.close()
+
+
+def test_no_echo_no_wait_and_within_the_lead_no_wait(gate: CompanionGate) -> None:
+    t0 = time.monotonic()
+    gate.wait(100.0)  # nobody echoes: the physics runs free
+    _echo(gate.port, 10.0)
+    time.sleep(0.05)
+    gate.wait(10.25)
+    assert time.monotonic() - t0 < 0.2
+    assert gate.holds == 0 and gate.echo_t == pytest.approx(10.0)
+
+
+def test_past_the_lead_it_waits_for_the_echo_that_lets_it_on(gate: CompanionGate) -> None:
+    _echo(gate.port, 10.0)
+    sent: list[float] = []
+
+    def later() -> None:
+        time.sleep(0.15)
+        _echo(gate.port, 10.05)  # not enough: 10.4 is still 0.35 s past it
+        time.sleep(0.15)
+        sent.append(time.monotonic())
+        _echo(gate.port, 10.2)
+
+    threading.Thread(target=later).start()
+    gate.wait(10.4)
+    done = time.monotonic()
+    assert sent and sent[0] <= done < sent[0] + 0.1
+    assert gate.holds == 1 and gate.give_ups == 0 and gate.echo_t == pytest.approx(10.2)
+
+
+def test_a_silent_companion_is_given_up_after_the_patience_then_waited_for_again(
+    gate: CompanionGate,
+) -> None:
+    _echo(gate.port, 10.0)
+    t0 = time.monotonic()
+    gate.wait(11.0)
+    assert 0.55 < time.monotonic() - t0 < 0.9
+    assert gate.give_ups == 1 and gate.echo_t is None
+    gate.wait(12.0)  # runs free now
+    _echo(gate.port, 11.9)  # the companion is back: held again past its lead
+    t1 = time.monotonic()
+    gate.wait(12.5)
+    assert time.monotonic() - t1 > 0.5 and gate.give_ups == 2
+
+
+def test_a_companion_that_disconnects_is_not_waited_for(gate: CompanionGate) -> None:
+    _echo(gate.port, 10.0)
+    threading.Timer(0.1, lambda: _send_raw(gate.port, ECHO.pack(GONE))).start()
+    t0 = time.monotonic()
+    gate.wait(11.0)
+    assert time.monotonic() - t0 < 0.4 and gate.echo_t is None and gate.give_ups == 0
+
+
+def test_a_datagram_that_is_not_an_echo_is_counted_and_ignored(gate: CompanionGate) -> None:
+    _send_raw(gate.port, b"hello")
+    _echo(gate.port, 3.0)
+    time.sleep(0.05)
+    gate.wait(3.0)
+    assert gate.rejected == 1 and gate.echo_t == pytest.approx(3.0)
+    with pytest.raises(ValueError, match="positive"):
+        CompanionGate(0, lead_s=0.0)
+
+
+def _send_raw(port: int, data: bytes) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.sendto(data, ("127.0.0.1", port))
+
+
+def test_the_server_holds_a_frame_until_the_companion_echoes() -> None:
+    """A stand-in ArduPilot at 1200 Hz: free before any echo, held 0.25 s past the echo (no reply,
+    only its re-sends), stepped on once a newer echo comes; the process says what it held."""
+    gate_port = free_udp_port()
+    with start_json_physics(lockstep_port=gate_port) as srv:
+        ap = ArduPilotSide(srv.port)
+        try:
+            for _ in range(240):  # 0.2 s, nobody echoing
+                ap.update([1000] * 4)
+            _echo(gate_port, 0.1)
+            time.sleep(0.05)
+            with pytest.raises(TimeoutError):  # the gate's patience is 5 s
+                for _ in range(600):
+                    ap.update([1000] * 4, give_up_s=1.5)
+            assert ap.state["timestamp"] == pytest.approx(0.35, abs=1.5 / 1200)
+            held_at = ap.frame_counter
+            _echo(gate_port, 0.3)
+            assert ap.recv_fdm([1000] * 4, give_up_s=2.0)
+            assert ap.frame_counter == held_at + 1 and ap.state["timestamp"] > 0.35
+        finally:
+            ap.close()
+        srv.stop()
+    assert "holds=1 " in srv.summary and "give_ups=0" in srv.summary, srv.summary
+
+
+def _frames(*msgs) -> bytes:
+    mav = mavutil.mavlink.MAVLink(None, srcSystem=1, srcComponent=191)
+    mav.WIRE_PROTOCOL_VERSION = "2.0"
+    return b"".join(bytes(m.pack(mav)) for m in msgs)
+
+
+def test_the_tap_reads_the_echoes_out_of_the_companions_bytes() -> None:
+    """Echo answers (tc1 != 0) are sent on, in microseconds, whatever the chunking; a time request
+    (tc1 == 0), other messages, line noise and a damaged echo are not; closing says the companion
+    is gone."""
+    ml = mavutil.mavlink
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(1.0)
+    tap = EchoTap(rx.getsockname()[1])
+    damaged = bytearray(_frames(ml.MAVLink_timesync_message(122, 40_000_000_000)))
+    damaged[-1] ^= 0xFF  # its checksum
+    stream = (
+        _frames(ml.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3))
+        + b"\x00line noise\x13"
+        + bytes(damaged)
+        + _frames(
+            ml.MAVLink_timesync_message(123, 41_250_000_000),  # an echo: 41.25 s
+            ml.MAVLink_timesync_message(0, 5),  # a request for the autopilot's time
+            ml.MAVLink_timesync_message(124, 41_270_000_000),
+        )
+    )
+    for i in range(0, len(stream), 3):
+        tap(stream[i : i + 3])
+    tap.close()
+    got = [ECHO.unpack(rx.recv(64))[0] for _ in range(3)]
+    rx.close()
+    assert got == [41_250_000, 41_270_000, GONE]
+    assert tap.sent == 2
