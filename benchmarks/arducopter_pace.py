@@ -5,9 +5,9 @@ the rig's speed-up now that the physics holds ArduCopter for the companion
 Each flight is the tests' pad-to-roof landing at 35 deg (tests/flights/
 test_landings_on_both_autopilots.py: take-off, transit, the landing as `slopelander land` plans
 it); it prints the wall time from the rig's ready to the end of the landing, the vehicle time it
-covered, the CPU of every process (ArduCopter, physics, pod, leg board, this one) and what the
-physics' gate held, alternating the speed-ups ``--runs`` times each. Needs SLOPELANDER_ARDUCOPTER
-(or --arducopter).
+covered, the CPU of every process (ArduCopter, physics, pod, leg board, this one; ArduCopter's
+fast boot included) and what the physics' gate held, alternating the speed-ups ``--runs`` times
+each. Needs SLOPELANDER_ARDUCOPTER (or --arducopter).
 
     python benchmarks/arducopter_pace.py [--runs 1] [--speedups 1 8]
 """
