@@ -8,6 +8,12 @@ wall time cannot fall below half of it) and the longest work units; ``--write`` 
 per-test times to tests/durations.json, from which tests/conftest.py hands the work units out
 longest first.
 
+This machine is shared: on 2026-11-27 the identification tests, their code unchanged, took 41 %
+more CPU time at 07:30 than at 05:30. So the run is bracketed by a fixed piece of reference work
+(pure Python, one process: the interpreter's speed is what the simulated vehicles, the physics
+and the companions spend), timed before and after; divide two runs' CPU by their reference times
+to compare them.
+
     python3 benchmarks/suite_time.py [--write] [-- extra pytest arguments]
 """
 
@@ -28,6 +34,28 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
+REFERENCE = (
+    "import time\n"
+    "t = time.process_time()\n"
+    "x = 0\n"
+    "for i in range(6_000_000):\n"
+    "    x = (x * 31 + i) % 1_000_003\n"
+    "print(time.process_time() - t)\n"
+)
+
+
+def reference_s() -> float:
+    """CPU seconds of the fixed reference work, in a fresh process (the best of three)."""
+    return min(
+        float(
+            subprocess.run(
+                [sys.executable, "-c", REFERENCE], capture_output=True, text=True, check=True
+            ).stdout
+        )
+        for _ in range(3)
+    )
+
+
 def unit_of(nodeid: str) -> str:
     return nodeid.split("::", 1)[0]
 
@@ -41,6 +69,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "durations.json"
         env = {**os.environ, "SLOPELANDER_RECORD_DURATIONS": str(out)}
+        ref0 = reference_s()
         load0 = os.getloadavg()
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.monotonic()
@@ -49,6 +78,7 @@ def main() -> int:
         cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
         load1 = os.getloadavg()
+        ref1 = reference_s()
         if not out.exists():
             print("the run recorded no test times", file=sys.stderr)
             return 1
@@ -68,6 +98,11 @@ def main() -> int:
     print(
         f"CPU time, every process the run waited for: {cpu / 60:.1f} min ({cpu / wall:.2f} cores busy on "
         f"average; on {os.cpu_count()} cores the run needs at least {cpu / os.cpu_count() / 60:.1f} min)"
+    )
+    ref = 0.5 * (ref0 + ref1)
+    print(
+        f"reference work: {ref0:.2f} s CPU before, {ref1:.2f} s after; the run's CPU is "
+        f"{cpu / ref:.0f} reference works (compare runs by this, not by minutes)"
     )
     for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
         print(f"  {s:7.1f} s  {module}")
