@@ -13,8 +13,8 @@ With ``--boot-speedup N``, ArduCopter boots at N times real time and is set to `
 before this process says it is ready (``sitl.ardupilot.fast_boot`` has the rules).
 
 The companion's TIMESYNC echoes on SERIAL1 are read on their way in (``sitl.ardupilot.echo_tap``)
-and the physics holds ArduCopter while the companion is behind
-(``sitl.json_physics.companion_gate``), unless ``--no-companion-lockstep``.
+and the physics holds ArduCopter while the companion is behind, and keeps it to real time within
+2 m of the ground (``sitl.json_physics.companion_gate``), unless ``--no-companion-lockstep``.
 """
 
 from __future__ import annotations
@@ -46,6 +46,9 @@ CONSOLE_PORT, COMPANION_PORT, GCS_PORT = 5760, 5762, 5763
 JSON_PORT = 9002
 #: the physics' gate, where the companion's echoes go (sitl.json_physics.companion_gate)
 GATE_PORT = 9102
+#: below this height over the surface the physics keeps ArduCopter to real time (the reflex arms at
+#: 1.5 m; sitl/json_physics/companion_gate.py says why)
+REAL_TIME_BELOW_M = 2.0
 #: SITL's RC input with ``-I0`` (``SIM::rcin_port``): the scenario's sticks and switches go there
 RC_PORT = 5501
 _PR_SET_PDEATHSIG = 1
@@ -194,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
             events=folder / "events.jsonl",
             rc_port=RC_PORT,
             lockstep_port=gate,
+            real_time_below_m=None if gate is None else REAL_TIME_BELOW_M,
         )
     except RuntimeError as exc:
         return fail(str(exc))

@@ -49,6 +49,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="hold ArduPilot while the companion is behind: its TIMESYNC echoes arrive on this UDP "
         "port of --host (sitl/json_physics/companion_gate.py)",
     )
+    ap.add_argument(
+        "--real-time-below",
+        type=float,
+        default=None,
+        metavar="M",
+        help="with --lockstep-port: keep to real time while the vehicle is lower than this over the "
+        "surface, whatever ArduPilot's speed-up (its script's thread keeps wall-clock steps)",
+    )
     return ap.parse_args(argv)
 
 
@@ -65,6 +73,10 @@ def main(argv: list[str] | None = None) -> int:
         return fail(f"--rc-port {a.rc_port} must lie within 1..65535")
     if a.lockstep_port is not None and not 1 <= a.lockstep_port <= 65535:
         return fail(f"--lockstep-port {a.lockstep_port} must lie within 1..65535")
+    if a.real_time_below is not None and not (a.lockstep_port is not None and 0 < a.real_time_below < 1e3):
+        return fail(
+            f"--real-time-below {a.real_time_below:g} needs --lockstep-port and must lie within 0..1000 m"
+        )
 
     from sitl.json_physics.companion_gate import CompanionGate
     from sitl.json_physics.physics import JsonPhysics
@@ -101,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
         gate = None
         if a.lockstep_port is not None:
             try:
-                gate = CompanionGate(a.lockstep_port, a.host)
+                gate = CompanionGate(a.lockstep_port, a.host, real_time_below_m=a.real_time_below)
             except OSError as exc:
                 where = f"udp {a.host}:{a.lockstep_port}"
                 raise ServerError(f"cannot listen on {where}: {exc.strerror}") from None

@@ -15,6 +15,14 @@ server waits for a newer one. No echo yet (no companion, or one that does not ec
 No newer echo for ``patience_s`` of wall time (the companion went away): the physics runs free
 until the companion echoes again, as the simulated vehicle does.
 
+Near the ground (``real_time_below_m`` of height over the surface under the vehicle, while a
+companion echoes) the physics also keeps to real time, whatever ArduPilot's ``--speedup``: ArduPilot
+SITL steps its clock in the main thread only, and every other thread, the on-board script's among
+them, waits for it in 1 ms sleeps of wall time (``SITL_State::wait_clock``,
+libraries/AP_HAL_SITL/SITL_State.cpp), so above real time the script runs late in vehicle time
+(at 8x one landing's script saw the impact 170 ms after contact, against 7-10 ms at real time).
+Above that height (take-off, transit, waiting for the legs) nothing the script does is timed.
+
 The lead is longer than the simulated vehicle's 50 ms: ArduCopter cannot be told to say the time
 it waits at, and before the companion has asked for its streams the only stamped message it sends
 is the script's SL_STATE at 5 Hz, so a lead under 200 ms could hold it before its next stamp.
@@ -40,10 +48,20 @@ class CompanionGate:
     """The echoes' UDP socket and the waiting rule; counts what it held."""
 
     def __init__(
-        self, port: int, host: str = "127.0.0.1", lead_s: float = LEAD_S, patience_s: float = PATIENCE_S
+        self,
+        port: int,
+        host: str = "127.0.0.1",
+        lead_s: float = LEAD_S,
+        patience_s: float = PATIENCE_S,
+        real_time_below_m: float | None = None,
     ) -> None:
         if not (lead_s > 0 and patience_s > 0):
             raise ValueError(f"lead_s and patience_s must be positive, not {lead_s!r}, {patience_s!r}")
+        if real_time_below_m is not None and not real_time_below_m > 0:
+            raise ValueError(f"real_time_below_m must be positive, not {real_time_below_m!r}")
+        self.real_time_below_m = real_time_below_m
+        self._anchor: tuple[float, float] | None = None  # (physics t, wall) where real time began
+        self.paced_s = 0.0  # wall time slept to keep to real time
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self.sock.bind((host, port))
@@ -115,12 +133,30 @@ class CompanionGate:
             if took > self.longest[0]:
                 self.longest = (took, t, echo0)
 
+    def pace(self, t: float, height_m: float) -> None:
+        """Near the ground, with a companion echoing: do not run ahead of the wall clock (a burst
+        to catch up after falling behind is not made either)."""
+        below = self.real_time_below_m
+        if below is None or self.echo_t is None or not height_m < below:
+            self._anchor = None
+            return
+        now = time.monotonic()
+        if self._anchor is None:
+            self._anchor = (t, now)
+            return
+        ahead = (t - self._anchor[0]) - (now - self._anchor[1])
+        if ahead > 0.001:
+            time.sleep(ahead)
+            self.paced_s += ahead
+        elif ahead < -0.2:
+            self._anchor = (t, now)
+
     def summary(self) -> str:
         took, t, echo = self.longest
         return (
             f"echoes={self.echoes} holds={self.holds} held={self.held_s:.1f}s "
             f"longest={took:.2f}s(t={t:.2f},echo={echo:.2f}) give_ups={self.give_ups} "
-            f"bad_echoes={self.rejected}"
+            f"bad_echoes={self.rejected} slept_near_ground={self.paced_s:.1f}s"
         )
 
     def close(self) -> None:

@@ -68,11 +68,13 @@ def start_json_physics(
     events: Path | None = None,
     rc_port: int | None = None,
     lockstep_port: int | None = None,
+    real_time_below_m: float | None = None,
 ) -> PhysicsProcess:
     """Start ``python -m sitl.json_physics``; returns once it is ready. Raises RuntimeError with
-        its stderr if it fails. ``rc_port``: ArduPilot SITL's UDP RC input, where the scenario's
-        ``rc`` schedule is sent; ``lockstep_port``: where the companion's echoes arrive (the physics then
-    holds ArduPilot while the companion is behind, sitl/json_physics/companion_gate.py)."""
+            its stderr if it fails. ``rc_port``: ArduPilot SITL's UDP RC input, where the scenario's
+            ``rc`` schedule is sent; ``lockstep_port``: where the companion's echoes arrive (the physics then
+        holds ArduPilot while the companion is behind, sitl/json_physics/companion_gate.py), and with
+    ``real_time_below_m`` keeps to real time that near the ground."""
     tmp = tempfile.TemporaryDirectory(prefix="sl-json-")
     port = port or free_udp_port()
     cmd = [sys.executable, "-m", "sitl.json_physics", "--port", str(port)]
@@ -88,5 +90,7 @@ def start_json_physics(
         cmd += ["--rc-port", str(rc_port)]
     if lockstep_port is not None:
         cmd += ["--lockstep-port", str(lockstep_port)]
+        if real_time_below_m is not None:
+            cmd += ["--real-time-below", f"{real_time_below_m:g}"]
     proc, line = start_ready_process(cmd, "json_physics ready", tmp, "json physics", timeout)
     return PhysicsProcess(proc, port, line, tmp)

@@ -93,6 +93,11 @@ class JsonPhysics:
         if self.events is not None:
             self.events.after_physics_step(self.stepper, self.t, lambda: self._world_body(b))
 
+    def height_m(self) -> float:
+        """Height (m) of the body over the surface under it, this frame."""
+        x, z = self.world.to_world(self._body.x, self._body.z)
+        return z - self.world.surface_z(x)
+
     def _world_body(self, b):
         """Body ``b`` in world coordinates."""
         x, z = self.world.to_world(b.x, b.z)

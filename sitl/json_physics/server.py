@@ -115,6 +115,7 @@ class JsonServer:
         self.last_count = frame.frame_count
         if self.gate is not None:
             self.gate.wait(self.physics.t)
+            self.gate.pace(self.physics.t, self.physics.height_m())
         try:
             self.physics.step(frame.dt, frame.pwm[:4])
             reply = encode_reply(self.physics.fdm())

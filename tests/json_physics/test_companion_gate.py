@@ -155,3 +155,29 @@ def test_the_tap_reads_the_echoes_out_of_the_companions_bytes() -> None:
     rx.close()
     assert got == [41_250_000, 41_270_000, GONE]
     assert tap.sent == 2
+
+
+def test_near_the_ground_it_keeps_to_real_time_and_above_it_runs_free() -> None:
+    """With a companion echoing, frames below the height are paced to the wall clock (a frame
+    of 10 ms takes 10 ms); above it, or with nobody echoing, they are not paced at all."""
+    g = CompanionGate(0, real_time_below_m=2.0)
+    try:
+        _echo(g.port, 100.0)
+        time.sleep(0.05)
+        g.wait(0.0)
+
+        def run(height_m: float, frames: int = 30, dt: float = 0.01) -> float:
+            t0 = time.monotonic()
+            for i in range(frames):
+                g.pace(1.0 + i * dt, height_m)
+            return time.monotonic() - t0
+
+        assert run(1.0) >= 0.29 - 0.01  # 30 frames of 10 ms: 0.29 s after the first
+        assert run(3.0) < 0.05
+        g.reset()  # the companion gone
+        assert run(1.0) < 0.05
+        assert g.paced_s > 0.25
+    finally:
+        g.close()
+    with pytest.raises(ValueError, match="positive"):
+        CompanionGate(0, real_time_below_m=0.0)
