@@ -11,8 +11,9 @@ longest first.
 This machine is shared: on 2026-11-27 the identification tests, their code unchanged, took 41 %
 more CPU time at 07:30 than at 05:30. So the run is bracketed by a fixed piece of reference work
 (pure Python, one process: the interpreter's speed is what the simulated vehicles, the physics
-and the companions spend), timed before and after; divide two runs' CPU by their reference times
-to compare them.
+and the companions spend), timed before and after: a run whose reference took longer ran on a
+slower machine (at 08:18 it took 0.75 s, as on the quiet machine, so that day's extra CPU was
+something else).
 
     python3 benchmarks/suite_time.py [--write] [-- extra pytest arguments]
 """
