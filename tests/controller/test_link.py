@@ -165,9 +165,10 @@ def test_link_loss_on_local_clock_and_clock_from_vehicle_stamps(pair):
     # newest vehicle time, the lock-step echo a simulated vehicle waits on
     assert ts and ts[-1].tc1 != 0 and ts[-1].ts1 == 2_000_000_000
     clk.advance(1.4)
-    assert not link.lost
+    assert not link.lost and link.lost_why is None
     clk.advance(0.2)
     assert link.lost  # nothing at all for 1.6 s of local time
+    assert link.lost_why == "nothing heard for 1.60 s of local time"
 
 
 def test_a_slow_vehicle_is_not_lost_but_one_without_heartbeats_is(pair):
@@ -187,6 +188,7 @@ def test_a_slow_vehicle_is_not_lost_but_one_without_heartbeats_is(pair):
         peer.conn.mav.raw_imu_send(us, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
     settle(link, peer, 1)
     assert link.lost
+    assert link.lost_why.startswith("no HEARTBEAT for 3.1") and "vehicle time" in link.lost_why
 
 
 def test_one_lost_heartbeat_is_not_link_loss_but_the_configured_count_is(pair):

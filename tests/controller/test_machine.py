@@ -243,8 +243,10 @@ def test_landed_armed_row(inputs, sent):
 def test_link_back_after_loss_aborts_to_loiter():
     m, act, _ = make()
     t = run_to(m, "DESCEND")
-    m.step(replace(OK, t=t + 0.1, link_ok=False))
+    m.step(replace(OK, t=t + 0.1, link_ok=False, link_lost_why="nothing heard for 1.60 s of local time"))
     assert m.name == "LINK_LOST"
+    # the record says which of the link's rules fired
+    assert m.history[-1]["reason"] == "link to the autopilot lost (nothing heard for 1.60 s of local time)"
     assert not any(c[0] == "statustext" for c in act.calls if c[1:] and "LINK_LOST" in str(c[1]))
     m.step(replace(OK, t=t + 2.0, range_m=2.0))
     assert m.name == "ABORTED" and ("set_mode", "LOITER") in act.calls

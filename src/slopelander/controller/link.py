@@ -623,6 +623,21 @@ class Link:
         return sum(1 for t in s.stamps if start < t <= now) / span
 
     @property
+    def lost_why(self) -> str | None:
+        """Which rule of :attr:`lost` holds, in words (None: the link is not lost)."""
+        if self.rebooted:
+            return "the autopilot rebooted"
+        if self._last_heartbeat_rx is None or self._last_rx is None:
+            return "no HEARTBEAT yet"
+        silent = self.monotonic() - self._last_rx
+        if silent > self.link_loss_s:
+            return f"nothing heard for {silent:.2f} s of local time"
+        hb = self._last_heartbeat_vt
+        if hb is not None and self.age(hb) > self.heartbeats_missed * AUTOPILOT_HEARTBEAT_S:
+            return f"no HEARTBEAT for {self.age(hb):.2f} s of vehicle time"
+        return None
+
+    @property
     def lost(self) -> bool:
         """The autopilot silent for ``link_loss_s`` local seconds, talking but with
         ``heartbeats_missed`` of its 1 Hz HEARTBEATs missed in its own time, or rebooted (true
@@ -632,14 +647,7 @@ class Link:
         HEARTBEATs are counted in vehicle time, so a simulated vehicle slowed by a loaded machine
         (its 1 Hz heartbeat further apart in local time) is not taken for a lost one. One lost
         HEARTBEAT (a dropped frame on a noisy link) is not link loss."""
-        if self.rebooted:
-            return True
-        if self._last_heartbeat_rx is None or self._last_rx is None:
-            return True
-        if self.monotonic() - self._last_rx > self.link_loss_s:
-            return True
-        hb = self._last_heartbeat_vt
-        return hb is not None and self.age(hb) > self.heartbeats_missed * AUTOPILOT_HEARTBEAT_S
+        return self.lost_why is not None
 
     def age(self, stamp_s: float) -> float:
         """Vehicle seconds since ``stamp_s``, counted from where telemetry resumed if it had a gap

@@ -63,7 +63,8 @@ def failsafe(state: State, inp: Inputs) -> tuple[str, str] | None:
     if inp.estop and name != "ESTOP":
         return ("ESTOP", "emergency stop")
     if not inp.link_ok and name not in LINK_EXEMPT:
-        return ("LINK_LOST", "link to the autopilot lost")
+        why = f" ({inp.link_lost_why})" if inp.link_lost_why else ""
+        return ("LINK_LOST", f"link to the autopilot lost{why}")
     if state.airborne_descent and inp.script_state in SCRIPT_HAS_CUT:
         # The script cut the motors before this step saw it (a slow companion reads the cut and
         # the range below the sensor's minimum in one batch): aborting now would hand a falling

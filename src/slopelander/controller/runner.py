@@ -169,6 +169,7 @@ class Lander:
         return Inputs(
             t=t,
             link_ok=not ln.lost,
+            link_lost_why=ln.lost_why or "",
             mode=mode,
             armed=armed,
             estop=state == SCRIPT_ESTOP,

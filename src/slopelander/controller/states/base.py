@@ -42,6 +42,7 @@ class Inputs:
 
     t: float
     link_ok: bool = True
+    link_lost_why: str = ""  # which of the link's loss rules fired (Link.lost_why), for the record
     mode: str = "GUIDED"
     armed: bool = True
     estop: bool = False
