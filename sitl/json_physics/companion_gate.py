@@ -85,30 +85,25 @@ class CompanionGate:
         """ArduPilot restarted: its old echoes mean nothing."""
         self.echo_t = None
 
-    def _drain(self) -> bool:
-        """Read every echo waiting; True when the newest moved forward."""
-        moved = False
+    def _drain(self) -> None:
+        """Read every echo waiting (none left, or the socket closed: done)."""
         while True:
             try:
                 data = self.sock.recv(64)
-            except (BlockingIOError, InterruptedError):
-                return moved
-            except OSError:
-                return moved
+            except OSError:  # BlockingIOError: nothing more waiting
+                return
             if len(data) != ECHO.size:
                 self.rejected += 1
                 continue
             us = ECHO.unpack(data)[0]
             if us == GONE:
                 self.echo_t = None
-                moved = True
                 continue
             t = us / 1e6
             self.echoes += 1
             if self.echo_t is None or t > self.echo_t:
                 self.echo_t = t
                 self.echo_wall = time.monotonic()
-                moved = True
 
     def wait(self, t: float) -> None:
         """Return once physics time ``t`` is within the lead of the newest echo, or the companion
