@@ -165,10 +165,34 @@ def test_link_loss_on_local_clock_and_clock_from_vehicle_stamps(pair):
     # newest vehicle time, the lock-step echo a simulated vehicle waits on
     assert ts and ts[-1].tc1 != 0 and ts[-1].ts1 == 2_000_000_000
     clk.advance(1.4)
+    link.poll()
     assert not link.lost and link.lost_why is None
     clk.advance(0.2)
-    assert link.lost  # nothing at all for 1.6 s of local time
+    assert not link.lost  # nobody looked in those 0.2 s
+    link.poll()
+    assert link.lost  # nothing at all for 1.6 s of local time, read after it
     assert link.lost_why == "nothing heard for 1.60 s of local time"
+
+
+def test_a_companion_that_stalls_does_not_take_its_pause_for_the_autopilots_silence(pair):
+    """The companion stops for 2 s between its read and its landing step (a long garbage
+    collection in a big process, a starved CPU): what the autopilot sent meanwhile is waiting
+    in the socket, so the link is not lost, before the next read or after it."""
+    link, peer, clk = pair
+    found(link, peer)
+    peer.conn.mav.raw_imu_send(2_000_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+    settle(link, peer)
+    clk.advance(2.0)  # the stall, after a read that drained the link
+    peer.conn.mav.raw_imu_send(2_010_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
+    time.sleep(0.05)
+    assert not link.lost, link.lost_why
+    link.poll()
+    assert not link.lost and link.clock.now() == pytest.approx(2.01)
+    # the same pause with nothing sent in it: silent for as long as the reads show
+    clk.advance(2.0)
+    assert not link.lost
+    link.poll()
+    assert link.lost_why == "nothing heard for 2.00 s of local time"
 
 
 def test_a_slow_vehicle_is_not_lost_but_one_without_heartbeats_is(pair):

@@ -247,6 +247,10 @@ class Link:
         self._last_heartbeat_rx: float | None = None
         self._last_heartbeat_vt: float | None = None  # vehicle time of the newest HEARTBEAT
         self._last_rx: float | None = None  # local time of the newest message from the autopilot
+        #: local time of the newest read that found the link drained: silence is judged up to it,
+        #: so a companion that stalls (a long garbage collection, a starved process) between two
+        #: reads does not take its own pause for the autopilot's silence
+        self._looked_at: float | None = None
         self._last_heartbeat_tx = -math.inf
         self._last_timesync_usec = 0
         #: whether the vehicle waits for the companion's TIMESYNC echo (None: not known yet)
@@ -320,8 +324,10 @@ class Link:
     def _read_all(self) -> int:
         n = 0
         while True:
+            looked = self.monotonic()
             msg = self.conn.recv_match(blocking=False)
             if msg is None:
+                self._looked_at = looked
                 return n
             n += 1
             self._handle(msg)
@@ -332,6 +338,7 @@ class Link:
         The tlog, when one is set up, gets the decoded messages as pymavlink would write them."""
         conn, n = self.conn, 0
         while True:
+            looked = self.monotonic()
             data = conn.recv(RECV_BYTES)
             if data:
                 if conn.logfile_raw:
@@ -348,6 +355,7 @@ class Link:
                 n += 1
                 self._handle(msg)
             if not data and not msgs:
+                self._looked_at = looked
                 return n
 
     def _from_autopilot(self, msg) -> bool:
@@ -478,7 +486,7 @@ class Link:
             if ran > PROBE_FREE_S * 1e6:
                 self.lockstep = False
                 return
-            silent = self._last_rx is None or now - self._last_rx >= PROBE_STALL_S
+            silent = self._last_rx is None or self._silence() >= PROBE_STALL_S
             if ran > 0 and silent:
                 self.lockstep = True
                 self._echo()
@@ -629,7 +637,7 @@ class Link:
             return "the autopilot rebooted"
         if self._last_heartbeat_rx is None or self._last_rx is None:
             return "no HEARTBEAT yet"
-        silent = self.monotonic() - self._last_rx
+        silent = self._silence()
         if silent > self.link_loss_s:
             return f"nothing heard for {silent:.2f} s of local time"
         hb = self._last_heartbeat_vt
@@ -637,13 +645,24 @@ class Link:
             return f"no HEARTBEAT for {self.age(hb):.2f} s of vehicle time"
         return None
 
+    def _silence(self) -> float:
+        """Local seconds the autopilot has been silent for, as far as the reads show: from its
+        newest message to the newest read that found nothing more (time since that read is not
+        counted: nobody looked)."""
+        if self._last_rx is None:
+            return math.inf
+        looked = self._looked_at if self._looked_at is not None else self._last_rx
+        return max(0.0, looked - self._last_rx)
+
     @property
     def lost(self) -> bool:
         """The autopilot silent for ``link_loss_s`` local seconds, talking but with
         ``heartbeats_missed`` of its 1 Hz HEARTBEATs missed in its own time, or rebooted (true
         before the first HEARTBEAT).
 
-        Silence is measured locally, since a silent vehicle's clock stands still; missing
+        Silence is measured locally, since a silent vehicle's clock stands still, and only up to
+        the newest read that found the link drained (a companion's own pause is not the
+        autopilot's silence); missing
         HEARTBEATs are counted in vehicle time, so a simulated vehicle slowed by a loaded machine
         (its 1 Hz heartbeat further apart in local time) is not taken for a lost one. One lost
         HEARTBEAT (a dropped frame on a noisy link) is not link loss."""
