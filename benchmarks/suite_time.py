@@ -15,6 +15,12 @@ and the companions spend), timed before and after: a run whose reference took lo
 slower machine (at 08:18 it took 0.75 s, as on the quiet machine, so that day's extra CPU was
 something else).
 
+The reference brackets the run; the machine's speed also changes inside it. So a thread of this
+(otherwise idle) process times a small fixed piece of the same work every ``--probe-every``
+seconds of the run, on its own thread's CPU clock: the run prints how fast the machine was while
+the tests ran, against the reference's best, and the CPU the run would have needed at that best
+speed (an estimate, said as one).
+
     python3 benchmarks/suite_time.py [--write] [-- extra pytest arguments]
 """
 
@@ -25,9 +31,11 @@ import json
 import os
 import resource
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -35,11 +43,12 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
+REFERENCE_LOOPS = 6_000_000
 REFERENCE = (
     "import time\n"
     "t = time.process_time()\n"
     "x = 0\n"
-    "for i in range(6_000_000):\n"
+    f"for i in range({REFERENCE_LOOPS}):\n"
     "    x = (x * 31 + i) % 1_000_003\n"
     "print(time.process_time() - t)\n"
 )
@@ -57,6 +66,39 @@ def reference_s() -> float:
     )
 
 
+PROBE_LOOPS = 200_000  # a thirtieth of the reference work: about 25 ms on the quiet machine
+#: the reference's loop, as module-level code like the reference's (global names cost more)
+PROBE = compile(
+    f"x = 0\nfor i in range({PROBE_LOOPS}):\n    x = (x * 31 + i) % 1_000_003\n", "<probe>", "exec"
+)
+
+
+def probe_s() -> float:
+    """Thread CPU seconds of a thirtieth of the reference work, in this process."""
+    t = time.thread_time()
+    exec(PROBE, {})
+    return time.thread_time() - t
+
+
+class SpeedProbe(threading.Thread):
+    """Times :func:`probe_s` every ``every_s`` wall seconds until stopped."""
+
+    def __init__(self, every_s: float) -> None:
+        super().__init__(daemon=True)
+        self.every_s = every_s
+        self.samples: list[float] = []
+        self._stop = threading.Event()
+
+    def run(self) -> None:
+        while not self._stop.wait(self.every_s):
+            self.samples.append(probe_s())
+
+    def stop(self) -> list[float]:
+        self._stop.set()
+        self.join()
+        return self.samples
+
+
 def unit_of(nodeid: str) -> str:
     return nodeid.split("::", 1)[0]
 
@@ -65,6 +107,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--write", action="store_true", help="save the times to tests/durations.json")
     ap.add_argument("--top", type=int, default=15, help="how many of the longest modules to print")
+    ap.add_argument("--probe-every", type=float, default=10.0, help="s between speed probes in the run")
     ap.add_argument("pytest_args", nargs="*", help="extra arguments for pytest (after --)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -73,9 +116,12 @@ def main() -> int:
         ref0 = reference_s()
         load0 = os.getloadavg()
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        probe = SpeedProbe(a.probe_every)
+        probe.start()
         t0 = time.monotonic()
         run = subprocess.run([sys.executable, "-m", "pytest", "-q", *a.pytest_args], cwd=REPO, env=env)
         wall = time.monotonic() - t0
+        probes = probe.stop()
         cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
         load1 = os.getloadavg()
@@ -105,6 +151,16 @@ def main() -> int:
         f"reference work: {ref0:.2f} s CPU before, {ref1:.2f} s after; the run's CPU is "
         f"{cpu / ref:.0f} reference works (compare runs by this, not by minutes)"
     )
+    if probes:
+        best = min(ref0, ref1) * PROBE_LOOPS / REFERENCE_LOOPS
+        slow = sorted(p / best for p in probes)
+        mean = statistics.fmean(slow)
+        print(
+            f"machine speed in the run ({len(slow)} probes, 1.00 = the faster reference): the probe "
+            f"took {slow[0]:.2f}x / {statistics.median(slow):.2f}x / {slow[-1]:.2f}x (least / median / "
+            f"most), {mean:.2f}x on average; at the reference's speed the run's CPU would be about "
+            f"{cpu / mean / 60:.1f} min (an estimate: it assumes the tests slowed as the probe did)"
+        )
     for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
         print(f"  {s:7.1f} s  {module}")
     if test_cpu:
