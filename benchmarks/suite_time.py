@@ -87,14 +87,14 @@ class SpeedProbe(threading.Thread):
         super().__init__(daemon=True)
         self.every_s = every_s
         self.samples: list[float] = []
-        self._stop = threading.Event()
+        self._halt = threading.Event()
 
     def run(self) -> None:
-        while not self._stop.wait(self.every_s):
+        while not self._halt.wait(self.every_s):
             self.samples.append(probe_s())
 
     def stop(self) -> list[float]:
-        self._stop.set()
+        self._halt.set()
         self.join()
         return self.samples
 
