@@ -548,6 +548,19 @@ def test_armed_ends_when_the_autopilot_disarms_before_the_cut():
     assert m.name == "ABORTED" and "in the air" in m.history[-1]["reason"]
 
 
+def test_a_vehicle_re_armed_after_it_disarmed_in_the_descent_gets_only_the_unforced_disarm():
+    """Found by Hypothesis (test_machine_properties): DESCEND, the autopilot disarms on the
+    ground, then the vehicle is armed again. LANDED asks for the disarm ArduCopter grants only
+    with its land detector saying landed; no forced disarm, no reverse thrust, no impact seen."""
+    m, act, _ = make("DESCEND")
+    m.step(replace(OK, t=0.1, range_m=0.3, armed=False))
+    assert m.name == "LANDED", m.history
+    act.calls.clear()
+    m.step(replace(OK, t=0.2, range_m=0.0, armed=False))
+    m.step(replace(OK, t=0.3, range_m=0.0, armed=True))
+    assert [c[0] for c in act.calls] == ["disarm_on_ground"], act.calls
+
+
 def _to_takeoff():
     m, _, _ = make()
     t = run_to(m, "LANDED")

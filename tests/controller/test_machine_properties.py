@@ -99,7 +99,14 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         if "TAKEOFF" in visited:
             self.on_roof = False
         if not self.impact_seen:
-            assert not MOTOR_STOPPERS & set(names), f"{names} before any impact, in {self.m.name}"
+            stoppers = MOTOR_STOPPERS & set(names)
+            if self.m.name == "LANDED" and before == "LANDED":
+                # LANDED is entered only with the vehicle seen disarmed (on the ground: it
+                # disarmed before the cut), and asks a re-armed one for the unforced disarm,
+                # which ArduCopter refuses in the air (AP_Arming_Copter::disarm); found by
+                # Hypothesis: DESCEND, disarmed, range 0, armed again
+                stoppers -= {"disarm_on_ground"}
+            assert not stoppers, f"{names} before any impact, in {self.m.name}"
         if "reflex_arm" in names:
             assert self.inp.range_ok and self.inp.range_m is not None, "cut armed without a valid range"
             assert self.inp.link_ok and self.inp.mode == "GUIDED"
