@@ -85,6 +85,8 @@ TRACK_MESSAGES = LANDING_MESSAGES | {"ATTITUDE", "SERVO_OUTPUT_RAW"}
 #: stalled past 1 s, and the vehicle then ran free at up to 8x real time through the landing's
 #: timing (the thrust's end, the settle), making 55 deg landings end by the script's bound
 LOCKSTEP_PATIENCE_S = 5.0
+#: the rig's default speed-up for real ArduCopter (see :class:`Rig`)
+ARDUCOPTER_SPEEDUP = 8.0
 
 
 class RigError(RuntimeError):
@@ -298,19 +300,19 @@ class Rig:
         autopilot: str = "sim",
         arducopter: str | None = None,
         extra_endpoints: list[str] | None = None,
-        arducopter_speedup: float = 1.0,
+        arducopter_speedup: float = ARDUCOPTER_SPEEDUP,
     ) -> None:
         """``arducopter_speedup``: ArduCopter's ``--speedup``, the most it runs ahead of real time.
         It is lock-stepped with the physics, and the physics holds it while the companion is more
         than 0.25 s of vehicle time behind and keeps it to real time within 2 m of the ground
         (``sitl.json_physics.companion_gate``): the companion's and the board's limits (1 s each,
         on the vehicle's time) hold on a loaded machine, and the on-board script, whose thread
-        ArduPilot SITL runs in wall-clock steps, has real time for the cut and the impact. The
-        default stays real time: in the suite of 2026-11-27 08:00 at 8x (with both rules) one
-        landing went LINK_LOST while it waited for the legs, as one had at 1x on three workers;
-        at 8x without the real time near the ground one landing's script saw the impact 170 ms
-        after contact (7-10 ms at 1x); at 4x without the gate the reflex's validity lapsed in 3
-        of 24 landings at load 5-17 (2026-11-26)."""
+        ArduPilot SITL runs in wall-clock steps, has real time for the cut and the impact. Above real time
+        the climb, the transit and the wait for the legs cost less wall time and CPU (a 35 deg
+        landing: 23.1 s and 40.7 CPU-s at 8x against 34.1 s and 47.2 CPU-s at 1x, 2026-11-27,
+        benchmarks/arducopter_pace.py). Without the real time near the ground one landing's
+        script saw the impact 170 ms after contact at 8x (7-10 ms at 1x); without the gate the
+        reflex's validity lapsed in 3 of 24 landings at 4x and load 5-17 (2026-11-26)."""
         if autopilot not in AUTOPILOTS:
             raise ValueError(f"autopilot must be one of {', '.join(AUTOPILOTS)}, not {autopilot!r}")
         if not (math.isfinite(arducopter_speedup) and arducopter_speedup > 0):
