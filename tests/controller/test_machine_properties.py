@@ -191,13 +191,22 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         """With nothing changing any more, no waiting state lasts for ever."""
         if not hasattr(self, "m"):
             return
-        # longer than the longest wait the configuration allows (the legs' ready timeout, the
-        # take-off's), so a state that waits on its timeout must have ended
+        # each state that waits on a timeout ends within the longest wait the configuration
+        # allows (the legs' ready timeout, the take-off's); waits may follow one another
+        # (LEGS_WAIT's 30 s, then RESET's: found by Hypothesis), so the steps go on until the
+        # state has not changed for longer than that, within a bound on the whole chain
         cfg = self.m.ctx.cfg
-        horizon = 10.0 + max(30.0, cfg["legs.ready_timeout_s"], cfg["settle.timeout_s"])
-        for _ in range(int(horizon / 0.1)):
+        longest = 10.0 + max(30.0, cfg["legs.ready_timeout_s"], cfg["settle.timeout_s"])
+        elapsed = changed = 0.0
+        seen = len(self.m.history)
+        while elapsed < 6 * longest and elapsed - changed <= longest:
             self._step(0.1)
-        assert self.m.name in MAY_PERSIST, f"still in {self.m.name} after {horizon:g} s of unchanging inputs"
+            elapsed += 0.1
+            if len(self.m.history) != seen:
+                seen, changed = len(self.m.history), elapsed
+        assert self.m.name in MAY_PERSIST, (
+            f"still in {self.m.name} after {elapsed - changed:.0f} s of unchanging inputs in it"
+        )
 
 
 LandingUnderRandomEvents.TestCase.settings = settings(
@@ -218,3 +227,51 @@ def test_a_script_report_after_rvt_does_not_undo_the_contact() -> None:
     state.landing_times_out(dt=0.125)
     assert state.m.name == "SETTLED"
     state.teardown()
+
+
+# Sequences Hypothesis found in some runs and not in others (it also draws constants of the modules
+# a run has loaded, so the suite's import order changes its examples): kept as plain tests.
+
+
+def test_two_waits_in_a_row_each_end():
+    """LEGS_WAIT's 30 s ready timeout, then (the script had met the roof) SETTLED, TAKEOFF and
+    RESET's own 30 s: each wait ends, though together they outlast one wait."""
+    s = LandingUnderRandomEvents()
+    s.start(start="PRESET")
+    for _ in range(12):
+        s.script_reports(dt=0.125, s=0)
+    s.script_reports(dt=0.125, s=12)
+    s.takeoff_request(dt=0.125, req=True)
+    s.teardown()
+    assert [h["to"] for h in s.m.history][-3:] == ["TAKEOFF", "RESET", "READY"]
+
+
+def test_a_script_reversing_past_its_bound_is_not_released_before_a_take_off():
+    """REVERSE outlasts the script's bound while the script still reports RVT; a take-off
+    request follows. No release of the held motors (only the tilt-checked take-off release)."""
+    s = LandingUnderRandomEvents()
+    s.start(start="PRESET")
+    s.script_reports(dt=0.005, s=0)
+    s.script_reports(dt=0.005, s=0)
+    s.imu(a=5.960464477539063e-08, dt=0.19875604310110628, impact=True)
+    s.script_reports(dt=0.005, s=0)
+    s.takeoff_request(dt=0.03650099953234336, req=False)
+    s.legs(dt=0.07069460287171848, fault=None, ready=False)
+    s.takeoff_request(dt=0.04395521341566689, req=False)
+    s.takeoff_request(dt=0.1254270124221238, req=True)
+    s.takeoff_request(dt=0.03439325250129231, req=True)
+    s.takeoff_request(dt=0.1851058898755451, req=False)
+    s.script_reports(dt=0.17895028932819845, s=11)
+    s.takeoff_request(dt=0.009101307663329235, req=True)
+    s.imu(a=44.32595070079144, dt=0.04308193380290513, impact=True)
+    s.imu(a=9.319181340819697e-290, dt=0.14380486553537597, impact=False)
+    s.script_reports(dt=0.03, s=12)
+    s.imu(a=192.50311703431697, dt=0.1351199224258992, impact=True)
+    s.legs(dt=0.06546432909838193, fault=None, ready=False)
+    s.legs(dt=0.056270086546021746, fault=None, ready=False)
+    s.imu(a=-2.225073858507203e-309, dt=0.08211368129390746, impact=True)
+    s.imu(a=41.420440091781586, dt=0.1853642611893761, impact=True)
+    s.takeoff_request(dt=0.12, req=True)
+    s.legs(dt=0.06166850476486598, fault=None, ready=True)
+    s.teardown()
+    assert "script still reversing after its duration" in [h["reason"] for h in s.m.history]

@@ -15,7 +15,7 @@ from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
 
 #: how long past its longest duration the script may still report reverse thrust before the
-#: companion releases the outputs itself (the script's own bound is the duration plus a tick)
+#: companion stops waiting for it (the script's own bound is the duration plus a tick)
 REVERSE_OVERRUN_S = 1.0
 SCRIPT_RVT = ScriptState.RVT
 
@@ -48,6 +48,8 @@ class Reverse(State):
             return ("SETTLED", f"reverse thrust ended by the script after {elapsed:.2f} s")
         keep_reflex(ctx, inp)
         if elapsed >= longest + REVERSE_OVERRUN_S:
-            ctx.act.release()  # the script did not end its bounded reverse phase: take it back
-            return ("SETTLED", "script still reversing after its duration: released")
+            # the script did not end its bounded reverse phase: nothing to take back (from the cut
+            # on it refuses a release, and a release on the roof is what the landing avoids);
+            # SETTLED asks for the disarm once the vehicle is still
+            return ("SETTLED", "script still reversing after its duration")
         return None
