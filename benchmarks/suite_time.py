@@ -9,11 +9,10 @@ per-test times to tests/durations.json, from which tests/conftest.py hands the w
 longest first.
 
 This machine is shared: on 2026-11-27 the identification tests, their code unchanged, took 41 %
-more CPU time at 07:30 than at 05:30. So the run is bracketed by a fixed piece of reference work
-(pure Python, one process: the interpreter's speed is what the simulated vehicles, the physics
-and the companions spend), timed before and after: a run whose reference took longer ran on a
-slower machine (at 08:18 it took 0.75 s, as on the quiet machine, so that day's extra CPU was
-something else).
+more CPU time at 07:30 than at 05:30, and a fixed piece of pure-Python work (the reference: the
+interpreter's speed is what the simulated vehicles, the physics and the companions spend) took
+0.74 s or 1.3-1.4 s depending on the minute. So the run is bracketed by that reference work,
+timed before and after.
 
 The reference brackets the run; the machine's speed also changes inside it. So a thread of this
 (otherwise idle) process times a small fixed piece of the same work every ``--probe-every``
