@@ -87,6 +87,11 @@ TRACK_MESSAGES = LANDING_MESSAGES | {"ATTITUDE", "SERVO_OUTPUT_RAW"}
 LOCKSTEP_PATIENCE_S = 5.0
 #: the rig's default speed-up for real ArduCopter (see :class:`Rig`)
 ARDUCOPTER_SPEEDUP = 8.0
+#: s of vehicle time the rig flies a landing on once the controller holds it in SETTLED after a
+#: slide (armed on the roof, motors held, the pilot told: the controller waits for the pilot and has
+#: no end of its own). Such landings ran to the test's wall-clock ``timeout_s`` before: 20-45 s of
+#: every process stepping at full speed for a hold whose checks need a few seconds of it.
+HELD_S = 5.0
 
 
 class RigError(RuntimeError):
@@ -598,9 +603,11 @@ class Rig:
         lander: Lander | None = None,
         until: tuple[str, ...] = ("LANDED", "ABORTED", "ESTOP", "READY"),
         uphill_angle_deg: float | None = None,
+        held_s: float | None = HELD_S,
     ) -> Flight:
-        """One landing by the companion's controller (until it reaches a state in ``until``); then
-        ``rest_s`` of vehicle time with the controller still running.
+        """One landing by the companion's controller (until it reaches a state in ``until``, or
+        ``held_s`` of vehicle time into a hold after a slide: :data:`HELD_S`); then ``rest_s`` of
+        vehicle time with the controller still running.
 
         ``uphill_angle_deg`` is the uphill legs' angle the landing sets (the table's, as
         ``slopelander land`` passes it); the flight keeps the angles the board reported when the
@@ -616,11 +623,22 @@ class Rig:
             slope_deg=self.slope_deg,
             uphill_angle_deg=uphill_angle_deg,
         )
+        held_since: list[float] = []
+
+        def held() -> bool:
+            if held_s is None or lander.machine.name != "SETTLED":
+                return False
+            if "slide" not in lander.ctx.marks.get("said", set()):
+                return False
+            if not held_since:
+                held_since.append(self.now)
+            return self.now - held_since[0] >= held_s
+
         start = time.monotonic()
         end = lander.run(timeout_s, until=("ARMED", *until))
         angles = self.leg_angles()
         if end not in until:
-            end = lander.run(max(0.0, timeout_s - (time.monotonic() - start)), until=until)
+            end = lander.run(max(0.0, timeout_s - (time.monotonic() - start)), until=until, stop=held)
         if end not in ("ABORTED", "ESTOP"):
             self.wait(rest_s, tick=lander.poll)
         self.read_events()

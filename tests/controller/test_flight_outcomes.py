@@ -116,8 +116,9 @@ def fly(rig: Rig, fall_m: float, timeout_s: float = 90.0, **reflex) -> tuple[Fli
 
 
 def assert_held_sliding(rig: Rig, flight: Flight, source: str) -> None:
-    """A landing that ended SETTLED at its timeout: the vehicle slid after the thrust and is held
-    on the roof, armed, motors stopped, the pilot told; neither disarmed nor handed back."""
+    """A landing that ended SETTLED (the rig ends the hold after ``sitl.rig.HELD_S``): the vehicle
+    slid after the thrust and is held on the roof, armed, motors stopped, the pilot told; neither
+    disarmed nor handed back."""
     assert flight.states == SEQUENCE[:-1], (flight.history, source)
     assert "slide" in flight.lander.ctx.marks.get("said", set()), (flight.lander.ctx.marks, source)
     assert rig.armed() and rig.link.script_state == 13  # the script's HOLD

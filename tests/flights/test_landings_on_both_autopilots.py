@@ -153,7 +153,7 @@ def test_55_deg_with_reverse_thrust_rests_under_it_and_a_slide_after_it_is_not_d
     ctx = " | ".join([f"{autopilot} 55 deg"] + [f"{h['to']}: {h['reason']}" for h in flight.history])
     ctx += " || " + " | ".join(texts[-8:])
     sequence = ["PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED", "CUT", "REVERSE", "SETTLED"]
-    ended_in = [] if flight.end == "SETTLED" else [flight.end]  # SETTLED: held on the roof to the timeout
+    ended_in = [] if flight.end == "SETTLED" else [flight.end]  # SETTLED: held (rig.HELD_S)
     assert flight.states == sequence + ended_in, ctx
     assert flight.end in ("SETTLED", "LANDED", "ABORTED"), ctx
     c = flight.contact

@@ -335,8 +335,11 @@ class Lander:
         sleep: Callable[[float], None] | None = None,
         until: tuple[str, ...] = ENDINGS,
         interrupts: Callable[[], int] | None = None,
+        stop: Callable[[], bool] | None = None,
     ) -> str:
         """Poll until an ending state (or ``timeout_s`` local seconds: then abort); returns the state.
+        ``stop`` ends the run early, the machine left as it is: a supervisor's own end (a test's
+        bound on a hold that has no end of its own), checked after each poll.
         Between polls it waits for the link or the leg board to have bytes (at most
         ``POLL_WAIT_S``), or calls ``sleep`` when one is given (tests). Polls are at least
         ``link.poll_period_s`` of vehicle time apart: the IMU, range and position frames of one
@@ -353,6 +356,8 @@ class Lander:
             started = time.monotonic()
             name = self.poll()
             if self.machine._started and name in until:
+                return name
+            if stop is not None and stop():
                 return name
             if interrupts is not None and interrupts() > handled:
                 handled = interrupts()
