@@ -94,8 +94,8 @@ def ensure_airborne(rig: Rig) -> None:
     rig.go_over_roof(2.5)
 
 
-#: how long (local s) a landing on the 45 deg roof may take: one held sliding on the roof stays
-#: SETTLED (armed, motors held, the pilot told) until the landing's own timeout
+#: how long (local s) a landing on the 45 deg roof may take (one held sliding on the roof stays
+#: SETTLED, armed, motors held, the pilot told, until the rig ends the hold: sitl.rig.HELD_S)
 ROOF45_TIMEOUT_S = 45.0
 #: the model's rotor time constant (model/default_parameters.yaml, rotor_time_constant) and the
 #: script's spin-down allowance, two of them (slopelander.lua THRUST_DECAY_MS)
