@@ -40,6 +40,7 @@ class Events:
         self.clear = False  # the vehicle has been clear of the surface since the last contact
         self.stopped = False
         self.reversing = False
+        self._last_outputs: tuple | None = None  # (armed, four outputs) of the last call
 
     def after_physics_step(self, stepper: Stepper, t: float, world_body: Callable[[], Body]) -> None:
         """Called after every physics step; ``world_body()`` gives the body in world coordinates,
@@ -61,6 +62,10 @@ class Events:
 
     def after_outputs(self, t: float, armed: bool, pwm: Sequence[int]) -> None:
         """Called once per control tick with the four outputs sent to the ESCs."""
+        key = (armed, *pwm[:4])
+        if key == self._last_outputs:
+            return  # the same outputs give the same state, and an event only fires on a change
+        self._last_outputs = key
         cmd = [esc.pwm_to_command(p) for p in pwm[:4]]
         stopped = armed and all(c == 0.0 for c in cmd)
         reversing = armed and all(c < 0.0 for c in cmd)

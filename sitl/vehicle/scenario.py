@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sitl.vehicle.sensors import Range
+from sitl.vehicle.sensors import NormalStream, Range
 from sitl.vehicle.wind import Wind, wind_from_dict
 from slopelander.model.landing import Model
 
@@ -91,19 +91,31 @@ class Scenario:
     def _active(self, t: float, kinds: tuple[str, ...]) -> list[Fault]:
         return [f for f in self.faults if f.kind in kinds and f.start <= t < f.end]
 
+    # The checks below run for every physics step; most scenarios have no faults, and then each
+    # returns at once what the general path gives for no active fault.
+
     def script_stalled(self, t: float) -> bool:
         """Whether the on-board script is not run at vehicle time ``t``."""
-        return bool(self._active(t, SCRIPT_FAULTS))
+        return bool(self.faults) and bool(self._active(t, SCRIPT_FAULTS))
 
     def imu_spike(self, t: float) -> float:
+        if not self.faults:
+            return 0  # sum() of nothing, as below
         return sum(f.value for f in self._active(t, ("imu_spike",)))
 
     def imu_extra_noise(self, t: float) -> float:
+        if not self.faults:
+            return 0
         return sum(f.value for f in self._active(t, ("imu_noise",)))
 
-    def range_fault(self, t: float, r: Range, rng: np.random.Generator) -> Range:
+    def range_fault(self, t: float, r: Range, rng: np.random.Generator | NormalStream) -> Range:
+        """The reading ``r`` with the range noise (one draw from ``rng`` when the distance is
+        finite) and the faults active at ``t``."""
         d = r.distance_m + self.range_noise * rng.normal() if math.isfinite(r.distance_m) else r.distance_m
         r = Range(d, r.status, r.quality_pct)
+        if not self.faults:
+            self._stuck = None
+            return r
         active = self._active(t, RANGE_FAULTS)
         if not any(f.kind == "rangefinder_stuck" for f in active):
             self._stuck = None

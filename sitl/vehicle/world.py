@@ -85,8 +85,8 @@ class World:
     def update(self, stepper: Stepper) -> bool:
         """Switch the physics to the surface under the vehicle if it is airborne and clear of
         that surface; True when it switched."""
-        b = stepper.body()
-        xw, zw = self.to_world(b.x, b.z)
+        _t, x, z = stepper.motion()[:3]  # every physics step: no BodyState built
+        xw, zw = x + self.ox, z + self.oz  # to_world
         roof, slope, x0, z0 = self.surface_under(xw)
         if roof == self.on_roof or stepper.in_contact():
             return False
@@ -136,12 +136,12 @@ def world_beam(stepper: Stepper, world: World) -> float:
     (``world.beam.mode``); NaN (no data) when neighbouring rays differ by more than
     ``edge_dropout_m`` or some miss (the footprint straddles an edge); inf when all miss. Below
     the physics' own surface it reads 0, as :func:`beam_range` does."""
-    b = stepper.body()
+    _t, bx, bz, pitch = stepper.motion()[:4]
     a = math.radians(stepper.slope_deg)
-    if b.x * math.sin(a) + b.z * math.cos(a) <= 0.0:
+    if bx * math.sin(a) + bz * math.cos(a) <= 0.0:
         return 0.0
-    x, z = world.to_world(b.x, b.z)
-    return beam_at(world, x, z, b.pitch)
+    x, z = world.to_world(bx, bz)
+    return beam_at(world, x, z, pitch)
 
 
 def beam_at(world: World, x: float, z: float, pitch: float) -> float:

@@ -19,6 +19,12 @@ from slopelander.model.landing import Model
 from slopelander.model.usercode import compiling_notice
 
 ENERGY_TERMS = ("kinetic", "gravity", "ground_spring", "stiction_spring", "flex_spring", "eot_spring")
+#: the state's indices read on every step, bound once (a module attribute costs a lookup a use)
+_S_T, _S_Q, _S_V = k.S_T, k.S_Q, k.S_V
+_S_NF, _S_NF_END = k.S_NF, k.S_NF + k.N_POINTS
+#: the state's leading entries that hold position and velocity: read as one slice
+_HEAD = max(k.S_Q, k.S_V) + 3
+
 DISSIPATION_TERMS = (
     "joint_friction",
     "flex_damper",
@@ -67,7 +73,8 @@ class Stepper:
         self.ctx[k.C_COS] = math.cos(a)
         self.ctx[k.C_DOWN] = 1 if a >= 0 else 0
         self.slope_deg = slope_deg
-        self._accel = np.zeros(2)
+        self._accel = (0.0, 0.0)  # over the last step, world (x, z): plain floats, read per step
+        self._gravity = self.model.params["gravity"]
         amax = self.model.params.angle_max_deg
         self.set_leg_angles(amax, amax)
         self.set_friction(1.7, 1.7)
@@ -178,11 +185,16 @@ class Stepper:
         """Advance by ``dt`` seconds with rotor commands in [-1, 1] (left = -x side)."""
         if not (0.0 < dt <= 1.0) or not math.isfinite(dt):
             raise ValueError(f"dt = {dt} s must lie in (0, 1]")
-        u_left = min(1.0, max(-1.0, float(u_left)))
-        u_right = min(1.0, max(-1.0, float(u_right)))
+        # min(1.0, max(-1.0, u)) without the calls, NaN included (it reads -1)
+        u_left, u_right = float(u_left), float(u_right)
+        u_left = u_left if u_left > -1.0 else -1.0
+        u_left = u_left if u_left < 1.0 else 1.0
+        u_right = u_right if u_right > -1.0 else -1.0
+        u_right = u_right if u_right < 1.0 else 1.0
         n = max(1, math.ceil(dt / self.model.dt - 1e-9))
-        v0 = self.st[k.S_V : k.S_V + 2].copy()
-        args = (self._p, self._fl, self.ctx, self.st, dt / n, n, u_left, u_right, self._ws, self._box)
+        st = self.st
+        v0x, v0z = st.item(_S_V), st.item(_S_V + 1)
+        args = (self._p, self._fl, self.ctx, st, dt / n, n, u_left, u_right, self._ws, self._box)
         if self._entry is not None:
             # the arrays are this stepper's own, made once; the rest are a float and an int
             self._entry(*args)
@@ -193,36 +205,35 @@ class Stepper:
                 call(self._advance, *args)
             self._compiled = True
             self._entry = entry(self._advance, *args)
-        self._accel = (self.st[k.S_V : k.S_V + 2] - v0) / dt
+        # the same doubles numpy's (v - v0) / dt gave, as plain floats: cheaper to make and to read
+        self._accel = ((st.item(_S_V) - v0x) / dt, (st.item(_S_V + 1) - v0z) / dt)
 
     # -- reading -----------------------------------------------------------------------------
     @property
     def t(self) -> float:
-        return float(self.st[k.S_T])
+        return self.st.item(_S_T)
 
     @property
     def pitch_rate(self) -> float:
         """rad/s, nose up: :meth:`body`'s ``pitch_rate`` without building the whole state."""
-        return float(self.st[k.S_V + 2])
+        return self.st.item(_S_V + 2)
+
+    def motion(self) -> tuple[float, float, float, float, float, float, float]:
+        """:meth:`body`'s fields as a plain tuple (t, x, z, pitch, vx, vz, pitch_rate): for
+        callers that read the body on every step, where building the dataclass costs more than
+        reading the numbers."""
+        s = self.st
+        h = s[:_HEAD].tolist()
+        return (s.item(_S_T), h[_S_Q], h[_S_Q + 1], h[_S_Q + 2], h[_S_V], h[_S_V + 1], h[_S_V + 2])
 
     def body(self) -> BodyState:
-        s = self.st
-        return BodyState(
-            float(s[k.S_T]),
-            float(s[k.S_Q]),
-            float(s[k.S_Q + 1]),
-            float(s[k.S_Q + 2]),
-            float(s[k.S_V]),
-            float(s[k.S_V + 1]),
-            float(s[k.S_V + 2]),
-        )
+        return BodyState(*self.motion())
 
     def specific_force_body(self) -> tuple[float, float]:
         """What an accelerometer on the body reads over the last step (m/s^2), along body
         x (forward, +x when level) and body z (up): at rest level it reads (0, +g)."""
-        g = self.model.params["gravity"]
-        ax, az = self._accel[0], self._accel[1] + g
-        th = self.st[k.S_Q + 2]
+        ax, az = self._accel[0], self._accel[1] + self._gravity
+        th = self.st.item(_S_Q + 2)
         c, s = math.cos(th), math.sin(th)
         return c * ax + s * az, -s * ax + c * az
 
@@ -241,7 +252,10 @@ class Stepper:
         return min(self._clearances())
 
     def in_contact(self) -> bool:
-        return float(self.st[k.S_NF : k.S_NF + k.N_POINTS].max()) > 0.0
+        """Whether any point presses on the surface. As numpy's ``max() > 0`` was, a NaN force
+        reads as no contact; a list's max is cheaper than numpy's for these few points."""
+        nf = self.st[_S_NF:_S_NF_END].tolist()
+        return max(nf) > 0.0 and not any(f != f for f in nf)
 
     def thrust(self) -> tuple[float, float]:
         return float(self.st[k.S_THR]), float(self.st[k.S_THR + 1])
