@@ -18,13 +18,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from sitl.json_physics.protocol import Fdm
+from sitl.json_physics.protocol import Fdm, encode_planar_reply, encode_reply
 from sitl.vehicle import esc
 from sitl.vehicle.events import Events
 from sitl.vehicle.legs_link import LegsLink
 from sitl.vehicle.scenario import Scenario
-from sitl.vehicle.sensors import Imu, Range
+from sitl.vehicle.sensors import Imu, NormalStream, Range
 from sitl.vehicle.world import start_on_ground, world_beam
+from slopelander.model.stepper import BodyState
 
 NO_RETURN_M = 999.0  # beam pointing away from the ground: beyond any rangefinder's maximum
 #: what ArduPilot's SITL rangefinder reads as "no data": only a NaN or an infinity
@@ -49,14 +50,18 @@ class JsonPhysics:
 
     def reset(self) -> None:
         self.rng = np.random.default_rng(self.scn.seed)
+        # the IMU and the range noise draw from one stream, in the order they did from the
+        # Generator (sensors.NormalStream): the same numbers, a block at a time
+        self.normals = NormalStream(self.rng)
         self.stepper, self.world = start_on_ground(self.scn)
         b = self.stepper.body()
         self.home = self.world.to_world(b.x, b.z)
         self.t0 = self.stepper.t
-        self.imu = Imu(self.rng, self.scn.accel_noise, self.scn.gyro_noise)
+        self.imu = Imu(self.normals, self.scn.accel_noise, self.scn.gyro_noise)
         self.range = Range(0.0, 1, 0)
-        self._body = self.stepper.body()
+        self._motion = self.stepper.motion()  # the body this frame reports, as a plain tuple
         self._beam: tuple[float, float, float, float, float, bool, float] | None = None
+        self._outputs: tuple | None = None  # the last frame's motor outputs and their commands
         self.events = Events(self._send_event) if self._send_event is not None else None
         if self.legs is not None:
             self.legs.next_t = 0.0
@@ -71,31 +76,41 @@ class JsonPhysics:
         print(f"json_physics: {text}", file=sys.stderr, flush=True)
 
     def step(self, dt: float, pwm: Sequence[int]) -> None:
-        """Advance by one frame with the motor outputs (channels 1-4, microseconds)."""
+        """Advance by one frame with the motor outputs (channels 1-4, microseconds).
+
+        800 to 1,200 frames a simulated second: the time is read once before and once after the
+        step, the body as a plain tuple, and the rotor commands are mapped again only when the
+        outputs change."""
+        st, scn, t0 = self.stepper, self.scn, self.t0
         if self.events is not None:  # the outputs ArduCopter sent for this frame, at its start
-            self.events.after_outputs(self.t, True, pwm)
-        u_left, u_right = esc.planar_rotor_commands(pwm)
-        if not self.scn.wind.calm:
-            self.stepper.set_external_force(*self.scn.wind.force_at(self.t))
-        self.stepper.step(dt, u_left, u_right)
-        self.world.update(self.stepper)  # the surface under the position this frame reports
-        self._body = b = self.stepper.body()
-        fx, fz = self.stepper.specific_force_body()
-        self.imu.accel_noise = self.scn.accel_noise + self.scn.imu_extra_noise(self.t)
+            self.events.after_outputs(st.t - t0, True, pwm)
+        outputs = self._outputs
+        if outputs is None or outputs[0] != pwm:
+            self._outputs = outputs = (tuple(pwm), esc.planar_rotor_commands(pwm))
+        u_left, u_right = outputs[1]
+        if not scn.wind.calm:
+            st.set_external_force(*scn.wind.force_at(st.t - t0))
+        st.step(dt, u_left, u_right)
+        self.world.update(st)  # the surface under the position this frame reports
+        t = st.t - t0
+        self._motion = m = st.motion()
+        fx, fz = st.specific_force_body()
+        imu = self.imu
+        imu.accel_noise = scn.accel_noise + scn.imu_extra_noise(t)
         # ArduPilot filters the IMU itself (INS_*_FILTER): hand it the unfiltered reading
-        self.imu.update(dt, fx, fz, b.pitch_rate, 0.0, 0.0, self.scn.imu_spike(self.t))
-        true = self._trace_beam(b)  # NaN: the footprint straddles an edge
+        imu.update(dt, fx, fz, m[6], 0.0, 0.0, scn.imu_spike(t))
+        true = self._trace_beam(m)  # NaN: the footprint straddles an edge
         status = 1 if math.isnan(true) else 4 if math.isfinite(true) else 3
         raw = Range(0.0, 1, 0) if status == 1 else Range(true, status, 100)
-        self.range = self.scn.range_fault(self.t, raw, self.rng)
+        self.range = scn.range_fault(t, raw, self.normals)
         if self.legs is not None:
             self.legs.update(self)
         if self.events is not None:
-            self.events.after_physics_step(self.stepper, self.t, lambda: self._world_body(b))
+            self.events.after_physics_step(st, t, lambda: self._world_body(BodyState(*m)))
 
     def height_m(self) -> float:
         """Height (m) of the body over the surface under it, this frame."""
-        x, z = self.world.to_world(self._body.x, self._body.z)
+        x, z = self.world.to_world(self._motion[1], self._motion[2])
         return z - self.world.surface_z(x)
 
     def _world_body(self, b):
@@ -103,38 +118,63 @@ class JsonPhysics:
         x, z = self.world.to_world(b.x, b.z)
         return replace(b, x=x, z=z)
 
-    def _trace_beam(self, b) -> float:
-        """:func:`world_beam` for body ``b``, traced again only once the body or the world under
-        it has moved (:data:`BEAM_REUSE`)."""
+    def _trace_beam(self, m: tuple[float, ...]) -> float:
+        """:func:`world_beam` for the body's :meth:`~Stepper.motion` ``m``, traced again only
+        once the body or the world under it has moved (:data:`BEAM_REUSE`)."""
         w, last = self.world, self._beam
+        _t, x, z, pitch = m[:4]
         if (
             last is not None
-            and abs(b.x - last[0]) < BEAM_REUSE
-            and abs(b.z - last[1]) < BEAM_REUSE
-            and abs(b.pitch - last[2]) < BEAM_REUSE
+            and abs(x - last[0]) < BEAM_REUSE
+            and abs(z - last[1]) < BEAM_REUSE
+            and abs(pitch - last[2]) < BEAM_REUSE
             and (w.ox, w.oz, w.on_roof) == last[3:6]
         ):
             return last[6]
         value = world_beam(self.stepper, w)
-        self._beam = (b.x, b.z, b.pitch, w.ox, w.oz, w.on_roof, value)
+        self._beam = (x, z, pitch, w.ox, w.oz, w.on_roof, value)
         return value
 
+    def _rng_1(self) -> float:
+        """The rangefinder value of the reply: NaN no data, far when nothing is in range."""
+        r = self.range
+        if r.status == 1:
+            return NO_DATA_M
+        if not math.isfinite(r.distance_m):
+            return NO_RETURN_M
+        return max(0.0, r.distance_m)
+
     def fdm(self) -> Fdm:
-        b = self._body
-        x, z = self.world.to_world(b.x, b.z)
-        if self.range.status == 1:
-            rng = NO_DATA_M
-        elif not math.isfinite(self.range.distance_m):
-            rng = NO_RETURN_M
-        else:
-            rng = max(0.0, self.range.distance_m)
+        """This frame's report."""
+        _t, bx, bz, pitch, vx, vz, _q = self._motion
+        x, z = self.world.to_world(bx, bz)
         a, g = self.imu.accel, self.imu.gyro
         return Fdm(
             timestamp=self.t,
             gyro=(float(g[0]), float(g[1]), float(g[2])),
             accel_body=(float(a[0]), float(a[1]), float(a[2])),
             position=(x - self.home[0], 0.0, -(z - self.home[1])),
-            velocity=(b.vx, 0.0, -b.vz),
-            attitude=(0.0, b.pitch, 0.0),
-            rng_1=rng,
+            velocity=(vx, 0.0, -vz),
+            attitude=(0.0, pitch, 0.0),
+            rng_1=self._rng_1(),
         )
+
+    def reply(self) -> bytes:
+        """``encode_reply(self.fdm())``, the same bytes, without building the report (a third of
+        a frame's work at 800 frames a second); what encode_reply refuses goes through it, so it
+        raises the same error."""
+        _t, bx, bz, pitch, vx, vz, _q = self._motion
+        world, home = self.world, self.home
+        a, g = self.imu.accel, self.imu.gyro
+        values = (
+            self.stepper.t - self.t0,
+            *g,
+            *a,
+            bx + world.ox - home[0],  # world.to_world, then from home, as fdm() does
+            -(bz + world.oz - home[1]),
+            vx,
+            -vz,
+            pitch,
+            float(self._rng_1()),
+        )
+        return encode_planar_reply(values) or encode_reply(self.fdm())

@@ -20,6 +20,7 @@ MAGIC_16 = 18458
 MAGIC_32 = 29569
 HEADER = struct.Struct("<HHI")
 SIZES = {MAGIC_16: HEADER.size + 2 * 16, MAGIC_32: HEADER.size + 2 * 32}
+_PWM = {MAGIC_16: struct.Struct("<16H"), MAGIC_32: struct.Struct("<32H")}
 
 
 class ProtocolError(SlopelanderError):
@@ -57,8 +58,7 @@ def decode_servo_packet(data: bytes) -> ServoFrame:
         raise ProtocolError(f"servo packet with magic {magic} has {len(data)} bytes, expected {size}")
     if rate == 0:
         raise ProtocolError("servo packet with frame rate 0 Hz")
-    n = (size - HEADER.size) // 2
-    return ServoFrame(rate, count, struct.unpack_from(f"<{n}H", data, HEADER.size))
+    return ServoFrame(rate, count, _PWM[magic].unpack_from(data, HEADER.size))
 
 
 @dataclass(frozen=True)
@@ -102,6 +102,25 @@ def encode_reply(fdm: Fdm) -> bytes:
         # SITL rangefinder reads NaN as "no data" (AP_RangeFinder_SITL.cpp)
         text += f',"rng_1":{float(fdm.rng_1)!r}'
     return b"\n" + text.encode("ascii") + b"}\n"
+
+
+_PLANAR_REPLY = (
+    '\n{"timestamp":%r,"imu":{"gyro":[%r,%r,%r],"accel_body":[%r,%r,%r]},'
+    '"position":[%r,0.0,%r],"velocity":[%r,0.0,%r],"attitude":[0.0,%r,0.0],"rng_1":%r}\n'
+)
+
+
+def encode_planar_reply(values: tuple[float, ...]) -> bytes | None:
+    """:func:`encode_reply`'s bytes for a planar vehicle's frame, whose east position, east
+    velocity, roll and yaw are 0.0 and whose rangefinder value is given: ``values`` are
+    (timestamp, gyro x3, accel_body x3, north, down, v_north, v_down, pitch, rng_1), all floats.
+    The zeros are written as literals and the rest formatted once: a float's repr is most of
+    the reply's cost. None when encode_reply would refuse the frame (a non-finite value): let
+    it say why."""
+    # the same test as encode_reply's: the zeros it also sums change no partial sum
+    if not math.isfinite(sum(values[:12])) or math.isinf(values[12]):
+        return None
+    return (_PLANAR_REPLY % values).encode("ascii")
 
 
 def _name(i: int) -> str:

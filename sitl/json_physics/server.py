@@ -118,7 +118,7 @@ class JsonServer:
             self.gate.pace(self.physics.t, self.physics.height_m())
         try:
             self.physics.step(frame.dt, frame.pwm[:4])
-            reply = encode_reply(self.physics.fdm())
+            reply = self.physics.reply()  # encode_reply(fdm()), formatted without the Fdm
         except (ProtocolError, SlopelanderError, ValueError, FloatingPointError) as exc:
             self._reset(f"physics failed ({exc})")
             reply = encode_reply(self.physics.fdm())
