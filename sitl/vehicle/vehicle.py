@@ -16,10 +16,11 @@ from sitl.vehicle.flight_control import FlightControl, Target
 from sitl.vehicle.mavlink_endpoints import Endpoints, mavlink
 from sitl.vehicle.params import Params
 from sitl.vehicle.scenario import Scenario
-from sitl.vehicle.sensors import BEAM_MISS_M, Imu, Range, range_reading
+from sitl.vehicle.sensors import BEAM_MISS_M, Imu, NormalStream, Range, range_reading
 from sitl.vehicle.streams import Streams, system_time
 from sitl.vehicle.world import start_on_ground, world_beam
 from slopelander.model.judge import LandingJudge
+from slopelander.model.stepper import BodyState
 
 PHYSICS_HZ = 1200
 CONTROL_HZ = 400
@@ -44,6 +45,9 @@ class Vehicle:
         self.speed, self.lockstep, self.legs = speed, lockstep, legs_link
         self.give_up_s = give_up_s
         self.rng = np.random.default_rng(scenario.seed)
+        # the IMU and the range noise draw from one stream, in the order they did from the
+        # Generator (sensors.NormalStream): the same numbers, a block at a time
+        self.normals = NormalStream(self.rng)
         self.stepper, self.world = start_on_ground(scenario)
         self.judge = LandingJudge(self.stepper)  # each landing's record, as the model judges it
         b = self.stepper.body()
@@ -53,7 +57,7 @@ class Vehicle:
         self.fc = FlightControl(mass, p["body_inertia"], p["rotor_arm"], p["gravity"], p["rotor_thrust_max"])
         self.thrust_max = p["rotor_thrust_max"]
         self.t0 = self.stepper.t
-        self.imu = Imu(self.rng, scenario.accel_noise, scenario.gyro_noise)
+        self.imu = Imu(self.normals, scenario.accel_noise, scenario.gyro_noise)
         self.range = Range(0.0, 1, 0)
         self.range_alt = rules.RangefinderAlt()
         self.ticks = 0
@@ -67,6 +71,7 @@ class Vehicle:
         self.target_is_velocity = False
         self.mixer_pwm = [int(params["MOT_PWM_MIN"])] * 4
         self.out_pwm = list(self.mixer_pwm)
+        self._rotors: tuple | None = None  # the last outputs and their rotor commands
         self.rc_override: dict[int, tuple[int, float]] = {}
         self.echo_t: float | None = None
         self.echo_wall = 0.0
@@ -205,11 +210,15 @@ class Vehicle:
 
     # -- one control tick ----------------------------------------------------------------------
     def tick(self) -> None:
+        """One control tick and its physics steps. The vehicle time is read once per physics
+        step (nothing else moves it within a tick) and the rotor commands are mapped again only
+        when the outputs change: 400 ticks a simulated second."""
         dt = 1.0 / CONTROL_HZ
-        self.scn.apply_events(self)
+        scn, st, t0 = self.scn, self.stepper, self.t0
+        scn.apply_events(self)
         for chan, m in self.links.receive():
             self.handle(chan, m)
-        if self.world.update(self.stepper):
+        if self.world.update(st):
             self.fc.ix = 0.0
         b = self._world_body()
         tgt = self._mode_target(b)
@@ -217,8 +226,9 @@ class Vehicle:
         if self.armed and self.land.landed and self._pilot_takes_off():
             self.land.set_landed(False)
         self.mixer_pwm = self._mix(front, rear)
-        now_ms = int(self.t * 1000)
-        if self.host is not None and not self.scn.script_stalled(self.t):
+        t = st.t - t0
+        now_ms = int(t * 1000)
+        if self.host is not None and not scn.script_stalled(t):
             self.host.run_due(now_ms)
         out = list(self.mixer_pwm)
         if self.host is not None and self.armed:
@@ -227,22 +237,26 @@ class Vehicle:
                 if o is not None:
                     out[ch] = int(o)
         self.out_pwm = out
-        self.events.after_outputs(self.t, self.armed, out)
-        u_rear, u_front = esc.planar_rotor_commands(out)
-        self.imu.accel_noise = self.scn.accel_noise + self.scn.imu_extra_noise(self.t)
+        self.events.after_outputs(t, self.armed, out)
+        rotors = self._rotors
+        if rotors is None or rotors[0] != out:
+            self._rotors = rotors = (list(out), esc.planar_rotor_commands(out))
+        u_rear, u_front = rotors[1]
+        imu, events, judge = self.imu, self.events, self.judge
+        imu.accel_noise = scn.accel_noise + scn.imu_extra_noise(t)
         ca, cg = self.params["INS_ACCEL_FILTER"], self.params["INS_GYRO_FILTER"]
-        wind = None if self.scn.wind.calm else self.scn.wind
+        wind = None if scn.wind.calm else scn.wind
+        h = 1.0 / PHYSICS_HZ
         for _ in range(SUBSTEPS):
             if wind is not None:
-                self.stepper.set_external_force(*wind.force_at(self.t))
-            self.stepper.step(1.0 / PHYSICS_HZ, u_rear, u_front)
-            if self.judge.update(1.0 / PHYSICS_HZ, u_rear, u_front):
-                landing_record.send(self, self.judge)
-            fx, fz = self.stepper.specific_force_body()
-            self.imu.update(
-                1.0 / PHYSICS_HZ, fx, fz, self.stepper.pitch_rate, ca, cg, self.scn.imu_spike(self.t)
-            )
-            self.events.after_physics_step(self.stepper, self.t, self._world_body)
+                st.set_external_force(*wind.force_at(t))
+            st.step(h, u_rear, u_front)
+            if judge.update(h, u_rear, u_front):
+                landing_record.send(self, judge)
+            fx, fz = st.specific_force_body()
+            t = st.t - t0
+            imu.update(h, fx, fz, st.pitch_rate, ca, cg, scn.imu_spike(t))
+            events.after_physics_step(st, t, self._world_body)
         if rules.rangefinder_due(self.ticks, CONTROL_HZ):
             self._update_range()
         self.ticks += 1
@@ -284,10 +298,11 @@ class Vehicle:
         thr = min(1.0, max(0.0, (self.rc(3) - 1000) / 1000.0))
         return rules.pilot_takes_off(self.mode, _stick(self.rc(3)), thr * 0.9, 0.5)
 
-    def _world_body(self):
-        b = self.stepper.body()
-        x, z = self.world.to_world(b.x, b.z)
-        return b.__class__(b.t, x, z, b.pitch, b.vx, b.vz, b.pitch_rate)
+    def _world_body(self) -> BodyState:
+        """The body in world coordinates (world.to_world), built once from the plain state."""
+        t, x, z, pitch, vx, vz, pitch_rate = self.stepper.motion()
+        w = self.world
+        return BodyState(t, x + w.ox, z + w.oz, pitch, vx, vz, pitch_rate)
 
     def _mode_target(self, b) -> Target:
         t, m = self.target, self.mode
@@ -360,7 +375,8 @@ class Vehicle:
             raw = Range(0.0, rules.NO_DATA, 0)
         else:
             raw = Range(true if math.isfinite(true) else BEAM_MISS_M, 4, 100)
-        r = self.scn.range_fault(self.t, raw, self.rng)  # faults act on the value, then ArduPilot reads it
+        # faults act on the value, then ArduPilot reads it
+        r = self.scn.range_fault(self.t, raw, self.normals)
         value = math.nan if r.status == rules.NO_DATA else r.distance_m
         self.range = range_reading(value, self.range_min, self.range_max)
         lean = self.stepper.body().pitch
