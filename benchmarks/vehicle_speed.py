@@ -65,6 +65,7 @@ class LockstepClient:
         self.conn, self.t, self.echoed = conn, 0.0, -1.0
         self.record: dict[str, float] = {}
         self.last: dict[str, object] = {}
+        self.requests = 0  # the on-board script's request numbers sent
 
     def pump(self, wall_timeout: float = 0.01) -> None:
         m = self.conn.recv_match(blocking=True, timeout=wall_timeout)
@@ -91,6 +92,12 @@ class LockstepClient:
             if ack is not None and ack.command == cmd:
                 return ack.result
         raise SystemExit(f"no COMMAND_ACK for {cmd}")
+
+    def script_command(self, cmd: int, *p: float) -> int:
+        """A command to the on-board script: its param 7 is the request number, counted from 1
+        (slopelander.controller.script_contract; the script refuses a command without one)."""
+        self.requests += 1
+        return self.command(cmd, *(list(p) + [0.0] * (6 - len(p))), float(self.requests))
 
     def until(self, cond, wall_timeout: float = 60.0, every=None) -> None:
         """Pump until ``cond()``; ``every()`` runs every 0.1 s of vehicle time meanwhile."""
@@ -140,16 +147,18 @@ def lockstep_landing(script, slope_deg: float, board_speed: float) -> None:
                 0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0x0DF8, 4.5, 0, -2.5, 0, 0, 0, 0, 0, 0, 0, 0
             )
             c.until(lambda: abs(pos().x - 4.5) < 0.2 and abs(pos().vx) < 0.2)
-            arm = (1, 0.3, 20, 100, 5000, 5000)
-            assert c.command(USER_2, *arm) == 0
+            arm = (1, 0.3, 20, 100, 5000, 5000)  # ARM: cut m, impact m/s^2, reverse %, ms, validity ms
+            assert c.script_command(USER_2, 3, 0, 0.5) == 0  # SETUP: no ramp, 0.5 m/s descent
+            assert c.script_command(USER_2, *arm) == 0
             t_armed = c.t
 
             def descend():
                 conn.mav.set_position_target_local_ned_send(
                     0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0x0DC7, 0, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0
                 )
-                if c.t - t_armed > 1.0:
-                    conn.mav.command_long_send(1, 1, USER_2, 0, *arm, 0)
+                if c.t - t_armed > 1.0:  # the refresh, answered as the landing goes on
+                    c.requests += 1
+                    conn.mav.command_long_send(1, 1, USER_2, 0, *arm, float(c.requests))
 
             c.until(lambda: "LD_DONE" in c.record, every=descend)
             wall, sim = time.monotonic() - wall0, c.t - t0
