@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided, sliding_window_view
 
 from slopelander.ident.recording import Drop
 from slopelander.model import LandingConditions, Model, Outcome, simulate
@@ -56,19 +57,44 @@ def differentiate(x: np.ndarray, t: np.ndarray, window: int = 7) -> np.ndarray:
     the line through the first or last ``window`` samples: as little noise as inside (the
     differences there had 3.7 to 7.4 times the noise, so the flight phase, at the start, read
     worse than the contact)."""
-    out = np.gradient(x, t, axis=0)
     h = window // 2
     if len(t) <= window or h < 2:
-        return out
-    tw = np.lib.stride_tricks.sliding_window_view(t, window)  # (n - window + 1, window)
-    tc = tw - tw.mean(axis=1, keepdims=True)
-    coef = tc / (tc * tc).sum(axis=1, keepdims=True)  # slope = coef . x over each window
-    for j in range(x.shape[1]):
-        slopes = (coef * np.lib.stride_tricks.sliding_window_view(x[:, j], window)).sum(axis=1)
-        out[h:-h, j] = slopes
-        out[:h, j] = slopes[0]
-        out[-h:, j] = slopes[-1]
+        return np.gradient(x, t, axis=0)
+    n, c = x.shape
+    if n != len(t):
+        raise ValueError(f"differentiate: {n} samples but {len(t)} times")
+    # every column at once: windows (n - window + 1, c, window) of x, multiplied into a
+    # C-contiguous product so that each window's sum runs over the same contiguous run as a
+    # single column's did (the same floats: the summation order decides them)
+    row, col = x.strides
+    windows = as_strided(x, (n - window + 1, c, window), (row, col, row), writeable=False)
+    slopes = np.multiply(_slope_coef(t, window)[:, None, :], windows, order="C").sum(axis=2)
+    out = np.empty_like(x, dtype=x.dtype if np.issubdtype(x.dtype, np.inexact) else np.float64)
+    out[h:-h] = slopes
+    out[:h] = slopes[0]
+    out[-h:] = slopes[-1]
     return out
+
+
+_COEF: dict[tuple, np.ndarray] = {}
+_COEF_MAX = 256
+
+
+def _slope_coef(t: np.ndarray, window: int) -> np.ndarray:
+    """Per window, the weights whose dot product with the samples is the least-squares slope.
+    They depend on the times alone, and a fit differentiates the model at the same drop's
+    times thousands of times: kept per times (by value) and window."""
+    key = (window, t.dtype.str, t.shape, t.tobytes())
+    coef = _COEF.get(key)
+    if coef is None:
+        tw = sliding_window_view(t, window)  # (n - window + 1, window)
+        tc = tw - tw.mean(axis=1, keepdims=True)
+        coef = tc / (tc * tc).sum(axis=1, keepdims=True)
+        coef.setflags(write=False)
+        if len(_COEF) >= _COEF_MAX:
+            _COEF.clear()
+        _COEF[key] = coef
+    return coef
 
 
 PAPER_SLOPES = (0.0, 45.0)
