@@ -17,8 +17,9 @@ import numpy as np
 
 _ENTRIES: dict[tuple, Callable[..., Any]] = {}
 _TUPLES: dict[int, tuple[tuple, object]] = {}
-"""Keys of tuples seen before (a model's seam table is passed on every step), by identity; the
-tuple is kept so that its id is not reused."""
+"""Keys of tuples of no arrays seen before (a model's seam laws are passed on every call), by
+identity; the tuple is kept so that its id is not reused. A tuple holding an array is not kept:
+the array's flags can change, and a call's arguments would keep its arrays alive."""
 _TUPLES_MAX = 4096
 
 
@@ -32,13 +33,17 @@ def _key(a: object) -> object:
         if hit is not None and hit[0] is a:
             return hit[1]
         key = ("t", *(_key(x) for x in a))
-        if len(_TUPLES) < _TUPLES_MAX:
+        if len(_TUPLES) < _TUPLES_MAX and not _has_array(key):
             _TUPLES[id(a)] = (a, key)
         return key
     seam = getattr(a, "seam", None)
     if seam is not None:
         return ("law", seam)  # a seam law's type is the seam's signature, whatever the function
     return type(a)
+
+
+def _has_array(key: object) -> bool:
+    return isinstance(key, tuple) and (key[0] == "a" or any(_has_array(k) for k in key[1:]))
 
 
 def call(dispatcher: Any, *args: object) -> Any:
