@@ -32,6 +32,8 @@ from slopelander.model.parameters import ModelParams
 from slopelander.model.seams import seam_table
 from slopelander.model.usercode import compiling_notice
 
+STATE_COLUMNS: tuple[int, ...] = (k.S_Q, k.S_Q + 1, k.S_Q + 2, k.S_V, k.S_V + 1, k.S_V + 2)
+"""Columns of :attr:`Trajectory.raw` holding the paper's six states (:attr:`Trajectory.states`)."""
 DEFAULT_DT = 1.0 / 2400.0
 """Integration step (s): 12 steps per 200 Hz motion-capture sample, 2 per 1200 Hz SITL tick;
 chosen by the step-size study in docs/model.md."""
@@ -280,8 +282,25 @@ def _prepare(model: Model | None, dt: float | None) -> tuple[Model, float]:
 
 
 def _cond_row(c: LandingConditions, model: Model) -> np.ndarray:
-    c.validate(model.params.angle_min_deg, model.params.angle_max_deg)
-    return conditions_array([c]).view(np.float64).copy()
+    """The integrator's row of ``c``, validated against the model's joint range: the same
+    conditions are simulated again and again in a fit, so the checked row is kept per
+    conditions object (frozen) and range, and handed out as a copy."""
+    lo, hi = model.params.angle_min_deg, model.params.angle_max_deg
+    key = (id(c), lo, hi)
+    hit = _ROWS.get(key)
+    if hit is None or hit[0] is not c:
+        c.validate(lo, hi)
+        hit = (c, conditions_array([c]).view(np.float64).copy())
+        if len(_ROWS) >= _ROWS_MAX:
+            _ROWS.clear()
+        _ROWS[key] = hit
+    return hit[1].copy()
+
+
+_ROWS: dict[tuple, tuple[LandingConditions, np.ndarray]] = {}
+"""Validated condition rows by (id of the conditions, joint range); the conditions are kept so
+that their id is not reused."""
+_ROWS_MAX = 1024
 
 
 def simulate(
@@ -306,20 +325,13 @@ def simulate(
     rec = np.zeros((n_max, k.N_STATE))
     res = np.zeros(k.N_RESULT)
     km, sx = model.kernel()
-    with compiling_notice(dispatcher=km.run_landing):
-        n = call(
-            km.run_landing,
-            model.params.as_array(),
-            model.flags(),
-            row,
-            h,
-            model.criteria_array(),
-            not full_horizon,
-            every,
-            rec,
-            sx,
-            res,
-        )
+    p, fl, crit = model.params.as_array(), model.flags(), model.criteria_array()
+    args = (p, fl, row, h, crit, not full_horizon, every, rec, sx, res)
+    if km.run_landing.overloads:  # compiled: no notice (``signatures`` would hash every type)
+        n = call(km.run_landing, *args)
+    else:
+        with compiling_notice(dispatcher=km.run_landing):
+            n = call(km.run_landing, *args)
     raw = rec[:n].copy()
     return Trajectory(raw[:, k.S_T].copy(), raw, conditions, model, LandingResult.from_row(res))
 

@@ -19,6 +19,7 @@ identification tools fit them by name; the integrator sees them as one float arr
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from importlib import resources
@@ -121,7 +122,12 @@ _UNIT_ALIASES = {"·": "*", " ": "", "²": "^2", "⁻¹": "^-1"}
 
 
 def _norm_unit(unit: str) -> str:
-    u = str(unit)
+    return _norm_unit_text(str(unit))
+
+
+@functools.lru_cache(maxsize=512)
+def _norm_unit_text(u: str) -> str:
+    """A unit written the canonical way; cached because a fit checks 35 units per candidate set."""
     for a, b in _UNIT_ALIASES.items():
         u = u.replace(a, b)
     return u

@@ -140,7 +140,32 @@ def _adapted(fn, seam: str):
 
 
 def seam_table(effects: Sequence[UserEffect]) -> tuple:
-    """The integrator's seam argument for these user effects (every slot empty for none)."""
+    """The integrator's seam argument for these user effects (every slot empty for none).
+
+    The laws and slots of a tuple of effects are worked out once (a fit simulates the same
+    model's effects thousands of times, and typing their laws is the dearest part); the
+    parameters are read afresh on every call, and the arrays are the caller's own."""
+    if isinstance(effects, tuple):
+        hit = _TABLES.get(id(effects))
+        if hit is None or hit[0] is not effects:
+            hit = (effects, *_laws_and_slots(effects))
+            if len(_TABLES) >= _TABLES_MAX:
+                _TABLES.clear()
+            _TABLES[id(effects)] = hit
+        laws, slots = hit[1], hit[2].copy()
+    else:
+        laws, slots = _laws_and_slots(effects)
+    up = np.concatenate([e.values() for e in effects] + [np.zeros(1)])
+    return laws, slots, up
+
+
+_TABLES: dict[int, tuple] = {}
+"""Laws and slots of the effect tuples seen, by identity (the tuple is kept so that its id is
+not reused); user effects are frozen, so a tuple's laws and slots never change."""
+_TABLES_MAX = 256
+
+
+def _laws_and_slots(effects: Sequence[UserEffect]) -> tuple[tuple, np.ndarray]:
     check_user_effects(effects)
     slots = np.zeros((len(SEAMS), 1 + 2 * SLOTS), dtype=np.int64)
     funcs: dict[str, list] = {s: [] for s in SEAMS}
@@ -167,5 +192,4 @@ def seam_table(effects: Sequence[UserEffect]) -> tuple:
     for row in laws:
         for one in row:
             one.__wrapper_address__()  # compiled now, in this process (workers forked later inherit it)
-    up = np.concatenate([e.values() for e in effects] + [np.zeros(1)])
-    return laws, slots, up
+    return laws, slots
