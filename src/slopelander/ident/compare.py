@@ -15,11 +15,13 @@ from slopelander.ident.phases import PHASES, phase_labels
 from slopelander.ident.recording import STATES, Drop
 from slopelander.ident.synth import ballistic, differentiate
 from slopelander.model import LandingConditions, Model, Outcome, simulate
+from slopelander.model.landing import STATE_COLUMNS
 
 WEIGHTS = np.array([1.0, 1.0, 2.0, 1.0, 1.0, 2.0])
 """Per-state weights of the combined NRMSE: angular states count twice, as in the paper."""
 WINDOW = 0.05
 """s: length of the windows in which the residual's concentration is reported."""
+_COLUMNS = np.array(STATE_COLUMNS)
 
 
 def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarray, Outcome | None]:
@@ -30,18 +32,56 @@ def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarr
     horizon = float(t[-1]) + 0.01
     if outcome:
         horizon = max(horizon, model.criteria.horizon)
-    m = replace(model, criteria=replace(model.criteria, horizon=horizon))
-    tr = simulate(drop.conditions, m, sample_rate=400.0, full_horizon=True)
-    s = tr.states
-    after = np.column_stack([np.interp(np.clip(t, 0, None), tr.t, s[:, i]) for i in range(6)])
+    tr = simulate(drop.conditions, _with_horizon(model, horizon), sample_rate=400.0, full_horizon=True)
+    raw = tr.raw  # the states' columns read straight from it (tr.states would copy them first)
+    tc = np.clip(t, 0, None)
+    after = np.empty((len(t), 6))
+    for i, c in enumerate(STATE_COLUMNS):
+        after[:, i] = np.interp(tc, tr.t, raw[:, c])
     if tr.t[-1] < t[-1] - 1e-9:  # the integrator stopped early: hold its last state
-        after[t > tr.t[-1]] = s[-1]
+        after[t > tr.t[-1]] = raw[-1, _COLUMNS]
     pre = t < 0
     if pre.any():
-        after[pre] = ballistic(drop.conditions, t[pre], float(s[0, 1]), model.params["gravity"])
+        z0 = float(raw[0, STATE_COLUMNS[1]])
+        after[pre] = _flight(drop.conditions, t[pre], z0, model.params["gravity"])
     if drop.rate_window:  # observe the model as the recording was observed
         after[:, 3:] = differentiate(after[:, :3], t, drop.rate_window)
     return after, (tr.result.outcome if outcome else None)
+
+
+_FLIGHTS: dict[tuple, tuple[LandingConditions, np.ndarray]] = {}
+_FLIGHTS_MAX = 1024
+
+
+def _flight(cond: LandingConditions, t: np.ndarray, z0: float, gravity: float) -> np.ndarray:
+    """:func:`ballistic`, kept per conditions, times, start height and gravity (exact values):
+    a fit changes neither the drops nor, mostly, the vehicle's height at impact."""
+    key = (id(cond), t.dtype.str, t.tobytes(), float(z0).hex(), float(gravity).hex())
+    hit = _FLIGHTS.get(key)
+    if hit is None or hit[0] is not cond:
+        hit = (cond, ballistic(cond, t, z0, gravity))
+        hit[1].setflags(write=False)
+        if len(_FLIGHTS) >= _FLIGHTS_MAX:
+            _FLIGHTS.clear()
+        _FLIGHTS[key] = hit
+    return hit[1]
+
+
+_variant: tuple[Model, str, Model] | None = None
+"""The last (model, horizon as its exact hex, model with that horizon): a fit predicts every
+drop of a set with one model, and the drops mostly share their length."""
+
+
+def _with_horizon(model: Model, horizon: float) -> Model:
+    """``model`` simulated to ``horizon`` s after impact (the same copy for the same model)."""
+    global _variant
+    v = _variant
+    exact = float(horizon).hex()
+    if v is not None and v[0] is model and v[1] == exact:
+        return v[2]
+    m = replace(model, criteria=replace(model.criteria, horizon=horizon))
+    _variant = (model, exact, m)
+    return m
 
 
 def state_ranges(drops: list[Drop]) -> np.ndarray:

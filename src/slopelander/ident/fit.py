@@ -148,6 +148,9 @@ class Problem:
             np.sqrt(WEIGHTS / WEIGHTS.sum()) / self.ranges / math.sqrt((d.t >= 0).sum() * len(self.drops))
             for d in self.drops
         ]
+        # the samples after contact, and what was measured there: the same at every evaluation
+        self._after = [d.t >= 0 for d in self.drops]
+        self._measured = [d.states[a] for d, a in zip(self.drops, self._after, strict=True)]
 
     def values(self, u: Sequence[float]) -> list[float]:
         return [p.value(float(x)) for p, x in zip(self.params, u, strict=True)]
@@ -165,10 +168,8 @@ class Problem:
             return np.full(sum(int((self.drops[i].t >= 0).sum()) * 6 for i in idx), 10.0)
         out = [np.zeros(0)]
         for i in idx:
-            d, sc = self.drops[i], self._scale[i]
-            sim, _ = predict(m, d, outcome=False)
-            after = d.t >= 0
-            out.append(((sim[after] - d.states[after]) * sc).ravel())
+            sim, _ = predict(m, self.drops[i], outcome=False)
+            out.append(((sim[self._after[i]] - self._measured[i]) * self._scale[i]).ravel())
         r = np.concatenate(out)
         return np.where(np.isfinite(r), r, 10.0)
 
