@@ -17,8 +17,11 @@ timed before and after.
 The reference brackets the run; the machine's speed also changes inside it. So a thread of this
 (otherwise idle) process times a small fixed piece of the same work every ``--probe-every``
 seconds of the run, on its own thread's CPU clock: the run prints how fast the machine was while
-the tests ran, against the reference's best, and the CPU the run would have needed at that best
-speed (an estimate, said as one).
+the tests ran and the CPU the run would have needed at the idle machine's speed (an estimate,
+said as one). The probes are compared with probes timed the same way (each after a pause) on the
+idle machine just before and after the run, not with the reference: a 25 ms probe after a pause
+reads 1.3 times the same work inside the reference's 0.7 s even with nothing else running
+(2026-11-27), so until then every run read about 1.3 times slower than the machine was.
 
     python3 benchmarks/suite_time.py [--write] [-- extra pytest arguments]
 """
@@ -79,6 +82,19 @@ def probe_s() -> float:
     return time.thread_time() - t
 
 
+IDLE_PROBES = 8  # probes timed on the idle machine before and after the run
+IDLE_PAUSE_S = 2.0  # s before each: a probe after a pause, as the run's are
+
+
+def idle_probe_s(n: int = IDLE_PROBES, pause_s: float = IDLE_PAUSE_S) -> float:
+    """The median of ``n`` probes, each after ``pause_s`` of nothing: the baseline of the run's."""
+    samples = []
+    for _ in range(n):
+        time.sleep(pause_s)
+        samples.append(probe_s())
+    return statistics.median(samples)
+
+
 class SpeedProbe(threading.Thread):
     """Times :func:`probe_s` every ``every_s`` wall seconds until stopped."""
 
@@ -113,6 +129,7 @@ def main() -> int:
         out = Path(tmp) / "durations.json"
         env = {**os.environ, "SLOPELANDER_RECORD_DURATIONS": str(out)}
         ref0 = reference_s()
+        idle0 = idle_probe_s()
         load0 = os.getloadavg()
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         probe = SpeedProbe(a.probe_every)
@@ -125,6 +142,7 @@ def main() -> int:
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
         load1 = os.getloadavg()
         ref1 = reference_s()
+        idle1 = idle_probe_s()
         if not out.exists():
             print("the run recorded no test times", file=sys.stderr)
             return 1
@@ -151,13 +169,14 @@ def main() -> int:
         f"{cpu / ref:.0f} reference works (compare runs by this, not by minutes)"
     )
     if probes:
-        best = min(ref0, ref1) * PROBE_LOOPS / REFERENCE_LOOPS
+        best = min(idle0, idle1)
         slow = sorted(p / best for p in probes)
         mean = statistics.fmean(slow)
         print(
-            f"machine speed in the run ({len(slow)} probes, 1.00 = the faster reference): the probe "
+            f"machine speed in the run ({len(slow)} probes, 1.00 = the idle machine's probe, "
+            f"{idle0 * 1e3:.1f} ms before and {idle1 * 1e3:.1f} ms after the run): the probe "
             f"took {slow[0]:.2f}x / {statistics.median(slow):.2f}x / {slow[-1]:.2f}x (least / median / "
-            f"most), {mean:.2f}x on average; at the reference's speed the run's CPU would be about "
+            f"most), {mean:.2f}x on average; at the idle machine's speed the run's CPU would be about "
             f"{cpu / mean / 60:.1f} min (an estimate: it assumes the tests slowed as the probe did)"
         )
     for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
@@ -172,6 +191,13 @@ def main() -> int:
         print("CPU by test:")
         for nodeid, s in sorted(test_cpu.items(), key=lambda kv: -kv[1])[: a.top]:
             print(f"  {s:7.1f} s  {nodeid.split('@')[0]}")
+        # a test whose processes were busy less than one core for its wall time left a core to
+        # the other worker, or to nobody: on 2 cores, the run's idle time is found here
+        waits = {k: seconds[k] - c for k, c in test_cpu.items() if k in seconds}
+        waited = sum(max(0.0, w) for w in waits.values()) / 60
+        print(f"Waiting by test (wall time less CPU, {waited:.1f} min in all):")
+        for nodeid, w in sorted(waits.items(), key=lambda kv: -kv[1])[: a.top]:
+            print(f"  {w:7.1f} s  {nodeid.split('@')[0]} (wall {seconds[nodeid]:.1f} s)")
     return run.returncode
 
 
