@@ -104,3 +104,25 @@ def test_non_finite_values_are_never_sent_but_a_rangefinder_without_data_is_nan(
         encode_reply(dataclasses.replace(FDM, timestamp=math.inf, rng_1=math.inf))
     # "nan" is what ArduPilot's SITL rangefinder reads as no data (it parses each value with atof)
     assert b'"rng_1":nan}' in encode_reply(dataclasses.replace(FDM, rng_1=math.nan))
+
+
+def test_the_physics_fast_reply_is_the_reply_of_its_report() -> None:
+    """``JsonPhysics.reply`` formats the frame without building the report (``fdm``): the same
+    bytes as ``encode_reply(fdm())`` on the pad, climbing, falling back and in contact, with
+    noise, wind and a fault window."""
+    from sitl.json_physics.physics import JsonPhysics
+    from sitl.vehicle.scenario import scenario_from_dict
+
+    scn = scenario_from_dict(
+        {
+            "slope_deg": 20.0,
+            "seed": 3,
+            "wind": {"steady": {"fx_n": 1.5, "fz_n": 0.0}},
+            "faults": [{"kind": "rangefinder_dropout", "start": 0.5, "end": 0.8}],
+        }
+    )
+    physics = JsonPhysics(scn)
+    frames = [1500] * 400 + [1900] * 800 + [1500] * 1600  # rest, climb, cut: fall back onto the pad
+    for n, pwm in enumerate(frames):
+        physics.step(1 / 800, (pwm,) * 4)
+        assert physics.reply() == encode_reply(physics.fdm()), n
