@@ -11,6 +11,8 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
+from sitl.vehicle.scenario import Scenario
+from sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
 from slopelander.controller.config import load_config
 from slopelander.controller.landing import cut_dynamics, expected_impact_speed, leg_geometry
 
@@ -31,6 +33,15 @@ WINDOW_GAP_S = 0.3
 #: RAW_IMU's resolution (1 milli-g) over the <= 20 ms from the last 50 Hz velocity to the contact,
 #: which first_contact_speed carries on with the accelerometer (demo.py)
 IMU_CARRY_MPS = 9.80665e-3 * 0.02
+#: the script cuts on the second distinct 20 Hz range sample at or below the cut height, so the
+#: motors stop one to two sample periods after the range crosses it (docs/onboard-script.md, "The
+#: cut"), plus a script cycle (<= 10 ms). The plan's impact speed uses the mean, 75 ms. Each
+#: sample carries the simulated rangefinder's noise: a sample up to NOISE_SIGMAS sigma low reads
+#: the cut height that much early, one as high reads it that much late. On the 35 deg roof the
+#: uphill foot touches 2 cm below the cut height, 42 ms after the crossing at 0.5 m/s: a cut in
+#: the early part of this band stops the motors before the contact (seen in about 1 run in 7).
+NOISE_SIGMAS = 3.0
+SCRIPT_CYCLE_S = 0.01
 
 
 def _descent_flown(out: Path) -> tuple[float, float]:
@@ -59,6 +70,13 @@ def _descent_flown(out: Path) -> tuple[float, float]:
     scatter = max(abs(v - (mv + slope * (t - mt))) for t, v in pts)
     at_cut = mv - slope * mt
     return at_cut, abs(slope) * WINDOW_GAP_S + 2 * scatter + IMU_CARRY_MPS
+
+
+def _cut_latency_band(descent_mps: float) -> tuple[float, float]:
+    """The earliest and the latest the motors can stop after the range crosses the cut height (s)."""
+    period = RANGEFINDER_PERIOD_MS / 1000.0
+    noise_s = NOISE_SIGMAS * Scenario().range_noise / descent_mps
+    return max(0.0, period - noise_s), 2 * period + SCRIPT_CYCLE_S + noise_s
 
 
 @pytest.fixture(scope="module")
@@ -98,17 +116,21 @@ def test_the_demo_lands_on_the_roof_takes_off_and_resets_the_legs(demo) -> None:
     assert result["outcome"] == "LANDED_AND_RESET"
     # the speed at the first foot contact against what the descent speed actually flown predicts
     flown, tolerance = _descent_flown(out)
-    predicted = expected_impact_speed(
-        flown,
-        CFG["reflex.cut_height_m"],
-        result["slope_deg"],
-        leg_geometry(),
-        result["uphill_angle_deg"],
-        cut_dynamics(CFG["reflex.cut_latency_s"]),
+    early, late = _cut_latency_band(flown)
+    slowest, fastest = (
+        expected_impact_speed(
+            flown,
+            CFG["reflex.cut_height_m"],
+            result["slope_deg"],
+            leg_geometry(),
+            result["uphill_angle_deg"],
+            cut_dynamics(latency),
+        )
+        for latency in (late, early)
     )
-    assert abs(result["impact_mps"] - predicted) <= tolerance, (
+    assert slowest - tolerance <= result["impact_mps"] <= fastest + tolerance, (
         result["impact_mps"],
-        predicted,
+        (slowest, fastest),
         flown,
         tolerance,
     )
