@@ -309,10 +309,11 @@ class Rig:
     ) -> None:
         """``arducopter_speedup``: ArduCopter's ``--speedup``, the most it runs ahead of real time.
         It is lock-stepped with the physics, and the physics holds it while the companion is more
-        than 0.25 s of vehicle time behind and keeps it to real time within 2 m of the ground
-        (``sitl.json_physics.companion_gate``): the companion's and the board's limits (1 s each,
-        on the vehicle's time) hold on a loaded machine, and the on-board script, whose thread
-        ArduPilot SITL runs in wall-clock steps, has real time for the cut and the impact. Above real time
+        than 0.25 s of vehicle time behind and keeps it to real time within 2 m of the ground while
+        the script may be timing something (``sitl.json_physics.companion_gate``): the
+        companion's and the board's limits (1 s each, on the vehicle's time) hold on a loaded
+        machine, and the on-board script, whose thread ArduPilot SITL runs in wall-clock steps,
+        has real time for the cut and the impact. Above real time
         the climb, the transit and the wait for the legs cost less wall time and CPU (a 35 deg
         landing: 23.1 s and 40.7 CPU-s at 8x against 34.1 s and 47.2 CPU-s at 1x, 2026-11-27,
         benchmarks/arducopter_pace.py). Without the real time near the ground one landing's

@@ -14,7 +14,8 @@ before this process says it is ready (``sitl.ardupilot.fast_boot`` has the rules
 
 The companion's TIMESYNC echoes on SERIAL1 are read on their way in (``sitl.ardupilot.echo_tap``)
 and the physics holds ArduCopter while the companion is behind, and keeps it to real time within
-2 m of the ground (``sitl.json_physics.companion_gate``), unless ``--no-companion-lockstep``.
+2 m of the ground while the on-board script may be timing something
+(``sitl.json_physics.companion_gate``), unless ``--no-companion-lockstep``.
 """
 
 from __future__ import annotations

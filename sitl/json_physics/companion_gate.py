@@ -21,7 +21,13 @@ SITL steps its clock in the main thread only, and every other thread, the on-boa
 them, waits for it in 1 ms sleeps of wall time (``SITL_State::wait_clock``,
 libraries/AP_HAL_SITL/SITL_State.cpp), so above real time the script runs late in vehicle time
 (at 8x one landing's script saw the impact 170 ms after contact, against 7-10 ms at real time).
-Above that height (take-off, transit, waiting for the legs) nothing the script does is timed.
+Above that height (take-off, transit, waiting for the legs) nothing the script does is timed,
+and below it not everything is: real time is kept only while the script may be timing something
+(:func:`script_may_time`: a descent, a fall, a landing still moving, reverse thrust) and for
+``LINGER_S`` after. Still on the pad after the boot (arming, the motors spinning up), climbing
+away, hovering for the legs or resting on the roof after a landing, the physics runs at
+ArduPilot's speed-up. With real time on the whole 2 m, one 20 deg landing on ArduCopter slept
+9.0 s of its 37 s (2026-11-27).
 
 The lead is longer than the simulated vehicle's 50 ms: ArduCopter cannot be told to say the time
 it waits at, and before the companion has asked for its streams the only stamped message it sends
@@ -30,6 +36,7 @@ is the script's SL_STATE at 5 Hz, so a lead under 200 ms could hold it before it
 
 from __future__ import annotations
 
+import math
 import select
 import socket
 import struct
@@ -42,6 +49,20 @@ GONE = -1
 LEAD_S = 0.25
 #: wall seconds without a newer echo after which the physics stops waiting
 PATIENCE_S = 5.0
+#: a descent (m/s, down) or a pitch rate (rad/s) under these times nothing: resting, hovering
+DESCENT_MPS = 0.15
+PITCH_RATE_RAD_S = 0.2
+#: physics seconds real time is kept after the script last may have timed something: the impact
+#: is read on the filtered accelerometer after a contact that can stop the vehicle within a frame
+LINGER_S = 1.0
+
+
+def script_may_time(vz: float, pitch_rate: float, reversing: bool) -> bool:
+    """Whether the on-board script may be timing something now (``vz`` up, world frame): the
+    cut counts 20 Hz range samples in a descent, the impact is read in the fall and in the
+    landing that follows (a slide descends, a pivot pitches), reverse thrust lasts its set time.
+    Resting, hovering, climbing or moving level it times nothing."""
+    return reversing or vz < -DESCENT_MPS or abs(pitch_rate) >= PITCH_RATE_RAD_S
 
 
 class CompanionGate:
@@ -61,6 +82,7 @@ class CompanionGate:
             raise ValueError(f"real_time_below_m must be positive, not {real_time_below_m!r}")
         self.real_time_below_m = real_time_below_m
         self._anchor: tuple[float, float] | None = None  # (physics t, wall) where real time began
+        self._timed_until = -math.inf  # physics t until which real time is kept (LINGER_S)
         self.paced_s = 0.0  # wall time slept to keep to real time
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -128,11 +150,14 @@ class CompanionGate:
             if took > self.longest[0]:
                 self.longest = (took, t, echo0)
 
-    def pace(self, t: float, height_m: float) -> None:
-        """Near the ground, with a companion echoing: do not run ahead of the wall clock (a burst
-        to catch up after falling behind is not made either)."""
+    def pace(self, t: float, height_m: float, timed: bool = True) -> None:
+        """Near the ground, with a companion echoing, while the script may be timing something
+        (``timed``, :func:`script_may_time`) and ``LINGER_S`` after: do not run ahead of the wall
+        clock (a burst to catch up after falling behind is not made either)."""
         below = self.real_time_below_m
-        if below is None or self.echo_t is None or not height_m < below:
+        if timed:
+            self._timed_until = t + LINGER_S
+        if below is None or self.echo_t is None or not height_m < below or t > self._timed_until:
             self._anchor = None
             return
         now = time.monotonic()

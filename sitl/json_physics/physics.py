@@ -18,6 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from sitl.json_physics.companion_gate import script_may_time
 from sitl.json_physics.protocol import Fdm, encode_planar_reply, encode_reply
 from sitl.vehicle import esc
 from sitl.vehicle.events import Events
@@ -107,6 +108,13 @@ class JsonPhysics:
             self.legs.update(self)
         if self.events is not None:
             self.events.after_physics_step(st, t, lambda: self._world_body(BodyState(*m)))
+
+    def script_may_time(self) -> bool:
+        """:func:`~sitl.json_physics.companion_gate.script_may_time` for this frame's body and
+        the last frame's motor outputs."""
+        vz, rate = self._motion[5], self._motion[6]
+        outputs = self._outputs
+        return script_may_time(vz, rate, outputs is not None and min(outputs[1]) < 0.0)
 
     def height_m(self) -> float:
         """Height (m) of the body over the surface under it, this frame."""

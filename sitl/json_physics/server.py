@@ -115,7 +115,7 @@ class JsonServer:
         self.last_count = frame.frame_count
         if self.gate is not None:
             self.gate.wait(self.physics.t)
-            self.gate.pace(self.physics.t, self.physics.height_m())
+            self.gate.pace(self.physics.t, self.physics.height_m(), self.physics.script_may_time())
         try:
             self.physics.step(frame.dt, frame.pwm[:4])
             reply = self.physics.reply()  # encode_reply(fdm()), formatted without the Fdm

@@ -14,7 +14,15 @@ from pymavlink import mavutil
 
 from sitl.ardupilot.echo_tap import EchoTap
 from sitl.json_physics.ardupilot_side import ArduPilotSide
-from sitl.json_physics.companion_gate import ECHO, GONE, CompanionGate
+from sitl.json_physics.companion_gate import (
+    DESCENT_MPS,
+    ECHO,
+    GONE,
+    LINGER_S,
+    PITCH_RATE_RAD_S,
+    CompanionGate,
+    script_may_time,
+)
 from sitl.json_physics.launch import free_udp_port, start_json_physics
 
 
@@ -181,3 +189,40 @@ def test_near_the_ground_it_keeps_to_real_time_and_above_it_runs_free() -> None:
         g.close()
     with pytest.raises(ValueError, match="positive"):
         CompanionGate(0, real_time_below_m=0.0)
+
+
+def test_near_the_ground_real_time_is_kept_only_while_the_script_may_time_and_a_second_after() -> None:
+    """Below the height, frames in which the script times nothing (resting on the pad, hovering
+    for the legs) run free, unless the script may have timed something within LINGER_S of
+    physics time before (the impact read just after a contact that stopped the vehicle)."""
+    g = CompanionGate(0, real_time_below_m=2.0)
+    try:
+        _echo(g.port, 1000.0)
+        time.sleep(0.05)
+        g.wait(0.0)
+
+        def run(t0: float, timed: list[bool], dt: float = 0.01) -> float:
+            w0 = time.monotonic()
+            for i, on in enumerate(timed):
+                g.pace(t0 + i * dt, 1.0, on)
+            return time.monotonic() - w0
+
+        assert run(1.0, [False] * 30) < 0.05  # still on the ground: free
+        assert run(2.0, [True] * 30) >= 0.29 - 0.01  # a descent: real time
+        # one timed frame, then still: real time goes on for LINGER_S, then stops
+        frames = round(LINGER_S / 0.01)
+        assert run(3.0, [True] + [False] * frames) >= LINGER_S - 0.02
+        assert run(3.0 + (frames + 1) * 0.01 + 0.02, [False] * 30) < 0.05
+    finally:
+        g.close()
+
+
+def test_what_the_script_may_be_timing() -> None:
+    """A descent (the cut), a pitching landing (the impact), reverse thrust (its duration): yes.
+    Resting, hovering, climbing: no."""
+    assert script_may_time(-0.5, 0.0, False)  # the 0.5 m/s descent
+    assert script_may_time(0.0, PITCH_RATE_RAD_S * 2, False)  # pivoting onto the downhill foot
+    assert script_may_time(0.0, 0.0, True)  # resting under reverse thrust
+    assert not script_may_time(0.0, 0.0, False)  # resting, hovering
+    assert not script_may_time(1.0, 0.05, False)  # the take-off
+    assert not script_may_time(-DESCENT_MPS / 2, 0.0, False)  # a hover's drift
