@@ -180,7 +180,7 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
     legs = None
     rec = None
     try:
-        info = link.wait_autopilot(timeout_s=10.0)
+        info = link.wait_autopilot(timeout_s=cfg["link.heartbeat_wait_s"])
         print(f"autopilot: {info.describe()}")
         link.request_stream(27, cfg["link.imu_hz"])  # RAW_IMU
         link.request_stream(132, cfg["link.range_hz"])  # DISTANCE_SENSOR

@@ -46,13 +46,19 @@ def test_bad_input_is_one_clear_line(args, message):
     assert message in out.stderr and "Traceback" not in out.stderr
 
 
-def test_no_autopilot_is_reported():
+def test_no_autopilot_is_reported(tmp_path):
+    """After the settings' ``link.heartbeat_wait_s`` (10 s by default; 2 here) without a heartbeat."""
     from sitl.vehicle.launch import start_legboard
+    from slopelander.controller.config import load_config
 
+    assert load_config()["link.heartbeat_wait_s"] == 10.0
+    cfg = tmp_path / "wait.yaml"
+    cfg.write_text("link:\n  heartbeat_wait_s: 2\n")
     board = start_legboard()  # the leg board is checked first, before the autopilot is waited for
     try:
-        out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs", board.pty, "--slope", "20", timeout=30)
+        url = f"udpin:127.0.0.1:{port()}"
+        out = land("--connect", url, "--legs", board.pty, "--slope", "20", "--config", str(cfg), timeout=30)
     finally:
         board.stop()
-    assert out.returncode == 1 and "no autopilot heartbeat within 10 s" in out.stderr
+    assert out.returncode == 1 and "no autopilot heartbeat within 2 s" in out.stderr
     assert "Traceback" not in out.stderr

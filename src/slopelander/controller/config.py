@@ -27,6 +27,7 @@ IMPACT_MIN_MPS2 = 2 * 9.80665
 # field -> (low, high, integer?)  (inclusive bounds)
 LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.link_loss_s": (0.2, 30.0, False),
+    "link.heartbeat_wait_s": (1.0, 300.0, False),
     "link.heartbeats_missed": (1, 20, True),
     "link.command_timeout_s": (0.05, 5.0, False),
     "link.command_retries": (0, 10, True),
