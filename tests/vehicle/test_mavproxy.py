@@ -3,6 +3,7 @@ arms, reads and sets a parameter, and flies it with `takeoff` and `position`."""
 
 from __future__ import annotations
 
+import re
 import shutil
 import socket
 import subprocess
@@ -40,16 +41,23 @@ def test_mavproxy_mode_arm_param(tmp_path):
         )
         lines = _reader(p)
         _wait_for(lines, "Detected vehicle")  # before that MAVProxy maps mode names for another vehicle
-        for c in (
-            "mode GUIDED",
-            "arm throttle",
-            "param fetch MOT_PWM_MIN",
-            "param set GUID_TIMEOUT 2.5",
-            "param fetch GUID_TIMEOUT",
+        for c, answer in (
+            ("mode GUIDED", "Mode GUIDED"),
+            ("arm throttle", ARMED),  # on the heartbeat after the ACK
+            ("param fetch MOT_PWM_MIN", "MOT_PWM_MIN = "),
+            ("param set GUID_TIMEOUT 2.5", None),  # MAVProxy prints nothing: fetched below
         ):
             p.stdin.write(c + "\n")
             p.stdin.flush()
-            time.sleep(1.5)
+            if answer is not None:
+                _wait_for(lines, answer, timeout=10.0)
+        # the set is sent on its own time: fetched until it shows, for at most 5 s
+        for _ in range(5):
+            p.stdin.write("param fetch GUID_TIMEOUT\n")
+            p.stdin.flush()
+            _wait_for(lines, "GUID_TIMEOUT = 2.5", timeout=1.0)
+            if any("GUID_TIMEOUT = 2.5" in ln for _, ln in lines):
+                break
         _stop(p)
         out = "\n".join(ln for _, ln in lines)
     finally:
@@ -87,10 +95,31 @@ def _stop(p: subprocess.Popen) -> None:
         p.wait()
 
 
-def _wait_for(lines: list[tuple[float, str]], text: str, timeout: float = 60.0) -> None:
+#: MAVProxy's line when the vehicle's heartbeat says armed, after its prompt or not ("GUIDED> ARMED")
+ARMED = re.compile(r"(^|> )ARMED$")
+
+
+def _wait_for(lines: list[tuple[float, str]], text: str | re.Pattern, timeout: float = 60.0) -> None:
+    """Wait until a line holds ``text`` (or matches it), or the timeout passes: the test's
+    assertions then say what is missing."""
+    found = text.search if isinstance(text, re.Pattern) else lambda ln: text in ln
     end = time.monotonic() + timeout
-    while not any(text in ln for _, ln in lines) and time.monotonic() < end:
-        time.sleep(0.2)
+    while not any(found(ln) for _, ln in lines) and time.monotonic() < end:
+        time.sleep(0.05)
+
+
+def _settled_at(conn, ok, timeout: float) -> object | None:
+    """The first LOCAL_POSITION_NED for which ``ok`` holds with the vehicle nearly still (under
+    0.1 m/s), or the last one seen when the timeout passes first."""
+    last, end = None, time.monotonic() + timeout
+    while time.monotonic() < end:
+        m = conn.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=0.1)
+        if m is None:
+            continue
+        last = m
+        if ok(m) and abs(m.vx) < 0.1 and abs(m.vy) < 0.1 and abs(m.vz) < 0.1:
+            return m
+    return last
 
 
 def test_mavproxy_flies_the_vehicle_with_position_no_false_fence_breach_quick_parameters(tmp_path):
@@ -118,16 +147,19 @@ def test_mavproxy_flies_the_vehicle_with_position_no_false_fence_breach_quick_pa
 
     try:
         _wait_for(lines, "Detected vehicle")
-        for c in ("mode GUIDED", "arm throttle", "takeoff 2"):
+        _wait_for(lines, "parameters", timeout=10.0)  # the download, whose time is checked below
+        for c, answer in (
+            ("mode GUIDED", "Mode GUIDED"),
+            ("arm throttle", "COMPONENT_ARM_DISARM"),
+            ("takeoff 2", "NAV_TAKEOFF"),
+        ):
             p.stdin.write(c + "\n")
             p.stdin.flush()
-            time.sleep(2)
-        time.sleep(4)
-        start = _last_position(watch)
+            _wait_for(lines, answer, timeout=10.0)
+        start = _settled_at(watch, lambda m: m.z < -1.8, timeout=20.0)  # at 2 m, hovering
         p.stdin.write("position 1.5 0 0\n")
         p.stdin.flush()
-        time.sleep(8)
-        end = _last_position(watch)
+        end = _settled_at(watch, lambda m: start is not None and m.x - start.x > 1.25, timeout=20.0)
     finally:
         _stop(p)
         watch.close()
@@ -141,12 +173,3 @@ def test_mavproxy_flies_the_vehicle_with_position_no_false_fence_breach_quick_pa
     assert "NAV_TAKEOFF: ACCEPTED" in out, out
     assert start is not None and end is not None
     assert abs(end.x - start.x - 1.5) < 0.25, (start, end)
-
-
-def _last_position(conn):
-    last, end = None, time.monotonic() + 1.0
-    while time.monotonic() < end:
-        m = conn.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=0.1)
-        if m is not None:
-            last = m
-    return last
