@@ -52,8 +52,11 @@ class SequenceError(RuntimeError):
 
 
 class _Client:
-    def __init__(self, conn, target_system: int, target_component: int, ack_timeout_s: float) -> None:
+    def __init__(
+        self, conn, target_system: int, target_component: int, ack_timeout_s: float, text_after_ack_s: float
+    ) -> None:
         self.conn, self.ts, self.tc, self.ack_timeout_s = conn, target_system, target_component, ack_timeout_s
+        self.text_after_ack_s = text_after_ack_s
         self.last: dict[str, object] = {}
 
     def _recv(self, timeout: float):
@@ -75,7 +78,7 @@ class _Client:
                 texts.append(m.text)
             elif m.get_type() == "COMMAND_ACK" and m.command == cmd:
                 # ArduPilot queues its texts behind the ACK: gather them for a short while
-                end = time.monotonic() + TEXT_AFTER_ACK_S
+                end = time.monotonic() + self.text_after_ack_s
                 while time.monotonic() < end:
                     t = self._recv(0.05)
                     if t is not None and t.get_type() == "STATUSTEXT":
@@ -126,11 +129,14 @@ def run_sequence(
     flight_timeout_s: float = 60.0,
     ack_timeout_s: float = 5.0,
     progress: Callable[[str], None] | None = None,
+    text_after_ack_s: float = TEXT_AFTER_ACK_S,
 ) -> list[Answer]:
     """Run the sequence on a pymavlink connection to a disarmed vehicle on the ground; return the
     recorded answers in order. Raises SequenceError when the vehicle never gets ready or never
-    climbs or lands (the answers after that would compare nothing)."""
-    c = _Client(conn, target_system, target_component, ack_timeout_s)
+    climbs or lands (the answers after that would compare nothing). ``text_after_ack_s``: how
+    long after each ACK its STATUSTEXTs are gathered (a recording keeps them for the reader; a
+    comparison of the results alone passes 0 and saves 0.3 s a command)."""
+    c = _Client(conn, target_system, target_component, ack_timeout_s, text_after_ack_s)
     say = progress or (lambda s: None)
     out: list[Answer] = []
 
