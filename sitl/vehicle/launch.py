@@ -135,8 +135,10 @@ def start_vehicle(
         proc.wait()
         err.seek(0)
         msg = err.read()
+        err.close()
         tmp.cleanup()
         raise RuntimeError(f"vehicle did not start: {msg.strip()[-2000:]}")
+    err.close()  # the vehicle has its own descriptor; the file stays for whoever reads it
     return VehicleProcess(proc, port, line.strip(), tmp)
 
 

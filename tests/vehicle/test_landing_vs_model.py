@@ -23,7 +23,7 @@ from tests.vehicle.flying import M, command, take_off, velocity, wait_msg
 
 SCRIPT = REPO / "firmware_params" / "scripts" / "slopelander.lua"
 USER_2 = 31011
-SPEED = 2.0
+SPEED = 4.0
 SLIDE_TOL_M = 0.05  # vehicle vs model slide along the slope
 
 
