@@ -21,6 +21,8 @@ from sitl.linkfault.faults import FaultConfigError, decide
 from sitl.vehicle.launch import REPO, child_env, free_port, start_vehicle
 
 ROUTE_A = {"FRAME_CLASS": 1, "MOT_PWM_TYPE": 0, "MOT_PWM_MIN": 1525, "MOT_PWM_MAX": 2000}
+#: frames on their way between the relay's count and the client when a count is taken
+IN_FLIGHT = 10
 
 
 # -- the decisions, no sockets ---------------------------------------------------------------
@@ -87,7 +89,8 @@ def test_the_relay_sends_each_frame_at_once_over_tcp() -> None:
 # -- the relay between a client and the vehicle ------------------------------------------------
 @pytest.fixture(scope="module")
 def link():
-    v = start_vehicle(params=ROUTE_A, no_script=True, speed=1.0)
+    # at 4x real time: the tests count messages, and its streams come four times as fast
+    v = start_vehicle(params=ROUTE_A, no_script=True, speed=4.0)
     port = free_port()
     relay = subprocess.Popen(
         [sys.executable, "-m", "sitl.linkfault", "--listen", f"tcp:127.0.0.1:{port}",
@@ -148,7 +151,9 @@ def test_a_clean_relay_passes_every_frame(clean) -> None:
     msgs = collect(conn, lambda got: len(got) > 40 and heartbeats(got))
     after = ctl.stats()["down"]
     assert len(heartbeats(msgs)) >= 1
-    assert after["frames"] - before["frames"] >= len(msgs) > 40
+    # every message came through the relay: as many frames as messages, give or take those the
+    # relay had counted but the client not yet read when the count was taken (IN_FLIGHT)
+    assert after["frames"] - before["frames"] + IN_FLIGHT >= len(msgs) > 40
     assert after["dropped"] == before["dropped"] and after["corrupted"] == before["corrupted"]
     assert not [m for m in msgs if m.get_type() == "BAD_DATA"]
 
@@ -164,7 +169,7 @@ def test_dropping_half_the_frames_halves_what_arrives(clean) -> None:
     dropped = after["dropped"] - before["dropped"]
     assert 0.35 < dropped / frames < 0.65, (dropped, frames)
     # what arrived is what was not dropped (give or take the frames in flight at either end)
-    assert abs(len(msgs) - (frames - dropped)) <= 10, (len(msgs), frames, dropped)
+    assert abs(len(msgs) - (frames - dropped)) <= IN_FLIGHT, (len(msgs), frames, dropped)
 
 
 def test_a_cut_silences_the_link_and_it_comes_back(clean) -> None:
