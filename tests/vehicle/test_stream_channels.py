@@ -36,7 +36,9 @@ def _rate(conn, kind: str, vehicle_s: float = 2.0) -> float:
 
 def test_a_ground_stations_stream_request_leaves_the_companions_rates_and_answers_alone():
     gcs_port = free_port()
-    v = start_vehicle(params=ROUTE_A, no_script=True, extra_endpoints=[f"tcpin:127.0.0.1:{gcs_port}"])
+    # at 2x real time: the rates are counted on the vehicle's clock
+    gcs_end = f"tcpin:127.0.0.1:{gcs_port}"
+    v = start_vehicle(params=ROUTE_A, no_script=True, speed=2.0, extra_endpoints=[gcs_end])
     companion = mavutil.mavlink_connection(v.mavlink_url, source_system=255, source_component=191)
     gcs = mavutil.mavlink_connection(f"tcp:127.0.0.1:{gcs_port}", source_system=255, source_component=190)
     try:
