@@ -309,7 +309,7 @@ class Rig:
     ) -> None:
         """``arducopter_speedup``: ArduCopter's ``--speedup``, the most it runs ahead of real time.
         It is lock-stepped with the physics, and the physics holds it while the companion is more
-        than 0.25 s of vehicle time behind and keeps it to real time within 2 m of the ground while
+        than 0.25 s of vehicle time behind and keeps it to real time within 1.6 m of the ground while
         the script may be timing something (``sitl.json_physics.companion_gate``): the
         companion's and the board's limits (1 s each, on the vehicle's time) hold on a loaded
         machine, and the on-board script, whose thread ArduPilot SITL runs in wall-clock steps,

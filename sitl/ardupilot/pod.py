@@ -14,7 +14,7 @@ before this process says it is ready (``sitl.ardupilot.fast_boot`` has the rules
 
 The companion's TIMESYNC echoes on SERIAL1 are read on their way in (``sitl.ardupilot.echo_tap``)
 and the physics holds ArduCopter while the companion is behind, and keeps it to real time within
-2 m of the ground while the on-board script may be timing something
+1.6 m of the ground while the on-board script may be timing something
 (``sitl.json_physics.companion_gate``), unless ``--no-companion-lockstep``.
 """
 
@@ -47,9 +47,11 @@ CONSOLE_PORT, COMPANION_PORT, GCS_PORT = 5760, 5762, 5763
 JSON_PORT = 9002
 #: the physics' gate, where the companion's echoes go (sitl.json_physics.companion_gate)
 GATE_PORT = 9102
-#: below this height over the surface the physics keeps ArduCopter to real time (the reflex arms at
-#: 1.5 m; sitl/json_physics/companion_gate.py says why)
-REAL_TIME_BELOW_M = 2.0
+#: below this height over the surface the physics keeps ArduCopter to real time while the script
+#: may be timing something (sitl/json_physics/companion_gate.py says why): just above the height
+#: the shipped settings arm the reflex at (``reflex.arm_height_m``, 1.5 m); nothing the script does
+#: is timed before it is armed. A landing armed higher runs its first metres above real time.
+REAL_TIME_BELOW_M = 1.6
 #: SITL's RC input with ``-I0`` (``SIM::rcin_port``): the scenario's sticks and switches go there
 RC_PORT = 5501
 _PR_SET_PDEATHSIG = 1

@@ -10,7 +10,7 @@ the autopilot's HEARTBEAT says disarmed: a command sent is not an end.
 Which cases fly on both, and how (CI stays well under 30 minutes on 2 cores; the ArduCopter
 tests share one xdist group, one ArduCopter at a time; its fast boot to armed costs about 13 s of
 wall time, a landing 15-35 s more: at up to 8x real time (sitl.rig.ARDUCOPTER_SPEEDUP), at real
-time within 2 m of the ground while the script may time something, held for a companion that
+time within 1.6 m of the ground while the script may time something, held for a companion that
 falls behind): every case below flies on
 both autopilots.
 
