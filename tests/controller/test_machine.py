@@ -820,3 +820,31 @@ def test_a_take_off_the_autopilot_will_not_arm_for_is_asked_again_then_ends_land
     again = act.names().count("takeoff") - asked
     assert ARM_WAIT_S / ARM_RETRY_S - 2 <= again <= ARM_WAIT_S / ARM_RETRY_S + 1, again
     assert "loosen" not in " ".join(act.names())  # legs clamped on the roof
+
+
+def test_an_abort_asks_for_loiter_again_while_the_autopilot_stays_in_guided():
+    """A lost mode command (and its retries) must not leave the vehicle in GUIDED: LOITER is
+    asked for every REASK_S while the autopilot reports GUIDED, armed; the pilot is told once
+    after TELL_AFTER asks; once it reports another mode, nothing more is asked."""
+    from slopelander.controller.states.aborted import REASK_S, TELL_AFTER
+
+    m, act, _ = make()
+    limit = m.ctx.cfg["legs.ready_timeout_s"]
+    t = 0.0
+    while m.name != "ABORTED":  # the legs never ready: aborted before the descent, in the air
+        t += 0.02
+        m.step(replace(OK, t=t, legs_ready=False))
+        assert t < limit + 1.0
+    asks = lambda: act.calls.count(("set_mode", "LOITER"))  # noqa: E731
+    assert asks() == 1
+    m.step(replace(OK, t=t + REASK_S / 2, legs_ready=False))
+    assert asks() == 1  # not before REASK_S
+    for k in range(1, TELL_AFTER + 2):
+        m.step(replace(OK, t=t + k * REASK_S, legs_ready=False))
+    assert asks() == TELL_AFTER + 2
+    told = [c for c in act.calls if c[0] == "statustext" and "LOITER not taken" in c[1]]
+    assert len(told) == 1
+    m.step(replace(OK, t=t + 20 * REASK_S, mode="LOITER", legs_ready=False))
+    m.step(replace(OK, t=t + 30 * REASK_S, mode="STABILIZE", legs_ready=False))  # the pilot's
+    m.step(replace(OK, t=t + 40 * REASK_S, armed=False, legs_ready=False))
+    assert asks() == TELL_AFTER + 2
