@@ -154,18 +154,8 @@ def test_a_real_leg_board_with_a_measured_calibration_goes_on_to_the_autopilot(
     measured.write_text(text.replace("provenance: assumed", "provenance: measured"))
     wait = tmp_path / "wait.yaml"
     wait.write_text("link:\n  heartbeat_wait_s: 1\n")  # no autopilot here: the check is that it got this far
-    out = land(
-        "--connect",
-        free_udp(),
-        "--legs",
-        str(real_board),
-        "--slope",
-        "35",
-        "--calibration",
-        str(measured),
-        "--config",
-        str(wait),
-    )
+    flight = ["--connect", free_udp(), "--legs", str(real_board), "--slope", "35"]
+    out = land(*flight, "--calibration", str(measured), "--config", str(wait))
     assert out.returncode == 1 and "no autopilot heartbeat within 1 s" in out.stderr, out.stderr
 
 
