@@ -55,8 +55,7 @@ def test_mavproxy_mode_arm_param(tmp_path):
         for _ in range(5):
             p.stdin.write("param fetch GUID_TIMEOUT\n")
             p.stdin.flush()
-            _wait_for(lines, "GUID_TIMEOUT = 2.5", timeout=1.0)
-            if any("GUID_TIMEOUT = 2.5" in ln for _, ln in lines):
+            if _wait_for(lines, "GUID_TIMEOUT = 2.5", timeout=1.0):
                 break
         _stop(p)
         out = "\n".join(ln for _, ln in lines)
@@ -99,13 +98,16 @@ def _stop(p: subprocess.Popen) -> None:
 ARMED = re.compile(r"(^|> )ARMED$")
 
 
-def _wait_for(lines: list[tuple[float, str]], text: str | re.Pattern, timeout: float = 60.0) -> None:
-    """Wait until a line holds ``text`` (or matches it), or the timeout passes: the test's
-    assertions then say what is missing."""
+def _wait_for(lines: list[tuple[float, str]], text: str | re.Pattern, timeout: float = 60.0) -> bool:
+    """Wait until a line holds ``text`` (or matches it); False when the timeout passed first (the
+    test's assertions then say what is missing)."""
     found = text.search if isinstance(text, re.Pattern) else lambda ln: text in ln
     end = time.monotonic() + timeout
-    while not any(found(ln) for _, ln in lines) and time.monotonic() < end:
+    while not any(found(ln) for _, ln in lines):
+        if time.monotonic() >= end:
+            return False
         time.sleep(0.05)
+    return True
 
 
 def _settled_at(conn, ok, timeout: float) -> object | None:
