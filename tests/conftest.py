@@ -35,8 +35,10 @@ def pytest_configure(config: pytest.Config) -> None:
     starved the lock-stepped flights beside them (a fit's search does not depend on it)."""
     if hasattr(config, "workerinput"):
         os.environ.setdefault("SLOPELANDER_WORKERS", "1")
-    elif not config.option.collectonly:
-        # before the workers start: one process compiles the model (tests/compile_once.py)
+    elif not config.option.collectonly and os.environ.get("SLOPELANDER_COMPILE_ONCE", "1") != "0":
+        # before the workers start: one process compiles the model (tests/compile_once.py); the
+        # suite's own checks of its settings run pytest on toy modules that need no model, with
+        # SLOPELANDER_COMPILE_ONCE=0
         from tests.compile_once import compile_once
 
         seconds, status = compile_once()
@@ -69,6 +71,15 @@ DURATIONS = Path(__file__).with_name("durations.json")
 UNKNOWN_TEST_S = 2.0
 
 
+def collection_id(nodeid: str) -> str:
+    """A test's id as collected: without the ``@group`` xdist appends in its workers (after this
+    file's hooks have ordered the items), so recorded times match the items they order."""
+    head, at, group = nodeid.rpartition("@")
+    if at and "::" in head and "::" not in group and "]" not in group:
+        return head
+    return nodeid
+
+
 def recorded_durations(path: Path = DURATIONS) -> dict[str, float]:
     """Test id -> seconds from a measured run; empty when the file is missing or unreadable (every
     test then counts the same, units with more tests go first: xdist's own rule; the order changes
@@ -79,7 +90,7 @@ def recorded_durations(path: Path = DURATIONS) -> dict[str, float]:
         return {}
     if not isinstance(data, dict):
         return {}
-    return {k: float(v) for k, v in data.items() if isinstance(v, (int, float))}
+    return {collection_id(k): float(v) for k, v in data.items() if isinstance(v, (int, float))}
 
 
 def longest_first(items: list[pytest.Item], seconds: dict[str, float]) -> list[pytest.Item]:
@@ -134,10 +145,11 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
     """Setup, call and teardown times per test (on the controller: every worker's reports)."""
     if _RECORD:
-        _measured[report.nodeid] = _measured.get(report.nodeid, 0.0) + report.duration
+        nodeid = collection_id(report.nodeid)
+        _measured[nodeid] = _measured.get(nodeid, 0.0) + report.duration
         cpu = dict(report.user_properties).get("cpu_s")
         if cpu is not None:
-            _cpu[report.nodeid] = _cpu.get(report.nodeid, 0.0) + float(cpu)
+            _cpu[nodeid] = _cpu.get(nodeid, 0.0) + float(cpu)
 
 
 def pytest_report_header(config: pytest.Config) -> str | None:

@@ -7,6 +7,7 @@ test that collected the suite twice more to check it cost about 36 CPU-s of ever
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -23,6 +24,7 @@ def _env() -> dict[str, str]:
     """The environment of a fresh pytest run: none of this run's worker variables."""
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST_", "HYPOTHESIS_"))}
     env["PYTHONPATH"] = os.pathsep.join([str(REPO / "src"), str(REPO)])
+    env["SLOPELANDER_COMPILE_ONCE"] = "0"  # toy modules: no model to compile first
     return env
 
 
@@ -84,6 +86,58 @@ def test_the_configured_command_runs_a_module_on_one_worker_in_order(tmp_path: P
         assert [n for n, _ in mine] == [0, 1, 2, 3], rows  # file order
         assert len({w for _, w in mine}) == 1, rows  # one worker
     assert len({w for m, _, w in rows if m == "spread"}) >= 2, rows
+
+
+def test_a_recorded_run_orders_the_next_one_longest_first(tmp_path: Path) -> None:
+    """The times a run records (``SLOPELANDER_RECORD_DURATIONS``, as benchmarks/suite_time.py
+    sets it) order the next run's work units: the slowest module, last by name, comes first. The
+    record is written on the controller, where xdist has appended each test's ``@group``; the
+    order is made in the workers before it does, on the ids a run without workers collects (a
+    mismatch once counted every test as unknown, and units went by their number of tests)."""
+    shutil.copy(REPO / "pyproject.toml", tmp_path / "pyproject.toml")
+    (tmp_path / "tests").mkdir()
+    shutil.copy(REPO / "tests" / "conftest.py", tmp_path / "tests" / "conftest.py")
+    (tmp_path / "tests" / "test_shared.py").write_text(SHARED.replace("sleep(0.3)", "sleep(0.02)"))
+    (tmp_path / "tests" / "test_zlong.py").write_text(
+        SHARED.replace("shared", "zlong").replace("sleep(0.3)", "sleep(0.2)")
+    )
+    record = tmp_path / "tests" / "durations.json"
+    env = {**_env(), "MADE": str(tmp_path / "made"), "RAN": str(tmp_path / "ran")}
+
+    def pytest(*args: str, **extra: str) -> str:
+        done = subprocess.run(
+            [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", *args],
+            cwd=tmp_path,
+            env={**env, **extra},
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+        return done.stdout
+
+    pytest("-n", "1", SLOPELANDER_RECORD_DURATIONS=str(record))
+    assert "tests/test_zlong.py::test_zlong[3]" in json.loads(record.read_text()), record.read_text()
+    order = [ln.split("::")[0] for ln in pytest("-n", "0", "--collect-only", "-q").splitlines() if "::" in ln]
+    assert order == ["tests/test_zlong.py"] * 4 + ["tests/test_shared.py"] * 4, order
+
+
+def test_recorded_ids_lose_only_xdists_group_suffix() -> None:
+    from tests.conftest import collection_id
+
+    assert collection_id("tests/a.py::t[1]@tests/a.py") == "tests/a.py::t[1]"
+    assert collection_id("tests/a.py::t@arducopter") == "tests/a.py::t"
+    assert collection_id("tests/a.py::t[x@y]") == "tests/a.py::t[x@y]"
+    assert collection_id("tests/a.py::t[x@y]@tests/a.py") == "tests/a.py::t[x@y]"
+    assert collection_id("tests/a.py::t") == "tests/a.py::t"
+
+
+def test_a_record_written_with_xdists_suffixes_still_orders(tmp_path: Path) -> None:
+    from tests.conftest import recorded_durations
+
+    record = tmp_path / "durations.json"
+    record.write_text('{"tests/a.py::t[1]@tests/a.py": 3.5, "tests/f.py::t@arducopter": 9}')
+    assert recorded_durations(record) == {"tests/a.py::t[1]": 3.5, "tests/f.py::t": 9.0}
 
 
 GROUPS_PLUGIN = """
