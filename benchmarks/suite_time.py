@@ -23,6 +23,10 @@ idle machine just before and after the run, not with the reference: a 25 ms prob
 reads 1.3 times the same work inside the reference's 0.7 s even with nothing else running
 (2026-11-27), so until then every run read about 1.3 times slower than the machine was.
 
+A second thread reads the machine's busy cores from /proc/stat every second: the run prints
+them per minute and the idle core-seconds at its start (the model's compile, one core) and end
+(the last work units), where a 2-core run loses time that no test's CPU shows.
+
     python3 benchmarks/suite_time.py [--write] [-- extra pytest arguments]
 """
 
@@ -114,6 +118,67 @@ class SpeedProbe(threading.Thread):
         return self.samples
 
 
+class BusySampler(threading.Thread):
+    """The machine's busy cores (all processes, from /proc/stat) every ``every_s`` seconds until
+    stopped: where in the run cores stood idle (the model's compile before the workers start, the
+    last units, tests that wait on the wall clock side by side). Nothing on a system without
+    /proc/stat."""
+
+    def __init__(self, every_s: float = 1.0) -> None:
+        super().__init__(daemon=True)
+        self.every_s = every_s
+        self.samples: list[tuple[float, float]] = []  # (s since the start, cores busy)
+        self._halt = threading.Event()
+
+    @staticmethod
+    def _read() -> tuple[int, int] | None:
+        try:
+            with open("/proc/stat") as f:
+                ticks = [int(x) for x in f.readline().split()[1:]]
+        except (OSError, ValueError):
+            return None
+        return ticks[3] + ticks[4], sum(ticks)  # idle + iowait, all
+
+    def run(self) -> None:
+        t0, last = time.monotonic(), self._read()
+        while last is not None and not self._halt.wait(self.every_s):
+            now = self._read()
+            if now is None:
+                return
+            idle, total = now[0] - last[0], now[1] - last[1]
+            if total > 0:
+                busy = (os.cpu_count() or 1) * (1 - idle / total)
+                self.samples.append((time.monotonic() - t0, busy))
+            last = now
+
+    def stop(self) -> list[tuple[float, float]]:
+        self._halt.set()
+        self.join()
+        return self.samples
+
+
+def busy_report(samples: list[tuple[float, float]], cores: int, tail_s: float = 120.0) -> list[str]:
+    """Lines on the idle cores: per minute of the run, and in its first and last ``tail_s``."""
+    if not samples:
+        return []
+    per_min: dict[int, list[float]] = defaultdict(list)
+    for t, b in samples:
+        per_min[int(t // 60)].append(b)
+    end = samples[-1][0]
+    # each sample stands for the interval since the one before it
+    starts = [0.0] + [t for t, _ in samples[:-1]]
+    spans = [(t, (cores - b) * (t - t0)) for t0, (t, b) in zip(starts, samples, strict=True)]
+    idle = sum(s for _, s in spans)
+    tail = sum(s for t, s in spans if t > end - tail_s)
+    head = sum(s for t, s in spans if t <= tail_s)
+    minutes = " ".join(f"{statistics.fmean(v):.2f}" for _, v in sorted(per_min.items()))
+    return [
+        f"cores busy, each minute: {minutes}",
+        f"idle core-seconds: {idle:.0f} in all, {head:.0f} in the first {tail_s:.0f} s (the model's "
+        f"compile is in it), {tail:.0f} in the last {tail_s:.0f} s",
+    ]
+
+
 def unit_of(nodeid: str) -> str:
     return nodeid.split("::", 1)[0]
 
@@ -134,10 +199,13 @@ def main() -> int:
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         probe = SpeedProbe(a.probe_every)
         probe.start()
+        busy = BusySampler()
+        busy.start()
         t0 = time.monotonic()
         run = subprocess.run([sys.executable, "-m", "pytest", "-q", *a.pytest_args], cwd=REPO, env=env)
         wall = time.monotonic() - t0
         probes = probe.stop()
+        busy_samples = busy.stop()
         cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
         load1 = os.getloadavg()
@@ -179,6 +247,8 @@ def main() -> int:
             f"most), {mean:.2f}x on average; at the idle machine's speed the run's CPU would be about "
             f"{cpu / mean / 60:.1f} min (an estimate: it assumes the tests slowed as the probe did)"
         )
+    for line in busy_report(busy_samples, os.cpu_count() or 1):
+        print(line)
     for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
         print(f"  {s:7.1f} s  {module}")
     if test_cpu:
