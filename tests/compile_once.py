@@ -1,10 +1,14 @@
-"""Compile the model into numba's cache once, before the suite's workers start.
+"""Compile the model into numba's cache once, beside the suite's first tests.
 
 On a fresh checkout nothing is compiled yet, and every process that needs the model before one of
 them has written it to the cache compiles it too: both workers, both workers' simulator zygotes and
 the commands the tests start, at once, about 50 s of CPU each (the stepper 35 s, a landing and a
 batch of landings after it; ``python3 benchmarks/first_compile.py``). Run once here, the others load
 it. With the cache warm this costs the few seconds of loading it.
+
+The compile takes one core. So it runs in the background (:class:`BackgroundCompile`) while the
+workers start and run the tests that need no model (``model_free`` modules, handed out first); a
+test that needs the model waits for it (:func:`wait_for_model`, from tests/conftest.py).
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -27,18 +32,69 @@ simulate_batch([LandingConditions(slope_deg=20, speed=2)] * 2, model)  # maps, t
 """
 
 
-def compile_once() -> tuple[float, int]:
-    """(wall seconds, exit status) of compiling, or loading, the model in a process of its own."""
+def _command() -> tuple[list[str], dict[str, str]]:
     import slopelander
 
     # the package this run tests (pytest's pythonpath), not whichever one is installed: it is the
     # one whose cache the workers read
     src = str(Path(slopelander.__file__).resolve().parents[1])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")]))}
+    return [sys.executable, "-W", "ignore", "-c", _PROBE], env
+
+
+def compile_once() -> tuple[float, int]:
+    """(wall seconds, exit status) of compiling, or loading, the model in a process of its own."""
+    cmd, env = _command()
     t0 = time.monotonic()
-    run = subprocess.run(
-        [sys.executable, "-W", "ignore", "-c", _PROBE], capture_output=True, text=True, env=env
-    )
+    run = subprocess.run(cmd, capture_output=True, text=True, env=env)
     if run.returncode != 0:
         sys.stderr.write(run.stderr)
     return time.monotonic() - t0, run.returncode
+
+
+class BackgroundCompile:
+    """:func:`compile_once` started now, in the background; when it ends, ``flag`` holds
+    ``ok <seconds>`` or ``failed <status>`` and the compiler's error (written whole, then renamed
+    into place, so a reader never sees half of it)."""
+
+    def __init__(self, flag: Path) -> None:
+        self.flag = flag
+        self.seconds: float | None = None
+        cmd, env = _command()
+        self._t0 = time.monotonic()
+        quiet, pipe = subprocess.DEVNULL, subprocess.PIPE
+        self._proc = subprocess.Popen(cmd, stdin=quiet, stdout=quiet, stderr=pipe, text=True, env=env)
+        self._thread = threading.Thread(target=self._wait, daemon=True)
+        self._thread.start()
+
+    def _wait(self) -> None:
+        err = self._proc.stderr.read() if self._proc.stderr else ""
+        status = self._proc.wait()
+        self.seconds = time.monotonic() - self._t0
+        text = f"ok {self.seconds:.1f}\n" if status == 0 else f"failed {status}\n{err[-4000:]}"
+        tmp = self.flag.with_suffix(".tmp")
+        tmp.write_text(text)
+        tmp.replace(self.flag)
+
+    def stop(self) -> None:
+        """End the compile if it still runs (the session ended first)."""
+        if self._proc.poll() is None:
+            self._proc.kill()
+        self._thread.join(timeout=10)
+
+
+#: s a test waits for the compile: a fresh checkout's takes about a minute, more on a busy machine
+WAIT_S = 900.0
+
+
+def wait_for_model(flag: Path, timeout_s: float = WAIT_S) -> str | None:
+    """Wait until the background compile has ended; None when it compiled, else why not."""
+    deadline = time.monotonic() + timeout_s
+    while not flag.exists():
+        if time.monotonic() > deadline:
+            return f"the model's compile did not end within {timeout_s:g} s"
+        time.sleep(0.1)
+    text = flag.read_text()
+    if text.startswith("ok"):
+        return None
+    return "the model does not compile: " + text.split("\n", 1)[-1].strip()

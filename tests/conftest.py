@@ -13,12 +13,14 @@ The work units are handed out longest first (``--no-loadscope-reorder`` keeps th
 own order is by number of tests, which put the few long flights last and left one worker idle for
 the last ten minutes): a unit's length is the sum of its tests' times in ``tests/durations.json``,
 written from a measured run by ``benchmarks/suite_time.py``; a test not in it counts
-``UNKNOWN_TEST_S``."""
+``UNKNOWN_TEST_S``. Before them come the units marked ``model_free``, which run while the model
+compiles on the other core (tests/compile_once.py)."""
 
 from __future__ import annotations
 
 import json
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -29,22 +31,46 @@ settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 
+#: where the background compile leaves its flag (tests/compile_once.py), for every worker
+MODEL_READY = "SLOPELANDER_MODEL_READY"
+_model_ok = False
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _model_compiled(request: pytest.FixtureRequest) -> None:
+    """A module waits for the model's compile, unless it is marked ``model_free``; if the model
+    does not compile, each of its tests fails saying why. Module-scoped, so that it comes before
+    the module's own fixtures (a flying vehicle loads the model)."""
+    global _model_ok
+    flag = os.environ.get(MODEL_READY)
+    if _model_ok or not flag or request.node.get_closest_marker("model_free") is not None:
+        return
+    from tests.compile_once import wait_for_model
+
+    why = wait_for_model(Path(flag))
+    if why is not None:
+        pytest.fail(why, pytrace=False)
+    _model_ok = True
+
+
 def pytest_configure(config: pytest.Config) -> None:
     """Inside a parallel worker the identification's evaluations run in that worker alone: a pool
     of one process per core in each of two workers put four busy processes on two cores and
     starved the lock-stepped flights beside them (a fit's search does not depend on it)."""
     if hasattr(config, "workerinput"):
         os.environ.setdefault("SLOPELANDER_WORKERS", "1")
-    elif not config.option.collectonly and os.environ.get("SLOPELANDER_COMPILE_ONCE", "1") != "0":
-        # before the workers start: one process compiles the model (tests/compile_once.py); the
-        # suite's own checks of its settings run pytest on toy modules that need no model, with
-        # SLOPELANDER_COMPILE_ONCE=0
-        from tests.compile_once import compile_once
+    elif config.option.collectonly or os.environ.get("SLOPELANDER_COMPILE_ONCE", "1") == "0":
+        # the suite's own checks of its settings run pytest on toy modules that need no model,
+        # with SLOPELANDER_COMPILE_ONCE=0
+        os.environ.pop(MODEL_READY, None)
+    else:
+        # one process compiles the model (tests/compile_once.py) while the workers start and run
+        # the tests that need none; they see the flag's path in their environment
+        from tests.compile_once import BackgroundCompile
 
-        seconds, status = compile_once()
-        if status != 0:
-            raise pytest.UsageError("the model does not compile: its error is above")
-        config._slopelander_compile_s = seconds
+        flag = Path(tempfile.mkdtemp(prefix="sl-compile-")) / "done"
+        os.environ[MODEL_READY] = str(flag)
+        config._slopelander_compile = BackgroundCompile(flag)
     if os.environ.get("SLOPELANDER_ZYGOTE", "1") != "0":
         # the simulated vehicles and leg boards this process starts (one of each a landing) are
         # forked from one warm process: about 2 s of CPU each for imports and the compiled model
@@ -95,13 +121,16 @@ def recorded_durations(path: Path = DURATIONS) -> dict[str, float]:
 
 def longest_first(items: list[pytest.Item], seconds: dict[str, float]) -> list[pytest.Item]:
     """The items reordered so that work units come longest first, each unit's tests kept in their
-    order (a unit's first appearance breaks ties, so the order is the same on every worker)."""
+    order (a unit's first appearance breaks ties, so the order is the same on every worker); the
+    units that need no model (every test marked ``model_free``) before all others, while the model
+    compiles (tests/compile_once.py)."""
     units: dict[str, list[pytest.Item]] = {}
     for item in items:
         units.setdefault(work_unit(item) or item.nodeid, []).append(item)
     cost = {u: sum(seconds.get(i.nodeid, UNKNOWN_TEST_S) for i in its) for u, its in units.items()}
+    free = {u: all(i.get_closest_marker("model_free") is not None for i in its) for u, its in units.items()}
     rank = {u: n for n, u in enumerate(units)}
-    order = sorted(units, key=lambda u: (-cost[u], rank[u]))
+    order = sorted(units, key=lambda u: (not free[u], -cost[u], rank[u]))
     return [item for u in order for item in units[u]]
 
 
@@ -152,9 +181,17 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
             _cpu[nodeid] = _cpu.get(nodeid, 0.0) + float(cpu)
 
 
-def pytest_report_header(config: pytest.Config) -> str | None:
-    seconds = getattr(config, "_slopelander_compile_s", None)
-    return None if seconds is None else f"model compiled or loaded once before the tests: {seconds:.1f} s"
+def pytest_terminal_summary(terminalreporter, config: pytest.Config) -> None:
+    job = getattr(config, "_slopelander_compile", None)
+    if job is not None and job.seconds is not None:
+        said = f"model compiled or loaded once, beside the first tests: {job.seconds:.1f} s"
+        terminalreporter.write_line(said)
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    job = getattr(config, "_slopelander_compile", None)
+    if job is not None:
+        job.stop()
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:

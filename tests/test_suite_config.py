@@ -19,6 +19,9 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 
+#: runs while the model compiles (tests/compile_once.py): no test here needs it
+pytestmark = pytest.mark.model_free
+
 
 def _env() -> dict[str, str]:
     """The environment of a fresh pytest run: none of this run's worker variables."""
@@ -205,3 +208,20 @@ def test_work_units_are_handed_out_longest_first(tmp_path: Path) -> None:
     assert recorded_durations(record) == {}
     unrecorded = [i.nodeid for i in longest_first(items, {})]
     assert unrecorded == ["a.py::t1", "a.py::t2", "c.py::t1", "c.py::t2", "b.py::t1"]
+
+
+def test_units_that_need_no_model_go_first_while_it_compiles() -> None:
+    from tests.conftest import longest_first
+
+    class Item:
+        def __init__(self, nodeid: str, free: bool) -> None:
+            self.nodeid, self.free = nodeid, free
+
+        def get_closest_marker(self, name: str):
+            return object() if name == "model_free" and self.free else None
+
+    items = [Item("a.py::t1", False), Item("f.py::t1", True), Item("g.py::t1", True), Item("m.py::t1", True)]
+    items.append(Item("m.py::t2", False))  # one test of m needs the model: m waits with the others
+    seconds = {"a.py::t1": 60.0, "f.py::t1": 1.0, "g.py::t1": 5.0, "m.py::t1": 1.0, "m.py::t2": 1.0}
+    ordered = [i.nodeid for i in longest_first(items, seconds)]
+    assert ordered == ["g.py::t1", "f.py::t1", "a.py::t1", "m.py::t1", "m.py::t2"]
