@@ -27,7 +27,11 @@ A second thread reads the machine's busy cores from /proc/stat every second: the
 them per minute and the idle core-seconds at its start (the model's compile, one core) and end
 (the last work units), where a 2-core run loses time that no test's CPU shows.
 
-    python3 benchmarks/suite_time.py [--write] [-- extra pytest arguments]
+With ``--processes`` every Python process the run starts by exec logs its CPU when it ends
+(benchmarks/process_log/sitecustomize.py) and the run sums it by command: the JSON physics, the
+workers, the compile, pip, the command line.
+
+    python3 benchmarks/suite_time.py [--write] [--processes] [-- extra pytest arguments]
 """
 
 from __future__ import annotations
@@ -179,6 +183,36 @@ def busy_report(samples: list[tuple[float, float]], cores: int, tail_s: float = 
     ]
 
 
+def process_kind(argv: list[str]) -> str:
+    """A process's command, short: ``-m module`` or the script, without its arguments."""
+    if "-m" in argv[:-1]:
+        return "-m " + argv[argv.index("-m") + 1]
+    if "-c" in argv[:-1]:
+        code = argv[argv.index("-c") + 1]
+        return "-c " + code.replace("\n", " ")[:50]
+    return " ".join(argv[:1])
+
+
+def process_summary(log: Path) -> list[str]:
+    """The logged processes' CPU summed by :func:`process_kind`, largest first."""
+    if not log.exists():
+        return ["no process wrote to the process log"]
+    by: dict[str, list[float]] = defaultdict(lambda: [0, 0.0])
+    for line in log.read_text().splitlines():
+        rec = json.loads(line)
+        row = by[process_kind(rec["argv"])]
+        row[0] += 1
+        row[1] += rec["cpu_s"]
+    total = sum(cpu for _, cpu in by.values())
+    out = [
+        f"CPU of the Python processes started by exec, by command ({total / 60:.1f} min; the "
+        "simulators forked from their zygotes and ArduCopter itself are not in it):"
+    ]
+    for kind, (n, cpu) in sorted(by.items(), key=lambda kv: -kv[1][1]):
+        out.append(f"  {cpu:7.1f} s in {n:3.0f}  {kind}")
+    return out
+
+
 def unit_of(nodeid: str) -> str:
     return nodeid.split("::", 1)[0]
 
@@ -188,11 +222,21 @@ def main() -> int:
     ap.add_argument("--write", action="store_true", help="save the times to tests/durations.json")
     ap.add_argument("--top", type=int, default=15, help="how many of the longest modules to print")
     ap.add_argument("--probe-every", type=float, default=10.0, help="s between speed probes in the run")
+    ap.add_argument(
+        "--processes",
+        action="store_true",
+        help="log each Python process's CPU at its end (benchmarks/process_log) and sum it by command",
+    )
     ap.add_argument("pytest_args", nargs="*", help="extra arguments for pytest (after --)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "durations.json"
         env = {**os.environ, "SLOPELANDER_RECORD_DURATIONS": str(out)}
+        proc_log = Path(tmp) / "processes.jsonl"
+        if a.processes:
+            hook = str(REPO / "benchmarks" / "process_log")
+            env["PYTHONPATH"] = os.pathsep.join(filter(None, [hook, env.get("PYTHONPATH")]))
+            env["SLOPELANDER_PROCESS_LOG"] = str(proc_log)
         ref0 = reference_s()
         idle0 = idle_probe_s()
         load0 = os.getloadavg()
@@ -219,6 +263,7 @@ def main() -> int:
         test_cpu = json.loads(cpu_out.read_text()) if cpu_out.exists() else {}
         if a.write:
             shutil.copy(out, REPO / "tests" / "durations.json")
+        processes = process_summary(proc_log) if a.processes else []
     per_module: dict[str, float] = defaultdict(float)
     for nodeid, s in seconds.items():
         per_module[unit_of(nodeid)] += s
@@ -248,6 +293,8 @@ def main() -> int:
             f"{cpu / mean / 60:.1f} min (an estimate: it assumes the tests slowed as the probe did)"
         )
     for line in busy_report(busy_samples, os.cpu_count() or 1):
+        print(line)
+    for line in processes[: a.top + 1]:
         print(line)
     for module, s in sorted(per_module.items(), key=lambda kv: -kv[1])[: a.top]:
         print(f"  {s:7.1f} s  {module}")
