@@ -77,10 +77,12 @@ class BackgroundCompile:
         tmp.replace(self.flag)
 
     def stop(self) -> None:
-        """End the compile if it still runs (the session ended first)."""
+        """End the compile if it still runs (the session ended first), and remove the flag."""
         if self._proc.poll() is None:
             self._proc.kill()
         self._thread.join(timeout=10)
+        for p in (self.flag, self.flag.with_suffix(".tmp")):
+            p.unlink(missing_ok=True)
 
 
 #: s a test waits for the compile: a fresh checkout's takes about a minute, more on a busy machine

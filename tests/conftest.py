@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -192,6 +193,7 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     job = getattr(config, "_slopelander_compile", None)
     if job is not None:
         job.stop()
+        shutil.rmtree(job.flag.parent, ignore_errors=True)
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:

@@ -15,9 +15,10 @@ def test_a_compile_that_ended_well_lets_the_tests_go(tmp_path: Path) -> None:
     try:
         assert wait_for_model(flag, timeout_s=300) is None
         assert flag.read_text().startswith("ok ") and job.seconds is not None
+        assert not flag.with_suffix(".tmp").exists()
     finally:
         job.stop()
-    assert not flag.with_suffix(".tmp").exists()
+    assert not flag.exists() and not flag.with_suffix(".tmp").exists()
 
 
 def test_a_failed_compile_is_said_with_its_error(tmp_path: Path) -> None:
