@@ -34,3 +34,10 @@ def test_a_compile_that_never_ends_is_given_up_on(tmp_path: Path) -> None:
     why = wait_for_model(tmp_path / "never", timeout_s=0.3)
     assert why == "the model's compile did not end within 0.3 s"
     assert 0.3 <= time.monotonic() - t0 < 5.0
+
+
+def test_a_flag_whose_folder_went_away_is_not_waited_for(tmp_path: Path) -> None:
+    t0 = time.monotonic()
+    why = wait_for_model(tmp_path / "gone" / "done", timeout_s=60)
+    assert why is not None and why.startswith("the model's compile flag's folder") and "is gone" in why
+    assert time.monotonic() - t0 < 5.0
