@@ -42,20 +42,10 @@ def _command() -> tuple[list[str], dict[str, str]]:
     return [sys.executable, "-W", "ignore", "-c", _PROBE], env
 
 
-def compile_once() -> tuple[float, int]:
-    """(wall seconds, exit status) of compiling, or loading, the model in a process of its own."""
-    cmd, env = _command()
-    t0 = time.monotonic()
-    run = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    if run.returncode != 0:
-        sys.stderr.write(run.stderr)
-    return time.monotonic() - t0, run.returncode
-
-
 class BackgroundCompile:
-    """:func:`compile_once` started now, in the background; when it ends, ``flag`` holds
-    ``ok <seconds>`` or ``failed <status>`` and the compiler's error (written whole, then renamed
-    into place, so a reader never sees half of it)."""
+    """Compiling, or loading, the model in a process of its own, started now, in the background.
+    When it ends, ``flag`` holds ``ok <seconds>`` or ``failed <status>`` and the compiler's error
+    (written whole, then renamed into place, so a reader never sees half of it)."""
 
     def __init__(self, flag: Path) -> None:
         self.flag = flag
