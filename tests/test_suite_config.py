@@ -31,6 +31,13 @@ def _env() -> dict[str, str]:
     return env
 
 
+def _toy_project(root: Path) -> None:
+    """A project with this repository's pytest settings and test-wide conftest, no tests yet."""
+    shutil.copy(REPO / "pyproject.toml", root / "pyproject.toml")
+    (root / "tests").mkdir()
+    shutil.copy(REPO / "tests" / "conftest.py", root / "tests" / "conftest.py")
+
+
 SHARED = """
 import os, pytest, time
 
@@ -66,9 +73,7 @@ def test_the_configured_command_runs_a_module_on_one_worker_in_order(tmp_path: P
     repository's pytest settings and test-wide conftest: two or more workers; a module's
     module-scoped fixture made once and its tests in file order on one worker; a ``spread``
     module's tests shared out."""
-    shutil.copy(REPO / "pyproject.toml", tmp_path / "pyproject.toml")
-    (tmp_path / "tests").mkdir()
-    shutil.copy(REPO / "tests" / "conftest.py", tmp_path / "tests" / "conftest.py")
+    _toy_project(tmp_path)
     (tmp_path / "tests" / "test_shared.py").write_text(SHARED)
     (tmp_path / "tests" / "test_other.py").write_text(SHARED.replace("shared", "other"))
     (tmp_path / "tests" / "test_spread_out.py").write_text(SPREAD)
@@ -97,9 +102,7 @@ def test_a_recorded_run_orders_the_next_one_longest_first(tmp_path: Path) -> Non
     record is written on the controller, where xdist has appended each test's ``@group``; the
     order is made in the workers before it does, on the ids a run without workers collects (a
     mismatch once counted every test as unknown, and units went by their number of tests)."""
-    shutil.copy(REPO / "pyproject.toml", tmp_path / "pyproject.toml")
-    (tmp_path / "tests").mkdir()
-    shutil.copy(REPO / "tests" / "conftest.py", tmp_path / "tests" / "conftest.py")
+    _toy_project(tmp_path)
     (tmp_path / "tests" / "test_shared.py").write_text(SHARED.replace("sleep(0.3)", "sleep(0.02)"))
     (tmp_path / "tests" / "test_zlong.py").write_text(
         SHARED.replace("shared", "zlong").replace("sleep(0.3)", "sleep(0.2)")
