@@ -198,8 +198,13 @@ def process_summary(log: Path) -> list[str]:
     if not log.exists():
         return ["no process wrote to the process log"]
     by: dict[str, list[float]] = defaultdict(lambda: [0, 0.0])
+    torn = 0
     for line in log.read_text().splitlines():
-        rec = json.loads(line)
+        try:
+            rec = json.loads(line)
+        except ValueError:  # two processes' lines crossed in the file: counted, not read
+            torn += 1
+            continue
         row = by[process_kind(rec["argv"])]
         row[0] += 1
         row[1] += rec["cpu_s"]
@@ -210,6 +215,8 @@ def process_summary(log: Path) -> list[str]:
     ]
     for kind, (n, cpu) in sorted(by.items(), key=lambda kv: -kv[1][1]):
         out.append(f"  {cpu:7.1f} s in {n:3.0f}  {kind}")
+    if torn:
+        out.append(f"  ({torn} unreadable lines left out)")
     return out
 
 
