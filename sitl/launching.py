@@ -13,6 +13,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from sitl import zygote
 from sitl.vehicle.launch import REPO, child_env
 
 
@@ -21,19 +22,25 @@ class LaunchError(RuntimeError):
 
 
 def start_ready_process(
-    cmd: list[str],
+    module: str,
+    argv: list[str],
     ready: str,
     tmp: tempfile.TemporaryDirectory,
     what: str,
     timeout: float,
     cwd: Path = REPO,
-) -> tuple[subprocess.Popen, str]:
-    """Run ``cmd`` (stderr to ``<tmp>/stderr.txt``) until it prints a line starting with
-    ``ready``; returns the process and that line. On failure the process is killed, ``tmp`` is
-    removed and :class:`LaunchError` carries the end of its stderr."""
+    isolate: bool = False,
+) -> tuple[subprocess.Popen | zygote.ZygoteProcess | zygote.ForkedProcess, str]:
+    """Run ``python -m module *argv`` (:func:`sitl.zygote.start`: forked from a warm process where
+    there is one; ``isolate``: in a loopback-only network namespace of its own), stderr to
+    ``<tmp>/stderr.txt``, until it prints a line starting with ``ready``; returns the process and
+    that line. On failure the process is killed, ``tmp`` is removed and :class:`LaunchError`
+    carries the end of its stderr."""
     err_path = Path(tmp.name) / "stderr.txt"
     with open(err_path, "w") as err:
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True, env=child_env(), cwd=cwd)
+        proc = zygote.start(
+            module, argv, env=child_env(), cwd=cwd, stdout=subprocess.PIPE, stderr=err, isolate=isolate
+        )
     deadline = time.monotonic() + timeout
     line = ""
     while time.monotonic() < deadline:

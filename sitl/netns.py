@@ -10,14 +10,18 @@ network addresses.
 
 from __future__ import annotations
 
+import ctypes
 import fcntl
+import os
 import shutil
 import socket
 import struct
+from pathlib import Path
 
 from slopelander.errors import SlopelanderError
 
 _SIOCGIFFLAGS, _SIOCSIFFLAGS, _IFF_UP = 0x8913, 0x8914, 0x1
+_CLONE_NEWUSER, _CLONE_NEWNET = 0x10000000, 0x40000000
 _IFREQ = "16sH22x"  # struct ifreq: name, flags, padding to its 40 bytes
 
 
@@ -34,6 +38,26 @@ def isolated_command(argv: list[str]) -> list[str]:
             "loopback-only network namespace"
         )
     return [unshare, "--user", "--map-root-user", "--net", *argv]
+
+
+def enter_isolated() -> None:
+    """Move this process into a new user and network namespace, as ``unshare --user
+    --map-root-user --net`` moves the command it runs (this user mapped to root in the new user
+    namespace, ``setgroups`` denied first, as the kernel requires of an unprivileged map: see
+    user_namespaces(7)). For a process forked from a warm one (:mod:`sitl.zygote`), which has no
+    ``unshare`` to exec: the kernel refuses a new user namespace to a process with more than one
+    thread, so call it before any thread starts. Raises :class:`NamespaceError` if it cannot."""
+    uid, gid = os.geteuid(), os.getegid()
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.unshare(_CLONE_NEWUSER | _CLONE_NEWNET) != 0:
+        err = ctypes.get_errno()
+        raise NamespaceError(f"cannot make a loopback-only network namespace: unshare: {os.strerror(err)}")
+    try:
+        Path("/proc/self/setgroups").write_text("deny")
+        Path("/proc/self/uid_map").write_text(f"0 {uid} 1")
+        Path("/proc/self/gid_map").write_text(f"0 {gid} 1")
+    except OSError as exc:
+        raise NamespaceError(f"cannot map this user into its new namespace: {exc}") from None
 
 
 def bring_loopback_up() -> None:

@@ -15,6 +15,9 @@ process that forks should). A child watches the zygote, its real parent.
 
 Used where many simulators are started by one process: the test suite turns it on
 (``tests/conftest.py``); a demo or a user's command starts its one simulator the ordinary way.
+What a zygote's child starts in turn is forked from that child, whose modules are loaded too:
+ArduCopter's pod (``sitl.ardupilot``, moved into its own loopback-only network namespace as it is
+forked) forks its JSON physics so.
 
     python -m sitl.zygote --socket PATH [--preload MODULE ...]
 """
@@ -43,14 +46,61 @@ from typing import IO
 from sitl.parent_watch import ENV, GRACE_S, PERIOD_S
 
 #: modules a test run forks simulators of; each may define ``warm()``, run once in the zygote
-PRELOAD = ("sitl.vehicle.__main__", "sitl.legboard.__main__")
+PRELOAD = (
+    "sitl.vehicle.__main__",
+    "sitl.legboard.__main__",
+    "sitl.json_physics.__main__",
+    "sitl.ardupilot.pod",
+)
 MAX_MESSAGE = 1 << 20
 START_TIMEOUT_S = 900.0
 """How long a zygote may take to say it is ready (its warm-up may compile the model)."""
 
 
 # -- the caller's side ------------------------------------------------------------------------
-class ZygoteProcess:
+class _Forked:
+    """What :class:`subprocess.Popen` offers that the launchers use, for a forked child; a
+    subclass says how its exit status is learnt (``_read_status``)."""
+
+    args: list[str]
+    pid: int
+    stdout: IO[str] | None
+    returncode: int | None
+
+    def _read_status(self, timeout: float | None) -> bool:
+        raise NotImplementedError
+
+    def poll(self) -> int | None:
+        if self.returncode is None:
+            self._read_status(0.0)
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        if self.returncode is None and not self._read_status(timeout):
+            raise subprocess.TimeoutExpired(self.args, timeout or 0.0)
+        assert self.returncode is not None
+        return self.returncode
+
+    def communicate(self, timeout: float | None = None) -> tuple[str, None]:
+        """Wait for the end, then the rest of its stdout (a simulator says little there: its
+        ready line and its summary)."""
+        self.wait(timeout)
+        out = self.stdout.read() if self.stdout is not None else ""
+        return out, None
+
+    def send_signal(self, sig: int) -> None:
+        if self.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self.pid, sig)
+
+    def terminate(self) -> None:
+        self.send_signal(signal.SIGTERM)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+
+class ZygoteProcess(_Forked):
     """A child of the zygote, answering as :class:`subprocess.Popen` does. Its exit status comes
     from the zygote, which reaps it."""
 
@@ -72,27 +122,24 @@ class ZygoteProcess:
         self._conn.close()
         return True
 
-    def poll(self) -> int | None:
-        if self.returncode is None:
-            self._read_status(0.0)
-        return self.returncode
 
-    def wait(self, timeout: float | None = None) -> int:
-        if self.returncode is None and not self._read_status(timeout):
-            raise subprocess.TimeoutExpired(self.args, timeout or 0.0)
-        assert self.returncode is not None
-        return self.returncode
+class ForkedProcess(_Forked):
+    """A child forked from this process (:func:`fork_here`), which reaps it itself."""
 
-    def send_signal(self, sig: int) -> None:
-        if self.poll() is None:
-            with contextlib.suppress(ProcessLookupError):
-                os.kill(self.pid, sig)
+    def __init__(self, args: list[str], pid: int, stdout: IO[str] | None) -> None:
+        self.args, self.pid, self.stdout = args, pid, stdout
+        self.returncode: int | None = None
 
-    def terminate(self) -> None:
-        self.send_signal(signal.SIGTERM)
-
-    def kill(self) -> None:
-        self.send_signal(signal.SIGKILL)
+    def _read_status(self, timeout: float | None) -> bool:
+        end = None if timeout is None else time.monotonic() + timeout
+        while True:
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+                return True
+            if end is not None and time.monotonic() >= end:
+                return False
+            time.sleep(0.01)
 
 
 def _alive(pid: int) -> bool:
@@ -155,35 +202,19 @@ class Zygote:
         cwd: Path | str,
         stdout: int | IO | None = None,
         stderr: int | IO | None = None,
+        isolate: bool = False,
     ) -> ZygoteProcess:
         """``python -m module *argv`` forked from the zygote. ``stdout``/``stderr``:
         ``subprocess.PIPE`` (stdout only, read as text), ``subprocess.DEVNULL``, an open file,
-        or None (the caller's own)."""
+        or None (the caller's own). ``isolate``: the child first moves into a loopback-only
+        network namespace of its own (:func:`sitl.netns.enter_isolated`)."""
         with self._lock:
             self._ensure()
             conn = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
             conn.connect(str(self.socket_path))
-        close_after: list[int] = []
-        read_end = None
-
-        def fd_for(target: int | IO | None, default: int) -> int:
-            nonlocal read_end
-            if target is None:
-                return default
-            if target == subprocess.PIPE:
-                r, w = os.pipe()
-                read_end = r
-                close_after.append(w)
-                return w
-            if target == subprocess.DEVNULL:
-                fd = os.open(os.devnull, os.O_RDWR)
-                close_after.append(fd)
-                return fd
-            return target.fileno()
-
+        fds, close_after, read_end = _child_fds(stdout, stderr)
         try:
-            fds = [fd_for(stdout, 1), fd_for(stderr, 2)]
-            req = {"module": module, "argv": argv, "env": env, "cwd": str(cwd)}
+            req = {"module": module, "argv": argv, "env": env, "cwd": str(cwd), "isolate": isolate}
             socket.send_fds(conn, [json.dumps(req).encode()], fds)
             pid = int(json.loads(conn.recv(4096))["pid"])
         except (OSError, ValueError, KeyError) as exc:
@@ -213,6 +244,9 @@ class Zygote:
 
 
 _ZYGOTE: Zygote | None = None
+_WARM = False
+"""True in a child of a zygote: its modules are loaded already, so what it starts is forked from
+it (:func:`start`)."""
 
 
 def enable(preload: tuple[str, ...] = PRELOAD) -> None:
@@ -227,6 +261,60 @@ def active() -> Zygote | None:
     return _ZYGOTE
 
 
+def _child_fds(stdout: int | IO | None, stderr: int | IO | None) -> tuple[list[int], list[int], int | None]:
+    """The descriptors a child gets as stdout and stderr, those to close here once it has them,
+    and the read end of its stdout pipe (``subprocess.PIPE``) if any."""
+    close_after: list[int] = []
+    read_end = None
+
+    def fd_for(target: int | IO | None, default: int) -> int:
+        nonlocal read_end
+        if target is None:
+            return default
+        if target == subprocess.PIPE:
+            r, w = os.pipe()
+            read_end = r
+            close_after.append(w)
+            return w
+        if target == subprocess.DEVNULL:
+            fd = os.open(os.devnull, os.O_RDWR)
+            close_after.append(fd)
+            return fd
+        return target.fileno()
+
+    return [fd_for(stdout, 1), fd_for(stderr, 2)], close_after, read_end
+
+
+def fork_here(
+    module: str,
+    argv: list[str],
+    *,
+    env: dict[str, str],
+    cwd: Path | str,
+    stdout: int | IO | None = None,
+    stderr: int | IO | None = None,
+    isolate: bool = False,
+) -> ForkedProcess:
+    """``python -m module *argv`` forked from this process, as the zygote forks it (the same
+    arguments). Forks: call it before this process starts a thread."""
+    fds, close_after, read_end = _child_fds(stdout, stderr)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    try:
+        pid = os.fork()
+    except OSError:
+        for fd in close_after + ([read_end] if read_end is not None else []):
+            os.close(fd)
+        raise
+    if pid == 0:
+        req = {"module": module, "argv": argv, "env": env, "cwd": str(cwd), "isolate": isolate}
+        _run_child(req, fds, [read_end] if read_end is not None else [])
+    for fd in close_after:
+        os.close(fd)
+    out = open(read_end, encoding="utf-8") if read_end is not None else None  # noqa: SIM115
+    return ForkedProcess([module, *argv], pid, out)
+
+
 def start(
     module: str,
     argv: list[str],
@@ -235,14 +323,22 @@ def start(
     cwd: Path | str,
     stdout: int | IO | None = None,
     stderr: int | IO | None = None,
-) -> subprocess.Popen | ZygoteProcess:
+    isolate: bool = False,
+) -> subprocess.Popen | ZygoteProcess | ForkedProcess:
     """``python -m module *argv`` as text streams: forked from the zygote when :func:`enable`\\ d,
-    else a fresh interpreter."""
+    forked from this process when it is itself a zygote's child (what it starts, such as
+    ArduCopter's physics from its pod, finds its modules loaded), else a fresh interpreter.
+    ``isolate``: run it in a loopback-only network namespace of its own (:mod:`sitl.netns`)."""
     if _ZYGOTE is not None:
-        return _ZYGOTE.spawn(module, argv, env=env, cwd=cwd, stdout=stdout, stderr=stderr)
-    return subprocess.Popen(
-        [sys.executable, "-m", module, *argv], stdout=stdout, stderr=stderr, text=True, env=env, cwd=cwd
-    )
+        return _ZYGOTE.spawn(module, argv, env=env, cwd=cwd, stdout=stdout, stderr=stderr, isolate=isolate)
+    if _WARM:
+        return fork_here(module, argv, env=env, cwd=cwd, stdout=stdout, stderr=stderr, isolate=isolate)
+    cmd = [sys.executable, "-m", module, *argv]
+    if isolate:
+        from sitl.netns import isolated_command
+
+        cmd = isolated_command(cmd)
+    return subprocess.Popen(cmd, stdout=stdout, stderr=stderr, text=True, env=env, cwd=cwd)
 
 
 # -- the zygote itself ------------------------------------------------------------------------
@@ -250,6 +346,8 @@ def _run_child(req: dict, fds: list[int], keep_closed: list[int]) -> None:
     """In the forked child: become ``python -m module argv`` and never return."""
     code = 1
     try:
+        # the module the child's code imports: in the zygote this file runs as __main__
+        importlib.import_module("sitl.zygote")._WARM = True
         signal.set_wakeup_fd(-1)
         for sig in (signal.SIGCHLD, signal.SIGTERM):
             signal.signal(sig, signal.SIG_DFL)
@@ -265,10 +363,19 @@ def _run_child(req: dict, fds: list[int], keep_closed: list[int]) -> None:
         os.chdir(req["cwd"])
         env = dict(req["env"])
         if ENV in env:
-            env[ENV] = str(os.getppid())  # the zygote is this child's parent: it watches that
+            env[ENV] = str(os.getppid())  # the process it was forked from: it watches that
         os.environ.clear()
         os.environ.update(env)
         sys.argv = [req["module"], *req["argv"]]
+        if req.get("isolate"):
+            from sitl.netns import NamespaceError, enter_isolated
+
+            try:
+                enter_isolated()
+            except NamespaceError as exc:
+                print(f"{req['module']}: error: {exc}", file=sys.stderr)
+                code = 2
+                return
         try:
             runpy.run_module(req["module"], run_name="__main__", alter_sys=True)
             code = 0

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import tempfile
 from pathlib import Path
 
@@ -23,7 +22,6 @@ import yaml
 
 from sitl.bridge import Bridge, tcp_to_unix
 from sitl.launching import LaunchError, start_ready_process
-from sitl.netns import isolated_command
 from sitl.vehicle.launch import stop_process
 
 ENV = "SLOPELANDER_ARDUCOPTER"
@@ -132,7 +130,7 @@ def start_arducopter(
     tmp = tempfile.TemporaryDirectory(prefix="sl-arducopter-")
     folder = Path(tmp.name) / "ap"
     folder.mkdir()
-    cmd = [sys.executable, "-m", "sitl.ardupilot", "--dir", str(folder), "--binary", str(exe)]
+    cmd = ["--dir", str(folder), "--binary", str(exe)]
     cmd += ["--speedup", f"{speedup:g}"]
     if boot_speedup is not None:
         cmd += ["--boot-speedup", f"{boot_speedup:g}"]
@@ -155,7 +153,7 @@ def start_arducopter(
     elif isinstance(script, Path):
         cmd += ["--script", str(script)]
     proc, line = start_ready_process(
-        isolated_command(cmd), "arducopter ready", tmp, "ArduCopter SITL", timeout
+        "sitl.ardupilot", cmd, "arducopter ready", tmp, "ArduCopter SITL", timeout, isolate=True
     )
     return ArduCopterProcess(proc, line, tmp, keep)
 

@@ -170,6 +170,16 @@ class Console:
         self.log.close()
 
 
+def warm() -> None:
+    """What a pod loads before ArduCopter boots, loaded once in a process that pods are forked
+    from (:mod:`sitl.zygote`); the pod then forks its physics from itself."""
+    import pymavlink.mavutil  # noqa: F401
+
+    import sitl.ardupilot.echo_tap
+    import sitl.bridge
+    import sitl.json_physics.launch  # noqa: F401
+
+
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
 

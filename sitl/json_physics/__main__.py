@@ -60,6 +60,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
+def warm() -> None:
+    """What every physics loads before its first frame, loaded once in a process that physics
+    servers are forked from (:mod:`sitl.zygote`; the compiled model is the simulated vehicle's)."""
+    import sitl.json_physics.companion_gate
+    import sitl.json_physics.physics
+    import sitl.json_physics.pilot_rc
+    import sitl.json_physics.server
+    import sitl.legboard.control
+    import sitl.vehicle.legs_link
+    import sitl.vehicle.scenario  # noqa: F401
+
+
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
 

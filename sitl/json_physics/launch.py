@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import socket
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
@@ -70,14 +69,15 @@ def start_json_physics(
     lockstep_port: int | None = None,
     real_time_below_m: float | None = None,
 ) -> PhysicsProcess:
-    """Start ``python -m sitl.json_physics``; returns once it is ready. Raises RuntimeError with
+    """Start ``python -m sitl.json_physics`` (forked from a warm process where there is one:
+    :func:`sitl.zygote.start`); returns once it is ready. Raises RuntimeError with
             its stderr if it fails. ``rc_port``: ArduPilot SITL's UDP RC input, where the scenario's
             ``rc`` schedule is sent; ``lockstep_port``: where the companion's echoes arrive (the physics then
         holds ArduPilot while the companion is behind, sitl/json_physics/companion_gate.py), and with
     ``real_time_below_m`` keeps to real time that near the ground."""
     tmp = tempfile.TemporaryDirectory(prefix="sl-json-")
     port = port or free_udp_port()
-    cmd = [sys.executable, "-m", "sitl.json_physics", "--port", str(port)]
+    cmd = ["--port", str(port)]
     if scenario is not None:
         sp = Path(tmp.name) / "scenario.yaml"
         sp.write_text(yaml.safe_dump(scenario))
@@ -92,5 +92,7 @@ def start_json_physics(
         cmd += ["--lockstep-port", str(lockstep_port)]
         if real_time_below_m is not None:
             cmd += ["--real-time-below", f"{real_time_below_m:g}"]
-    proc, line = start_ready_process(cmd, "json_physics ready", tmp, "json physics", timeout)
+    proc, line = start_ready_process(
+        "sitl.json_physics", cmd, "json_physics ready", tmp, "json physics", timeout
+    )
     return PhysicsProcess(proc, port, line, tmp)

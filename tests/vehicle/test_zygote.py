@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import json
 import signal
+import socket
 import subprocess
 
 import pytest
 
+from sitl import zygote as zygote_module
 from sitl.vehicle.launch import child_env
 from sitl.zygote import Zygote
 
@@ -32,6 +34,8 @@ def test_a_forked_module_gets_the_callers_arguments_environment_and_streams(zygo
         assert p.poll() == 7 and p.returncode == 7
         err.seek(0)
         assert err.read() == "to stderr\n"
+    assert said.pop("cmdline")[1:3] == ["-m", "sitl.zygote"]  # forked, not started afresh
+    assert said.pop("interfaces") == sorted(name for _, name in socket.if_nameindex())
     assert said == {
         "argv": ["7", "two words"],
         "cwd": str(tmp_path),
@@ -76,3 +80,50 @@ def test_a_module_that_fails_at_once_reports_its_status_and_stream(zygote, tmp_p
         assert p.wait(30) == 2
         err.seek(0)
         assert "--speed -1.0 must be >= 0" in err.read()
+
+
+def test_an_isolated_child_has_only_loopback_and_what_it_starts_is_forked_from_it(zygote, tmp_path):
+    """ArduCopter's pod: forked from the zygote into a loopback-only network namespace of its own
+    (as ``unshare -rn`` would start it), it forks its physics from itself, warm, in the same
+    namespace; the grandchild's output, status and end reach the child as from Popen."""
+    if sorted(name for _, name in socket.if_nameindex()) == ["lo"]:
+        pytest.skip("this machine has only loopback: isolation cannot be told apart")
+    p = zygote.spawn(
+        PROBE,
+        ["start"],
+        env=child_env(),
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        isolate=True,
+    )
+    said = json.loads(p.stdout.readline())
+    assert p.wait(30) == 0
+    assert said["interfaces"] == ["lo"]
+    child = said["child"]
+    assert child["interfaces"] == ["lo"]  # the grandchild shares its parent's namespace
+    assert child["ppid"] == said["pid"] and child["argv"] == ["5"] and said["child_status"] == 5
+    assert child["cmdline"][1:3] == ["-m", "sitl.zygote"]  # forked from the warm child, not exec'd
+
+
+def test_without_a_zygote_an_isolated_module_is_started_through_unshare(tmp_path, monkeypatch):
+    """A user's demo: no zygote, so ``unshare -rn python -m ...``; the same namespace rule."""
+    if sorted(name for _, name in socket.if_nameindex()) == ["lo"]:
+        pytest.skip("this machine has only loopback: isolation cannot be told apart")
+    monkeypatch.setattr(zygote_module, "_ZYGOTE", None)
+    p = zygote_module.start(
+        PROBE,
+        ["start"],
+        env=child_env(),
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        isolate=True,
+    )
+    out, _ = p.communicate(timeout=60)
+    said = json.loads(out)
+    assert p.returncode == 0
+    assert said["interfaces"] == ["lo"] and said["cmdline"][1:3] == ["-m", PROBE]
+    # not a zygote's child, so what it starts is a fresh interpreter too, in its namespace
+    assert said["child"]["interfaces"] == ["lo"] and said["child"]["cmdline"][1:3] == ["-m", PROBE]
+    assert said["child_status"] == 5

@@ -1,11 +1,17 @@
 """Run by tests/vehicle/test_zygote.py as ``python -m tests.vehicle.zygote_probe``: prints what it
-was given (arguments, working directory, environment, its process ids), says one line on stderr,
-then sleeps (argument ``sleep``) or exits with the status its first argument names."""
+was given (arguments, working directory, environment, its process ids, its network interfaces,
+the command line of the process it is: a fork of the zygote keeps the zygote's), says one line on
+stderr, then sleeps (argument ``sleep``), or starts the probe again through ``sitl.zygote.start``
+and prints what that one said and its exit status (argument ``start``), or
+exits with the status its first argument names."""
 
 import json
 import os
+import socket
+import subprocess
 import sys
 import time
+from pathlib import Path
 
 if __name__ == "__main__":
     said = {
@@ -14,7 +20,24 @@ if __name__ == "__main__":
         "env": os.environ.get("PROBE_VALUE"),
         "pid": os.getpid(),
         "ppid": os.getppid(),
+        "interfaces": sorted(name for _, name in socket.if_nameindex()),
+        "cmdline": Path("/proc/self/cmdline").read_text().split("\0"),
     }
+    if sys.argv[1:2] == ["start"]:
+        from sitl import zygote
+        from sitl.vehicle.launch import child_env
+
+        p = zygote.start(
+            "tests.vehicle.zygote_probe",
+            ["5"],
+            env=child_env(),
+            cwd=os.getcwd(),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+        )
+        out, _ = p.communicate(timeout=30)
+        said["child"] = json.loads(out)
+        said["child_status"] = p.returncode
     print(json.dumps(said), flush=True)
     print("to stderr", file=sys.stderr, flush=True)
     if "sleep" in sys.argv:
