@@ -183,6 +183,40 @@ def busy_report(samples: list[tuple[float, float]], cores: int, tail_s: float = 
     ]
 
 
+def idle_minutes_report(
+    samples: list[tuple[float, float]],
+    spans: dict[str, list],
+    t0_epoch: float,
+    cores: int,
+    below: float = 1.7,
+) -> list[str]:
+    """For each minute whose cores were busy less than ``below`` on average: what each worker ran
+    in it (the tests by the seconds they overlap the minute, longest first), so the idle cores
+    can be put down to tests that wait on the wall clock, or to a worker with nothing left."""
+    per_min: dict[int, list[float]] = defaultdict(list)
+    for t, b in samples:
+        per_min[int(t // 60)].append(b)
+    out = []
+    for minute, values in sorted(per_min.items()):
+        busy = statistics.fmean(values)
+        if busy >= below:
+            continue
+        lo, hi = t0_epoch + 60 * minute, t0_epoch + 60 * (minute + 1)
+        by_worker: dict[str, list[tuple[float, str]]] = defaultdict(list)
+        for nodeid, (worker, start, stop) in spans.items():
+            overlap = min(hi, stop) - max(lo, start)
+            if overlap > 0.5:
+                by_worker[worker].append((overlap, nodeid.split("@")[0]))
+        out.append(f"minute {minute} ({busy:.2f} cores busy):")
+        for worker in sorted(by_worker):
+            ran = sorted(by_worker[worker], reverse=True)
+            busy_s = sum(o for o, _ in ran)
+            tests = "; ".join(f"{o:.0f} s {name}" for o, name in ran[:3])
+            more = f" and {len(ran) - 3} more" if len(ran) > 3 else ""
+            out.append(f"  {worker}: {busy_s:.0f} s of tests: {tests}{more}")
+    return out
+
+
 def process_kind(argv: list[str]) -> str:
     """A process's command, short: ``-m module`` or the script, without its arguments."""
     if "-m" in argv[:-1]:
@@ -252,7 +286,7 @@ def main() -> int:
         probe.start()
         busy = BusySampler()
         busy.start()
-        t0 = time.monotonic()
+        t0, t0_epoch = time.monotonic(), time.time()
         run = subprocess.run([sys.executable, "-m", "pytest", "-q", *a.pytest_args], cwd=REPO, env=env)
         wall = time.monotonic() - t0
         probes = probe.stop()
@@ -268,6 +302,8 @@ def main() -> int:
         seconds = json.loads(out.read_text())
         cpu_out = out.with_suffix(".cpu.json")
         test_cpu = json.loads(cpu_out.read_text()) if cpu_out.exists() else {}
+        spans_out = out.with_suffix(".spans.json")
+        spans = json.loads(spans_out.read_text()) if spans_out.exists() else {}
         if a.write:
             shutil.copy(out, REPO / "tests" / "durations.json")
         processes = process_summary(proc_log) if a.processes else []
@@ -300,6 +336,8 @@ def main() -> int:
             f"{cpu / mean / 60:.1f} min (an estimate: it assumes the tests slowed as the probe did)"
         )
     for line in busy_report(busy_samples, os.cpu_count() or 1):
+        print(line)
+    for line in idle_minutes_report(busy_samples, spans, t0_epoch):
         print(line)
     for line in processes[: a.top + 1]:
         print(line)

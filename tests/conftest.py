@@ -147,6 +147,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 _RECORD = os.environ.get("SLOPELANDER_RECORD_DURATIONS")  # benchmarks/suite_time.py sets it
 _measured: dict[str, float] = {}
 _cpu: dict[str, float] = {}
+_spans: dict[str, list] = {}  # nodeid: [worker, first start, last stop] (epoch s)
 _cpu_mark = 0.0
 
 
@@ -180,6 +181,10 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
         cpu = dict(report.user_properties).get("cpu_s")
         if cpu is not None:
             _cpu[nodeid] = _cpu.get(nodeid, 0.0) + float(cpu)
+        node = getattr(report, "node", None)  # xdist's worker on the controller
+        worker = getattr(getattr(node, "gateway", None), "id", "main")
+        span = _spans.setdefault(nodeid, [worker, report.start, report.stop])
+        span[1], span[2] = min(span[1], report.start), max(span[2], report.stop)
 
 
 def pytest_terminal_summary(terminalreporter, config: pytest.Config) -> None:
@@ -201,3 +206,5 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
         Path(_RECORD).write_text(json.dumps(dict(sorted(_measured.items())), indent=0) + "\n")
         cpu_path = Path(_RECORD).with_suffix(".cpu.json")
         cpu_path.write_text(json.dumps(dict(sorted(_cpu.items())), indent=0) + "\n")
+        spans_path = Path(_RECORD).with_suffix(".spans.json")
+        spans_path.write_text(json.dumps(dict(sorted(_spans.items())), indent=0) + "\n")

@@ -124,6 +124,11 @@ def test_a_recorded_run_orders_the_next_one_longest_first(tmp_path: Path) -> Non
 
     pytest("-n", "1", SLOPELANDER_RECORD_DURATIONS=str(record))
     assert "tests/test_zlong.py::test_zlong[3]" in json.loads(record.read_text()), record.read_text()
+    # where and when each test ran, for the report of the minutes the cores stood idle
+    spans = json.loads(record.with_suffix(".spans.json").read_text())
+    worker, start, stop = spans["tests/test_zlong.py::test_zlong[3]"]
+    assert worker == "gw0" and 0.2 <= stop - start < 60, spans
+    assert len(spans) == 8, spans
     order = [ln.split("::")[0] for ln in pytest("-n", "0", "--collect-only", "-q").splitlines() if "::" in ln]
     assert order == ["tests/test_zlong.py"] * 4 + ["tests/test_shared.py"] * 4, order
 
