@@ -187,7 +187,6 @@ def idle_minutes_report(
     samples: list[tuple[float, float]],
     spans: dict[str, list],
     t0_epoch: float,
-    cores: int,
     below: float = 1.7,
 ) -> list[str]:
     """For each minute whose cores were busy less than ``below`` on average: what each worker ran
