@@ -5,8 +5,8 @@ SLOPELANDER_RECORD_DURATIONS set, prints the wall time, the load average before 
 summed test time (the two workers' share), the CPU time of the run with every process it
 started and waited for (workers, simulated vehicles, ArduCopter, the leg boards: on 2 cores the
 wall time cannot fall below half of it) and the longest work units; ``--write`` saves the
-per-test times to tests/durations.json, from which tests/conftest.py hands the work units out
-longest first.
+per-test times to tests/durations.json and their CPU (each test's process tree) to
+tests/cpu_seconds.json, from which tests/conftest.py orders the work units it hands out.
 
 This machine is shared: on 2026-11-27 the identification tests, their code unchanged, took 41 %
 more CPU time at 07:30 than at 05:30, and a fixed piece of pure-Python work (the reference: the
@@ -259,7 +259,11 @@ def unit_of(nodeid: str) -> str:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--write", action="store_true", help="save the times to tests/durations.json")
+    ap.add_argument(
+        "--write",
+        action="store_true",
+        help="save the times to tests/durations.json and the CPU to tests/cpu_seconds.json",
+    )
     ap.add_argument("--top", type=int, default=15, help="how many of the longest modules to print")
     ap.add_argument("--probe-every", type=float, default=10.0, help="s between speed probes in the run")
     ap.add_argument(
@@ -305,6 +309,8 @@ def main() -> int:
         spans = json.loads(spans_out.read_text()) if spans_out.exists() else {}
         if a.write:
             shutil.copy(out, REPO / "tests" / "durations.json")
+            if cpu_out.exists():
+                shutil.copy(cpu_out, REPO / "tests" / "cpu_seconds.json")
         processes = process_summary(proc_log) if a.processes else []
     per_module: dict[str, float] = defaultdict(float)
     for nodeid, s in seconds.items():
