@@ -9,12 +9,13 @@ flying vehicle, a physics server) is made once and the flight tests that share o
 their order. A module marked ``spread`` shares nothing wider than a test: its tests go to
 whichever worker is free (the landings on both autopilots, each on its own vehicle).
 
-The work units are handed out longest first (``--no-loadscope-reorder`` keeps this order; xdist's
-own order is by number of tests, which put the few long flights last and left one worker idle for
-the last ten minutes): a unit's length is the sum of its tests' times in ``tests/durations.json``,
-written from a measured run by ``benchmarks/suite_time.py``; a test not in it counts
-``UNKNOWN_TEST_S``. Before them come the units marked ``model_free``, which run while the model
-compiles on the other core (tests/compile_once.py)."""
+The work units are handed out in the order :func:`work_order` makes (``--no-loadscope-reorder``
+keeps it; xdist's own order is by number of tests, which put the few long flights last and left
+one worker idle for the last ten minutes): a unit's length is the sum of its tests' times in
+``tests/durations.json``, its CPU the sum of theirs in ``tests/cpu_seconds.json`` (each test's
+process tree), both written from a measured run by ``benchmarks/suite_time.py``; a test not in
+them counts ``UNKNOWN_TEST_S`` and one core. First come the units marked ``model_free``, which
+run while the model compiles on the other core (tests/compile_once.py)."""
 
 from __future__ import annotations
 
@@ -95,7 +96,13 @@ def work_unit(item: pytest.Item) -> str | None:
 
 
 DURATIONS = Path(__file__).with_name("durations.json")
+CPU_SECONDS = Path(__file__).with_name("cpu_seconds.json")
 UNKNOWN_TEST_S = 2.0
+#: cores a unit's processes keep busy, on average over its wall time, below which it is "light":
+#: measured in a run of two workers, where a test bound by its CPU shares the cores (the
+#: identification read 0.75 and ArduCopter's unit 0.95 at 22:04), while the tests that wait on the
+#: wall clock read 0.04-0.59
+LIGHT_CORES = 0.6
 
 
 def collection_id(nodeid: str) -> str:
@@ -108,9 +115,9 @@ def collection_id(nodeid: str) -> str:
 
 
 def recorded_durations(path: Path = DURATIONS) -> dict[str, float]:
-    """Test id -> seconds from a measured run; empty when the file is missing or unreadable (every
-    test then counts the same, units with more tests go first: xdist's own rule; the order changes
-    the run's length, never its result)."""
+    """Test id -> seconds (of wall time, or of CPU from ``CPU_SECONDS``) from a measured run; empty
+    when the file is missing or unreadable (every test then counts the same, units with more tests
+    go first: xdist's own rule; the order changes the run's length, never its result)."""
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError):
@@ -120,19 +127,48 @@ def recorded_durations(path: Path = DURATIONS) -> dict[str, float]:
     return {collection_id(k): float(v) for k, v in data.items() if isinstance(v, (int, float))}
 
 
-def longest_first(items: list[pytest.Item], seconds: dict[str, float]) -> list[pytest.Item]:
-    """The items reordered so that work units come longest first, each unit's tests kept in their
-    order (a unit's first appearance breaks ties, so the order is the same on every worker); the
-    units that need no model (every test marked ``model_free``) before all others, while the model
-    compiles (tests/compile_once.py)."""
+def work_order(
+    items: list[pytest.Item], seconds: dict[str, float], cpu: dict[str, float] | None = None
+) -> list[pytest.Item]:
+    """The items reordered by work unit, each unit's tests kept in their order (a unit's first
+    appearance breaks ties, so the order is the same on every worker): the units that need no
+    model (every test marked ``model_free``) first, while the model compiles
+    (tests/compile_once.py); then the others, longest first. With each test's CPU recorded
+    (``cpu``), the light units (their processes busy fewer than ``LIGHT_CORES`` cores over their
+    wall time: flights on the wall clock, MAVProxy's start, commands that wait) and the others
+    are each taken longest first and merged so that each kind's share of its own total runs
+    level along the queue: the two workers take units from it as they free up, so one mostly
+    runs a light unit while the other runs a heavy one. Handed out by length alone, the light
+    units had come last, side by side, and left a core idle for several minutes (2026-11-27:
+    1.44-1.63 of 2 cores busy in minutes 11-15 of the 21:41 run; ``suite_time.py`` names the
+    tests of such minutes)."""
     units: dict[str, list[pytest.Item]] = {}
     for item in items:
         units.setdefault(work_unit(item) or item.nodeid, []).append(item)
     cost = {u: sum(seconds.get(i.nodeid, UNKNOWN_TEST_S) for i in its) for u, its in units.items()}
     free = {u: all(i.get_closest_marker("model_free") is not None for i in its) for u, its in units.items()}
     rank = {u: n for n, u in enumerate(units)}
-    order = sorted(units, key=lambda u: (not free[u], -cost[u], rank[u]))
-    return [item for u in order for item in units[u]]
+    by_length = sorted(units, key=lambda u: (not free[u], -cost[u], rank[u]))
+    if not cpu:
+        return [item for u in by_length for item in units[u]]
+    cores = {
+        u: sum(cpu.get(i.nodeid, seconds.get(i.nodeid, UNKNOWN_TEST_S)) for i in its) / max(cost[u], 1e-9)
+        for u, its in units.items()
+    }
+    first = [u for u in by_length if free[u]]
+    light = [u for u in by_length if not free[u] and cores[u] < LIGHT_CORES]
+    heavy = [u for u in by_length if not free[u] and cores[u] >= LIGHT_CORES]
+    total_l, total_h = sum(cost[u] for u in light) or 1.0, sum(cost[u] for u in heavy) or 1.0
+    merged, done_l, done_h = [], 0.0, 0.0
+    while light or heavy:
+        if heavy and (not light or done_h / total_h <= done_l / total_l):
+            u = heavy.pop(0)
+            done_h += cost[u]
+        else:
+            u = light.pop(0)
+            done_l += cost[u]
+        merged.append(u)
+    return [item for u in first + merged for item in units[u]]
 
 
 @pytest.hookimpl(tryfirst=True)  # before xdist's worker reads the groups into the test ids
@@ -141,7 +177,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         group = work_unit(item)
         if group is not None:
             item.add_marker(pytest.mark.xdist_group(group))
-    items[:] = longest_first(items, recorded_durations())
+    items[:] = work_order(items, recorded_durations(), recorded_durations(CPU_SECONDS))
 
 
 _RECORD = os.environ.get("SLOPELANDER_RECORD_DURATIONS")  # benchmarks/suite_time.py sets it

@@ -197,7 +197,7 @@ def test_only_flights_on_arducopter_join_its_work_unit(tmp_path: Path) -> None:
 def test_work_units_are_handed_out_longest_first(tmp_path: Path) -> None:
     """The recorded times order the units, longest first, each unit's tests kept together in
     their order; with no record, units with more tests first (xdist's own rule)."""
-    from tests.conftest import longest_first, recorded_durations
+    from tests.conftest import recorded_durations, work_order
 
     class Item:
         def __init__(self, nodeid: str) -> None:
@@ -210,16 +210,16 @@ def test_work_units_are_handed_out_longest_first(tmp_path: Path) -> None:
     items = [Item(i) for i in ids]
     record = tmp_path / "durations.json"
     record.write_text('{"a.py::t1": 1, "a.py::t2": 1, "b.py::t1": 30, "c.py::t1": 5, "c.py::t2": 0}')
-    ordered = [i.nodeid for i in longest_first(items, recorded_durations(record))]
+    ordered = [i.nodeid for i in work_order(items, recorded_durations(record))]
     assert ordered == ["b.py::t1", "c.py::t1", "c.py::t2", "a.py::t1", "a.py::t2"]
     record.write_text("not json")
     assert recorded_durations(record) == {}
-    unrecorded = [i.nodeid for i in longest_first(items, {})]
+    unrecorded = [i.nodeid for i in work_order(items, {})]
     assert unrecorded == ["a.py::t1", "a.py::t2", "c.py::t1", "c.py::t2", "b.py::t1"]
 
 
 def test_units_that_need_no_model_go_first_while_it_compiles() -> None:
-    from tests.conftest import longest_first
+    from tests.conftest import work_order
 
     class Item:
         def __init__(self, nodeid: str, free: bool) -> None:
@@ -231,5 +231,32 @@ def test_units_that_need_no_model_go_first_while_it_compiles() -> None:
     items = [Item("a.py::t1", False), Item("f.py::t1", True), Item("g.py::t1", True), Item("m.py::t1", True)]
     items.append(Item("m.py::t2", False))  # one test of m needs the model: m waits with the others
     seconds = {"a.py::t1": 60.0, "f.py::t1": 1.0, "g.py::t1": 5.0, "m.py::t1": 1.0, "m.py::t2": 1.0}
-    ordered = [i.nodeid for i in longest_first(items, seconds)]
+    ordered = [i.nodeid for i in work_order(items, seconds)]
     assert ordered == ["g.py::t1", "f.py::t1", "a.py::t1", "m.py::t1", "m.py::t2"]
+
+
+def test_light_units_are_spread_between_the_heavy_ones() -> None:
+    """With each test's CPU recorded, the units whose processes keep fewer than LIGHT_CORES busy
+    and the others are merged, each longest first, so that each kind's share of its own total
+    stays level along the queue: two workers taking units as they free up then mostly run a light
+    one beside a heavy one, not two light ones side by side at the end."""
+    from tests.conftest import LIGHT_CORES, work_order
+
+    class Item:
+        def __init__(self, nodeid: str, free: bool = False) -> None:
+            self.nodeid, self.free = nodeid, free
+
+        def get_closest_marker(self, name: str):
+            return object() if name == "model_free" and self.free else None
+
+    wall = {"h1.py::t": 100.0, "h2.py::t": 40.0, "l1.py::t": 60.0, "l2.py::t": 30.0, "l3.py::t": 10.0}
+    wall["f.py::t"] = 5.0
+    cpu = {"h1.py::t": 130.0, "h2.py::t": 40.0, "l1.py::t": 20.0, "l2.py::t": 10.0, "l3.py::t": 2.0}
+    cpu["f.py::t"] = 5.0
+    assert cpu["h2.py::t"] / wall["h2.py::t"] >= LIGHT_CORES > cpu["l1.py::t"] / wall["l1.py::t"]
+    items = [Item(i) for i in wall if i != "f.py::t"] + [Item("f.py::t", free=True)]
+    ordered = [i.nodeid.split(".")[0] for i in work_order(items, wall, cpu)]
+    # heavy 0 -> 100/140, light 0 -> 60/100 -> 90/100, heavy -> 140/140, light's last
+    assert ordered == ["f", "h1", "l1", "l2", "h2", "l3"]
+    # by length alone without a CPU record
+    assert [i.nodeid.split(".")[0] for i in work_order(items, wall)] == ["f", "h1", "l1", "h2", "l2", "l3"]
