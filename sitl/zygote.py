@@ -214,7 +214,7 @@ class Zygote:
             conn.connect(str(self.socket_path))
         fds, close_after, read_end = _child_fds(stdout, stderr)
         try:
-            req = {"module": module, "argv": argv, "env": env, "cwd": str(cwd), "isolate": isolate}
+            req = _request(module, argv, env, cwd, isolate)
             socket.send_fds(conn, [json.dumps(req).encode()], fds)
             pid = int(json.loads(conn.recv(4096))["pid"])
         except (OSError, ValueError, KeyError) as exc:
@@ -259,6 +259,11 @@ def enable(preload: tuple[str, ...] = PRELOAD) -> None:
 
 def active() -> Zygote | None:
     return _ZYGOTE
+
+
+def _request(module: str, argv: list[str], env: dict[str, str], cwd: Path | str, isolate: bool) -> dict:
+    """What a forked child runs (:func:`_run_child`), from the zygote or from this process."""
+    return {"module": module, "argv": argv, "env": env, "cwd": str(cwd), "isolate": isolate}
 
 
 def _child_fds(stdout: int | IO | None, stderr: int | IO | None) -> tuple[list[int], list[int], int | None]:
@@ -307,8 +312,7 @@ def fork_here(
             os.close(fd)
         raise
     if pid == 0:
-        req = {"module": module, "argv": argv, "env": env, "cwd": str(cwd), "isolate": isolate}
-        _run_child(req, fds, [read_end] if read_end is not None else [])
+        _run_child(_request(module, argv, env, cwd, isolate), fds, [read_end] if read_end is not None else [])
     for fd in close_after:
         os.close(fd)
     out = open(read_end, encoding="utf-8") if read_end is not None else None  # noqa: SIM115

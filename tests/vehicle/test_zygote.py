@@ -82,12 +82,16 @@ def test_a_module_that_fails_at_once_reports_its_status_and_stream(zygote, tmp_p
         assert "--speed -1.0 must be >= 0" in err.read()
 
 
+def _skip_where_only_loopback() -> None:
+    if sorted(name for _, name in socket.if_nameindex()) == ["lo"]:
+        pytest.skip("this machine has only loopback: isolation cannot be told apart")
+
+
 def test_an_isolated_child_has_only_loopback_and_what_it_starts_is_forked_from_it(zygote, tmp_path):
     """ArduCopter's pod: forked from the zygote into a loopback-only network namespace of its own
     (as ``unshare -rn`` would start it), it forks its physics from itself, warm, in the same
     namespace; the grandchild's output, status and end reach the child as from Popen."""
-    if sorted(name for _, name in socket.if_nameindex()) == ["lo"]:
-        pytest.skip("this machine has only loopback: isolation cannot be told apart")
+    _skip_where_only_loopback()
     p = zygote.spawn(
         PROBE,
         ["start"],
@@ -108,8 +112,7 @@ def test_an_isolated_child_has_only_loopback_and_what_it_starts_is_forked_from_i
 
 def test_without_a_zygote_an_isolated_module_is_started_through_unshare(tmp_path, monkeypatch):
     """A user's demo: no zygote, so ``unshare -rn python -m ...``; the same namespace rule."""
-    if sorted(name for _, name in socket.if_nameindex()) == ["lo"]:
-        pytest.skip("this machine has only loopback: isolation cannot be told apart")
+    _skip_where_only_loopback()
     monkeypatch.setattr(zygote_module, "_ZYGOTE", None)
     p = zygote_module.start(
         PROBE,
