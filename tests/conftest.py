@@ -127,13 +127,6 @@ def recorded_durations(path: Path = DURATIONS) -> dict[str, float]:
     return {collection_id(k): float(v) for k, v in data.items() if isinstance(v, (int, float))}
 
 
-def unit_cores(test_ids: list[str], seconds: dict[str, float], cpu: dict[str, float]) -> float:
-    """The cores a unit's processes kept busy on average over its recorded wall time (a test not
-    in the records counts ``UNKNOWN_TEST_S`` and one core)."""
-    wall = sum(seconds.get(t, UNKNOWN_TEST_S) for t in test_ids)
-    return sum(cpu.get(t, seconds.get(t, UNKNOWN_TEST_S)) for t in test_ids) / max(wall, 1e-9)
-
-
 def work_order(
     items: list[pytest.Item], seconds: dict[str, float], cpu: dict[str, float] | None = None
 ) -> list[pytest.Item]:
@@ -158,7 +151,10 @@ def work_order(
     by_length = sorted(units, key=lambda u: (not free[u], -cost[u], rank[u]))
     if not cpu:
         return [item for u in by_length for item in units[u]]
-    cores = {u: unit_cores([i.nodeid for i in its], seconds, cpu) for u, its in units.items()}
+    cores = {
+        u: sum(cpu.get(i.nodeid, seconds.get(i.nodeid, UNKNOWN_TEST_S)) for i in its) / max(cost[u], 1e-9)
+        for u, its in units.items()
+    }
     first = [u for u in by_length if free[u]]
     light = [u for u in by_length if not free[u] and cores[u] < LIGHT_CORES]
     heavy = [u for u in by_length if not free[u] and cores[u] >= LIGHT_CORES]
@@ -173,33 +169,6 @@ def work_order(
             done_l += cost[u]
         merged.append(u)
     return [item for u in first + merged for item in units[u]]
-
-
-def pytest_xdist_auto_num_workers(config: pytest.Config) -> int | None:
-    """``-n auto``: xdist's count, and one worker more, the light units' lane (tests/lanes.py),
-    when the CPU record says which units are light and there are two workers or more to keep the
-    others (``SLOPELANDER_LIGHT_LANE=0``: no lane)."""
-    from xdist.plugin import pytest_xdist_auto_num_workers as xdist_count
-
-    n = xdist_count(config)
-    if n >= 2 and os.environ.get("SLOPELANDER_LIGHT_LANE", "1") != "0" and recorded_durations(CPU_SECONDS):
-        config._slopelander_light_lane = True
-        return n + 1
-    return n
-
-
-def pytest_xdist_make_scheduler(config: pytest.Config, log):
-    """The lane's scheduler (tests/lanes.py) when ``-n auto`` added the lane; else xdist's own."""
-    if not getattr(config, "_slopelander_light_lane", False) or config.getvalue("dist") != "loadgroup":
-        return None
-    from tests.lanes import LaneScheduling
-
-    seconds, cpu = recorded_durations(), recorded_durations(CPU_SECONDS)
-
-    def light(test_ids: list[str]) -> bool:
-        return unit_cores([collection_id(t) for t in test_ids], seconds, cpu) < LIGHT_CORES
-
-    return LaneScheduling(config, log, light)
 
 
 @pytest.hookimpl(tryfirst=True)  # before xdist's worker reads the groups into the test ids

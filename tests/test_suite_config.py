@@ -133,67 +133,6 @@ def test_a_recorded_run_orders_the_next_one_longest_first(tmp_path: Path) -> Non
     assert order == ["tests/test_zlong.py"] * 4 + ["tests/test_shared.py"] * 4, order
 
 
-TIMED = """
-import os, pytest, time
-
-@pytest.mark.parametrize("n", range(4))
-def test_it(n):
-    time.sleep(SLEEP)
-    with open(os.environ["RAN"], "a") as f:
-        f.write(f"NAME {n} {os.environ['PYTEST_XDIST_WORKER']}\\n")
-"""
-
-
-def test_with_a_cpu_record_a_third_worker_runs_only_the_light_units(tmp_path: Path) -> None:
-    """``-n auto`` with a CPU record (tests/lanes.py): xdist's count of workers and one more, the
-    lane, which runs only the units recorded as light; the others run the rest, and a light unit
-    once no other is left: here ``l_long`` keeps the lane busy while the heavy units end, so
-    ``l_short`` goes to one of them. The record's ids carry xdist's ``@group``, as written."""
-    _toy_project(tmp_path)
-    plan = {"h_a": 0.3, "h_b": 0.3, "l_long": 0.6, "l_short": 0.02}  # s a test sleeps
-    wall, cpu = {}, {}
-    for name, sleep in plan.items():
-        (tmp_path / "tests" / f"test_{name}.py").write_text(
-            TIMED.replace("NAME", name).replace("SLEEP", str(sleep))
-        )
-        for n in range(4):
-            test = f"tests/test_{name}.py::test_it[{n}]@tests/test_{name}.py"
-            wall[test] = sleep
-            cpu[test] = sleep * (0.2 if name.startswith("l_") else 1.0)
-    (tmp_path / "tests" / "durations.json").write_text(json.dumps(wall))
-    (tmp_path / "tests" / "cpu_seconds.json").write_text(json.dumps(cpu))
-    ran = tmp_path / "ran"
-    env = {**_env(), "RAN": str(ran), "PYTEST_XDIST_AUTO_NUM_WORKERS": "2"}
-    done = subprocess.run(
-        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider"],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    out = done.stdout + done.stderr
-    assert done.returncode == 0 and "16 passed" in out, out[-3000:]
-    assert "created: 3/3 workers" in out, out[-3000:]
-    where: dict[str, set[str]] = {}
-    for name, _n, worker in (line.split() for line in ran.read_text().splitlines()):
-        where.setdefault(name, set()).add(worker)
-    assert where["l_long"] == {"gw2"}, where
-    assert len(where["h_a"] | where["h_b"]) == 2 and "gw2" not in where["h_a"] | where["h_b"], where
-    assert len(where["l_short"]) == 1 and "gw2" not in where["l_short"], where
-    # without the record's CPU, or with the lane turned off, xdist's own count
-    ran.unlink()
-    off = subprocess.run(
-        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider"],
-        cwd=tmp_path,
-        env={**env, "SLOPELANDER_LIGHT_LANE": "0"},
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert "created: 2/2 workers" in off.stdout + off.stderr, (off.stdout + off.stderr)[-3000:]
-
-
 def test_recorded_ids_lose_only_xdists_group_suffix() -> None:
     from tests.conftest import collection_id
 
