@@ -15,6 +15,10 @@ from slopelander.ident.diagnose import ALPHA, diagnose
 from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesize
 
 BUDGET = {"cma_evals": 300, "refit_evals": 150}
+#: the default suite's budget for the two proofs it runs (leg flexibility and the control, one seed
+#: each): a fifth less CPU than ``BUDGET`` on their seeds, and each still passes every assertion
+#: (docs/ident.md, "What the tests prove"); the proof tier keeps ``BUDGET``
+SUITE_BUDGET = {"cma_evals": 200, "refit_evals": 100}
 #: s recorded after first contact, as the steps test and the user-effect proofs record: on seed 1
 #: leg flexibility comes back the same from 0.6 s as from 1 s (held-out NRMSE cut 0.644 both,
 #: flex_stiffness 15.85 vs 15.92 N m/rad of 16.4) for a third less CPU (73 vs 112 s, 2026-11-27)
@@ -26,10 +30,13 @@ def truth(model):
     return model.without("downhill_torque_growth", "downhill_friction_growth")
 
 
-@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.proof)])
-def test_hidden_leg_flex_is_found(truth, seed):
+@pytest.mark.parametrize(
+    ("seed", "budget"),
+    [pytest.param(1, SUITE_BUDGET, id="1"), pytest.param(2, BUDGET, marks=pytest.mark.proof, id="2")],
+)
+def test_hidden_leg_flex_is_found(truth, seed, budget):
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed, duration=DURATION)
-    d = diagnose(truth.without("leg_flex"), drops, seed=seed, **BUDGET)
+    d = diagnose(truth.without("leg_flex"), drops, seed=seed, **budget)
     best = d.results[0]
     assert d.missing is best and best.candidate.name == "leg_flex"
     cut = 1 - best.validation_nrmse / d.base_validation
@@ -45,10 +52,13 @@ def test_hidden_leg_flex_is_found(truth, seed):
     assert all(r.fits for r in d.results)
 
 
-@pytest.mark.parametrize("seed", [3, pytest.param(4, marks=pytest.mark.proof)])
-def test_nothing_missing_when_nothing_is(truth, seed):
+@pytest.mark.parametrize(
+    ("seed", "budget"),
+    [pytest.param(3, SUITE_BUDGET, id="3"), pytest.param(4, BUDGET, marks=pytest.mark.proof, id="4")],
+)
+def test_nothing_missing_when_nothing_is(truth, seed, budget):
     drops = synthesize(truth, paper_drops(10, seed=0), NoiseModel(), seed=seed, duration=DURATION)
-    d = diagnose(truth, drops, seed=seed, **BUDGET)
+    d = diagnose(truth, drops, seed=seed, **budget)
     assert d.missing is None
     assert all(r.p > ALPHA for r in d.results if r.fits), d.table()
     assert d.verdict().startswith("nothing missing: the held-out NRMSE"), d.verdict()
