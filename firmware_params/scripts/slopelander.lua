@@ -297,11 +297,13 @@ local function arm_reflex(p, t)
     bound_ms = missed_impact_ms(p[2], setup.descent_mps),
   }
   armed_cut_m = p[2]
-  -- a refresh while armed keeps the chain of readings: restarting it every 300 ms, a chain that
-  -- had to start below the cut height (the ground came closer during a stuck reading) never
-  -- lasted RESEED_MS, and the vehicle sat powered on the roof (found by the soak)
+  -- neither an arm nor a refresh restarts the chain of readings (follow_chain): restarted by
+  -- each refresh every 300 ms, a chain that had to start below the cut height (the ground came
+  -- closer during a stuck reading) never lasted RESEED_MS, and the vehicle sat powered on the
+  -- roof (found by the soak); restarted by the arm, an arm late in the descent found the range
+  -- already at the cut height and waited RESEED_MS while the feet met the roof
   if state == ARMED then return ACCEPTED end
-  below, believed, disagree_ms = 0, nil, nil
+  below = 0
   enter(ARMED, t)
   return ACCEPTED
 end
@@ -398,34 +400,36 @@ local function note_sample(cut_m)
   if cut_m ~= nil and off_roof(g, cut_m) then far_count = far_count + 1 else far_count = 0 end
 end
 
--- the reflex: cut on a trusted range at or below the cut height, reverse at impact
-local function run_reflex(t, fresh)
+-- a new sample on the chain of trusted readings, followed in every state, so that an arm that
+-- comes late in a descent finds the chain begun above the cut height: the reading, or nil when it
+-- is untrusted or a disagreement not yet lasting RESEED_MS (a glitch)
+local function follow_chain(t)
+  local d = trusted_range()
+  if d == nil then return nil end
+  -- the allowance grows over time without readings (a dropout), not while readings keep
+  -- coming and disagree: a lasting spike must not grow into agreement
+  local since = (disagree_ms or t) - believed_ms
+  if believed ~= nil and math.abs(d - believed) > MAX_JUMP_M + MAX_RATE_MPS * since / 1000 then
+    disagree_ms = disagree_ms or t
+    if t - disagree_ms < RESEED_MS then return nil end
+    believed = nil -- a lasting change: a new chain, seen since the disagreement began
+  end
+  if believed == nil then seed_ms, seed_d = disagree_ms or t, d end
+  disagree_ms = nil
+  believed, believed_ms = d, t
+  return d
+end
+
+-- the reflex: cut on a trusted range at or below the cut height, reverse at impact; ``d`` is
+-- this update's sample on the chain (nil: none, untrusted, or a glitch)
+local function run_reflex(t, fresh, d)
   if state == ARMED then
     if t >= valid_until then
       release(t, "reflex validity lapsed")
       return
     end
     if not fresh then return end -- only a new sample says anything new
-    local d = trusted_range()
-    if d == nil then
-      below = 0
-      return
-    end
-    -- the allowance grows over time without readings (a dropout), not while readings keep
-    -- coming and disagree: a lasting spike must not grow into agreement
-    local since = (disagree_ms or t) - believed_ms
-    if believed ~= nil and math.abs(d - believed) > MAX_JUMP_M + MAX_RATE_MPS * since / 1000 then
-      disagree_ms = disagree_ms or t
-      if t - disagree_ms < RESEED_MS then
-        below = 0
-        return
-      end
-      believed = nil -- a lasting change: a new chain, seen since the disagreement began
-    end
-    if believed == nil then seed_ms, seed_d = disagree_ms or t, d end
-    disagree_ms = nil
-    believed, believed_ms = d, t
-    if seed_d <= reflex.cut_m and t - seed_ms < RESEED_MS then
+    if d == nil or (seed_d <= reflex.cut_m and t - seed_ms < RESEED_MS) then
       below = 0
       return
     end
@@ -487,7 +491,11 @@ local function update()
   local stamp = reading_stamp()
   local fresh = stamp ~= nil and stamp ~= last_stamp
   last_stamp = stamp
-  if fresh then note_sample(reflex and reflex.cut_m) end
+  local d = nil
+  if fresh then
+    note_sample(reflex and reflex.cut_m)
+    d = follow_chain(t)
+  end
   while true do
     local msg, chan = mavlink:receive_chan()
     if msg == nil then break end
@@ -499,7 +507,7 @@ local function update()
   if (state == STOP or state == REVERSE) and t >= valid_until then
     enter(IDLE, t, "command validity lapsed")
   end
-  if reflex ~= nil then run_reflex(t, fresh) end
+  if reflex ~= nil then run_reflex(t, fresh, d) end
 
   if state == HOLD then
     output(PWM_STOP, GROUND_OVERRIDE_MS)

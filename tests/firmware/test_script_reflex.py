@@ -213,6 +213,23 @@ def test_the_companions_refresh_does_not_restart_the_chain_of_readings(bench: Be
     assert cut is not None and 3500 + 600 <= cut - t0 <= 3500 + 600 + 2 * SAMPLE_MS + 3
 
 
+def test_an_arm_that_comes_late_in_a_descent_seen_from_above_still_cuts_at_once(bench: Bench) -> None:
+    """The script follows its chain of readings before the arm too: a companion whose arm
+    arrives only once the range is at the cut height (it armed on a reading a few centimetres
+    above it, and its message took a sample period or more to arrive) gets the cut within two
+    samples, not RESEED_MS later. Once it waited RESEED_MS, as for a chain begun below the cut:
+    at 0.5 m/s the feet met the roof 0.19 s before the motors stopped (a landing on the simulated
+    vehicle with the arm 5 cm above the cut, 2026-11-27)."""
+    setup(bench)
+    trace = descend(bench, 1.0, DESCENT, round((1.0 - CUT_M) / DESCENT * 1000))  # seen from 1 m down
+    assert trace[-1][1] == pytest.approx(CUT_M, abs=0.002)
+    t_arm = bench.io.now_ms
+    assert refresh(bench).result == ACCEPTED and bench.io.state() == ARMED
+    trace = descend(bench, trace[-1][1], DESCENT, 400)
+    cut = next(t for t, _h, pwm in trace if pwm == 1500)
+    assert cut - t_arm <= 2 * SAMPLE_MS + 3, (cut, t_arm)
+
+
 def cut_now(bench: Bench, validity_ms: float = 3000, ramp_ms: float = 0) -> None:
     bench.io.range = good(0.5)
     arm(bench, validity_ms, ramp_ms)
