@@ -218,8 +218,9 @@ def test_an_arm_that_comes_late_in_a_descent_seen_from_above_still_cuts_at_once(
     arrives only once the range is at the cut height (it armed on a reading a few centimetres
     above it, and its message took a sample period or more to arrive) gets the cut within two
     samples, not RESEED_MS later. Once it waited RESEED_MS, as for a chain begun below the cut:
-    at 0.5 m/s the feet met the roof 0.19 s before the motors stopped (a landing on the simulated
-    vehicle with the arm 5 cm above the cut, 2026-11-27)."""
+    at 0.5 m/s that is 0.3 m of descent, the likely cause of a landing on the simulated vehicle
+    (the arm 5 cm above the cut, 2026-11-27) whose feet met the roof 0.19 s before the motors
+    stopped (docs/onboard-script.md)."""
     setup(bench)
     trace = descend(bench, 1.0, DESCENT, round((1.0 - CUT_M) / DESCENT * 1000))  # seen from 1 m down
     assert trace[-1][1] == pytest.approx(CUT_M, abs=0.002)
