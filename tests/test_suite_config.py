@@ -151,6 +151,47 @@ def test_a_record_written_with_xdists_suffixes_still_orders(tmp_path: Path) -> N
     assert recorded_durations(record) == {"tests/a.py::t[1]": 3.5, "tests/f.py::t": 9.0}
 
 
+SHARED_MIDWAY = """
+import pytest
+
+@pytest.fixture(scope="module")
+def vehicle():
+    yield object()
+
+def test_first(vehicle):
+    pass
+
+def test_second(vehicle):
+    pass
+
+def test_alone():
+    pass
+"""
+
+
+def test_a_vehicle_shared_midway_is_stopped_after_its_last_flight(tmp_path: Path) -> None:
+    """A module-scoped fixture used by some of a module's tests ends right after the last of
+    them: the tests that do not use it run first. pytest ends a module's fixtures only when the
+    module ends, so a vehicle shared by two flights before a third flew on, idle, through it."""
+    _toy_project(tmp_path)
+    (tmp_path / "tests" / "test_midway.py").write_text(SHARED_MIDWAY)
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-n", "0", "--setup-plan", "-q"],
+        cwd=tmp_path,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+    steps = [
+        ln.split()[-1] if "M vehicle" in ln else ln.split("::")[1].split()[0]
+        for ln in done.stdout.splitlines()
+        if "M vehicle" in ln or "::test_" in ln
+    ]
+    assert steps == ["test_alone", "vehicle", "test_first", "test_second", "vehicle"], done.stdout
+
+
 GROUPS_PLUGIN = """
 def pytest_collection_finish(session):
     for item in session.items:

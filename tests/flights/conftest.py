@@ -15,7 +15,7 @@ from sitl.ardupilot.launch import ArduCopterMissingError
 AUTOPILOTS = ["sim", pytest.param("ardupilot", marks=pytest.mark.arducopter)]
 
 
-def _available(name: str) -> str:
+def autopilot_available(name: str) -> str:
     """``name``; for ``"ardupilot"`` skipped, saying why, without a binary, and failed when the
     variable names something that is not one."""
     if name == "ardupilot":
@@ -31,10 +31,4 @@ def _available(name: str) -> str:
 @pytest.fixture(params=AUTOPILOTS)
 def autopilot(request) -> str:
     """``"sim"`` or ``"ardupilot"``: a vehicle of the test's own."""
-    return _available(request.param)
-
-
-@pytest.fixture(scope="module", params=AUTOPILOTS)
-def module_autopilot(request) -> str:
-    """The same, for one vehicle that flies a module's landings in order."""
-    return _available(request.param)
+    return autopilot_available(request.param)

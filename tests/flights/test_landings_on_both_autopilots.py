@@ -39,6 +39,7 @@ from sitl.legboard.control import BoardControl
 from sitl.rig import Flight, Rig, config
 from slopelander.controller.landing import leg_geometry
 from slopelander.controller.runner import Lander
+from tests.flights.conftest import AUTOPILOTS, autopilot_available
 
 # A flight on ArduCopter joins the one ArduCopter work unit (its parameter's mark, conftest.py);
 # the flights on the simulated vehicle are this module's unit, in order (two share a vehicle).
@@ -260,14 +261,6 @@ def roof_rig(autopilot: str, seed: int, relay: bool = False) -> Rig:
     return rig
 
 
-@pytest.fixture(scope="module")
-def cut_roof(module_autopilot: str):
-    """One vehicle for the two link-cut tests, in order: the first ends in the air (LOITER), the
-    second on the roof."""
-    with roof_rig(module_autopilot, seed=21, relay=True) as r:
-        yield r
-
-
 def story(rig: Rig, lander: Lander) -> str:
     """The landing's history and the autopilot's last words, for a failure's message."""
     parts = [f"{rig.autopilot} t={rig.now:.1f}"] + [
@@ -383,75 +376,6 @@ def fly_the_switch(rig: Rig) -> None:
     assert_landed_disarmed(rig, t0, lander, end, SWITCHED)
 
 
-def test_a_link_lost_in_the_descent_stops_it_on_board_and_aborts_to_loiter(cut_roof):
-    """DESCEND row: LINK_LOST; GUID_TIMEOUT (3 s) stops the descent on board; the link back,
-    ABORTED to LOITER, holding clear of the roof."""
-    rig = cut_roof
-    ready_over_roof(rig)
-    rig.set_legs(*PRESET)
-    lander = Lander(rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG)
-    t0 = rig.now
-    run_until(rig, lander, ("DESCEND",))
-    rig.wait(0.5, tick=lander.poll)
-    h0 = rig.height()
-    rig.relay.cut(None)  # the radio fades: nothing passes either way, until restored
-    poll_for(lander, 4.0)
-    assert lander.machine.name == "LINK_LOST", story(rig, lander)
-    rig.relay.restore()
-    rig.fly_until(lambda: lander.poll() == "ABORTED", 60.0, "see the link come back", wall_s=20.0)
-    rig.wait(1.0, tick=lander.poll)
-    rig.read_events()
-    dropped = h0 - rig.height()
-    # at most GUID_TIMEOUT (+ the setpoint's age) at 0.5 m/s, then held
-    assert 0.5 < dropped < 0.5 * 3.6, (dropped, story(rig, lander))
-    assert not rig.track.event_times("EV_STOP", t0)  # nothing was cut
-    assert_hovering_safe(rig, lander, "link back", clear_m=0.25)
-
-
-def test_a_short_cut_in_the_descent_is_ridden_out_and_a_long_one_in_reverse_ends_disarmed(cut_roof):
-    """A 0.5 s cut in DESCEND (shorter than ``link.link_loss_s``) is not a lost link and the
-    landing goes on; a 2.5 s cut in REVERSE is LINK_LOST while the script finishes its bounded
-    sequence, and with the link back the landing is judged as it lies: LANDED, disarmed on the
-    roof, the legs still clamped, nothing released (docs/failsafes.md, CUT/REVERSE/SETTLED row)."""
-    rig = cut_roof
-    ready_over_roof(rig)
-    lander = Lander(rig.link, config(reflex=CUT), PRESET, legs=rig.legs, slope_deg=ROOF_DEG)
-    t0 = rig.now
-    run_until(rig, lander, ("DESCEND",))
-    t_cut, w0 = rig.now, time.monotonic()
-    rig.relay.cut(0.5)
-    while rig.now <= t_cut + 0.45 and time.monotonic() - w0 < 30.0:
-        lander.poll()
-        time.sleep(0.001)
-    silent_wall = time.monotonic() - w0
-    assert rig.now > t_cut + 0.45, "the link did not come back"
-    run_until(rig, lander, ("REVERSE",))
-    states = [h["to"] for h in lander.machine.history]
-    if silent_wall < lander.cfg["link.link_loss_s"] - 0.2:
-        assert "LINK_LOST" not in states and "ABORTED" not in states, story(rig, lander)
-    # the simulated vehicle's EV_RVT, by which the landing is judged below, can still be on its
-    # way through the relay when the companion enters REVERSE (it saw the impact first): a cut
-    # at once dropped it (1 landing in the suite of 2026-11-27). Let it arrive, a few ms.
-    wait_rvt = rig.now + 0.2
-    while not rig.track.event_times("EV_RVT", t_cut) and rig.now < wait_rvt:
-        lander.poll()
-        rig.read_events()
-        time.sleep(0.001)
-    # cut for 2.5 s of the companion's clock, which judges the loss (1.5 s): 2.5 s of vehicle time
-    # on both (the relay's echoes pace the simulated vehicle, and ArduCopter's physics, to real time)
-    rig.relay.cut(None)
-    poll_for(lander, 2.5)
-    lost = [h["to"] for h in lander.machine.history[i_reverse(lander) :]]
-    rig.relay.restore()
-    assert "LINK_LOST" in lost, story(rig, lander)
-    end = lander.run(60.0)
-    states = [h["to"] for h in lander.machine.history]
-    i = states.index("REVERSE")
-    assert "LINK_LOST" in states[i:] and "ABORTED" not in states, story(rig, lander)
-    assert_landed_disarmed(rig, t0, lander, end, PRESET)
-    assert all(lg.torque_nm > 1.0 for lg in rig.legs.status.legs), rig.legs.status  # still clamped
-
-
 def test_the_leg_board_unplugged_in_the_descent_aborts_to_loiter_before_the_cut(autopilot):
     """Leg failure row: the port vanishes in DESCEND; the landing aborts before the motors stop
     and the pilot is told; the vehicle holds in LOITER clear of the roof."""
@@ -475,3 +399,88 @@ def test_the_leg_board_unplugged_in_the_descent_aborts_to_loiter_before_the_cut(
         assert any(t.startswith("SL ABORTED: leg failure") for t in told), told
         rig.legs = None  # the port is gone
         assert_hovering_safe(rig, lander, "leg failure")
+
+
+@pytest.fixture(scope="class", params=AUTOPILOTS)
+def cut_roof(request):
+    """One vehicle for the link-cut tests, in their order. Scoped to their class: pytest stops a
+    module-scoped vehicle only when the module ends, and this one flew on, idle, through the
+    leg-board test after them (2026-11-28: 30 CPU-s and 17 s of the ArduCopter group)."""
+    with roof_rig(autopilot_available(request.param), seed=21, relay=True) as r:
+        yield r
+
+
+class TestLinkCuts:
+    """One vehicle for two tests, in order: the first ends in the air (LOITER), the second on the
+    roof."""
+
+    def test_a_link_lost_in_the_descent_stops_it_on_board_and_aborts_to_loiter(self, cut_roof: Rig) -> None:
+        """DESCEND row: LINK_LOST; GUID_TIMEOUT (3 s) stops the descent on board; the link back,
+        ABORTED to LOITER, holding clear of the roof."""
+        rig = cut_roof
+        ready_over_roof(rig)
+        rig.set_legs(*PRESET)
+        lander = Lander(
+            rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG
+        )
+        t0 = rig.now
+        run_until(rig, lander, ("DESCEND",))
+        rig.wait(0.5, tick=lander.poll)
+        h0 = rig.height()
+        rig.relay.cut(None)  # the radio fades: nothing passes either way, until restored
+        poll_for(lander, 4.0)
+        assert lander.machine.name == "LINK_LOST", story(rig, lander)
+        rig.relay.restore()
+        rig.fly_until(lambda: lander.poll() == "ABORTED", 60.0, "see the link come back", wall_s=20.0)
+        rig.wait(1.0, tick=lander.poll)
+        rig.read_events()
+        dropped = h0 - rig.height()
+        # at most GUID_TIMEOUT (+ the setpoint's age) at 0.5 m/s, then held
+        assert 0.5 < dropped < 0.5 * 3.6, (dropped, story(rig, lander))
+        assert not rig.track.event_times("EV_STOP", t0)  # nothing was cut
+        assert_hovering_safe(rig, lander, "link back", clear_m=0.25)
+
+    def test_a_short_cut_in_the_descent_is_ridden_out_and_a_long_one_in_reverse_ends_disarmed(
+        self, cut_roof: Rig
+    ) -> None:
+        """A 0.5 s cut in DESCEND (shorter than ``link.link_loss_s``) is not a lost link and the
+        landing goes on; a 2.5 s cut in REVERSE is LINK_LOST while the script finishes its bounded
+        sequence, and with the link back the landing is judged as it lies: LANDED, disarmed on the
+        roof, the legs still clamped, nothing released (docs/failsafes.md, CUT/REVERSE/SETTLED row)."""
+        rig = cut_roof
+        ready_over_roof(rig)
+        lander = Lander(rig.link, config(reflex=CUT), PRESET, legs=rig.legs, slope_deg=ROOF_DEG)
+        t0 = rig.now
+        run_until(rig, lander, ("DESCEND",))
+        t_cut, w0 = rig.now, time.monotonic()
+        rig.relay.cut(0.5)
+        while rig.now <= t_cut + 0.45 and time.monotonic() - w0 < 30.0:
+            lander.poll()
+            time.sleep(0.001)
+        silent_wall = time.monotonic() - w0
+        assert rig.now > t_cut + 0.45, "the link did not come back"
+        run_until(rig, lander, ("REVERSE",))
+        states = [h["to"] for h in lander.machine.history]
+        if silent_wall < lander.cfg["link.link_loss_s"] - 0.2:
+            assert "LINK_LOST" not in states and "ABORTED" not in states, story(rig, lander)
+        # the simulated vehicle's EV_RVT, by which the landing is judged below, can still be on its
+        # way through the relay when the companion enters REVERSE (it saw the impact first): a cut
+        # at once dropped it (1 landing in the suite of 2026-11-27). Let it arrive, a few ms.
+        wait_rvt = rig.now + 0.2
+        while not rig.track.event_times("EV_RVT", t_cut) and rig.now < wait_rvt:
+            lander.poll()
+            rig.read_events()
+            time.sleep(0.001)
+        # cut for 2.5 s of the companion's clock, which judges the loss (1.5 s): 2.5 s of vehicle time
+        # on both (the relay's echoes pace the simulated vehicle, and ArduCopter's physics, to real time)
+        rig.relay.cut(None)
+        poll_for(lander, 2.5)
+        lost = [h["to"] for h in lander.machine.history[i_reverse(lander) :]]
+        rig.relay.restore()
+        assert "LINK_LOST" in lost, story(rig, lander)
+        end = lander.run(60.0)
+        states = [h["to"] for h in lander.machine.history]
+        i = states.index("REVERSE")
+        assert "LINK_LOST" in states[i:] and "ABORTED" not in states, story(rig, lander)
+        assert_landed_disarmed(rig, t0, lander, end, PRESET)
+        assert all(lg.torque_nm > 1.0 for lg in rig.legs.status.legs), rig.legs.status  # still clamped
