@@ -107,6 +107,8 @@ class ZygoteProcess(_Forked):
     def __init__(self, args: list[str], pid: int, conn: socket.socket, stdout: IO[str] | None) -> None:
         self.args, self.pid, self._conn, self.stdout = args, pid, conn, stdout
         self.returncode: int | None = None
+        #: the preloaded modules the zygote had warmed when it forked this child
+        self.warm: tuple[str, ...] = ()
 
     def _read_status(self, timeout: float | None) -> bool:
         ready, _, _ = select.select([self._conn], [], [], timeout)
@@ -216,7 +218,8 @@ class Zygote:
         try:
             req = _request(module, argv, env, cwd, isolate)
             socket.send_fds(conn, [json.dumps(req).encode()], fds)
-            pid = int(json.loads(conn.recv(4096))["pid"])
+            reply = json.loads(conn.recv(4096))
+            pid = int(reply["pid"])
         except (OSError, ValueError, KeyError) as exc:
             conn.close()
             if read_end is not None:
@@ -226,7 +229,9 @@ class Zygote:
             for fd in close_after:
                 os.close(fd)
         out = open(read_end, encoding="utf-8") if read_end is not None else None  # noqa: SIM115
-        return ZygoteProcess([module, *argv], pid, conn, out)
+        child = ZygoteProcess([module, *argv], pid, conn, out)
+        child.warm = tuple(reply.get("warm", ()))
+        return child
 
     def close(self) -> None:
         if self._proc is not None:
@@ -403,11 +408,28 @@ def _run_child(req: dict, fds: list[int], keep_closed: list[int]) -> None:
         os._exit(code)
 
 
-def serve(path: str, preload: list[str]) -> int:
-    for name in preload:
-        warm = getattr(importlib.import_module(name), "warm", None)
+#: simulators that need no compiled model: a zygote asked only for these never loads it
+LIGHT = ("sitl.legboard",)
+
+
+def _warm(modules: list[object]) -> None:
+    for mod in modules:
+        warm = getattr(mod, "warm", None)
         if warm is not None:
             warm()
+
+
+def serve(path: str, preload: list[str]) -> int:
+    """Import ``preload``, then fork what is asked for. The light modules (:data:`LIGHT`) are
+    warmed at once; the others, which load the compiled model, before the first request for
+    anything else: a test run starts leg boards while the model still compiles (the tests that
+    need no model run first, tests/compile_once.py), and a zygote that loaded the model then
+    compiled it a second time beside the compile."""
+    loaded = [importlib.import_module(name) for name in preload]
+    light = [m for m in loaded if m.__name__.removesuffix(".__main__") in LIGHT]
+    _warm(light)
+    warmed = [m.__name__ for m in light]  # told to each caller with its child's pid
+    heavy = [m for m in loaded if m not in light]
     try:
         expected = int(os.environ.get(ENV, ""))
     except ValueError:
@@ -467,6 +489,13 @@ def serve(path: str, preload: list[str]) -> int:
         except (OSError, ValueError):
             conn.close()
             continue
+        if heavy and req.get("module") not in LIGHT:
+            try:
+                _warm(heavy)
+                warmed += [m.__name__ for m in heavy]
+            except Exception:  # each child then loads what it needs, and says what fails
+                traceback.print_exc()
+            heavy = []
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
@@ -476,7 +505,7 @@ def serve(path: str, preload: list[str]) -> int:
         for fd in fds:
             os.close(fd)
         with contextlib.suppress(OSError):
-            conn.send(json.dumps({"pid": pid}).encode())
+            conn.send(json.dumps({"pid": pid, "warm": warmed}).encode())
         children[pid] = conn
     # stopping: the children first, then this process
     for pid in list(children):

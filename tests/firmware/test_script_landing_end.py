@@ -12,6 +12,9 @@ from test_script_reflex import CUT_M, IMPACT, PCT, SAMPLE_MS, cut_now, good, imp
 
 from slopelander.controller.script_contract import CMD_ACTUATOR, CMD_REFLEX, Reflex, ScriptState
 
+#: runs while the model compiles (tests/compile_once.py): nothing here needs it
+pytestmark = pytest.mark.model_free
+
 ACCEPTED, TEMP_REJECTED = 0, 1
 
 

@@ -16,6 +16,9 @@ from sitl.legboard.control import BoardControl, ControlError
 from sitl.legboard.server import MAX_ADVANCE_S, BoardServer, FaultSpec
 from slopelander.legs import codec, messages
 
+#: runs while the model compiles (tests/compile_once.py): nothing here needs it
+pytestmark = pytest.mark.model_free
+
 
 def _external(**kw) -> BoardServer:
     return BoardServer(clock="external", **kw)

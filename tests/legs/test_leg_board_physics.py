@@ -9,6 +9,9 @@ import pytest
 from sitl.legboard.physics import BoardParams, LegBoardPhysics
 from slopelander.legs.messages import FaultCode, LegState
 
+#: runs while the model compiles (tests/compile_once.py): nothing here needs it
+pytestmark = pytest.mark.model_free
+
 DT = 0.004
 
 

@@ -130,3 +130,25 @@ def test_without_a_zygote_an_isolated_module_is_started_through_unshare(tmp_path
     # not a zygote's child, so what it starts is a fresh interpreter too, in its namespace
     assert said["child"]["interfaces"] == ["lo"] and said["child"]["cmdline"][1:3] == ["-m", PROBE]
     assert said["child_status"] == 5
+
+
+def test_leg_boards_are_forked_before_the_model_is_loaded_and_a_vehicle_after(tmp_path):
+    """The zygote loads the compiled model (the heavy modules' ``warm``) only when first asked for
+    something other than a leg board: the tests that need no model start leg boards while the
+    model still compiles beside them, and a zygote that loaded it then compiled it a second time."""
+    z = Zygote()  # the simulators' own modules
+    try:
+        quiet = {
+            "env": child_env(),
+            "cwd": tmp_path,
+            "stdout": subprocess.DEVNULL,
+            "stderr": subprocess.DEVNULL,
+        }
+        board = z.spawn("sitl.legboard", ["--help"], **quiet)
+        assert board.wait(30) == 0
+        assert board.warm == ("sitl.legboard.__main__",)
+        probe = z.spawn(PROBE, ["0"], **quiet)
+        assert probe.wait(60) == 0
+        assert sorted(probe.warm) == sorted(zygote_module.PRELOAD)
+    finally:
+        z.close()
