@@ -14,6 +14,7 @@ from sitl.legboard.control import BoardControl
 from sitl.vehicle.launch import start_legboard
 from slopelander.legs import LegBoard
 from tests.json_physics.conftest import QUIET, alt, climb, fly, hover_pwm, run
+from tests.legs.fed_clock import board_time, feed_until_done
 
 G = 9.81
 
@@ -91,16 +92,6 @@ def test_rangefinder_over_a_slope_matches_the_geometry() -> None:
     assert max(st["rng_1"] for st in states) - min(st["rng_1"] for st in states) > 0.5  # it moved
 
 
-def _fed(board: LegBoard, ctl: BoardControl, op, limit_s: float) -> float:
-    """Feed the board time in 0.1 s steps until ``op`` is done; the board time then."""
-    t = ctl.state()["time_s"]
-    while op.check() is None:
-        assert t < limit_s, f"{op.kind} not done at board time {t:.1f} s"
-        t = ctl.advance(t + 0.1)["time_s"]
-        board.poll()
-    return t
-
-
 def test_the_leg_boards_torques_act_on_the_ground() -> None:
     """Clamped legs carry the vehicle on the pad; loosened over the leg board's serial link, they
     fold under it, and the board is told the joints' new angles.
@@ -114,14 +105,14 @@ def test_the_leg_boards_torques_act_on_the_ground() -> None:
     try:
         with BoardControl(lb.control) as ctl:
             board = LegBoard.open(lb.pty)
-            board.set_clock(lambda: ctl.state()["time_s"])
+            board_time(board, ctl)
             try:
-                t = _fed(board, ctl, board.start_torques({leg: 2.3 for leg in range(4)}), 30.0)
+                t = feed_until_done(board, ctl, board.start_torques({leg: 2.3 for leg in range(4)}), 30.0)
                 srv = start_json_physics(scenario=QUIET, legs=lb.control)
                 ap = ArduPilotSide(srv.port)
                 try:
                     clamped = run(ap, 1.0, [1525] * 4)
-                    _fed(board, ctl, board.start_loosen(), t + 30.0)
+                    feed_until_done(board, ctl, board.start_loosen(), t + 30.0)
                     loose = run(ap, 1.5, [1525] * 4)
                 finally:
                     ap.close()

@@ -5,50 +5,44 @@ board while it stands on the pad."""
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from sitl.legboard.control import BoardControl
 from sitl.vehicle.launch import start_legboard, start_vehicle
 from slopelander.legs import LegBoard
+from tests.legs.fed_clock import board_time, feed_until_done
 from tests.vehicle.conftest import ROUTE_A
 
 
-def _angles(control) -> list[float]:
-    """Smallest angle per leg over 0.5 s: a loose leg springs back between the vehicle's
-    50 Hz writes, so a single read may catch it extended."""
-    out = [90.0] * 4
-    with BoardControl(control) as c:
-        for _ in range(25):
-            out = [min(o, float(leg["angle_deg"])) for o, leg in zip(out, c.state()["legs"], strict=True)]
-            time.sleep(0.02)
-    return out
+def _angles(ctl: BoardControl) -> list[float]:
+    return [float(leg["angle_deg"]) for leg in ctl.state()["legs"]]
+
+
+def _stand(control: Path, ctl: BoardControl) -> list[float]:
+    """The board's angles after a vehicle stood 1.5 s on the pad with its legs: the board's time
+    is ahead of the vehicle's, so it holds still and keeps the angles the vehicle wrote."""
+    v = start_vehicle(params=ROUTE_A, no_script=True, legboard_control=control)
+    try:
+        time.sleep(1.5)
+        return _angles(ctl)
+    finally:
+        assert v.stop() == 0
 
 
 def test_torques_in_angles_out():
-    lb = start_legboard(speed=4.0)  # board time 4x the wall clock: the legs clamp in about 2 s
+    lb = start_legboard(clock="external")  # fed by this test, then held still by the vehicles
     try:
-        board = LegBoard.open(lb.pty)
-        try:
-            board.set_torques(uphill=2.3, downhill=2.3)
-        finally:
-            board.close()
-        held = _angles(lb.control)
-        v = start_vehicle(params=ROUTE_A, no_script=True, legboard_control=lb.control)
-        try:
-            time.sleep(1.5)
-            clamped = _angles(lb.control)
-        finally:
-            assert v.stop() == 0
-        board = LegBoard.open(lb.pty)
-        try:
-            board.loosen_all()
-        finally:
-            board.close()
-        v = start_vehicle(params=ROUTE_A, no_script=True, legboard_control=lb.control)
-        try:
-            time.sleep(1.5)
-            loose = _angles(lb.control)
-        finally:
-            v.stop()
+        with BoardControl(lb.control) as ctl:
+            board = LegBoard.open(lb.pty)
+            board_time(board, ctl)
+            try:
+                t = feed_until_done(board, ctl, board.start_torques({leg: 2.3 for leg in range(4)}), 30.0)
+                held = _angles(ctl)
+                clamped = _stand(lb.control, ctl)
+                feed_until_done(board, ctl, board.start_loosen(), t + 30.0)
+                loose = _stand(lb.control, ctl)
+            finally:
+                board.close()
     finally:
         lb.stop()
     # clamped legs barely give under the vehicle's weight on the pad; loose legs fold
