@@ -479,6 +479,21 @@ class Rig:
                 self.poll()
             time.sleep(0.001)
 
+    def cut_link(self, vehicle_s: float, tick) -> float:
+        """Cut the companion's link at the relay for ``vehicle_s`` of vehicle time and call
+        ``tick`` (the landing's poll) until the vehicle's clock shows it back; the wall seconds
+        the companion heard nothing, which decide whether it may call the link lost."""
+        if self.relay is None:
+            raise RigError("no relay to cut the link at: make the rig with relay=True")
+        t_cut, w0 = self.now, time.monotonic()
+        self.relay.cut(vehicle_s)
+        while self.now <= t_cut + vehicle_s - 0.05 and time.monotonic() - w0 < 30.0:
+            tick()
+            time.sleep(0.001)
+        if self.now <= t_cut + vehicle_s - 0.05:
+            raise RigError(f"the link did not come back within 30 s of a {vehicle_s:g} s cut")
+        return time.monotonic() - w0
+
     def armed(self) -> bool:
         hb = self.link.last.get("HEARTBEAT")
         return bool(hb and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
