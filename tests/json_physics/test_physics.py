@@ -96,11 +96,8 @@ def test_the_leg_boards_torques_act_on_the_ground() -> None:
     """Clamped legs carry the vehicle on the pad; loosened over the leg board's serial link, they
     fold under it, and the board is told the joints' new angles.
 
-    The board runs on a fed clock (``--clock external``): the test feeds it the clamp and the
-    loosening, then the physics, whose time is behind the board's, holds it still. On the wall
-    clock its reset spring pushed the loose legs back at about 700 deg a second of wall time
-    between the physics' writes, so the angles read after the flight were the physics' only if
-    read within 2 ms (a loaded machine read 21 deg, 2026-11-28)."""
+    The board runs on a fed clock (tests/legs/fed_clock.py says why): on the wall clock a loaded
+    machine read 21 deg, its spring having moved the legs after the physics' last write."""
     lb = start_legboard(clock="external")
     try:
         with BoardControl(lb.control) as ctl:
