@@ -24,12 +24,13 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sitl.guided import THROTTLE_DOWN_US, arm_in_guided, throttle_override
-from sitl.legs_clock import open_legs
 from sitl.linkfault import Relay
 from sitl.vehicle.launch import start_legboard, start_vehicle
 from slopelander.controller.config import Config, load_config, merge
-from slopelander.controller.link import LANDING_MESSAGES, Link
+from slopelander.controller.link import Link
 from slopelander.controller.runner import Lander
+from slopelander.controller.session import SESSION_MESSAGES, Session, SessionError
+from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
 from slopelander.legs.errors import LegTimeout
@@ -41,16 +42,13 @@ OVER_ROOF_X_M = 5.5
 #: about 0.2 m below the origin; ArduCopter's descent is slower than its forward flight, so its
 #: path bends above the straight line)
 RIDGE_CLEARANCE_M = 0.3
-# A lock-stepped vehicle may run slower than real time on a loaded machine, while the companion
-# counts link silence in local time: heartbeats at 5 Hz of vehicle time keep a slow simulation
-# from reading as a lost link (ArduPilot honours SET_MESSAGE_INTERVAL for HEARTBEAT as well).
-STREAMS = (
-    (mavlink.MAVLINK_MSG_ID_HEARTBEAT, 5),
-    (mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, 50),
-    (mavlink.MAVLINK_MSG_ID_ATTITUDE, 50),
-    (mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 50),
-    (mavlink.MAVLINK_MSG_ID_RC_CHANNELS, 10),
-)
+#: the rig's stream rates (the session's table, controller/session.py): the flight tests read the
+#: track at 50 Hz. A lock-stepped vehicle may run slower than real time on a loaded machine, while
+#: the companion counts link silence in local time: heartbeats at 5 Hz of vehicle time keep a slow
+#: simulation from reading as a lost link (ArduPilot honours SET_MESSAGE_INTERVAL for HEARTBEAT).
+RIG_RATES = {"heartbeat_hz": 5, "position_hz": 50, "attitude_hz": 50, "servo_hz": 50, "rc_hz": 10}
+#: the streams a rig without ``telemetry`` asks for
+BARE_STREAMS = ("HEARTBEAT", "RAW_IMU", "DISTANCE_SENSOR", "LOCAL_POSITION_NED")
 
 
 #: the autopilots a rig can fly: the project's simulated vehicle, or real ArduCopter SITL
@@ -76,8 +74,8 @@ def add_autopilot_args(ap) -> None:
     )
 
 
-#: what the rig's :class:`Track` reads on top of the landing's messages
-TRACK_MESSAGES = LANDING_MESSAGES | {"ATTITUDE", "SERVO_OUTPUT_RAW"}
+#: what the rig's :class:`Track` reads: the session's messages
+TRACK_MESSAGES = SESSION_MESSAGES
 
 
 #: wall seconds the rig's lock-stepped vehicle waits for the companion before running free (the
@@ -306,6 +304,7 @@ class Rig:
         arducopter: str | None = None,
         extra_endpoints: list[str] | None = None,
         arducopter_speedup: float = ARDUCOPTER_SPEEDUP,
+        out=None,
     ) -> None:
         """``arducopter_speedup``: ArduCopter's ``--speedup``, the most it runs ahead of real time.
         It is lock-stepped with the physics, and the physics holds it while the companion is more
@@ -330,6 +329,7 @@ class Rig:
         self.scenario = scn
         self.board = start_legboard(speed=speed, clock="external")
         self.vehicle = None
+        self.session: Session | None = None
         self.link: Link | None = None
         self.legs: LegBoard | None = None
         self.calibration = None
@@ -366,17 +366,24 @@ class Rig:
             if relay:
                 self.relay = Relay("tcp:127.0.0.1:0", url, lockstep=True).start()
                 url = f"tcp:127.0.0.1:{self.relay.port}"
-            self.link = Link(url, link_loss_s=load_config()["link.link_loss_s"], decode=decode)
-            self.link.add_listener(self.track.listen)
-            self.info = self.link.wait_autopilot(timeout_s=30.0)
-            streams = (
-                (imu_message, imu_hz),
-                (mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR, range_hz),
-                *(STREAMS if telemetry else STREAMS[:2]),
-            )
-            for msg_id, hz in streams:
-                self.wait_command(self.link.request_stream(msg_id, hz), f"stream {msg_id}")
             self.calibration = load_calibration()
+            self.session = Session(
+                url,
+                config(link={**RIG_RATES, "imu_hz": imu_hz, "range_hz": range_hz}),
+                table=LookupTable.load(DEFAULT_TABLE),
+                calibration=self.calibration,
+                out=out,
+                decode=decode,
+                telemetry=out is not None,
+            )
+            self.link = self.session.link
+            self.link.add_listener(self.track.listen)
+            try:
+                self.info = self.session.connect(timeout_s=30.0, streams=None if telemetry else BARE_STREAMS)
+                if imu_message != mavlink.MAVLINK_MSG_ID_RAW_IMU:
+                    self.wait_command(self.link.request_stream(imu_message, imu_hz), f"stream {imu_message}")
+            except SessionError as exc:
+                raise RigError(str(exc)) from None
             self.open_legs()
         except BaseException:
             self.close()
@@ -387,22 +394,19 @@ class Rig:
         """A fresh leg driver (the old one closed) whose silence and timeouts are measured on the
         vehicle's clock, as the landing controller measures them: a loaded machine that slows the
         lock-stepped simulation, and the board on its time, is not a silent board."""
-        if self.legs is not None:
-            self.legs.close()
-            self.legs = None
+        self.legs = None
         try:
-            self.legs = open_legs(self.board.pty, self.link, calibration=self.calibration)
-        except TimeoutError as exc:
+            self.legs = self.session.open_legs(self.board.pty)
+        except SessionError as exc:
             raise RigError(str(exc)) from None
         return self.legs
 
     def close(self) -> None:
-        if self.legs is not None:
-            self.legs.close()
-            self.legs = None
-        if self.link is not None:
-            self.link.close()
-            self.link = None
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+        self.legs = None
+        self.link = None
         if self.relay is not None:
             self.relay.stop()
             self.relay = None
@@ -630,11 +634,9 @@ class Rig:
         reflex was armed (ARMED: the legs change no more after it), which the model then reads."""
         cfg = cfg or load_config()
         t0 = self.now
-        lander = lander or Lander(
-            self.link,
-            cfg,
+        lander = lander or self.session.make_lander(
             preset,
-            legs=self.legs,
+            cfg=cfg,
             next_preset=next_preset,
             slope_deg=self.slope_deg,
             uphill_angle_deg=uphill_angle_deg,
@@ -672,20 +674,10 @@ class Rig:
 
     def plan(self, cfg: Config, slope_deg: float | None = None):
         """The legs for a landing on ``slope_deg`` (the roof's by default) and the impact speed they
-        were chosen for, as ``slopelander land`` plans them (``controller.landing.plan_landing``):
-        the lookup table's torques and uphill angle, checked against the board's calibration."""
-        from slopelander.controller.landing import cut_dynamics, leg_geometry, plan_landing
-        from slopelander.controller.table import DEFAULT_TABLE, LookupTable
-
-        return plan_landing(
-            cfg["descent.rate_mps"],
-            cfg["reflex.cut_height_m"],
-            self.slope_deg if slope_deg is None else slope_deg,
-            leg_geometry(),
-            LookupTable.load(DEFAULT_TABLE),
-            None,
-            self.calibration or load_calibration(),
-            cut_dynamics(cfg["reflex.cut_latency_s"]),
+        were chosen for, as ``slopelander land`` plans them (:meth:`Session.plan`): the lookup
+        table's torques and uphill angle, checked against the board's calibration."""
+        return self.session.plan(
+            self.slope_deg if slope_deg is None else slope_deg, pilot_switch=False, cfg=cfg
         )
 
     def leg_angles(self) -> tuple[float, float]:

@@ -23,11 +23,15 @@ from slopelander.errors import SlopelanderError
 SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa")
 """The importable names the ``sim`` extra installs (pyproject.toml)."""
 
+#: the entry-point group through which another installed part adds a command: the simulator's
+#: ``demo`` lives with the simulator (pyproject.toml), so the core never imports it
+COMMANDS_GROUP = "slopelander.commands"
+
 # Modules that add subcommands, in the order they appear in ``--help``, with the subcommands
 # each adds and whether they need the ``sim`` extra: on a companion computer that installed only
-# the core, the simulation's are listed but say which extra they need.
+# the core, the simulation's are listed but say which extra they need. The commands of
+# :data:`COMMANDS_GROUP` come first.
 SUBCOMMAND_MODULES = {
-    "slopelander.demo_cli": (("demo",), True),
     "slopelander.land_cli": (("land",), False),
     "slopelander.legs.cli": (("legs",), False),
     "slopelander.simulate_cli": (("simulate",), True),
@@ -36,6 +40,15 @@ SUBCOMMAND_MODULES = {
     "slopelander.lookup_cli": (("lookup",), False),
     "slopelander.ident.cli": (("synth", "compare", "fit", "diagnose", "steps"), True),
 }
+
+
+def subcommand_modules() -> dict[str, tuple[tuple[str, ...], bool]]:
+    """Every module that adds subcommands: the installed :data:`COMMANDS_GROUP` entry points
+    (each needs the ``sim`` extra) then :data:`SUBCOMMAND_MODULES`."""
+    from importlib.metadata import entry_points
+
+    found = {ep.value: ((ep.name,), True) for ep in entry_points(group=COMMANDS_GROUP)}
+    return {**found, **SUBCOMMAND_MODULES}
 
 
 def missing_sim_module() -> str | None:
@@ -67,7 +80,7 @@ def named_command(argv: list[str]) -> str | None:
     ``--help``, or a name that is not a command: the whole parser answers those)."""
     if not argv or argv[0].startswith("-"):
         return None
-    return argv[0] if any(argv[0] in names for names, _ in SUBCOMMAND_MODULES.values()) else None
+    return argv[0] if any(argv[0] in names for names, _ in subcommand_modules().values()) else None
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
@@ -80,7 +93,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"slopelander {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     missing = missing_sim_module()
-    for module, (names, needs_sim) in SUBCOMMAND_MODULES.items():
+    for module, (names, needs_sim) in subcommand_modules().items():
         if only is not None and only not in names:
             continue
         if needs_sim and missing:

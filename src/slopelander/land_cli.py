@@ -1,9 +1,13 @@
 """``slopelander land``: one landing on a real (or simulated) vehicle from the companion.
 
 Every argument is checked before the autopilot is contacted: the connection string's form, the
-slope against the lookup table, the output file, the calibration, and the leg board itself (it is
-opened once and asked what it is: a real board flies only with a measured calibration). The state
-changes are printed as they happen.
+slope against the lookup table, the output folder, the calibration, and the leg board itself (it
+is opened once and asked what it is: a real board flies only with a measured calibration). The
+landing is the one flight path (:class:`slopelander.controller.session.Session`); the state changes
+are printed as they happen, and every landing leaves its evidence in a folder of its own: the
+MAVLink telemetry log, the transitions, the slope estimate, the outcome and, where matplotlib is
+installed, a picture. ``--check`` runs every check and talks to the board and the autopilot
+without flying.
 """
 
 from __future__ import annotations
@@ -14,14 +18,26 @@ import math
 import re
 import signal
 import sys
+import time
+from dataclasses import asdict
 from pathlib import Path
 from typing import IO
 
 from slopelander.errors import SlopelanderError
-from slopelander.outputs import check_output
+from slopelander.outputs import check_output_dir
 
 NETWORK_SCHEMES = ("tcp", "tcpin", "udp", "udpin", "udpout", "udpbcast")
 """pymavlink's network connection strings (``mavutil.mavlink_connection``): SCHEME:HOST:PORT."""
+
+#: the companion's serial link to the autopilot: ``SERIAL2_BAUD 921`` in the shipped
+#: firmware_params/f450-fsa.parm (921600 baud; tests/cli/test_land_args.py holds the two equal)
+DEFAULT_BAUD = 921600
+
+#: exit codes (docs/commands.md): 0 landed (or --check passed), 1 an argument or a check refused,
+#: 3 the landing did not end LANDED (aborted, refused in flight, left on the roof), 130 interrupted
+EXIT_LANDED, EXIT_REFUSED, EXIT_NOT_LANDED = 0, 1, 3
+#: local seconds ``--check`` listens for the on-board script's once-a-second SL_VER
+SCRIPT_WAIT_S = 5.0
 
 CONNECT_FORMS = (
     "tcp:HOST:PORT, tcpin:HOST:PORT, udpin:HOST:PORT, udpout:HOST:PORT, udpbcast:HOST:PORT, "
@@ -30,36 +46,71 @@ CONNECT_FORMS = (
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("land", help="land on a slope: preset the legs, descend, reflex, disarm")
+    p = subparsers.add_parser(
+        "land",
+        help="land on a slope: preset the legs, descend, reflex, disarm",
+        description="Fly one landing from the companion computer: measure the slope (a survey pass "
+        "when needed), choose the legs' preset from the lookup table (or the pilot's switch), set "
+        "the legs, descend at 0.5 m/s, let the on-board script cut the motors at 30 cm and reverse "
+        "them at impact, and disarm once still. The vehicle must hover in GUIDED over the landing "
+        "spot within the rangefinder's reach. Writes the telemetry log, the transitions, the slope "
+        "estimate, the outcome and a picture into --out. Exit codes: 0 landed (or --check passed), "
+        "1 refused before flying, 3 not landed, 130 interrupted.",
+    )
     p.add_argument(
         "--connect",
         required=True,
         help="MAVLink connection: tcp:HOST:PORT, tcpin:HOST:PORT, udpin:HOST:PORT, udpout:HOST:PORT "
-        "or a serial device (/dev/ttyACM0, with --baud)",
+        "or a serial device (/dev/ttyAMA0, with --baud)",
     )
-    p.add_argument("--baud", type=int, help="baud rate of a serial --connect device (default 115200)")
+    p.add_argument(
+        "--baud",
+        type=int,
+        help=f"baud rate of a serial --connect device (default {DEFAULT_BAUD}: SERIAL2_BAUD 921 "
+        "in the shipped f450-fsa.parm)",
+    )
     p.add_argument("--legs", required=True, help="leg board serial port, e.g. /dev/ttyACM1")
     p.add_argument(
         "--slope",
-        required=True,
         type=slope_arg,
         help="slope of the landing site, deg (within the lookup table's slopes: 0..60 for the shipped one), "
         "checked against the slope the companion measures; or 'auto': land on the measured slope "
-        "(docs/slope-estimate.md)",
+        "(docs/slope-estimate.md). Required unless --check",
     )
     p.add_argument("--table", help="lookup table file (YAML); default: the shipped table")
-    p.add_argument("--config", help="controller settings overriding the shipped defaults")
+    p.add_argument("--config", help="controller settings (YAML) overriding the shipped defaults")
     p.add_argument(
         "--calibration",
         metavar="FILE",
         help="the leg board's measured current-to-torque calibration (YAML, docs/leg-protocol.md); "
         "required for a real board, the simulated board may fly the shipped assumed curve",
     )
-    p.add_argument("--record", metavar="FILE", help="also write the state changes here, as JSON lines")
+    p.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="folder for this landing's evidence (default: landing-YYYYMMDD-HHMMSS in the current folder)",
+    )
+    p.add_argument("--record", action=_Renamed, help=argparse.SUPPRESS)
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="check the settings, the table, the calibration, the leg board and the autopilot; do not fly",
+    )
     p.add_argument(
         "--timeout", type=float, default=120.0, help="give up (abort) after this many s (default 120)"
     )
     p.set_defaults(handler=run)
+
+
+class _Renamed(argparse.Action):
+    """``--record FILE`` wrote the transitions alone; every landing now writes its folder."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[override]
+        parser.error(
+            f"--record {values}: every landing now writes its evidence into a folder of its own; "
+            "name it with --out DIR (the transitions are DIR/transitions.jsonl)"
+        )
 
 
 def slope_arg(text: str) -> float | str:
@@ -89,7 +140,7 @@ def connection_string(text: str, baud: int | None) -> str:
         raise bad
     if comma and (not rate.isdigit() or baud is not None):
         raise SlopelanderError(f"--connect {text!r}: give the baud rate with --baud only")
-    speed = baud if baud is not None else int(rate) if comma else None
+    speed = baud if baud is not None else int(rate) if comma else DEFAULT_BAUD
     if speed is not None and speed <= 0:
         raise SlopelanderError(f"--baud must be a positive number, got {speed}")
     if device.startswith("/dev/") and not Path(device).exists():
@@ -125,12 +176,17 @@ def format_transition(h: dict) -> str:
 
 def run(args: argparse.Namespace) -> int:
     auto = args.slope == "auto"
-    if not auto and not (math.isfinite(args.slope) and 0 <= args.slope < 90):
+    if args.slope is None and not args.check:
+        raise SlopelanderError("--slope is required (a number of degrees, or 'auto'), unless --check")
+    if args.slope is not None and not auto and not (math.isfinite(args.slope) and 0 <= args.slope < 90):
         raise SlopelanderError(f"--slope must be within 0..89 deg, got {args.slope:g}")
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise SlopelanderError(f"--timeout must be a positive number of seconds, got {args.timeout:g}")
     url = connection_string(args.connect, args.baud)
-    check_output(args.record, "--record")
+    out = None
+    if not args.check:
+        out = args.out or Path(time.strftime("landing-%Y%m%d-%H%M%S", time.gmtime()))
+        check_output_dir(out, "--out")
 
     from slopelander.controller.config import load_config
     from slopelander.controller.table import DEFAULT_TABLE, LookupTable
@@ -140,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_config(args.config)
     table = LookupTable.load(args.table or DEFAULT_TABLE)
     lo, hi = table.slope_range
-    if not auto and not lo <= args.slope <= hi:
+    if args.slope is not None and not auto and not lo <= args.slope <= hi:
         raise SlopelanderError(
             f"--slope {args.slope:g} is outside the lookup table's slopes {lo:g}..{hi:g} deg "
             f"({args.table or 'the shipped table'})"
@@ -150,6 +206,7 @@ def run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration)
     with LegBoard.open(args.legs, calibration=calibration) as probe:  # what board is it?
         simulated = probe.info is not None and probe.info.simulated
+        board = probe.info
     if not simulated and (args.calibration is None or calibration.assumed):
         why = "no --calibration given" if args.calibration is None else f"{args.calibration} is assumed"
         raise SlopelanderError(
@@ -158,74 +215,100 @@ def run(args: argparse.Namespace) -> int:
         )
     if calibration.assumed:
         print(f"(simulated leg board: torques through the ASSUMED calibration {calibration.source})")
-    return _fly(args, url, cfg, table, calibration)
+    if args.check:
+        return check(args, url, cfg, table, calibration, board)
+    out.mkdir(parents=True, exist_ok=True)
+    return _fly(args, url, out, cfg, table, calibration)
 
 
-def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
-    from slopelander.controller.landing import (
-        angle_instruction,
-        cut_dynamics,
-        leg_geometry,
-        plan_landing,
+def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) -> int:
+    """``--check``: every check a landing makes before it flies, the autopilot and the board
+    asked what they are; nothing is commanded (no stream but the landing's, no leg moved)."""
+    from slopelander.controller.session import Session, SessionError
+    from slopelander.controller.states.base import SCRIPT_CONTRACT
+    from slopelander.legs.errors import LegBoardError
+
+    lo, hi = table.slope_range
+    print(f"settings: {args.config or 'shipped defaults'}: ok")
+    print(f"table: {args.table or 'shipped'}: slopes {lo:g}..{hi:g} deg, ok")
+    print(f"calibration: {calibration.source} ({'assumed' if calibration.assumed else 'measured'}): ok")
+    print(
+        f"leg board {args.legs}: protocol {board.version}, {board.legs} legs"
+        + (", simulated" if board.simulated else "")
+        + (", sets leg angles" if board.angle_stop else ", leg angles set by hand")
     )
-    from slopelander.controller.link import LANDING_MESSAGES, Link
-    from slopelander.controller.rc_presets import preset_for
-    from slopelander.controller.runner import Lander
-    from slopelander.controller.slope_estimate import SurfaceTrack
-    from slopelander.legs.driver import LegBoard
-
-    link = Link(url, link_loss_s=cfg["link.link_loss_s"], decode=LANDING_MESSAGES)
-    track = SurfaceTrack(cfg["slope.pair_window_s"])
-    link.add_listener(track.feed)
-    legs = None
-    rec = None
+    problems = []
+    session = Session(url, cfg, table=table, calibration=calibration, telemetry=False)
     try:
-        info = link.wait_autopilot(timeout_s=cfg["link.heartbeat_wait_s"])
+        info = session.connect()
+        end = time.monotonic() + SCRIPT_WAIT_S  # it says SL_VER once a second of vehicle time
+        while info.script_version is None and time.monotonic() < end:
+            session.link.poll()
+            time.sleep(0.01)
         print(f"autopilot: {info.describe()}")
-        link.request_stream(27, cfg["link.imu_hz"])  # RAW_IMU
-        link.request_stream(132, cfg["link.range_hz"])  # DISTANCE_SENSOR
-        link.request_stream(65, 10)  # RC_CHANNELS
-        link.request_stream(32, cfg["link.position_hz"])  # LOCAL_POSITION_NED
-        link.request_stream(30, cfg["link.attitude_hz"])  # ATTITUDE
-        rec = Path(args.record).open("w") if args.record else None  # noqa: SIM115 (closed below)
-        slope, est, bound = measured_slope(args.slope, link, cfg, table, track, rec)
-        if slope is None:
-            return 3
-        preset, speed = plan_landing(
-            cfg["descent.rate_mps"],
-            cfg["reflex.cut_height_m"],
-            slope,
-            leg_geometry(),
-            table,
-            preset_for(cfg, link.last.get("RC_CHANNELS")),
-            calibration,
-            cut_dynamics(cfg["reflex.cut_latency_s"]),
-        )
+        hb = session.link.last.get("HEARTBEAT")
+        if hb is not None:
+            from slopelander.controller.link import mavlink
+            from slopelander.controller.runner import MODE_NAMES
+
+            armed = "armed" if hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED else "disarmed"
+            mode = MODE_NAMES.get(hb.custom_mode, f"number {hb.custom_mode}")
+            print(f"autopilot now: mode {mode}, {armed} (a landing starts hovering in GUIDED)")
+        version = info.script_version
+        if version is None:
+            problems.append("the on-board script is silent (no SL_VER): load it (firmware_params/README.md)")
+        elif int(version) != SCRIPT_CONTRACT:
+            problems.append(f"on-board script v{version:g}, this companion needs v{SCRIPT_CONTRACT}")
+        status = session.open_legs(args.legs).query()
+        print("legs: angles " + ", ".join(f"{lg.angle_deg:.1f}" for lg in status.legs) + " deg")
+        problems += [f"leg board fault: leg {lg.leg}: {lg.fault.name}" for lg in status.faults]
+    except (SessionError, LegBoardError) as exc:
+        problems.append(str(exc))
+    finally:
+        session.close()
+    for p in problems:
+        print(f"not ready: {p}")
+    print("ready to fly" if not problems else f"{len(problems)} problem(s): not ready to fly")
+    return EXIT_LANDED if not problems else EXIT_REFUSED
+
+
+def _fly(args: argparse.Namespace, url: str, out: Path, cfg, table, calibration) -> int:
+    from slopelander.controller.landing import angle_instruction
+    from slopelander.controller.session import Session
+    from slopelander.controller.telemetry import landing_figures
+
+    session = Session(url, cfg, table=table, calibration=calibration, out=out)
+    link = session.link
+    print(f"evidence of this landing: {out}/", flush=True)
+    end = "ABORTED"
+    history: list[dict] = []
+    outcome: dict = {"slope_arg": args.slope}
+    try:
+        info = session.connect()
+        print(f"autopilot: {info.describe()}")
+        slope = session.measure_slope(args.slope)
+        outcome["slope_deg"] = slope.slope_deg
+        if slope.slope_deg is None:
+            outcome.update(outcome="REFUSED", why=slope.refusal)
+            return EXIT_NOT_LANDED
+        preset, speed = session.plan(slope.slope_deg)
+        outcome.update(preset=asdict(preset), expected_impact_mps=speed)
         up, down = preset.tau_up, preset.tau_down
         angle = "" if preset.angle_up_deg is None else f", uphill angle {preset.angle_up_deg:.1f} deg"
         print(
-            f"expected impact {speed:.2f} m/s on {slope:.1f} deg; "
+            f"expected impact {speed:.2f} m/s on {slope.slope_deg:.1f} deg; "
             f"legs {up:.2f}/{down:.2f} N*m{angle} ({preset.source})"
         )
-        legs = LegBoard.open(args.legs, calibration=calibration)
+        legs = session.open_legs(args.legs)
         todo = angle_instruction(preset.angle_up_deg, legs.info.angle_stop)
         if todo is not None:
             print(todo)
             link.send_statustext(f"SL set uphill legs to {preset.angle_up_deg:.1f} deg")
-        lander = Lander(
-            link,
-            cfg,
-            (up, down),
-            legs=legs,
-            record=LiveTransitions(rec),
-            uphill_angle_deg=preset.angle_up_deg,
-            slope_deg=slope,
-            slope_estimate=est,
-            slope_bound_deg=bound,
-        )
+        lander = session.make_lander(preset, slope_deg=slope.slope_deg, record=LiveTransitions(), slope=slope)
         with PilotInterrupts(lander) as interrupts:
             end = lander.run(args.timeout, interrupts=interrupts)
-        left = link.settle()
+        history = list(lander.machine.history)
+        left = session.settle()
         if left:
             print(f"warning: {left} command(s) to the autopilot unanswered at exit", flush=True)
         if end == "SETTLED":  # ended on the roof, armed, motors held: said, not hidden
@@ -234,16 +317,34 @@ def _fly(args: argparse.Namespace, url: str, cfg, table, calibration) -> int:
                 "it disarms itself once still (the companion is silent now): stay clear",
                 flush=True,
             )
-        print(f"outcome: {end}", flush=True)
-        if args.record:
-            print(f"transitions: {args.record}")
-        return 0 if end == "LANDED" else 3
+        outcome["outcome"] = end
+        return EXIT_LANDED if end == "LANDED" else EXIT_NOT_LANDED
     finally:
-        if rec is not None:
-            rec.close()
-        if legs is not None:
-            legs.close()
-        link.close()
+        session.close()
+        tele = session.telemetry
+        if history and tele is not None:
+            impact, slide, pitch = landing_figures(tele, history, cfg["reflex.impact_threshold_mps2"])
+            outcome.update(impact_mps=impact, slide_m=slide, min_pitch_deg=pitch)
+            _picture(out, tele, history, outcome)
+        outcome.setdefault("outcome", end)
+        outcome["transitions"] = history
+        (out / "result.json").write_text(json.dumps(outcome, indent=1, default=str))
+        print(f"transitions: {out / 'transitions.jsonl'}; telemetry log: {out / 'flight.tlog'}", flush=True)
+        print(f"outcome: {outcome['outcome']}", flush=True)
+
+
+def _picture(out: Path, tele, history: list[dict], outcome: dict) -> None:
+    """The flight's picture, where matplotlib is installed (a companion with the core alone has
+    none: the telemetry log holds everything it is drawn from)."""
+    try:
+        from slopelander.plots.flight import plot_flight
+    except ModuleNotFoundError:
+        print("no picture: matplotlib is not installed here (pip install 'slopelander[sim]')")
+        return
+    slope = outcome.get("slope_deg")
+    title = f"slopelander land: {slope:g} deg - {outcome.get('outcome')}" if slope else "slopelander land"
+    path = plot_flight(tele, history, out / "flight.png", title=title)
+    print(f"picture: {path}")
 
 
 class PilotInterrupts:
@@ -281,36 +382,3 @@ class PilotInterrupts:
     def __exit__(self, *exc: object) -> None:
         for sig, old in self._old.items():
             signal.signal(sig, old)
-
-
-def measured_slope(
-    pilot, link, cfg, table, track, rec: IO[str] | None
-) -> tuple[float | None, object, float | None]:
-    """The slope to land on, the estimate and the bound (deg) for CHECKS: with ``--slope auto``
-    the measured slope (None, after printing and recording why, when it cannot be trusted); with
-    a number, that number, checked in CHECKS against the estimate (unless ``slope.check_pilot``
-    is false: then no survey and no check)."""
-    import numpy as np
-
-    from slopelander.controller.slope_estimate import check_bound, slope_to_land
-    from slopelander.controller.survey import measure_slope
-
-    auto = pilot == "auto"
-    if not auto and not cfg["slope.check_pilot"]:
-        return float(pilot), None, None
-    est, took = measure_slope(link, cfg, track)
-    cell = float(max(np.diff(table.slopes))) if len(table.slopes) > 1 else 0.0
-    bound = check_bound(cell, est.sigma_deg or 0.0, cfg["slope.check_sigmas"], cfg["slope.check_bound_deg"])
-    print(f"slope measured: {est.describe()}" + (f" (survey pass {took:.1f} s)" if took else ""), flush=True)
-    if not auto:
-        return float(pilot), est, bound
-    slope, why = slope_to_land(est, bound)
-    lo, hi = table.slope_range
-    if slope is not None and not lo <= slope <= hi:
-        slope, why = None, f"measured slope {slope:.1f} deg is outside the lookup table's {lo:g}..{hi:g} deg"
-    if slope is None:
-        print(f"refused: {why}", flush=True)
-        if rec is not None:
-            rec.write(json.dumps({"slope_estimate": est.record(), "bound_deg": bound, "refused": why}) + "\n")
-        link.send_statustext(f"SL refused: {why}"[:50])
-    return slope, est, bound

@@ -20,7 +20,15 @@ TINY = ["--slope-step", "30", "--speed-step", "1.0", "--speed-min", "1.0", "--qu
 
 # Run a command in a fresh process and report which of the modules that do the work it imported:
 # a refusal "before the work" imports none of them.
-WORK = ("numba", "scipy", "matplotlib", "slopelander.model", "slopelander.envelope.reports", "sitl")
+WORK = (
+    "numba",
+    "scipy",
+    "matplotlib",
+    "slopelander.model",
+    "slopelander.envelope.reports",
+    "sitl.rig",
+    "sitl.vehicle",
+)
 PROBE = (
     "import sys; from slopelander.cli import main; rc = main(sys.argv[1:]); "
     f"print(sorted(m for m in {WORK!r} if m in sys.modules)); sys.exit(rc)"

@@ -1,7 +1,7 @@
 """``slopelander land``: every argument checked before the autopilot is contacted, a real leg board
-flown only with a measured calibration, the state changes printed as they happen, nothing
-written unasked -- against real processes (the simulated vehicle and leg board, and a board that
-answers as a real one does)."""
+flown only with a measured calibration, the state changes printed as they happen, every landing's
+evidence in a folder of its own, ``--check`` without flying -- against real processes (the
+simulated vehicle and leg board, and a board that answers as a real one does)."""
 
 from __future__ import annotations
 
@@ -21,6 +21,13 @@ ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT)
 
 
 def land(*args: str, cwd: Path | None = None, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+    """``land`` run from ``cwd`` (a new temporary folder by default: a landing writes its evidence
+    folder into the current one)."""
+    if cwd is None:
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            return land(*args, cwd=Path(tmp), timeout=timeout)
     return subprocess.run(
         [sys.executable, "-m", "slopelander.cli", "land", *args],
         capture_output=True,
@@ -71,8 +78,8 @@ def test_baud_is_for_a_serial_device_only() -> None:
     ("args", "message"),
     [
         (["--slope", "70"], "--slope 70 is outside the lookup table's slopes 0..60 deg"),
-        (["--slope", "35", "--record", "nope/x.jsonl"], "folder nope does not exist"),
-        (["--slope", "35", "--record", "/proc/x.jsonl"], "folder /proc is not writable"),
+        (["--slope", "35", "--out", "nope/landing"], "folder nope does not exist"),
+        (["--slope", "35", "--out", "/proc/landing"], "folder /proc is not writable"),
     ],
 )
 def test_arguments_are_refused_before_the_autopilot_is_waited_for(args: list[str], message: str) -> None:
@@ -80,6 +87,24 @@ def test_arguments_are_refused_before_the_autopilot_is_waited_for(args: list[str
     err = one_line(land("--connect", free_udp(), "--legs", "/dev/null", *args))
     assert message in err
     assert time.monotonic() - t0 < 8.0  # the wait for an autopilot alone is 10 s
+
+
+def test_the_old_record_option_is_refused_with_its_new_name() -> None:
+    out = land("--connect", free_udp(), "--legs", "/dev/null", "--slope", "35", "--record", "x.jsonl")
+    assert out.returncode == 2 and "name it with --out DIR" in out.stderr, out.stderr
+
+
+def test_the_default_baud_is_the_shipped_parameter_files() -> None:
+    """The companion's serial link runs at SERIAL2_BAUD of the shipped parameter file (ArduPilot's
+    code 921 is 921600 baud): a serial --connect without --baud meets the autopilot at its rate."""
+    import re
+
+    from slopelander.land_cli import DEFAULT_BAUD, connection_string
+
+    parm = (ROOT / "firmware_params" / "f450-fsa.parm").read_text()
+    code = int(re.search(r"^SERIAL2_BAUD\s+(\d+)", parm, re.MULTILINE).group(1))
+    assert {921: 921600, 115: 115200, 57: 57600}[code] == DEFAULT_BAUD
+    assert connection_string("/dev/null", None) == f"/dev/null,{DEFAULT_BAUD}"
 
 
 def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> None:
@@ -160,7 +185,9 @@ def test_a_real_leg_board_with_a_measured_calibration_goes_on_to_the_autopilot(
 
 
 @pytest.mark.slow
-def test_state_changes_print_as_they_happen_and_nothing_is_written_unasked(tmp_path: Path) -> None:
+def test_state_changes_print_as_they_happen_and_the_landing_leaves_its_folder(tmp_path: Path) -> None:
+    import json
+
     from sitl.vehicle.launch import start_legboard, start_vehicle
 
     board = start_legboard(clock="external")
@@ -190,19 +217,32 @@ def test_state_changes_print_as_they_happen_and_nothing_is_written_unasked(tmp_p
     aborted = next(t for t, text in arrivals if "-> ABORTED" in text and "not finished within 6 s" in text)
     assert ended - first > 3.0, arrivals  # printed while landing, not all at the end
     assert aborted - first > 3.0, arrivals
-    assert lines[-1] == "outcome: ABORTED", lines
-    assert list(tmp_path.iterdir()) == []  # no landing.jsonl without --record
+    assert "outcome: ABORTED" in lines, lines
+    # without --out, a folder named for the time in the current folder, holding the evidence
+    (folder,) = tmp_path.iterdir()
+    assert folder.name.startswith("landing-"), folder
+    files = {p.name for p in folder.iterdir()}
+    assert {"flight.tlog", "transitions.jsonl", "result.json", "slope_estimate.json"} <= files, files
+    result = json.loads((folder / "result.json").read_text())
+    assert result["outcome"] == "ABORTED" and result["transitions"][-1]["to"] == "ABORTED"
+    from pymavlink import mavutil
+
+    log = mavutil.mavlink_connection(str(folder / "flight.tlog"))
+    kinds = set()
+    while (msg := log.recv_match()) is not None:
+        kinds.add(msg.get_type())
+    assert {"HEARTBEAT", "RAW_IMU", "DISTANCE_SENSOR", "SERVO_OUTPUT_RAW"} <= kinds, kinds
 
 
 @pytest.mark.slow
-def test_the_record_holds_the_transitions_printed(tmp_path: Path) -> None:
+def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> None:
     import json
 
     from sitl.vehicle.launch import start_legboard, start_vehicle
 
     board = start_legboard(clock="external")
     vehicle = start_vehicle(scenario={"slope_deg": 35.0}, legboard_control=board.control)
-    record = tmp_path / "flight.jsonl"
+    folder = tmp_path / "landing"
     try:
         out = land(
             "--connect",
@@ -213,14 +253,15 @@ def test_the_record_holds_the_transitions_printed(tmp_path: Path) -> None:
             "35",
             "--timeout",
             "3",
-            "--record",
-            str(record),
+            "--out",
+            str(folder),
         )
+        check = land("--connect", vehicle.mavlink_url, "--legs", board.pty, "--check")
     finally:
         vehicle.stop()
         board.stop()
     assert out.returncode == 3, out.stderr
-    lines = [json.loads(x) for x in record.read_text().splitlines()]
+    lines = [json.loads(x) for x in (folder / "transitions.jsonl").read_text().splitlines()]
     # first the slope the companion measured (docs/slope-estimate.md), then the transitions
     assert "slope_estimate" in lines[0] and lines[0]["slope_deg"] == 35.0, lines[0]
     entries = lines[1:]
@@ -228,7 +269,12 @@ def test_the_record_holds_the_transitions_printed(tmp_path: Path) -> None:
     printed = [x for x in out.stdout.splitlines() if " -> " in x]
     assert len(printed) == len(entries)
     assert all(e["to"] in p and e["reason"] in p for e, p in zip(entries, printed, strict=True))
-    assert f"transitions: {record}" in out.stdout
+    assert f"transitions: {folder / 'transitions.jsonl'}" in out.stdout
+    # --check: the board and the autopilot asked what they are, nothing flown, nothing written
+    assert check.returncode == 0, check.stdout + check.stderr
+    assert "protocol" in check.stdout and "on-board script v" in check.stdout
+    assert "mode STABILIZE, disarmed" in check.stdout and check.stdout.rstrip().endswith("ready to fly")
+    assert "-> PRESET" not in check.stdout
 
 
 def test_a_refused_mode_is_named_once() -> None:

@@ -14,13 +14,22 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def land(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    """``land`` run from a folder of its own: a landing writes its evidence folder there."""
+    import tempfile
+
     env = dict(os.environ, PYTHONPATH=f"{ROOT / 'src'}:{ROOT}")
+    with tempfile.TemporaryDirectory() as cwd:
+        return _run(args, timeout, env, cwd)
+
+
+def _run(args, timeout: float, env: dict, cwd: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "slopelander.cli", "land", *args],
         capture_output=True,
         text=True,
         timeout=timeout,
         env=env,
+        cwd=cwd,
     )
 
 

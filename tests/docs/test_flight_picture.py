@@ -9,7 +9,7 @@ from itertools import combinations
 import matplotlib.pyplot as plt
 import pytest
 
-from slopelander.demo import Telemetry
+from slopelander.controller.telemetry import Telemetry
 from slopelander.plots.flight import flight_figure, landing_window, plot_flight
 
 # the transitions of a recorded `slopelander demo` (transitions.jsonl, 35 deg roof)

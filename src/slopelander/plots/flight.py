@@ -108,7 +108,7 @@ def _place_labels(fig: Figure, ax) -> None:
 def flight_figure(tele, history: list[dict], title: str = "", slope: dict | None = None) -> Figure:
     """Height and range, vertical speed, acceleration, motor outputs, leg torques and angles, pitch;
     the landing states as coloured bands; the landing zoomed beside the whole flight.
-    ``tele`` is a :class:`slopelander.demo.Telemetry`. ``slope``: the measured slope, as
+    ``tele`` is a :class:`slopelander.controller.telemetry.Telemetry`. ``slope``: the measured slope, as
     ``{"record": SlopeEstimate.record(), "survey": (t0, t1) or None, "true_slope_deg": x or None}``
     (the survey pass's vehicle times): drawn in a last row, the pass as a SURVEY band."""
     t0 = history[0]["t"] - 3.0 if history else (tele.t[0] if tele.t else 0.0)

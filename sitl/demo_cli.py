@@ -56,7 +56,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out")
-    from slopelander.demo import run_demo
+    from sitl.demo import run_demo
 
     if args.autopilot == "ardupilot":  # a missing binary is said before anything starts
         from sitl.ardupilot import arducopter_binary
