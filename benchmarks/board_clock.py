@@ -34,7 +34,6 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from sitl.legboard.control import BoardControl  # noqa: E402
-from sitl.legs_clock import open_legs  # noqa: E402
 from sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 from slopelander.controller.link import Link  # noqa: E402
 from slopelander.legs import LegBoard  # noqa: E402
@@ -101,7 +100,7 @@ def run(clock: str, period_ms: float, speed: float, presets: int) -> dict:
             legboard_control=board.control,
             legboard_period_ms=period_ms,
         )
-        link = Link(vehicle.mavlink_url, link_loss_s=5.0)
+        link = Link(vehicle.mavlink_url, link_loss_s=5.0, lockstep=True)
         link.wait_autopilot(timeout_s=30.0)
         for msg_id, hz in ((mavlink.MAVLINK_MSG_ID_RAW_IMU, 200), (mavlink.MAVLINK_MSG_ID_SYSTEM_TIME, 10)):
             h = link.request_stream(msg_id, hz)
@@ -109,7 +108,8 @@ def run(clock: str, period_ms: float, speed: float, presets: int) -> dict:
             while not h.done and time.monotonic() < end:
                 link.poll()
                 time.sleep(0.002)
-        legs = open_legs(board.pty, link)  # vehicle time, as the rig and the landing controller
+        legs = LegBoard.open(board.pty)
+        legs.set_clock(link.clock.now)  # vehicle time, as the landing session (Session.open_legs)
         legs.silence_timeout = 5.0
         vehicle_s, board_s = [], []
         wall0, t0, b0 = time.monotonic(), link.clock.now(), None

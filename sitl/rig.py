@@ -375,6 +375,7 @@ class Rig:
                 out=out,
                 decode=decode,
                 telemetry=out is not None,
+                lockstep=True,
             )
             self.link = self.session.link
             self.link.add_listener(self.track.listen)

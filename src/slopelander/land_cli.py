@@ -93,6 +93,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--record", action=_Renamed, help=argparse.SUPPRESS)
     p.add_argument(
+        "--lockstep",
+        action="store_true",
+        help="the autopilot is a simulator that waits for the companion's time echo (the simulated "
+        "vehicle's --lockstep); never for a real vehicle",
+    )
+    p.add_argument(
         "--check",
         action="store_true",
         help="check the settings, the table, the calibration, the leg board and the autopilot; do not fly",
@@ -238,7 +244,7 @@ def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) ->
         + (", sets leg angles" if board.angle_stop else ", leg angles set by hand")
     )
     problems = []
-    session = Session(url, cfg, table=table, calibration=calibration, telemetry=False)
+    session = Session(url, cfg, table=table, calibration=calibration, telemetry=False, lockstep=args.lockstep)
     try:
         info = session.connect()
         end = time.monotonic() + SCRIPT_WAIT_S  # it says SL_VER once a second of vehicle time
@@ -277,7 +283,7 @@ def _fly(args: argparse.Namespace, url: str, out: Path, cfg, table, calibration)
     from slopelander.controller.session import Session
     from slopelander.controller.telemetry import landing_figures
 
-    session = Session(url, cfg, table=table, calibration=calibration, out=out)
+    session = Session(url, cfg, table=table, calibration=calibration, out=out, lockstep=args.lockstep)
     link = session.link
     print(f"evidence of this landing: {out}/", flush=True)
     end = "ABORTED"

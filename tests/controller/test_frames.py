@@ -13,8 +13,8 @@ from pymavlink import mavutil
 from pymavlink.dialects.v10 import ardupilotmega as mav1
 from pymavlink.dialects.v20 import ardupilotmega as mav2
 
-from slopelander.controller.frames import FrameFilter
 from slopelander.controller.link import LANDING_MESSAGES, Link, LinkError, message_ids
+from slopelander.controller.link.frames import FrameFilter
 
 KEY = bytes(range(32))
 

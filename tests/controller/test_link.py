@@ -160,10 +160,6 @@ def test_link_loss_on_local_clock_and_clock_from_vehicle_stamps(pair):
     peer.conn.mav.raw_imu_send(2_000_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
     settle(link, peer)
     assert link.clock.now() == pytest.approx(2.0)
-    ts = [m for m in peer.received if m.get_type() == "TIMESYNC"]
-    # an answer (tc1 != 0: ArduPilot takes tc1 == 0 as a request for its own time) echoing the
-    # newest vehicle time, the lock-step echo a simulated vehicle waits on
-    assert ts and ts[-1].tc1 != 0 and ts[-1].ts1 == 2_000_000_000
     clk.advance(1.4)
     link.poll()
     assert not link.lost and link.lost_why is None
@@ -314,38 +310,34 @@ def _imu(peer: Peer, us: int) -> None:
     peer.conn.mav.raw_imu_send(us, 0, 0, -1000, 0, 0, 0, 0, 0, 0)
 
 
-def test_no_timesync_stream_to_an_autopilot_that_does_not_wait_for_it(pair):
-    """ArduPilot drops TIMESYNC answers it did not ask for: one probe, then none (there were 50 a
-    second of vehicle time)."""
+def test_no_timesync_to_an_autopilot_unless_the_caller_asks_for_the_echo(pair):
+    """ArduPilot drops TIMESYNC answers it did not ask for: a link not told it flies a lock-stepped
+    simulator sends none at all (there were 50 a second of vehicle time, and a probe)."""
     link, peer, clk = pair
     found(link, peer)
     for i in range(60):  # 1.2 s of a free-running vehicle's 50 Hz stream
         _imu(peer, 1_000_000 + i * 20_000)
         clk.advance(0.02)
         settle(link, peer, 1)
-    ts = [m for m in peer.received if m.get_type() == "TIMESYNC"]
-    assert link.lockstep is False
-    assert len(ts) == 1 and link.timesync_sent == 1
+    assert link.lockstep is None
+    assert [m for m in peer.received if m.get_type() == "TIMESYNC"] == []
 
 
-@pytest.mark.parametrize("waits_at_us", [1_052_500, 1_500_000])  # its lead past the echo; far ahead
-def test_a_vehicle_that_stops_at_the_probe_gets_the_echo_it_waits_for(pair, waits_at_us):
+def test_a_lockstep_link_echoes_the_newest_vehicle_time_every_20_ms(pair):
+    """Asked for (a simulator that waits), the echo follows the vehicle's time: ts1 is the newest
+    vehicle time read, in ns, once per 20 ms of it."""
+    from slopelander.controller.link.lockstep import LockstepEcho
+
     link, peer, clk = pair
+    link.lockstep = LockstepEcho(link.conn, link.clock, link.monotonic)
     found(link, peer)
-    _imu(peer, 1_000_000)
-    settle(link, peer, 1)
-    assert link.timesync_sent == 1  # the probe, at 1.0 s
-    _imu(peer, waits_at_us)  # runs past the echo, says where it waits, and falls silent
-    settle(link, peer, 1)
-    clk.advance(0.35)
-    settle(link, peer, 1)
-    assert link.lockstep is True
-    for i in range(1, 11):  # every echo lets it run on: echoes follow its time
-        _imu(peer, waits_at_us + i * 20_000)
-        clk.advance(0.02)
+    for i in range(11):
+        _imu(peer, 1_000_000 + i * 10_000)  # 10 ms apart: an echo every second sample
+        clk.advance(0.01)
         settle(link, peer, 1)
     ts = [m.ts1 for m in peer.received if m.get_type() == "TIMESYNC"]
-    assert len(ts) >= 10 and ts[-1] == (waits_at_us + 200_000) * 1000
+    assert ts == [(1_000_000 + k * 20_000) * 1000 for k in range(6)], ts
+    assert all(m.tc1 != 0 for m in peer.received if m.get_type() == "TIMESYNC")  # answers, not requests
 
 
 def test_an_autopilot_reboot_is_link_loss_though_heartbeats_go_on(pair):

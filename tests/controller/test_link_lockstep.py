@@ -7,7 +7,8 @@ from __future__ import annotations
 import time
 
 from sitl.vehicle.launch import start_vehicle
-from slopelander.controller.link import TIMESYNC_PERIOD_S, Link, mavlink
+from slopelander.controller.link import Link, mavlink
+from slopelander.controller.link.lockstep import PERIOD_S as TIMESYNC_PERIOD_S
 from tests.vehicle.conftest import ROUTE_A
 
 LEAD_S = 0.05  # the vehicle's lock-step lead (sitl/vehicle/vehicle.py)
@@ -24,7 +25,7 @@ def poll_for(link: Link, wall_s: float) -> None:
 
 def test_the_vehicle_waits_for_the_links_echo():
     v = start_vehicle(params=ROUTE_A, no_script=True, speed=0.0, lockstep=True)
-    link = Link(v.mavlink_url, link_loss_s=5.0)
+    link = Link(v.mavlink_url, link_loss_s=5.0, lockstep=True)
     try:
         link.wait_autopilot(timeout_s=30.0)
         ask = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200)  # the landing's clock source
@@ -53,41 +54,6 @@ def test_the_vehicle_waits_for_the_links_echo():
         before = link.clock.now()
         poll_for(link, 0.5)
         assert link.clock.now() - before > 0.1
-    finally:
-        link.close()
-        v.stop()
-
-
-def test_a_free_running_vehicle_gets_one_probe_and_no_echo_stream():
-    """The echo is for a vehicle that waits for it: a free-running one (as ArduPilot) runs on past
-    the probe, and gets no TIMESYNC stream."""
-    v = start_vehicle(params=ROUTE_A, no_script=True, speed=1.0, lockstep=False)
-    link = Link(v.mavlink_url, link_loss_s=5.0)
-    try:
-        link.wait_autopilot(timeout_s=30.0)
-        ask = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200)
-        end = time.monotonic() + 10.0
-        while not ask.done and time.monotonic() < end:
-            poll_for(link, 0.01)
-        assert ask.ok, ask.state
-        poll_for(link, 2.0)
-        assert link.lockstep is False
-        assert link.timesync_sent == 1
-    finally:
-        link.close()
-        v.stop()
-
-
-def test_a_lock_stepped_vehicle_is_found_to_wait():
-    v = start_vehicle(params=ROUTE_A, no_script=True, speed=0.0, lockstep=True)
-    link = Link(v.mavlink_url, link_loss_s=5.0)
-    try:
-        link.wait_autopilot(timeout_s=30.0)
-        link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200)
-        end = time.monotonic() + 10.0
-        while link.lockstep is None and time.monotonic() < end:
-            poll_for(link, 0.01)
-        assert link.lockstep is True
     finally:
         link.close()
         v.stop()

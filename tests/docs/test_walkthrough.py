@@ -84,7 +84,7 @@ def test_the_walkthrough_starts_the_board_vehicle_mavproxy_then_lands_on_a_match
     assert "mavproxy.py" in mavproxy.text and land.text.startswith("slopelander land ")
     v, b = _argv(vehicle, "sitl.vehicle"), _argv(board, "sitl.legboard")
     assert v[v.index("--legboard-control") + 1] == b[b.index("--link") + 1] + ".ctl"
-    assert "--lockstep" in v
+    assert "--lockstep" in v and "--lockstep" in _argv(land, "land")  # the companion echoes its time
     scenario = re.search(r"slope_deg: (\d+)", vehicle.text)
     assert scenario is not None and _argv(land, "land")[-1] == scenario.group(1)
     assert [c.split()[0] for c in console.typed] == ["mode", "arm", "takeoff", "position"]

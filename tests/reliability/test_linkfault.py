@@ -254,7 +254,7 @@ def test_a_lockstep_cut_lasts_its_vehicle_seconds_and_the_vehicle_runs_in_real_t
         ready = relay.stdout.readline().split()
         assert ready[:2] == ["linkfault", "ready"], ready
         ctl = RelayControl(int(ready[3].split("=")[1]))
-        link = Link(f"tcp:127.0.0.1:{port}", link_loss_s=60.0)
+        link = Link(f"tcp:127.0.0.1:{port}", link_loss_s=60.0, lockstep=True)
         link.wait_autopilot(timeout_s=30.0)
         ask = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200)
         end = time.monotonic() + 10.0

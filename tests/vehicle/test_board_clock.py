@@ -101,7 +101,7 @@ def _poll_legs_only(legs: LegBoard) -> None:
 def test_a_stalled_lock_step_is_a_silent_board_only_on_the_wall_clock():
     """What made a loaded run fail a flight test: a driver on the wall clock calls the board
     silent while the lock-step stands still. The rig's driver (``Rig.open_legs``, the rule of
-    ``sitl.legs_clock``) measures on the vehicle's clock and rides it out."""
+    ``Session.open_legs``) measures on the vehicle's clock and rides it out."""
     with Rig(slope_deg=20.0, seed=6) as rig:
         rig.legs.close()
         rig.legs = None

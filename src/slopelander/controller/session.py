@@ -71,7 +71,8 @@ class Session:
 
     ``out`` (a folder, created by the caller) receives ``flight.tlog`` at once and, as the steps
     run, ``transitions.jsonl`` and ``slope_estimate.json``. ``record`` (a file-like) also receives
-    every transition, e.g. to print it as it happens."""
+    every transition, e.g. to print it as it happens. ``lockstep``: the autopilot is a simulator
+    that waits for the companion's echo (:mod:`slopelander.controller.link.lockstep`)."""
 
     def __init__(
         self,
@@ -83,6 +84,7 @@ class Session:
         out: Path | None = None,
         decode: frozenset[str] | None = SESSION_MESSAGES,
         telemetry: bool = True,
+        lockstep: bool = False,
         echo: Callable[[str], None] = print,
     ) -> None:
         self.cfg = cfg
@@ -90,7 +92,7 @@ class Session:
         self.calibration = calibration
         self.out = out
         self.echo = echo
-        self.link = Link(url, link_loss_s=cfg["link.link_loss_s"], decode=decode)
+        self.link = Link(url, link_loss_s=cfg["link.link_loss_s"], decode=decode, lockstep=lockstep)
         self.link.heartbeats_missed = cfg["link.heartbeats_missed"]
         if out is not None:
             self.link.conn.setup_logfile(str(out / "flight.tlog"), mode="wb")

@@ -1,199 +1,77 @@
 """The companion's MAVLink link to the autopilot: non-blocking, polled by the state machine.
 
 One :class:`Link` owns the connection. :meth:`Link.poll` drains every waiting message without
-blocking, keeps the vehicle clock, sends the companion's heartbeat (1 Hz) and, to a lock-stepped
-simulator only, the TIMESYNC echo it waits on; re-sends commands that were not acknowledged and
-expires the ones that ran out of tries. Commands return a :class:`CommandHandle` that the caller
-polls instead of waiting; every command is tracked until its own answer (see :meth:`Link.command`).
-It measures each requested stream's delivered rate in vehicle time (:func:`stream_refusal`) and
-notices an autopilot that rebooted under it (:attr:`Link.rebooted`).
+blocking (:mod:`.transport`), keeps the vehicle clock and the newest message of each type, sends the
+companion's heartbeat (1 Hz) and, where a simulator asked for it, the lock-step echo
+(:mod:`.lockstep`); it re-sends commands that were not acknowledged and expires the ones that ran
+out of tries (:mod:`.commands`). It measures each requested stream's delivered rate in vehicle time
+and notices an autopilot that rebooted under it (:mod:`.health`).
+
+The newest messages (:attr:`Link.last`) are the link's own store, not pymavlink's
+``conn.messages``: pymavlink replaces an entry with whatever arrived last, and a link that reorders
+frames (a radio, a relay) would then hand the landing an older range reading or undo a newer
+script state for a step; here a message stamped older than the one held never replaces it. The
+listeners are the link's own for the same reason as the filtered reader: pymavlink calls its
+``message_hooks`` only from ``recv_msg``, which the filtered reader does not run.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import select
-import struct
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
 
-# The MAVLink 2 message set, whatever was imported before: only it has COMMAND_ACK.result_param2,
-# the request number the on-board script echoes (a MAVLink 1 peer is still understood).
-os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
 from slopelander.controller.clock import VehicleClock
-from slopelander.controller.frames import FrameFilter
-from slopelander.errors import SlopelanderError
+from slopelander.controller.link.commands import CommandHandle, Commands
+from slopelander.controller.link.frames import FrameFilter
+from slopelander.controller.link.health import (
+    STREAM_MIN_SPAN_S,
+    STREAM_WINDOW_S,
+    Rate,
+    RebootWatch,
+    Stream,
+    stream_refusal,
+)
+from slopelander.controller.link.lockstep import LockstepEcho
+from slopelander.controller.link.messages import (
+    KEEP_RECENT,
+    LANDING_MESSAGES,
+    RECENT_LEN,
+    USEC_FIELDS,
+    AutopilotInfo,
+    LinkError,
+    message_ids,
+    stamp_usec,
+)
+from slopelander.controller.link.messages import mavlink as mavlink
+from slopelander.controller.link.transport import read_all, read_filtered
 
-mavlink = mavutil.mavlink
+__all__ = [
+    "LANDING_MESSAGES",
+    "STREAM_MIN_SPAN_S",
+    "STREAM_WINDOW_S",
+    "AutopilotInfo",
+    "CommandHandle",
+    "Link",
+    "LinkError",
+    "mavlink",
+    "message_ids",
+    "stream_refusal",
+]
 
 COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
 HEARTBEAT_PERIOD_S = 1.0
 #: ArduPilot sends its HEARTBEAT at 1 Hz on every MAVLink channel (GCS_MAVLINK::update_send)
 AUTOPILOT_HEARTBEAT_S = 1.0
-TIMESYNC_PERIOD_S = 0.02
-#: the lock-step probe (see :meth:`Link._timesync`): a vehicle that, after the one echo, moves its
-#: clock on and then falls silent for ``PROBE_STALL_S`` of local time waits for the echo; one whose
-#: clock runs on ``PROBE_FREE_S`` past it does not. Undecided after ``PROBE_AGAIN_S``: probe again.
-PROBE_FREE_S = 1.0
-PROBE_STALL_S = 0.3
-PROBE_AGAIN_S = 2.0
-#: a reboot: this many messages in a row stamped more than ``REBOOT_BACK_S`` before the newest
-#: vehicle time (one reordered or late frame is not; a relay holds back one frame at a time)
-REBOOT_BACK_S = 1.0
-REBOOT_RUN = 5
-#: the shortest stretch of vehicle time a stream's delivered rate is measured over, and the longest
-STREAM_MIN_SPAN_S = 0.5
-STREAM_WINDOW_S = 2.0
 SCRIPT_SILENT_S = 1.0  # vehicle seconds without SL_STATE: the script is silent
 SCRIPT_ANNOUNCE_WAIT_S = 1.5  # local s: the script's SL_VER comes once a second
 #: a jump in the newest vehicle time larger than this (s) is a telemetry gap (a 200 Hz IMU stream
 #: normally advances it by 5 ms): ages of what the link holds are counted from where it resumed
 GAP_S = 0.1
-# Messages that carry the autopilot's time, and the field holding it.
-_USEC_FIELDS = {
-    "SYSTEM_TIME": "time_boot_ms",
-    "RAW_IMU": "time_usec",
-    "HIGHRES_IMU": "time_usec",
-    "ATTITUDE": "time_boot_ms",
-    "LOCAL_POSITION_NED": "time_boot_ms",
-    "SERVO_OUTPUT_RAW": "time_usec",
-    "DISTANCE_SENSOR": "time_boot_ms",
-    "NAMED_VALUE_FLOAT": "time_boot_ms",
-    "RC_CHANNELS": "time_boot_ms",
-}
-
-
-#: what a landing reads from the autopilot; everything else can be dropped before decoding
-LANDING_MESSAGES = frozenset(
-    {
-        "HEARTBEAT",
-        "COMMAND_ACK",
-        "STATUSTEXT",
-        "AUTOPILOT_VERSION",
-        "SYSTEM_TIME",
-        "NAMED_VALUE_FLOAT",
-        "RAW_IMU",
-        "DISTANCE_SENSOR",
-        "LOCAL_POSITION_NED",
-        "ATTITUDE",
-        "RC_CHANNELS",
-    }
-)
-#: messages every one of which a reader needs, not only the newest (the impact detector reads every
-#: IMU sample, however seldom the landing loop wakes): the link keeps the last few of each
-#: and the attitude a range reading was taken with is looked up among the recent ATTITUDEs
-KEEP_RECENT = ("RAW_IMU", "ATTITUDE")  # what the landing reads; HIGHRES_IMU is not
-RECENT_LEN = 64
-#: the largest read from the link per call (a UDP read returns one datagram whatever this is)
-RECV_BYTES = 4096
-
-
-def _stamp_usec(msg, fld: str) -> int | None:
-    """The autopilot's time on ``msg`` in microseconds (None: not stamped, 0 or less)."""
-    v = int(getattr(msg, fld))
-    if v <= 0:
-        return None
-    return v if fld == "time_usec" else v * 1000
-
-
-def message_ids(names) -> frozenset[int]:
-    """MAVLink message ids for message names; an unknown name is a :class:`LinkError`."""
-    ids = set()
-    for name in names:
-        msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}", None)
-        if not isinstance(msg_id, int):
-            raise LinkError(f"unknown MAVLink message name {name!r} in the messages to decode")
-        ids.add(msg_id)
-    return frozenset(ids)
-
-
-class LinkError(SlopelanderError):
-    """The link cannot be opened or used (bad connection string, no autopilot)."""
-
-
-@dataclass
-class CommandHandle:
-    """One COMMAND_LONG: poll ``state`` ('pending', 'accepted', 'rejected', 'timeout').
-
-    ``request``: a number the autopilot echoes in COMMAND_ACK.result_param2 (the on-board script
-    does), so the ACK is matched to this request alone. Without one, the ACK carries nothing but
-    the command id (ArduPilot's ACK of SET_MESSAGE_INTERVAL echoes neither the message id nor the
-    interval), so requests of the same id are sent one at a time, in order: ``tries`` stays 0
-    while one is queued behind another."""
-
-    command: int
-    params: tuple[float, ...]
-    retries: int
-    timeout_s: float
-    request: int | None = None
-    state: str = "pending"
-    result: int | None = None
-    tries: int = 0
-    sent_at: float = 0.0
-
-    @property
-    def done(self) -> bool:
-        """Whether an answer (or the final timeout) has arrived."""
-        return self.state != "pending"
-
-    @property
-    def ok(self) -> bool:
-        """Whether the autopilot accepted the command."""
-        return self.state == "accepted"
-
-
-@dataclass
-class AutopilotInfo:
-    """What the companion found at the other end of the link."""
-
-    system: int
-    component: int
-    vehicle_type: int
-    autopilot: int
-    firmware: str = "unknown"
-    script_version: float | None = None
-
-    def describe(self) -> str:
-        """One line for the pilot."""
-        vt = mavlink.enums["MAV_TYPE"].get(self.vehicle_type)
-        ap = mavlink.enums["MAV_AUTOPILOT"].get(self.autopilot)
-        # "not heard", not "absent": a script announces its version once a second, and a line
-        # printed before that would call a running script missing (CHECKS refuses a silent one)
-        script = "not heard" if self.script_version is None else f"v{self.script_version:g}"
-        return (
-            f"system {self.system} component {self.component}: "
-            f"{vt.name if vt else self.vehicle_type}, {ap.name if ap else self.autopilot}, "
-            f"firmware {self.firmware}, on-board script {script}"
-        )
-
-
-@dataclass
-class _Stream:
-    """One requested stream: what was asked, since when (vehicle s), the stamps delivered since."""
-
-    name: str
-    hz: float
-    since: float
-    stamps: deque = field(default_factory=lambda: deque(maxlen=1024))
-
-
-@dataclass
-class _Rate:
-    """Arrival rate of one message type over a sliding window of local time."""
-
-    stamps: deque = field(default_factory=lambda: deque(maxlen=400))
-
-    def add(self, t: float) -> None:
-        self.stamps.append(t)
-
-    def hz(self, now: float, window: float = 2.0) -> float:
-        n = sum(1 for s in self.stamps if now - s <= window)
-        return n / window
 
 
 class Link:
@@ -204,8 +82,9 @@ class Link:
     autopilot (local time), with its messages but ``heartbeats_missed`` of its 1 Hz HEARTBEATs
     missed (vehicle time), or once it rebooted.
     ``decode``: the message names to decode (e.g. :data:`LANDING_MESSAGES`); frames of any other
-    message are dropped unread (see :mod:`slopelander.controller.frames`). None decodes everything
-    through pymavlink's own reader.
+    message are dropped unread (see :mod:`.frames`). None decodes everything through pymavlink's
+    own reader. ``lockstep``: echo the vehicle's time to a simulator that waits for it
+    (:mod:`.lockstep`); never for a real autopilot.
     """
 
     def __init__(
@@ -216,6 +95,7 @@ class Link:
         heartbeats_missed: int = 3,
         monotonic: Callable[[], float] = time.monotonic,
         decode: Iterable[str] | None = None,
+        lockstep: bool = False,
     ) -> None:
         if not isinstance(url, str) or not url.strip():
             raise LinkError("connection string is empty (expected e.g. udpin:0.0.0.0:14550)")
@@ -242,8 +122,8 @@ class Link:
         self.info: AutopilotInfo | None = None
         self.last: dict[str, object] = {}
         self.statustext: deque[str] = deque(maxlen=50)
-        self._rates: dict[str, _Rate] = {}
-        self._commands: list[CommandHandle] = []
+        self._rates: dict[str, Rate] = {}
+        self.commands = Commands(self._transmit, monotonic)
         self._last_heartbeat_rx: float | None = None
         self._last_heartbeat_vt: float | None = None  # vehicle time of the newest HEARTBEAT
         self._last_rx: float | None = None  # local time of the newest message from the autopilot
@@ -252,17 +132,11 @@ class Link:
         #: reads does not take its own pause for the autopilot's silence
         self._looked_at: float | None = None
         self._last_heartbeat_tx = -math.inf
-        self._last_timesync_usec = 0
-        #: whether the vehicle waits for the companion's TIMESYNC echo (None: not known yet)
-        self.lockstep: bool | None = None
-        self._probe: tuple[int, float] | None = None  # (vehicle us, local s) of the probe's echo
-        self.timesync_sent = 0
-        #: the autopilot rebooted under the link (its clock went back): lost for this landing
-        self.rebooted = False
-        self.reboot_note: str | None = None
-        self._behind = 0
+        #: the lock-step echo, when a simulator asked for it
+        self.lockstep = LockstepEcho(self.conn, self.clock, monotonic) if lockstep else None
+        self.reboot = RebootWatch()
         #: requested streams by message name (see :meth:`delivered_hz`)
-        self.streams: dict[str, _Stream] = {}
+        self.streams: dict[str, Stream] = {}
         self._script_seen_at: float | None = None
         self.script_state: int | None = None
         self._script_stamp = -1  # vehicle time (us) of the SL_STATE in script_state
@@ -298,9 +172,9 @@ class Link:
         """The recent messages of ``mtype`` (one of :data:`KEEP_RECENT`) stamped within ``window_s``
         of vehicle time ``t_s``: what the autopilot saw at the moment another message was taken,
         however the link delayed or reordered the two."""
-        fld = _USEC_FIELDS[mtype]
+        fld = USEC_FIELDS[mtype]
         lo, hi = (t_s - window_s) * 1e6, (t_s + window_s) * 1e6
-        return [m for m in self._recent[mtype] if lo <= (_stamp_usec(m, fld) or -1) <= hi]
+        return [m for m in self._recent[mtype] if lo <= (stamp_usec(m, fld) or -1) <= hi]
 
     def wait_readable(self, timeout_s: float, extra_fds: tuple[int, ...] = ()) -> None:
         """Sleep until the autopilot's link (or one of ``extra_fds``) has bytes to read, at most
@@ -317,46 +191,12 @@ class Link:
 
     def poll(self) -> int:
         """Handle every waiting message, send what is due; return the number of messages read."""
-        n = self._read_filtered() if self.filter is not None else self._read_all()
+        if self.filter is not None:
+            n, self._looked_at = read_filtered(self.conn, self.filter, self._handle, self.monotonic)
+        else:
+            n, self._looked_at = read_all(self.conn, self._handle, self.monotonic)
         self._send_due()
         return n
-
-    def _read_all(self) -> int:
-        n = 0
-        while True:
-            looked = self.monotonic()
-            msg = self.conn.recv_match(blocking=False)
-            if msg is None:
-                self._looked_at = looked
-                return n
-            n += 1
-            self._handle(msg)
-
-    def _read_filtered(self) -> int:
-        """Read raw bytes, drop unwanted frames, decode the rest: what ``recv_match`` does, less
-        its per-message bookkeeping (``conn.messages``, packet-loss counts) that nothing here reads.
-        The tlog, when one is set up, gets the decoded messages as pymavlink would write them."""
-        conn, n = self.conn, 0
-        while True:
-            looked = self.monotonic()
-            data = conn.recv(RECV_BYTES)
-            if data:
-                if conn.logfile_raw:
-                    conn.logfile_raw.write(data)
-                if conn.first_byte:
-                    conn.auto_mavlink_version(data)
-                data = self.filter.feed(data)
-            # whole frames only reach the parser, but an empty read still drains its buffer
-            msgs = conn.mav.parse_buffer(data or b"") or ()
-            for msg in msgs:
-                if conn.logfile and msg.get_type() != "BAD_DATA":
-                    usec = int(time.time() * 1.0e6) & ~3
-                    conn.logfile.write(struct.pack(">Q", usec) + msg.get_msgbuf())
-                n += 1
-                self._handle(msg)
-            if not data and not msgs:
-                self._looked_at = looked
-                return n
 
     def _from_autopilot(self, msg) -> bool:
         if self.info is None:
@@ -381,10 +221,10 @@ class Link:
             self.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
         if not self._from_autopilot(msg):
             return
-        fld = _USEC_FIELDS.get(mtype)
-        stamp = _stamp_usec(msg, fld) if fld is not None else None
+        fld = USEC_FIELDS.get(mtype)
+        stamp = stamp_usec(msg, fld) if fld is not None else None
         if stamp is not None and self.clock.known:
-            self._watch_reboot(stamp)
+            self.reboot.observe(stamp, self.clock.usec)
         if stamp is None or stamp >= self._stamps.get(mtype, -1):
             # a reordered, older message never replaces a newer one: a link that reorders would
             # hand the take-off an older range reading, or undo a newer script state, for a step
@@ -396,7 +236,7 @@ class Link:
         recent = self._recent.get(mtype)
         if recent is not None:
             recent.append(msg)
-        self._rates.setdefault(mtype, _Rate()).add(now)
+        self._rates.setdefault(mtype, Rate()).add(now)
         for fn in self._listeners:
             fn(msg)
         if stamp is not None:
@@ -409,14 +249,17 @@ class Link:
                 self._last_heartbeat_vt = self.clock.now()
         stream = self.streams.get(mtype)
         if stream is not None:
-            t = stamp / 1e6 if stamp is not None else self.clock.now()
-            if not stream.stamps or t > stream.stamps[-1]:  # a duplicate or late frame is not a sample
-                stream.stamps.append(t)
+            stream.add(stamp / 1e6 if stamp is not None else self.clock.now())
         if mtype == "HEARTBEAT":
             self._last_heartbeat_rx = now
             self._last_heartbeat_vt = self.clock.now() if self.clock.known else None
         elif mtype == "COMMAND_ACK":
-            self._ack(msg, now)
+            h = self.commands.ack(msg, now)
+            if h is not None and h.ok and h.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
+                cls = mavlink.mavlink_map.get(int(h.params[0]))
+                stream = self.streams.get(cls.msgname) if cls is not None else None
+                if stream is not None:  # the new rate holds from now: measure it from here
+                    stream.since = max(stream.since, self.clock.now())
         elif mtype == "STATUSTEXT":
             self.statustext.append(msg.text)
         elif mtype == "AUTOPILOT_VERSION" and self.info is not None:
@@ -445,101 +288,9 @@ class Link:
                 0,
                 mavlink.MAV_STATE_ACTIVE,
             )
-        self._timesync(now)
-        for h in self._commands:
-            if h.done or h.tries == 0 or now - h.sent_at < h.timeout_s:
-                continue
-            if h.tries > h.retries:
-                h.state = "timeout"
-            else:
-                self._transmit(h)
-        self._settle_commands()
-
-    def _echo(self) -> None:
-        # tc1 != 0 makes this an answer, not a request (tc1 == 0 asks the autopilot for its time):
-        # a lock-stepped simulator reads ts1 as the newest vehicle time seen
-        self._last_timesync_usec = self.clock.usec
-        self.timesync_sent += 1
-        self.conn.mav.timesync_send(max(1, int(self.monotonic() * 1e9)), self.clock.usec * 1000)
-
-    def _timesync(self, now: float) -> None:
-        """The lock-step echo, to a vehicle that waits for it and to no other.
-
-        Why it exists: the project's simulated vehicle (``sitl.vehicle --lockstep``) runs at most
-        50 ms of its time ahead of the newest time the companion echoed, so a flight does not
-        depend on how fast the machine runs the companion. ArduPilot has no use for it: it drops a
-        TIMESYNC answer whose ts1 is not its own request (GCS_MAVLINK::handle_timesync), so 50 Hz
-        of them only cost a real vehicle's serial link. Which one is at the other end is found by
-        asking: one echo of the newest vehicle time (the probe); a lock-stepped vehicle runs to
-        its lead past it, says the time it waits at (SYSTEM_TIME) and falls silent; any other runs
-        on. A link that stalls just after the probe looks the same: the echoes it then starts are
-        dropped by ArduPilot and ignored by a free-running simulator."""
-        if not self.clock.known or self.lockstep is False:
-            return
-        if self.lockstep:
-            if self.clock.usec - self._last_timesync_usec >= TIMESYNC_PERIOD_S * 1e6:
-                self._echo()
-            return
-        if self._probe is not None:
-            at_us, at_local = self._probe
-            ran = self.clock.usec - at_us
-            if ran > PROBE_FREE_S * 1e6:
-                self.lockstep = False
-                return
-            silent = self._last_rx is None or self._silence() >= PROBE_STALL_S
-            if ran > 0 and silent:
-                self.lockstep = True
-                self._echo()
-                return
-            if now - at_local < PROBE_AGAIN_S:
-                return
-        self._probe = (self.clock.usec, now)
-        self._echo()
-
-    def _settle_commands(self) -> None:
-        """Forget answered commands; send the next of each id queued behind one that was answered."""
-        self._commands = [h for h in self._commands if not h.done]
-        busy = {h.command for h in self._commands if h.request is None and h.tries > 0}
-        for h in self._commands:
-            if h.request is None and h.tries == 0 and h.command not in busy:
-                busy.add(h.command)
-                self._transmit(h)
-
-    def _ack(self, msg, now: float) -> None:
-        """Mark the one request this COMMAND_ACK answers: by its request number when the ACK
-        carries one we sent (result_param2), else the one request of that id in flight."""
-        sent = [h for h in self._commands if h.command == msg.command and not h.done and h.tries > 0]
-        param2 = getattr(msg, "result_param2", 0)  # a MAVLink 1 ACK has no extension fields
-        h = next((h for h in sent if h.request is not None and h.request == param2), None)
-        if h is None:
-            h = next((h for h in sent if h.request is None), None)
-        if h is None:
-            return  # a late answer to a request that already timed out or was answered
-        h.result = msg.result
-        if msg.result == mavlink.MAV_RESULT_IN_PROGRESS:
-            h.sent_at = now  # being worked on: not lost, do not re-send yet
-            return
-        h.state = "accepted" if msg.result == mavlink.MAV_RESULT_ACCEPTED else "rejected"
-        if h.ok and h.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
-            cls = mavlink.mavlink_map.get(int(h.params[0]))
-            stream = self.streams.get(cls.msgname) if cls is not None else None
-            if stream is not None:  # the new rate holds from now: measure it from here
-                stream.since = max(stream.since, self.clock.now())
-        self._settle_commands()
-
-    def _watch_reboot(self, stamp_us: int) -> None:
-        """The autopilot rebooted when its messages keep coming stamped far before the newest
-        vehicle time: its clock started again from zero (one late frame is not a reboot)."""
-        if stamp_us < self.clock.usec - REBOOT_BACK_S * 1e6:
-            self._behind += 1
-            if self._behind >= REBOOT_RUN and not self.rebooted:
-                self.rebooted = True
-                self.reboot_note = (
-                    f"autopilot rebooted: its clock went back from {self.clock.now():.1f} s "
-                    f"to {stamp_us / 1e6:.1f} s"
-                )
-        else:
-            self._behind = 0
+        if self.lockstep is not None:
+            self.lockstep.due()
+        self.commands.resend_due(now)
 
     def _transmit(self, h: CommandHandle) -> None:
         if self.info is None:
@@ -548,8 +299,6 @@ class Link:
         self.conn.mav.command_long_send(
             self.info.system, self.info.component, h.command, min(h.tries, 255), *p
         )
-        h.tries += 1
-        h.sent_at = self.monotonic()
 
     def command(
         self,
@@ -568,18 +317,7 @@ class Link:
         answers, so a command whose id already has one in flight waits its turn."""
         if self.info is None:
             raise LinkError("no autopilot found yet: wait_autopilot() before sending commands")
-        if len(params) > 7:
-            raise LinkError(f"COMMAND_LONG takes at most 7 parameters, got {len(params)}")
-        if request is not None and (isinstance(request, bool) or not isinstance(request, int)):
-            raise LinkError(f"a request number must be a whole number, got {request!r}")
-        if request is not None and not (-(2**31) <= request < 2**31):
-            raise LinkError(f"a request number must fit COMMAND_ACK.result_param2 (int32), got {request}")
-        h = CommandHandle(command, tuple(float(x) for x in params), retries, timeout_s, request)
-        busy = any(c.command == command and c.request is None and not c.done for c in self._commands)
-        self._commands.append(h)
-        if request is not None or not busy:
-            self._transmit(h)
-        return h
+        return self.commands.send(command, params, retries=retries, timeout_s=timeout_s, request=request)
 
     def request_message(self, msg_id: int) -> None:
         """Ask once for one message (MAV_CMD_REQUEST_MESSAGE), fire and forget."""
@@ -605,7 +343,7 @@ class Link:
         name = mavlink.mavlink_map[msg_id].msgname if msg_id in mavlink.mavlink_map else None
         if name is not None and (self.filter is None or msg_id in self.filter.keep):
             # a stream the link does not decode is not read, so its rate is not checked
-            self.streams[name] = _Stream(name, float(hz), self.clock.now())
+            self.streams[name] = Stream(name, float(hz), self.clock.now())
         return self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz)
 
     def send_statustext(self, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
@@ -622,18 +360,12 @@ class Link:
         """The rate a requested stream delivers (distinct samples per vehicle second) over the last
         :data:`STREAM_WINDOW_S` since it was requested and since telemetry last resumed; None when
         less than :data:`STREAM_MIN_SPAN_S` of vehicle time has passed."""
-        s = self.streams[name]
-        now = self.clock.now()
-        start = max(s.since, self.resumed_at, now - STREAM_WINDOW_S)
-        span = now - start
-        if span < STREAM_MIN_SPAN_S:
-            return None
-        return sum(1 for t in s.stamps if start < t <= now) / span
+        return self.streams[name].delivered_hz(self.clock.now(), self.resumed_at)
 
     @property
     def lost_why(self) -> str | None:
         """Which rule of :attr:`lost` holds, in words (None: the link is not lost)."""
-        if self.rebooted:
+        if self.reboot.rebooted:
             return "the autopilot rebooted"
         if self._last_heartbeat_rx is None or self._last_rx is None:
             return "no HEARTBEAT yet"
@@ -708,29 +440,22 @@ class Link:
         it had not yet read from a client that disconnects, and a real serial link may be cut, so
         a disarm or an end of the reverse thrust sent last is seen answered (or re-sent) first."""
         end = self.monotonic() + timeout_s
-        while self._commands and self.monotonic() < end:
+        while self.commands.pending and self.monotonic() < end:
             self.poll()
-            self._commands = [h for h in self._commands if not h.done]
+            self.commands.settle()
             sleep(0.005)
-        return len(self._commands)
+        return len(self.commands.pending)
 
     def close(self) -> None:
         """Close the connection."""
         self.conn.close()
 
+    @property
+    def rebooted(self) -> bool:
+        """The autopilot rebooted under the link (its clock went back): lost for this landing."""
+        return self.reboot.rebooted
 
-def stream_refusal(link: Link | None, min_fraction: float) -> str | None:
-    """Why the requested streams cannot carry a landing, or None: the first stream delivering less
-    than ``min_fraction`` of its requested rate in vehicle time (a refused request delivers
-    nothing), or one not measured yet. None without a link (a machine stepped without one)."""
-    if link is None or not isinstance(link, Link):
-        return None
-    for name, s in link.streams.items():
-        got = link.delivered_hz(name)
-        if got is None:
-            return f"stream {name} not measured yet ({STREAM_MIN_SPAN_S:g} s of vehicle time needed)"
-        if got < min_fraction * s.hz:
-            return (
-                f"stream {name} delivers {got:.1f} Hz of {s.hz:g} Hz requested (less than {min_fraction:.0%})"
-            )
-    return None
+    @property
+    def reboot_note(self) -> str | None:
+        """What the reboot looked like, for the pilot."""
+        return self.reboot.note
