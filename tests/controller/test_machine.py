@@ -179,12 +179,12 @@ ROWS = [
     ("DESCEND", {"link_ok": False}, "LINK_LOST", []),
     ("ARMED", {"link_ok": False}, "LINK_LOST", []),
     ("CUT", {"link_ok": False}, "LINK_LOST", []),
-    ("DESCEND", {"range_ok": False}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
-    ("ARMED", {"range_ok": False}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
+    ("DESCEND", {"range_ok": False}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
+    ("ARMED", {"range_ok": False}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
     ("CUT", {"range_ok": False}, "CUT", []),
-    ("ARMED", {"legs_fault": "board silent"}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
+    ("ARMED", {"legs_fault": "board silent"}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
     ("CUT", {"legs_fault": "board silent"}, "CUT", []),
-    ("DESCEND", {"script_present": False}, "ABORTED", ["reflex_abort", "release", "set_mode"]),
+    ("DESCEND", {"script_present": False}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
     ("ARMED", {"mode": "LOITER"}, "ABORTED", ["reflex_abort", "release"]),
     ("DESCEND", {"estop": True}, "ESTOP", ["reflex_abort"]),
     ("REVERSE", {"estop": True}, "ESTOP", ["reflex_abort"]),
@@ -238,6 +238,39 @@ def test_landed_armed_row(inputs, sent):
         m.step(replace(OK, t=t + 0.02 * i, range_m=0.2, armed=True, **inputs))
     assert m.name == "LANDED"
     assert [c[0] for c in act.calls[before:] if c[0] != "statustext"] == sent
+
+
+def test_an_abort_in_the_air_stops_the_descent_first_and_keeps_the_reflex_until_climbing():
+    """ABORTED sends a climb setpoint before the mode change, and lets the reflex go only once the
+    vehicle climbs or holds: a lost LOITER command no longer leaves the 0.5 m/s descent target
+    running into the roof with the reflex disarmed (docs/failsafes.md)."""
+    m, act, _ = make()
+    t = run_to(m, "ARMED")
+    before = len(act.calls)
+    inp = replace(OK, t=t + 0.02, range_m=0.8, range_ok=False, script_state=10, climb_mps=-0.5)
+    m.step(inp)
+    assert m.name == "ABORTED"
+    sent = [c for c in act.calls[before:] if c[0] != "statustext"]
+    assert sent[0] == ("hold", 0.3) and sent[1] == ("set_mode", "LOITER")
+    # still descending: the reflex stays armed (not let go), the climb is re-sent
+    for k in range(1, 20):
+        m.step(replace(inp, t=inp.t + 0.02 * k))
+    assert "reflex_abort" not in act.names() and m.ctx.marks["abort_pending"]
+    assert ("descend", -0.3) in act.calls
+    # the roof came anyway: the reflex cut it, and the landing goes on
+    m2, act2, _ = make()
+    t2 = run_to(m2, "ARMED")
+    m2.step(replace(inp, t=t2 + 0.02))
+    m2.step(replace(inp, t=t2 + 0.04, script_state=11))
+    assert m2.name == "CUT" and "reflex_abort" not in act2.names()
+    # climbing: after HOLDING_S the reflex is let go and the script released
+    from slopelander.controller.states.aborted import HOLDING_S
+
+    t3 = inp.t + 0.4
+    for k in range(int(HOLDING_S / 0.02) + 3):
+        m.step(replace(inp, t=t3 + 0.02 * k, climb_mps=0.2))
+    assert act.names()[-2:] == ["reflex_abort", "release"] or {"reflex_abort", "release"} <= set(act.names())
+    assert not m.ctx.marks["abort_pending"]
 
 
 def test_link_back_after_loss_aborts_to_loiter():

@@ -117,6 +117,14 @@ class MavActions:
         now = self.link.monotonic()
         if now - self._last_descent < 1.0 / self.cfg["descent.resend_hz"]:
             return
+        self._send_velocity(now, rate_mps)
+
+    def hold(self, climb_mps: float) -> None:
+        """A climb setpoint (m/s up; 0 holds) sent now, whenever the last setpoint went: it
+        replaces a descent target that would otherwise run on until GUID_TIMEOUT."""
+        self._send_velocity(self.link.monotonic(), -climb_mps)
+
+    def _send_velocity(self, now: float, rate_mps: float) -> None:
         self._last_descent = now
         info = self.link.info
         if info is None:

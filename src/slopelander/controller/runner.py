@@ -47,6 +47,10 @@ MAX_RATE = 50.0
 RECONNECT_IN = ("LANDED", "READY", "ABORTED", "ESTOP")
 #: the reconnect's handshake, local seconds (the autopilot's clock is not read meanwhile)
 HANDSHAKE_S = 0.5
+#: local seconds a run that reached ABORTED goes on polling while the abort is still holding the
+#: reflex (states/aborted.py: until the vehicle climbs or holds), so the loop does not end with
+#: the reflex armed and nobody refreshing the climb setpoint
+ABORT_SETTLE_S = 5.0
 
 
 def tilt_at(attitudes: list) -> float | None:
@@ -141,12 +145,13 @@ class Lander:
         imu = ln.last.get("RAW_IMU")
         accel = math.dist((0, 0, 0), raw_imu_accel(imu)) if imu else 9.80665
         pos = ln.last.get("LOCAL_POSITION_NED")
-        speed = position = None
+        speed = position = climb = None
         if pos is not None and ln.age(pos.time_boot_ms / 1000.0) <= cfg["settle.velocity_max_age_s"]:
             speed = math.sqrt(pos.vx * pos.vx + pos.vy * pos.vy + pos.vz * pos.vz)
             position = (pos.x, pos.y, pos.z)
+            climb = -pos.vz
             if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
-                speed = position = None
+                speed = position = climb = None
         tilt = None
         if ds is not None and self.machine.name == "TAKEOFF":  # only TAKEOFF reads it
             # the body's tilt at the reading's own moment: the beam looks along the body, and a
@@ -183,6 +188,7 @@ class Lander:
             uphill_angles_deg=uphill,
             accel_mps2=accel,
             speed_mps=speed,
+            climb_mps=climb,
             position_m=position,
             tilt_deg=tilt,
             impact=self.detector.impact is not None,
@@ -352,11 +358,17 @@ class Lander:
         rate = 1.0  # vehicle seconds per local second, smoothed; never taken below real time
         last_w, last_v = time.monotonic(), self.link.clock.now()
         handled = 0
+        aborted_at = None
         while True:
             started = time.monotonic()
             name = self.poll()
             if self.machine._started and name in until:
-                return name
+                pending = name == "ABORTED" and self.ctx.marks.get("abort_pending")
+                aborted_at = aborted_at if aborted_at is not None else time.monotonic()
+                if not pending or time.monotonic() - aborted_at > ABORT_SETTLE_S:
+                    return name
+            else:
+                aborted_at = None
             if stop is not None and stop():
                 return name
             if interrupts is not None and interrupts() > handled:
