@@ -361,7 +361,9 @@ def test_reset_gives_up_on_legs_that_never_report_loose():
     m.step(replace(OK, t=t + timeout - 0.1, legs_ready=False))
     assert m.name == "RESET"
     m.step(replace(OK, t=t + timeout + 0.1, legs_ready=False))
+    # not ready for a next landing: handed to the autopilot's LOITER, not left hovering in GUIDED
     assert m.name == "READY" and "in time" in m.history[-1]["reason"]
+    assert ("hold", 0.0) in m.ctx.act.calls and ("set_mode", "LOITER") in m.ctx.act.calls
 
 
 def test_a_script_stuck_in_reverse_thrust_is_not_released_on_the_roof():
@@ -417,6 +419,7 @@ def test_reset_reports_legs_that_do_not_loosen():
     run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
     m.step(replace(OK, t=300.0, legs_ready=False, legs_fault="leg 2: motor stalled"))
     assert m.name == "READY" and "did not loosen: leg 2: motor stalled" in m.history[-1]["reason"]
+    assert ("set_mode", "LOITER") in m.ctx.act.calls
 
 
 def test_reset_does_not_take_the_previous_presets_readiness_for_the_loosening():
@@ -667,14 +670,48 @@ def test_a_range_read_with_the_body_tilted_does_not_loosen_the_legs(tilt):
 
 def test_takeoff_without_a_trustworthy_range_ends_with_the_legs_clamped():
     """Found by the soak: the vehicle climbed out of the rangefinder's reach during a dropout and
-    TAKEOFF waited for ever. The legs stay clamped (safe in the air) and the pilot is told."""
+    TAKEOFF waited for ever. The legs stay clamped (safe in the air), the vehicle is handed to
+    LOITER (not left hovering in GUIDED) and the pilot is told."""
     m, t = _to_takeoff()
-    for _ in range(1000):
+    for k in range(1000):
         t += 0.02
-        if m.step(replace(OK, t=t, range_m=3.0, range_ok=False)) != "TAKEOFF":
+        climbed = (0.0, 0.0, -min(3.0, 0.02 * k))  # NED: it rose 3 m
+        if m.step(replace(OK, t=t, range_m=3.0, range_ok=False, position_m=climbed)) != "TAKEOFF":
             break
     assert m.name == "READY" and "legs left clamped" in m.history[-1]["reason"], m.history[-1]
+    assert ("set_mode", "LOITER") in m.ctx.act.calls
     assert 15.0 <= t - m.history[-2]["t"] < 15.1
+
+
+def test_a_take_off_that_never_climbs_is_disarmed_on_the_roof():
+    """Armed, released and asked to climb, the vehicle never left the roof (its height did not
+    rise): it was left READY, armed on the roof, idling for ever (DISARM_DELAY 0). Now the disarm
+    is asked there, again each second, and the landing ends LANDED once it is disarmed."""
+    from slopelander.controller.states.takeoff import GIVE_UP_S
+
+    m, t = _to_takeoff()
+    act = m.ctx.act
+    on_roof = replace(OK, range_m=0.2, range_ok=True, position_m=(0.0, 0.0, 0.05))
+    t0 = t
+    while t < t0 + GIVE_UP_S + 2.5:
+        t += 0.02
+        m.step(replace(on_roof, t=t))
+    assert m.name == "TAKEOFF" and 2 <= act.names().count("disarm_on_ground") <= 4, act.names()
+    m.step(replace(on_roof, t=t + 0.02, armed=False))
+    assert m.name == "LANDED" and "no climb within" in m.history[-1]["reason"]
+
+
+def test_checks_refuse_downhill_legs_that_did_not_spring_back():
+    """Every preset assumes the downhill legs extended (37.5 deg); legs left bent by the last
+    landing are refused before the descent, not landed on."""
+    from slopelander.controller.states.checks import Checks
+
+    m, _, _ = make()
+    ok = replace(OK, downhill_angles_deg=(37.3, 37.6), script_version=4.0)
+    assert Checks().step(m.ctx, ok) == ("DESCEND", "checks passed")
+    bent = replace(ok, downhill_angles_deg=(37.4, 22.0))
+    move = Checks().step(m.ctx, bent)
+    assert move[0] == "ABORTED" and "downhill legs at 22.0 deg" in move[1]
 
 
 def test_a_refused_take_off_is_sent_again_once_armed():

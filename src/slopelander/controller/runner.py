@@ -167,9 +167,10 @@ class Lander:
                 legs_fault = str(op.error)
             legs_ready = op.done and op.error is None and not self.act.legs_busy
         status = getattr(self.legs, "status", None)
-        uphill = ()
+        uphill = downhill = ()
         if status is not None:
             uphill = tuple(status.legs[i].angle_deg for i in self.legs.pairs.uphill)
+            downhill = tuple(status.legs[i].angle_deg for i in self.legs.pairs.downhill)
         state = ln.script_state if ln.script_present else None
         return Inputs(
             t=t,
@@ -186,6 +187,7 @@ class Lander:
             legs_ready=legs_ready,
             legs_fault=legs_fault,
             uphill_angles_deg=uphill,
+            downhill_angles_deg=downhill,
             accel_mps2=accel,
             speed_mps=speed,
             climb_mps=climb,

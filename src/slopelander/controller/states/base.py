@@ -57,6 +57,8 @@ class Inputs:
     legs_fault: str | None = None
     #: the uphill legs' angles as the board reports them (deg below the horizontal; empty: unknown)
     uphill_angles_deg: tuple[float, ...] = ()
+    #: the downhill legs' angles as the board reports them (deg; empty: unknown)
+    downhill_angles_deg: tuple[float, ...] = ()
     accel_mps2: float = 9.81
     #: the vehicle's speed (m/s) from LOCAL_POSITION_NED; None when none arrived recently
     speed_mps: float | None = 0.0
@@ -131,6 +133,15 @@ def keep_reflex(ctx: Context, inp: Inputs, thrust_ended: bool = False) -> None:
         else:
             ctx.act.reflex_refresh()
         ctx.marks["reflex_sent"] = inp.t
+
+
+def hand_to_loiter(ctx: Context, inp: Inputs) -> None:
+    """In the air and in GUIDED, the vehicle is handed to the autopilot's LOITER (a hold setpoint
+    first, then the mode): a landing that ends with something for the pilot to see to (legs not
+    reset) must not leave the vehicle in GUIDED with nobody sending it anything."""
+    if inp.armed and inp.mode == "GUIDED":
+        ctx.act.hold(0.0)
+        ctx.act.set_mode("LOITER")
 
 
 class State:

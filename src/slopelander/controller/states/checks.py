@@ -45,6 +45,24 @@ def angle_refusal(ctx: Context, inp: Inputs) -> str | None:
     return None
 
 
+#: the downhill legs' angle every preset assumes (deg below the horizontal: fully extended, the
+#: model's and the lookup table's ``angle_down_deg``); only the uphill angle is ever set
+DOWNHILL_REST_DEG = 37.5
+
+
+def downhill_refusal(ctx: Context, inp: Inputs) -> str | None:
+    """Why the downhill legs are not at their rest angle, or None: legs that did not spring back
+    after the last landing's reset land on a preset that assumed them extended."""
+    if not inp.downhill_angles_deg:
+        return None  # a machine stepped without a board's report (the bench): nothing to compare
+    worst = max(inp.downhill_angles_deg, key=lambda a: abs(a - DOWNHILL_REST_DEG))
+    if abs(worst - DOWNHILL_REST_DEG) > ctx.cfg["legs.angle_tolerance_deg"]:
+        return (
+            f"downhill legs at {worst:.1f} deg, every preset assumes {DOWNHILL_REST_DEG:g} deg (not reset?)"
+        )
+    return None
+
+
 def slope_refusal(ctx: Context, inp: Inputs) -> str | None:
     """Why the landing's slope (the pilot's number, or the measured one) does not fit the
     measurement, naming both, or None; nothing to check when the slope was not measured."""
@@ -60,7 +78,7 @@ class Checks(State):
     name = "CHECKS"
 
     def step(self, ctx: Context, inp: Inputs):
-        why = refusal(inp) or angle_refusal(ctx, inp) or slope_refusal(ctx, inp)
+        why = refusal(inp) or angle_refusal(ctx, inp) or downhill_refusal(ctx, inp) or slope_refusal(ctx, inp)
         # the streams the landing reads deliver at least link.min_delivered_fraction of their rate
         why = why or stream_refusal(getattr(ctx.act, "link", None), ctx.cfg["link.min_delivered_fraction"])
         if why is not None:

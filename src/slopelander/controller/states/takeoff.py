@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from slopelander.controller.states.base import Context, Inputs, State
+from slopelander.controller.states.base import Context, Inputs, State, hand_to_loiter
 
 #: a reading is believed only when it follows the last believed one within this jump plus what the
 #: fastest climb covers since the previous valid reading: a spike on the ground is not a climb
@@ -15,9 +15,14 @@ HOLD_S = 0.25
 #: readings that disagree with the believed one for this long start a new chain (the sensor came
 #: back after a dropout during the climb); the hold then starts again
 RESEED_S = 1.0
-#: no believed clear range within this (vehicle time): the climb goes on without the legs
-#: loosened (clamped legs are safe in the air), the machine ends in READY and tells the pilot
+#: no believed clear range within this (vehicle time): a vehicle that climbed is handed to the
+#: autopilot's LOITER with the legs left clamped (safe in the air; READY, the pilot told); one that
+#: never left the roof is disarmed there (LANDED), not left idling armed on it
 GIVE_UP_S = 15.0
+#: the vehicle rose at least this much (m, LOCAL_POSITION_NED) since the take-off was asked: it flew
+CLIMBED_M = 0.3
+#: vehicle seconds between asks for the disarm of a vehicle that never left the roof
+DISARM_RETRY_S = 1.0
 #: not armed this long after the take-off was asked (vehicle time): the autopilot refuses to arm
 #: (ArduCopter: the pilot's throttle stick not at the bottom, AP_Arming::rc_arm_checks): back to
 #: LANDED, disarmed on the roof, legs clamped; the arm is asked again every ARM_RETRY_S meanwhile
@@ -60,10 +65,27 @@ class Takeoff(State):
         ctx.marks["takeoff_clear"] = None  # since when the believed range is clear
         ctx.marks["takeoff_sent"] = inp.t
         ctx.marks["takeoff_prev_t"] = None  # time of the previous valid reading, believed or not
+        ctx.marks["takeoff_z0"] = inp.position_m[2] if inp.position_m is not None else None
+        ctx.marks["takeoff_rose"] = False
         return None
+
+    @staticmethod
+    def _rose(ctx: Context, inp: Inputs) -> bool:
+        """Whether the vehicle has left the roof: its height rose :data:`CLIMBED_M` above the first
+        position known in TAKEOFF (once seen, remembered). With no position ever known it cannot
+        be told, and is taken to have flown (the legs then stay clamped, handed to LOITER)."""
+        m = ctx.marks
+        if inp.position_m is not None:
+            if m.get("takeoff_z0") is None:
+                m["takeoff_z0"] = inp.position_m[2]
+            if m["takeoff_z0"] - inp.position_m[2] >= CLIMBED_M:  # NED: up is a smaller z
+                m["takeoff_rose"] = True
+        return m["takeoff_rose"] or m.get("takeoff_z0") is None
 
     def step(self, ctx: Context, inp: Inputs):
         m = ctx.marks
+        if not inp.armed and m.get("takeoff_disarm_sent") is not None:
+            return ("LANDED", f"take-off failed: no climb within {GIVE_UP_S:g} s; disarmed on the roof")
         if not inp.armed:
             waited = inp.t - ctx.entered_at
             if waited > ARM_WAIT_S:
@@ -76,8 +98,25 @@ class Takeoff(State):
                 m["takeoff_sent"] = inp.t  # refused (a stick up, a pre-arm check): ask again
                 ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
             # the readings below still seed the chain: the ground, before any spike
+        rose = self._rose(ctx, inp)
         if inp.t - ctx.entered_at > GIVE_UP_S:
-            return ("READY", f"legs left clamped: no trustworthy clear range within {GIVE_UP_S:g} s")
+            if rose:
+                hand_to_loiter(ctx, inp)
+                return (
+                    "READY",
+                    f"legs left clamped: no trustworthy clear range within {GIVE_UP_S:g} s; "
+                    "handed to LOITER, loosen them by hand after landing",
+                )
+            if not inp.armed:
+                return (
+                    "LANDED",
+                    f"take-off failed: never climbed within {GIVE_UP_S:g} s; disarmed on the roof",
+                )
+            if inp.t - m.get("takeoff_disarm_sent", -1e9) >= DISARM_RETRY_S:
+                m["takeoff_disarm_sent"] = inp.t  # armed on the roof and not flying: disarm it there
+                ctx.act.disarm_on_ground()
+                ctx.act.statustext(f"SL take-off: no climb in {GIVE_UP_S:g} s, disarming")
+            return None
         if inp.armed and ctx.act.refused("takeoff") and inp.t - m.get("takeoff_sent", -1.0) >= 1.0:
             # on a lossy link the take-off can arrive before the arm (or the mode) and be refused
             # (found by the soak: armed on the roof, never climbing): send it again, armed now
