@@ -34,7 +34,7 @@ SUBCOMMAND_MODULES = {
     "slopelander.params_cli": (("params",), True),
     "slopelander.envelope_cli": (("map", "table"), True),
     "slopelander.lookup_cli": (("lookup",), False),
-    "slopelander.ident.cli": (("synth", "compare", "fit", "diagnose", "steps"), True),
+    "slopelander.ident.cli": (("import", "synth", "compare", "fit", "diagnose", "steps"), True),
 }
 
 
