@@ -20,7 +20,7 @@ import sys
 from slopelander import __version__
 from slopelander.errors import SlopelanderError
 
-SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa")
+SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa", "c3d")
 """The importable names the ``sim`` extra installs (pyproject.toml)."""
 
 # Modules that add subcommands, in the order they appear in ``--help``, with the subcommands

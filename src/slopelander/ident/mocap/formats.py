@@ -150,12 +150,15 @@ def read_c3d(path: Path) -> Take:
     )
 
 
-def write_c3d(path: Path, labels: list[str], xyz_m: np.ndarray, rate: float, *, up: str = "+Z") -> None:
-    """A C3D file of marker positions (metres in, millimetres in the file), NaN written as not
+def write_c3d(
+    path: Path, labels: list[str], xyz_m: np.ndarray, rate: float, *, up: str = "+Z", units: str = "mm"
+) -> None:
+    """A C3D file of marker positions (metres in, ``units`` in the file), NaN written as not
     seen, with ``POINT:Y_SCREEN`` naming the vertical axis (as Vicon and Qualisys export it)."""
     import c3d
 
-    w = c3d.Writer(point_rate=float(rate), analog_rate=0.0, point_scale=-1.0, point_units="mm  ")
+    scale = 1.0 / LENGTH_UNITS[units]
+    w = c3d.Writer(point_rate=float(rate), analog_rate=0.0, point_scale=-1.0, point_units=units.ljust(4))
     w.set_point_labels(labels)
     horiz = "+X" if up.strip("+-") != "X" else "+Y"
     w.set_screen_axis(X=horiz, Y=up)
@@ -164,7 +167,7 @@ def write_c3d(path: Path, labels: list[str], xyz_m: np.ndarray, rate: float, *, 
     for f in range(xyz_m.shape[0]):
         p = np.zeros((len(labels), 5), dtype=np.float32)
         seen = np.isfinite(xyz_m[f]).all(axis=1)
-        p[seen, :3] = xyz_m[f, seen] * 1000.0
+        p[seen, :3] = xyz_m[f, seen] * scale
         p[~seen, 3] = -1.0
         p[seen, 4] = 3  # cameras bits: a marker seen is seen by some camera
         frames.append((p, empty))

@@ -78,6 +78,9 @@ class MarkerSet:
     def take_entry(self, path: Path) -> dict[str, Any]:
         """The conditions of the take in ``path`` (its own over the shared ones)."""
         entry = self.takes.get(path.name, self.takes.get(path.stem))
+        if entry is None:  # the table names the take by another export of it (drop02.c3d, drop02.csv)
+            same = [v for k, v in self.takes.items() if Path(k).stem == path.stem]
+            entry = same[0] if len(same) == 1 else None
         if entry is None and self.takes:
             raise MocapError(self.path, path.stem, "takes", f"no entry for {path.name} in the takes table")
         merged: dict[str, Any] = dict(self.conditions)
