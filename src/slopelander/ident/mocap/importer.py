@@ -101,9 +101,11 @@ def drop_name(path: Path) -> str:
 
 
 def check_take(path: Path, ms: MarkerSet) -> Checked:
-    """Read one take and check what can be checked without solving it."""
+    """Read one take and check what can be checked without solving it: the markers are there,
+    the lengths can be in the file's unit, the cluster is the declared rigid shape."""
     take = read_take(path)
     entry = ms.take_entry(path)
+    body_idx: list[int] = []
     if ms.rigid_body is not None:
         if ms.rigid_body.name not in take.bodies:
             have = ", ".join(take.bodies) or "none"
@@ -113,18 +115,18 @@ def check_take(path: Path, ms: MarkerSet) -> Checked:
                 "body.rigid_body",
                 f"no rigid body '{ms.rigid_body.name}' (the take has {have})",
             )
-        body_idx: list[int] = []
     else:
         body_idx = [take.index(m, f"body.markers.{m}") for m in ms.body]
-        pts = take.xyz[:, body_idx]
+    roof_idx = [take.index(m, f"roof.markers.{m}") for m in ms.roof]
+    _check_extent(take, body_idx + roof_idx)
+    if body_idx:
         check_rigid(
-            pts,
+            take.xyz[:, body_idx],
             np.array(list(ms.body.values())),
             list(ms.body),
             ms.rigid_tolerance,
             (str(path), take.name, "body.markers"),
         )
-    roof_idx = [take.index(m, f"roof.markers.{m}") for m in ms.roof]
     for i, m in zip(roof_idx, ms.roof, strict=True):
         if np.isfinite(take.xyz[:, i, 0]).sum() < 3:
             raise MocapError(path, take.name, f"roof.markers.{m}", "seen in fewer than 3 frames")
@@ -135,20 +137,22 @@ def check_take(path: Path, ms: MarkerSet) -> Checked:
             take.up_field,
             f"the file says the vertical is {take.up}, the markers file's up_axis {ms.up_axis}",
         )
-    extent = (
-        np.nanmax(take.xyz[:, body_idx + roof_idx], axis=(0, 1))
-        - np.nanmin(take.xyz[:, body_idx + roof_idx], axis=(0, 1))
-        if (body_idx + roof_idx)
-        else np.zeros(3)
-    )
-    if np.nanmax(extent) > 10 * MAX_HEIGHT:
+    return Checked(take, body_idx, roof_idx, entry)
+
+
+def _check_extent(take: Take, idx: list[int]) -> None:
+    """Refuse lengths that cannot be in the unit the file says: markers spread over kilometres."""
+    pts = take.xyz[:, idx]
+    if not np.isfinite(pts).any():
+        return
+    extent = float(np.nanmax(np.nanmax(pts, axis=(0, 1)) - np.nanmin(pts, axis=(0, 1))))
+    if extent > 10 * MAX_HEIGHT:
         raise MocapError(
-            path,
+            take.path,
             take.name,
             take.units.split(" ")[0],
-            f"the markers span {np.nanmax(extent):.0f} m ({take.units}): the lengths are not in that unit",
+            f"the markers span {extent:.4g} m ({take.units}): the lengths are not in that unit",
         )
-    return Checked(take, body_idx, roof_idx, entry)
 
 
 def _pose(c: Checked, ms: MarkerSet) -> tuple[np.ndarray, np.ndarray, float | None, list[str]]:
@@ -225,6 +229,15 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
             f"the free fall measures {g_meas:.4g} m/s^2, not {GRAVITY} ({take.units}): the lengths are not "
             f"in that unit (a factor {g_meas / GRAVITY:.3g} off)",
         )
+    if not 0.65 * GRAVITY <= g_meas <= 1.35 * GRAVITY:
+        raise MocapError(
+            path,
+            take.name,
+            "<contact>",
+            f"the take does not start in free fall: its first {flight.frames} frames accelerate at "
+            f"{g_meas:.3g} m/s^2 (gravity {GRAVITY}); it must start {MIN_FLIGHT} frames or more "
+            "before contact",
+        )
     down = flight.accel / g_meas
     declared, fieldname = (take.up, take.up_field) if take.up else (ms.up_axis, "up_axis")
     if declared:
@@ -235,7 +248,8 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
                 path,
                 take.name,
                 fieldname,
-                f"vertical {declared}, but the free fall points {off:.0f} deg away from it",
+                f"the first {flight.frames} frames accelerate {off:.0f} deg away from the vertical "
+                f"{declared}: the take does not start in free fall, or the vertical is wrong",
             )
         up_note = f"{declared} ({fieldname})"
     else:

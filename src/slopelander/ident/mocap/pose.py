@@ -74,29 +74,32 @@ def check_rigid(
     in the take differs from the markers file's by more than ``tol`` (median over frames), or
     that varies over the take by more than ``tol`` (a marker on a moving part)."""
     path, take, fieldname = where
+    pairs = []
     for i in range(len(names)):
         for j in range(i + 1, len(names)):
             d = np.linalg.norm(xyz[:, i] - xyz[:, j], axis=1)
             d = d[np.isfinite(d)]
-            if d.size < 3:
-                continue
-            declared = float(np.linalg.norm(body[i] - body[j]))
-            med = float(np.median(d))
-            if abs(med - declared) > tol:
-                raise MocapError(
-                    path,
-                    take,
-                    fieldname,
-                    f"markers {names[i]} and {names[j]} are {1000 * med:.1f} mm apart in the take, "
-                    f"{1000 * declared:.1f} mm in the markers file (tolerance {1000 * tol:.1f} mm): a "
-                    "marker is mislabelled or the body's coordinates are wrong",
-                )
-            lo, hi = np.percentile(d, [2.5, 97.5])
-            if hi - lo > 2 * tol:
-                raise MocapError(
-                    path,
-                    take,
-                    fieldname,
-                    f"the cluster is not rigid: {names[i]}-{names[j]} varies by {1000 * (hi - lo):.1f} mm "
-                    f"over the take (95 % of frames; tolerance {1000 * 2 * tol:.1f} mm)",
-                )
+            if d.size >= 3:
+                pairs.append((i, j, d))
+    for i, j, d in pairs:  # first a shape that changes, then a shape that differs
+        lo, hi = np.percentile(d, [2.5, 97.5])
+        if hi - lo > 2 * tol:
+            raise MocapError(
+                path,
+                take,
+                fieldname,
+                f"the cluster is not rigid: {names[i]}-{names[j]} varies by {1000 * (hi - lo):.1f} mm "
+                f"over the take (95 % of frames; tolerance {1000 * 2 * tol:.1f} mm)",
+            )
+    for i, j, d in pairs:
+        declared = float(np.linalg.norm(body[i] - body[j]))
+        med = float(np.median(d))
+        if abs(med - declared) > tol:
+            raise MocapError(
+                path,
+                take,
+                fieldname,
+                f"markers {names[i]} and {names[j]} are {1000 * med:.1f} mm apart in the take, "
+                f"{1000 * declared:.1f} mm in the markers file (tolerance {1000 * tol:.1f} mm): a "
+                "marker is mislabelled or the body's coordinates are wrong",
+            )
