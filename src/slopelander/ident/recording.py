@@ -180,7 +180,9 @@ def read_states(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             except ValueError:
                 raise RecordingError(path, lineno, name, f"'{cell.strip()}' is not a number") from None
             if not math.isfinite(v):
-                raise RecordingError(path, lineno, name, f"'{cell.strip()}' is not a finite number")
+                raise RecordingError(
+                    path, lineno, name, f"'{cell.strip()}' is not a finite number (a gap is an empty cell)"
+                )
             vals.append(v)
         data.append((lineno, vals))
     if len(data) < 2:
