@@ -289,13 +289,13 @@ def read_motive_csv(path: Path) -> Take:
     ]
     data = _numbers(path, take, rows, colnames, width)
 
-    def at(j: int) -> str:
-        return lambda r: r[j].strip() if j < len(r) else ""
+    def cell(row: list[str], j: int) -> str:
+        return row[j].strip() if j < len(row) else ""
 
     markers: dict[str, list[int]] = {}
     bodies: dict[str, dict[str, int]] = {}
     for j in range(2, width):
-        kind, name, prop, ax = at(j)(types), at(j)(names), at(j)(props), axes[j].strip()
+        kind, name, prop, ax = cell(types, j), cell(names, j), cell(props, j), axes[j].strip()
         if kind == "Marker" and prop == "Position":
             markers.setdefault(name, []).append(j)
         elif kind == "Rigid Body":

@@ -432,10 +432,14 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
         f"{path.name} ({take.fmt}), take '{take.name}', imported by slopelander",
         meta,
     )
+
+    def signed(v: float, digits: int) -> str:
+        return f"{round(v, digits) + 0.0:+.{digits}f}"  # no "-0.00"
+
     line1 = (
         f"{drop.name}: slope {cond.slope_deg:.1f} deg, impact {cond.speed:.2f} m/s (horizontal "
-        f"{cond.horizontal_speed:+.2f} m/s, pitch {cond.pitch_deg:+.1f} deg, "
-        f"{cond.pitch_rate_dps:+.0f} deg/s), "
+        f"{signed(cond.horizontal_speed, 2)} m/s, pitch {signed(cond.pitch_deg, 1)} deg, "
+        f"{signed(cond.pitch_rate_dps, 0)} deg/s), "
         f"contact at {tc:.4f} s +- {1000 * ct.sd:.1f} ms"
     )
     line2 = (
