@@ -125,3 +125,39 @@ def test_an_output_folder_that_holds_something(lab):
     r = run_import(lab, "drop01.c3d")
     assert r.returncode == 1 and "not an empty folder" in r.stderr
     assert [p.name for p in (lab / "out").iterdir()] == ["drop01.csv"]
+
+
+@pytest.mark.parametrize(
+    ("edit", "field", "words"),
+    [
+        (lambda t: t.replace("units: mm ", "units: inch "), "units", "say the unit"),
+        (lambda t: t.replace("keep:", "kept:"), "kept", "unknown key"),
+        (
+            lambda t: t.replace("    REAR: [-125, 10, 35]\n    TOP: [10, -20, 90]\n", ""),
+            "body.markers",
+            "at least 3",
+        ),
+        (
+            lambda t: (
+                t.replace("[110, 60, 25]", "[0, 0, 0]")
+                .replace("[-125, 10, 35]", "[-120, 45, -30]")
+                .replace("[10, -20, 90]", "[240, -90, 60]")
+            ),
+            "body.markers",
+            "on one line",
+        ),
+        (
+            lambda t: t.replace("takes: takes.csv", "takes: {drop01.c3d: {tau_up: fast}}"),
+            "takes.drop01.c3d.tau_up",
+            "not a number",
+        ),
+    ],
+)
+def test_a_markers_file_that_cannot_be_used(lab, edit, field, words):
+    (lab / "markers.yaml").write_text(edit((lab / "markers.yaml").read_text()))
+    refused(run_import(lab, "drop01.c3d"), lab, "markers.yaml", f"field '{field}'", words)
+
+
+def test_a_takes_table_with_a_bad_cell(lab):
+    (lab / "takes.csv").write_text("take,tau_up,tau_down\ndrop01.c3d,1.1,strong\n")
+    refused(run_import(lab, "drop01.c3d"), lab, "takes.csv", "field 'line 2, tau_down'", "not a number")
