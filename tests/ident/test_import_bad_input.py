@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from slopelander.ident.mocap.formats import read_take, write_c3d
-from tests.ident.mocap_files import vicon_csv
+from tests.ident.mocap_files import motive_csv, vicon_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "docs" / "examples" / "mocap"
@@ -161,3 +161,21 @@ def test_a_markers_file_that_cannot_be_used(lab, edit, field, words):
 def test_a_takes_table_with_a_bad_cell(lab):
     (lab / "takes.csv").write_text("take,tau_up,tau_down\ndrop01.c3d,1.1,strong\n")
     refused(run_import(lab, "drop01.c3d"), lab, "takes.csv", "field 'line 2, tau_down'", "not a number")
+
+
+def test_a_motive_rigid_body_exported_with_euler_angles(lab):
+    tk = read_take(lab / "drop01.c3d")
+    motive_csv(lab / "drop01.csv", list(tk.labels), tk.xyz, tk.rate)
+    rows = (lab / "drop01.csv").read_text().splitlines()
+    rows[0] = rows[0].replace("Rotation Type,Quaternion", "Rotation Type,XYZ")
+    rows[2] += ",Rigid Body,Rigid Body,Rigid Body"
+    rows[3] += ",quad,quad,quad"
+    rows[4] += ",1,1,1"
+    rows[5] += ",Rotation,Rotation,Rotation"
+    rows[6] += ",X,Y,Z"
+    rows[7:] = [r + ",0,0,0" for r in rows[7:]]
+    (lab / "drop01.csv").write_text("\n".join(rows) + "\n")
+    text = (lab / "markers.yaml").read_text()
+    start, end = text.index("body:"), text.index("roof:")
+    (lab / "markers.yaml").write_text(text[:start] + "body:\n  rigid_body: quad\n" + text[end:])
+    refused(run_import(lab, "drop01.csv"), lab, "drop01.csv", "field 'body.rigid_body'", "export quaternions")

@@ -307,6 +307,7 @@ def read_motive_csv(path: Path) -> Take:
         else np.zeros((len(rows), 0, 3))
     )
     solved = {}
+    unusable: dict[str, str] = {}
     for name, c in bodies.items():
         need = [
             "Rotation:X",
@@ -317,12 +318,14 @@ def read_motive_csv(path: Path) -> Take:
             "Position:Y",
             "Position:Z",
         ]
-        if any(k not in c for k in need):
-            if meta.get("Rotation Type", "Quaternion") != "Quaternion":
-                continue  # Euler angles: the rigid body is not used; its markers still are
-            raise MocapError(
-                path, take, f"Rigid Body {name}", "needs Rotation X,Y,Z,W and Position X,Y,Z columns"
+        if any(k not in c for k in need):  # usable only if the markers file asks for it
+            kind = meta.get("Rotation Type", "Quaternion")
+            unusable[name] = (
+                f"its rotation is exported as '{kind}': export quaternions (Rotation Type: Quaternion)"
+                if kind != "Quaternion"
+                else "it lacks Rotation X,Y,Z,W or Position X,Y,Z columns"
             )
+            continue
         err = (
             data[:, c["Mean Marker Error:"]] * scale
             if "Mean Marker Error:" in c
@@ -340,6 +343,7 @@ def read_motive_csv(path: Path) -> Take:
         xyz,
         f"Length Units = '{meta['Length Units']}'",
         bodies=solved,
+        unusable=unusable,
     )
 
 

@@ -107,6 +107,8 @@ def check_take(path: Path, ms: MarkerSet) -> Checked:
     entry = ms.take_entry(path)
     body_idx: list[int] = []
     if ms.rigid_body is not None:
+        if ms.rigid_body.name in take.unusable:
+            raise MocapError(path, take.name, "body.rigid_body", take.unusable[ms.rigid_body.name])
         if ms.rigid_body.name not in take.bodies:
             have = ", ".join(take.bodies) or "none"
             raise MocapError(

@@ -52,6 +52,8 @@ class Take:
     """The vertical axis the file declares (``+Z``, ``+Y``), or None when it declares none."""
     up_field: str = ""
     bodies: dict[str, RigidBody] = field(default_factory=dict)
+    unusable: dict[str, str] = field(default_factory=dict)
+    """Rigid bodies in the file that cannot be used, and why."""
 
     @property
     def frames(self) -> int:
