@@ -1,4 +1,4 @@
-"""``slopelander synth|compare|fit|diagnose|steps``: thin layers over the ident modules."""
+"""``slopelander import|synth|compare|fit|diagnose|steps``: thin layers over the ident modules."""
 
 from __future__ import annotations
 
