@@ -20,7 +20,7 @@ import sys
 from slopelander import __version__
 from slopelander.errors import SlopelanderError
 
-SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa")
+SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa", "c3d")
 """The importable names the ``sim`` extra installs (pyproject.toml)."""
 
 #: the entry-point group through which another installed part adds a command: the simulator's
@@ -38,7 +38,7 @@ SUBCOMMAND_MODULES = {
     "slopelander.params_cli": (("params",), True),
     "slopelander.envelope_cli": (("map", "table"), True),
     "slopelander.lookup_cli": (("lookup",), False),
-    "slopelander.ident.cli": (("synth", "compare", "fit", "diagnose", "steps"), True),
+    "slopelander.ident.cli": (("import", "synth", "compare", "fit", "diagnose", "steps"), True),
 }
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from slopelander.ident.mocap.rates import savgol_rates
 from slopelander.ident.phases import PHASES, phase_labels
 from slopelander.ident.recording import STATES, Drop
 from slopelander.ident.synth import ballistic, differentiate
@@ -46,6 +47,8 @@ def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarr
         after[pre] = _flight(drop.conditions, t[pre], z0, model.params["gravity"])
     if drop.rate_window:  # observe the model as the recording was observed
         after[:, 3:] = differentiate(after[:, :3], t, drop.rate_window)
+    elif drop.savgol:
+        after[:, 3:] = savgol_rates(after[:, :3], drop.savgol[2], *drop.savgol[:2])
     return after, (tr.result.outcome if outcome else None)
 
 
@@ -85,15 +88,29 @@ def _with_horizon(model: Model, horizon: float) -> Model:
 
 
 def state_ranges(drops: list[Drop]) -> np.ndarray:
-    """Range of each measured state over the dataset (floored so none is zero)."""
+    """Range of each measured state over the dataset (floored so none is zero); gaps (NaN)
+    are left out."""
     allst = np.concatenate([d.states[d.t >= 0] for d in drops])
-    rng = allst.max(axis=0) - allst.min(axis=0)
+    rng = np.nanmax(allst, axis=0) - np.nanmin(allst, axis=0)
     return np.maximum(rng, 1e-6)
 
 
 def combine(per_state: np.ndarray) -> float:
-    """Weighted mean over the six states (angular x2)."""
-    return float(np.sum(WEIGHTS * per_state) / WEIGHTS.sum())
+    """Weighted mean over the six states (angular x2); a state with no value (NaN: every
+    sample a gap) is left out."""
+    ok = np.isfinite(per_state)
+    if ok.all():
+        return float(np.sum(WEIGHTS * per_state) / WEIGHTS.sum())
+    return float(np.sum(WEIGHTS[ok] * per_state[ok]) / WEIGHTS[ok].sum()) if ok.any() else float("nan")
+
+
+def masked_rms(err: np.ndarray) -> np.ndarray:
+    """RMS of each column over its samples that are not gaps (NaN where a column has none)."""
+    ok = np.isfinite(err)
+    n = ok.sum(axis=0)
+    sq = np.where(ok, err, 0.0) ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, np.sqrt(sq.sum(axis=0) / np.maximum(n, 1)), np.nan)
 
 
 @dataclass(frozen=True)
@@ -159,7 +176,7 @@ class Comparison:
         """Share of the weighted squared residual in each phase (after contact)."""
         tot = {p: 0.0 for p in PHASES}
         for d in self.drops:
-            e = (((d.simulated - d.measured) / self.ranges) ** 2 * WEIGHTS).sum(axis=1)
+            e = np.nan_to_num(((d.simulated - d.measured) / self.ranges) ** 2 * WEIGHTS).sum(axis=1)
             for i, p in enumerate(PHASES):
                 tot[p] += float(e[d.labels == i].sum())
         s = sum(tot.values()) or 1.0
@@ -168,7 +185,9 @@ class Comparison:
     def state_share(self) -> dict[str, float]:
         e = np.zeros(6)
         for d in self.drops:
-            e += ((((d.simulated - d.measured) / self.ranges) ** 2) * WEIGHTS)[d.t >= 0].sum(axis=0)
+            e += np.nan_to_num((((d.simulated - d.measured) / self.ranges) ** 2) * WEIGHTS)[d.t >= 0].sum(
+                axis=0
+            )
         return {k: float(v) for k, v in zip(STATES, e / max(e.sum(), 1e-300), strict=True)}
 
     def worst_windows(self, n: int = 5) -> list[Window]:
@@ -176,7 +195,7 @@ class Comparison:
         cands = []
         total = 0.0
         for d in self.drops:
-            e = (((d.simulated - d.measured) / self.ranges) ** 2) * WEIGHTS
+            e = np.nan_to_num((((d.simulated - d.measured) / self.ranges) ** 2) * WEIGHTS)
             e[d.t < 0] = 0.0
             total += float(e.sum())
             dt = float(np.median(np.diff(d.t)))
@@ -203,12 +222,8 @@ def compare_drop(model: Model, drop: Drop, ranges: np.ndarray) -> DropComparison
     labels = phase_labels(drop.t, drop.states[:, 4], drop.states[:, 3], drop.conditions.slope_deg)
     err = (sim - drop.states) / ranges
     contact = drop.t >= 0
-    per_state = np.sqrt(np.mean(err[contact] ** 2, axis=0))
-    per_phase = {
-        p: np.sqrt(np.mean(err[labels == i] ** 2, axis=0))
-        for i, p in enumerate(PHASES)
-        if (labels == i).any()
-    }
+    per_state = masked_rms(err[contact])  # gaps (NaN) in the recording are left out
+    per_phase = {p: masked_rms(err[labels == i]) for i, p in enumerate(PHASES) if (labels == i).any()}
     return DropComparison(
         drop.name,
         drop.t,

@@ -26,7 +26,8 @@ from itertools import product
 
 import numpy as np
 
-from slopelander.ident.compare import WEIGHTS, combine, predict
+from slopelander.ident.compare import WEIGHTS, combine, masked_rms, predict
+from slopelander.ident.mocap.rates import savgol_rates
 from slopelander.ident.recording import Drop
 from slopelander.ident.synth import differentiate
 from slopelander.model import Model
@@ -113,9 +114,15 @@ def noise_floor(
             pos[:, :2] += rng.normal(0.0, nz["position_sd_m"], (len(d.t), 2))
             pos[:, 2] += rng.normal(0.0, math.radians(nz["angle_sd_deg"]), len(d.t))
             w = d.rate_window
-            rates = differentiate(pos, d.t, w) if w else shifted[:, 3:]
+            if w:
+                rates = differentiate(pos, d.t, w)
+            elif d.savgol:
+                rates = savgol_rates(pos, d.savgol[2], *d.savgol[:2])
+            else:
+                rates = shifted[:, 3:]
             rec = np.column_stack([pos, rates])
             err = (rec - clean)[contact] / ranges
-            vals.append(combine(np.sqrt(np.mean(err**2, axis=0))))
+            err[~np.isfinite(d.states[contact])] = np.nan  # the recording's gaps are not scored
+            vals.append(combine(masked_rms(err)))
         out.append(float(np.mean(vals)))
     return float(np.mean(out))

@@ -144,13 +144,19 @@ class Problem:
     def __post_init__(self) -> None:
         horizon = max(float(d.t[-1]) for d in self.drops) + 0.01
         self.model = replace(self.model, criteria=replace(self.model.criteria, horizon=horizon))
-        self._scale = [
-            np.sqrt(WEIGHTS / WEIGHTS.sum()) / self.ranges / math.sqrt((d.t >= 0).sum() * len(self.drops))
-            for d in self.drops
-        ]
-        # the samples after contact, and what was measured there: the same at every evaluation
+        # the samples after contact, and what was measured there: the same at every evaluation;
+        # a gap in a recording (NaN) is no residual at all, and each state's mean is over its own
+        # samples (as compare's NRMSE)
         self._after = [d.t >= 0 for d in self.drops]
         self._measured = [d.states[a] for d, a in zip(self.drops, self._after, strict=True)]
+        self._seen = [np.isfinite(m) for m in self._measured]
+        self._gaps = any(not s.all() for s in self._seen)
+        self._scale = [
+            np.sqrt(WEIGHTS / WEIGHTS.sum())
+            / self.ranges
+            / np.sqrt(np.maximum(s.sum(axis=0), 1) * len(self.drops))
+            for s in self._seen
+        ]
 
     def values(self, u: Sequence[float]) -> list[float]:
         return [p.value(float(x)) for p, x in zip(self.params, u, strict=True)]
@@ -165,21 +171,22 @@ class Problem:
         try:
             m = self.model_at(u)
         except SlopelanderError:
-            return np.full(sum(int((self.drops[i].t >= 0).sum()) * 6 for i in idx), 10.0)
+            return np.full(sum(int(self._seen[i].sum()) for i in idx), 10.0)
         out = [np.zeros(0)]
         for i in idx:
             sim, _ = predict(m, self.drops[i], outcome=False)
-            out.append(((sim[self._after[i]] - self._measured[i]) * self._scale[i]).ravel())
+            r = (sim[self._after[i]] - self._measured[i]) * self._scale[i]
+            out.append(r[self._seen[i]] if self._gaps else r.ravel())
         r = np.concatenate(out)
         return np.where(np.isfinite(r), r, 10.0)
 
     def groups(self) -> np.ndarray:
         """The drop each residual belongs to (for intervals over drops)."""
-        return np.concatenate([np.full(int((d.t >= 0).sum()) * 6, i) for i, d in enumerate(self.drops)])
+        return np.concatenate([np.full(int(s.sum()), i) for i, s in enumerate(self._seen)])
 
     @property
     def size(self) -> int:
-        return sum(int((d.t >= 0).sum()) * 6 for d in self.drops)
+        return sum(int(s.sum()) for s in self._seen)
 
     def cost(self, u: Sequence[float]) -> float:
         r = self.residuals(u)

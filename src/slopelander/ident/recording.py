@@ -80,6 +80,15 @@ class Drop:
             return int(rates.get("window", 3))
         return None
 
+    @property
+    def savgol(self) -> tuple[int, int, float] | None:
+        """(window, polyorder, frame spacing in s) of the Savitzky-Golay filter the recording's
+        rates were made with (``meta.rates``, an imported take), or None."""
+        rates = self.meta.get("rates") if isinstance(self.meta, dict) else None
+        if isinstance(rates, dict) and rates.get("method") == "savgol":
+            return int(rates["window"]), int(rates["polyorder"]), float(rates["dt"])
+        return None
+
     def __post_init__(self) -> None:
         if self.states.shape != (len(self.t), len(STATES)):
             raise ValueError(f"drop {self.name}: states must be ({len(self.t)}, 6), got {self.states.shape}")
@@ -95,7 +104,7 @@ def write_drop(drop: Drop, folder: str | Path) -> Path:
         w = csv.writer(fh)
         w.writerow([f"{c} [{SI_UNITS[c]}]" for c in COLUMNS])
         for ti, row in zip(drop.t, drop.states, strict=True):
-            w.writerow([f"{ti:.6f}", *(f"{v:.7g}" for v in row)])
+            w.writerow([f"{ti:.6f}", *(f"{v:.7g}" if math.isfinite(v) else "" for v in row)])
     meta = {
         "schema": SCHEMA,
         "conditions": drop.conditions.as_file_dict(),
@@ -163,12 +172,17 @@ def read_states(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             )
         vals = []
         for name, cell in zip(names, row, strict=True):
+            if not cell.strip() and name != "time":
+                vals.append(math.nan)  # an empty cell: a gap, not seen (masked downstream)
+                continue
             try:
                 v = float(cell)
             except ValueError:
                 raise RecordingError(path, lineno, name, f"'{cell.strip()}' is not a number") from None
             if not math.isfinite(v):
-                raise RecordingError(path, lineno, name, f"'{cell.strip()}' is not a finite number")
+                raise RecordingError(
+                    path, lineno, name, f"'{cell.strip()}' is not a finite number (a gap is an empty cell)"
+                )
             vals.append(v)
         data.append((lineno, vals))
     if len(data) < 2:
@@ -247,7 +261,24 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
     if not isinstance(meta, dict):
         raise RecordingError(path, _json_line(text, "meta"), "meta", "must be an object")
     rates = meta.get("rates")
-    if rates is not None:
+    if isinstance(rates, dict) and rates.get("method") == "savgol":
+        win, order, dt = rates.get("window"), rates.get("polyorder"), rates.get("dt")
+        if not (
+            isinstance(win, int)
+            and isinstance(order, int)
+            and isinstance(dt, (int, float))
+            and win >= 3
+            and win % 2
+            and 1 <= order < win
+            and dt > 0
+        ):
+            raise RecordingError(
+                path,
+                _json_line(text, "rates"),
+                "meta.rates",
+                '"savgol" needs "window" (odd, >= 3), "polyorder" (1..window-1) and "dt" (s, > 0)',
+            )
+    elif rates is not None:
         win = rates.get("window") if isinstance(rates, dict) else None
         ok = (
             isinstance(rates, dict)
@@ -274,6 +305,21 @@ def load_drop(csv_path: str | Path) -> Drop:
         )
     t, states = read_states(csv_path)
     cond, outcome, source, meta = read_conditions(side)
+    rates = meta.get("rates")
+    if isinstance(rates, dict) and rates.get("method") == "savgol":
+        step = np.diff(t)
+        worst = int(np.argmax(np.abs(step - rates["dt"])))
+        if abs(step[worst] - rates["dt"]) > 2e-6:
+            raise RecordingError(
+                csv_path,
+                worst + 3,
+                "time",
+                f"{t[worst + 1]:g} s is not one frame ({rates['dt']:g} s, meta.rates.dt) after "
+                f"{t[worst]:g} s: Savitzky-Golay rates need every frame, gaps as empty cells",
+            )
+    if not np.isfinite(states[t >= 0]).any(axis=0).all():
+        col = STATES[int(np.argmin(np.isfinite(states[t >= 0]).any(axis=0)))]
+        raise RecordingError(csv_path, None, col, "no value after first contact (every cell is a gap)")
     return Drop(csv_path.stem, t, states, cond, outcome, source, meta)
 
 

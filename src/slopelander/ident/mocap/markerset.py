@@ -1,0 +1,314 @@
+"""The markers file: which markers are the body and the roof, and each take's conditions.
+
+A small YAML (docs/import.md) read strictly: an unknown key, a length without its unit, a
+condition the take measures itself (slope, impact speed and attitude) all stop the import with
+the file and the field named, before any take is read.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from slopelander.ident.mocap.take import MocapError
+
+SCHEMA = "slopelander.markers/1"
+_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+GIVEN = (
+    "tau_up",
+    "tau_down",
+    "angle_up_deg",
+    "angle_down_deg",
+    "reverse_percent",
+    "reverse_delay",
+    "reverse_duration",
+    "reverse_ramp",
+)
+"""Conditions a take cannot measure: the leg presets and the thrust profile."""
+MEASURED = ("slope_deg", "speed", "horizontal_speed", "pitch_deg", "pitch_rate_dps")
+"""Conditions every take measures itself (roof plane, free flight up to first contact)."""
+OUTCOMES = ("ideal", "under_used", "end_of_travel", "slid", "joint_touch", "flip")
+AXES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+
+
+@dataclass(frozen=True)
+class RigidBodySpec:
+    """A rigid body the capture software solved (Motive): its name, where the centre of mass
+    sits in its local frame (m), and which of its local axes are the vehicle's forward and up."""
+
+    name: str
+    centre_of_mass: np.ndarray
+    forward: str
+    up: str
+
+
+@dataclass(frozen=True)
+class MarkerSet:
+    path: Path
+    body: dict[str, np.ndarray]
+    """Body-frame position of each cluster marker, m (x forward, y left, z up; origin = CoM)."""
+    rigid_body: RigidBodySpec | None
+    rigid_tolerance: float
+    """m: how far a marker may stray from the cluster's declared shape."""
+    roof: tuple[str, ...]
+    roof_height: float
+    """m: height of a roof marker's centre above the surface (its radius, on a flat base)."""
+    plane: tuple[np.ndarray, np.ndarray] | None
+    """(point m, unit normal) in the capture's axes, when the roof is given as a plane."""
+    up_axis: str | None
+    latency_s: float
+    rate_window_s: float
+    rate_polyorder: int
+    lateral_limit: float
+    yaw_limit_deg: float
+    roll_limit_deg: float
+    before_s: float
+    after_s: float
+    conditions: dict[str, float]
+    takes: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Per take (file name or stem): its conditions and outcome, over ``conditions``."""
+    takes_table: Path | None = None
+    """The CSV the takes came from, if any (not a take itself)."""
+
+    def take_entry(self, path: Path) -> dict[str, Any]:
+        """The conditions of the take in ``path`` (its own over the shared ones)."""
+        entry = self.takes.get(path.name, self.takes.get(path.stem))
+        if entry is None:  # the table names the take by another export of it (drop02.c3d, drop02.csv)
+            same = [v for k, v in self.takes.items() if Path(k).stem == path.stem]
+            entry = same[0] if len(same) == 1 else None
+        if entry is None and self.takes:
+            raise MocapError(self.path, path.stem, "takes", f"no entry for {path.name} in the takes table")
+        merged: dict[str, Any] = dict(self.conditions)
+        merged.update(entry or {})
+        return merged
+
+
+def _err(path: Path, fieldname: str, why: str) -> MocapError:
+    return MocapError(path, None, fieldname, why)
+
+
+def _number(path: Path, name: str, v: object, lo: float = -math.inf, hi: float = math.inf) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise _err(path, name, f"{v!r} is not a number")
+    if not lo <= v <= hi:
+        raise _err(path, name, f"{v:g} must lie within {lo:g}..{hi:g}")
+    return float(v)
+
+
+def _keys(path: Path, where: str, doc: dict, known: set[str]) -> None:
+    for k in doc:
+        if k not in known:
+            raise _err(path, f"{where}{k}", f"unknown key; known: {', '.join(sorted(known))}")
+
+
+def _axis(path: Path, name: str, v: object) -> str:
+    text = str(v).strip().upper()
+    if text in ("X", "Y", "Z"):
+        text = "+" + text
+    if text not in AXES:
+        raise _err(path, name, f"{v!r} is not an axis; one of {', '.join(AXES)}")
+    return text
+
+
+def _vector(path: Path, name: str, v: object, scale: float) -> np.ndarray:
+    if not isinstance(v, (list, tuple)) or len(v) != 3:
+        raise _err(path, name, f"{v!r} is not [x, y, z]")
+    return np.array([_number(path, f"{name}[{i}]", c) for i, c in enumerate(v)]) * scale
+
+
+def _conditions(path: Path, where: str, doc: object) -> dict[str, Any]:
+    if doc is None:
+        return {}
+    if not isinstance(doc, dict):
+        raise _err(path, where, "must be a mapping of condition: value")
+    out: dict[str, Any] = {}
+    for k, v in doc.items():
+        if k in MEASURED:
+            raise _err(path, f"{where}.{k}", "measured from the take (roof plane, free flight): remove it")
+        if k == "outcome":
+            if v not in OUTCOMES:
+                raise _err(path, f"{where}.outcome", f"{v!r}; one of {', '.join(OUTCOMES)}")
+            out[k] = v
+            continue
+        if k not in GIVEN:
+            raise _err(
+                path, f"{where}.{k}", f"unknown condition; a take's given conditions are {', '.join(GIVEN)}"
+            )
+        out[k] = _number(path, f"{where}.{k}", v)
+    return out
+
+
+def load_markerset(path: str | Path) -> MarkerSet:
+    """Read and check a markers file (docs/import.md)."""
+    import yaml
+
+    path = Path(path)
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise _err(path, "<file>", f"cannot read: {exc.strerror}") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}" if mark is not None else "<yaml>"
+        raise _err(path, where, f"not valid YAML: {getattr(exc, 'problem', exc)}") from None
+    if not isinstance(doc, dict):
+        raise _err(path, "<yaml>", "must be a mapping")
+    _keys(
+        path,
+        "",
+        doc,
+        {
+            "schema",
+            "units",
+            "body",
+            "roof",
+            "up_axis",
+            "latency_s",
+            "rates",
+            "planarity",
+            "keep",
+            "conditions",
+            "takes",
+        },
+    )
+    if doc.get("schema") != SCHEMA:
+        raise _err(path, "schema", f"must be '{SCHEMA}', got {doc.get('schema')!r}")
+    units = doc.get("units")
+    if units not in _UNITS:
+        raise _err(
+            path, "units", f"{units!r}: say the unit of this file's lengths, one of {', '.join(_UNITS)}"
+        )
+    s = _UNITS[units]
+
+    body_doc = doc.get("body")
+    if not isinstance(body_doc, dict):
+        raise _err(path, "body", "missing: name the body's markers (or its rigid body)")
+    _keys(
+        path,
+        "body.",
+        body_doc,
+        {"markers", "rigid_body", "centre_of_mass", "forward", "up", "rigid_tolerance"},
+    )
+    body: dict[str, np.ndarray] = {}
+    rigid = None
+    if "rigid_body" in body_doc:
+        if "markers" in body_doc:
+            raise _err(path, "body", "give either markers or rigid_body, not both")
+        rigid = RigidBodySpec(
+            str(body_doc["rigid_body"]),
+            _vector(path, "body.centre_of_mass", body_doc.get("centre_of_mass", [0, 0, 0]), s),
+            _axis(path, "body.forward", body_doc.get("forward", "+X")),
+            _axis(path, "body.up", body_doc.get("up", "+Z")),
+        )
+        if rigid.forward.strip("+-") == rigid.up.strip("+-"):
+            raise _err(path, "body.up", f"the same axis as body.forward ({rigid.forward})")
+    else:
+        raw = body_doc.get("markers")
+        if not isinstance(raw, dict) or len(raw) < 3:
+            raise _err(path, "body.markers", "need at least 3 markers: name: [x, y, z] in the body frame")
+        for name, v in raw.items():
+            body[str(name)] = _vector(path, f"body.markers.{name}", v, s)
+        pts = np.array(list(body.values()))
+        sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
+        if sv[1] < 1e-3 * max(sv[0], 1e-12) or sv[0] < 1e-3:
+            raise _err(path, "body.markers", "the markers lie on one line: their pose cannot be found")
+    tol = _number(path, "body.rigid_tolerance", body_doc.get("rigid_tolerance", 0.005 / s), 0.0) * s
+
+    roof_doc = doc.get("roof")
+    if not isinstance(roof_doc, dict):
+        raise _err(path, "roof", "missing: name the roof's markers (or give its plane)")
+    _keys(path, "roof.", roof_doc, {"markers", "plane", "marker_height"})
+    roof_height = _number(path, "roof.marker_height", roof_doc.get("marker_height", 0.0), 0.0) * s
+    roof: tuple[str, ...] = ()
+    plane = None
+    if "markers" in roof_doc:
+        raw = roof_doc["markers"]
+        if not isinstance(raw, list) or len(raw) < 3:
+            raise _err(path, "roof.markers", "need a list of at least 3 markers on the surface")
+        roof = tuple(str(m) for m in raw)
+    elif "plane" in roof_doc:
+        p = roof_doc["plane"]
+        if not isinstance(p, dict) or set(p) != {"point", "normal"}:
+            raise _err(
+                path, "roof.plane", "must be {point: [x, y, z], normal: [x, y, z]} in the capture's axes"
+            )
+        n = _vector(path, "roof.plane.normal", p["normal"], 1.0)
+        if np.linalg.norm(n) < 1e-9:
+            raise _err(path, "roof.plane.normal", "is zero")
+        plane = (_vector(path, "roof.plane.point", p["point"], s), n / np.linalg.norm(n))
+    else:
+        raise _err(path, "roof", "give markers: [...] or plane: {point, normal}")
+
+    up_axis = _axis(path, "up_axis", doc["up_axis"]) if "up_axis" in doc else None
+    rates = doc.get("rates") or {}
+    _keys(path, "rates.", rates, {"window_s", "polyorder"})
+    plan = doc.get("planarity") or {}
+    _keys(path, "planarity.", plan, {"lateral", "yaw_deg", "roll_deg"})
+    keep = doc.get("keep") or {}
+    _keys(path, "keep.", keep, {"before_s", "after_s"})
+
+    takes_doc = doc.get("takes")
+    takes: dict[str, dict[str, Any]] = {}
+    table = None
+    if isinstance(takes_doc, str):
+        table = path.parent / takes_doc
+        takes = _takes_table(table)
+    elif isinstance(takes_doc, dict):
+        for name, entry in takes_doc.items():
+            takes[str(name)] = _conditions(path, f"takes.{name}", entry)
+    elif takes_doc is not None:
+        raise _err(path, "takes", "a mapping take: {conditions} or the name of a CSV table")
+    return MarkerSet(
+        path,
+        body,
+        rigid,
+        tol,
+        roof,
+        roof_height,
+        plane,
+        up_axis,
+        _number(path, "latency_s", doc.get("latency_s", 0.0), 0.0, 1.0),
+        _number(path, "rates.window_s", rates.get("window_s", 0.03), 0.0, 1.0),
+        int(_number(path, "rates.polyorder", rates.get("polyorder", 2), 1, 5)),
+        _number(path, "planarity.lateral", plan.get("lateral", 0.02 / s), 0.0) * s,
+        _number(path, "planarity.yaw_deg", plan.get("yaw_deg", 5.0), 0.0, 180.0),
+        _number(path, "planarity.roll_deg", plan.get("roll_deg", 5.0), 0.0, 180.0),
+        _number(path, "keep.before_s", keep.get("before_s", 0.1), 0.0, 10.0),
+        _number(path, "keep.after_s", keep.get("after_s", 0.6), 0.05, 30.0),
+        _conditions(path, "conditions", doc.get("conditions")),
+        takes,
+        table,
+    )
+
+
+def _takes_table(path: Path) -> dict[str, dict[str, Any]]:
+    """A CSV of takes: a ``take`` column (file name) and one column per given condition."""
+    try:
+        rows = list(csv.reader(path.read_text().splitlines()))
+    except OSError as exc:
+        raise _err(path, "<file>", f"cannot read: {exc.strerror}") from None
+    if not rows or not rows[0] or rows[0][0].strip() != "take":
+        raise _err(path, "line 1", "the first column must be 'take' (the take's file name)")
+    head = [c.strip() for c in rows[0]]
+    out: dict[str, dict[str, Any]] = {}
+    for lineno, row in enumerate(rows[1:], start=2):
+        if not row or not any(c.strip() for c in row):
+            continue
+        if len(row) != len(head):
+            raise _err(path, f"line {lineno}", f"{len(row)} cells, the header has {len(head)}")
+        entry: dict[str, Any] = {}
+        for name, cell in zip(head[1:], row[1:], strict=True):
+            if name == "outcome":
+                entry[name] = cell.strip()
+                continue
+            try:
+                entry[name] = float(cell)
+            except ValueError:
+                raise _err(path, f"line {lineno}, {name}", f"'{cell.strip()}' is not a number") from None
+        out[row[0].strip()] = _conditions(path, f"line {lineno}", entry)
+    return out
