@@ -213,6 +213,11 @@ def run(args: argparse.Namespace) -> int:
     with LegBoard.open(args.legs, calibration=calibration) as probe:  # what board is it?
         simulated = probe.info is not None and probe.info.simulated
         board = probe.info
+    if simulated and not pseudo_terminal(args.legs):
+        raise SlopelanderError(
+            f"--legs {args.legs}: a board on a real serial device reports itself SIMULATED; a simulated "
+            "board runs on a pseudo-terminal. Refusing to trust it (wrong firmware flashed?)"
+        )
     if not simulated and (args.calibration is None or calibration.assumed):
         why = "no --calibration given" if args.calibration is None else f"{args.calibration} is assumed"
         raise SlopelanderError(
@@ -225,6 +230,21 @@ def run(args: argparse.Namespace) -> int:
         return check(args, url, cfg, table, calibration, board)
     out.mkdir(parents=True, exist_ok=True)
     return _fly(args, url, out, cfg, table, calibration)
+
+
+def pseudo_terminal(port: str) -> bool:
+    """Whether ``port`` is a pseudo-terminal (where the simulated board lives; Linux gives their
+    slave ends major device numbers 136-143), not a USB or UART serial device."""
+    import os
+    import stat
+
+    if "://" in port:  # a pyserial URL (socket://, rfc2217://): not a device of this machine
+        return False
+    try:
+        st = os.stat(os.path.realpath(port))
+    except OSError:
+        return False
+    return stat.S_ISCHR(st.st_mode) and 136 <= os.major(st.st_rdev) <= 143
 
 
 def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) -> int:
@@ -279,53 +299,27 @@ def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) ->
 
 
 def _fly(args: argparse.Namespace, url: str, out: Path, cfg, table, calibration) -> int:
-    from slopelander.controller.landing import angle_instruction
     from slopelander.controller.session import Session
     from slopelander.controller.telemetry import landing_figures
 
     session = Session(url, cfg, table=table, calibration=calibration, out=out, lockstep=args.lockstep)
-    link = session.link
     print(f"evidence of this landing: {out}/", flush=True)
     end = "ABORTED"
     history: list[dict] = []
     outcome: dict = {"slope_arg": args.slope}
+    interrupts = PilotInterrupts()
     try:
-        info = session.connect()
-        print(f"autopilot: {info.describe()}")
-        slope = session.measure_slope(args.slope)
-        outcome["slope_deg"] = slope.slope_deg
-        if slope.slope_deg is None:
-            outcome.update(outcome="REFUSED", why=slope.refusal)
-            return EXIT_NOT_LANDED
-        preset, speed = session.plan(slope.slope_deg)
-        outcome.update(preset=asdict(preset), expected_impact_mps=speed)
-        up, down = preset.tau_up, preset.tau_down
-        angle = "" if preset.angle_up_deg is None else f", uphill angle {preset.angle_up_deg:.1f} deg"
-        print(
-            f"expected impact {speed:.2f} m/s on {slope.slope_deg:.1f} deg; "
-            f"legs {up:.2f}/{down:.2f} N*m{angle} ({preset.source})"
-        )
-        legs = session.open_legs(args.legs)
-        todo = angle_instruction(preset.angle_up_deg, legs.info.angle_stop)
-        if todo is not None:
-            print(todo)
-            link.send_statustext(f"SL set uphill legs to {preset.angle_up_deg:.1f} deg")
-        lander = session.make_lander(preset, slope_deg=slope.slope_deg, record=LiveTransitions(), slope=slope)
-        with PilotInterrupts(lander) as interrupts:
-            end = lander.run(args.timeout, interrupts=interrupts)
-        history = list(lander.machine.history)
-        left = session.settle()
-        if left:
-            print(f"warning: {left} command(s) to the autopilot unanswered at exit", flush=True)
-        if end == "SETTLED":  # ended on the roof, armed, motors held: said, not hidden
-            print(
-                "the vehicle is ARMED on the roof with its motors held stopped by the on-board script; "
-                "it disarms itself once still (the companion is silent now): stay clear",
-                flush=True,
-            )
-        outcome["outcome"] = end
-        return EXIT_LANDED if end == "LANDED" else EXIT_NOT_LANDED
+        with interrupts:  # from the first word to the autopilot: a survey pass flies the vehicle too
+            try:
+                return _land(args, session, outcome, interrupts, history)
+            except PilotInterruptedError:
+                held = session.hand_to_loiter()
+                outcome["outcome"] = end = "INTERRUPTED"
+                print("the autopilot holds position in LOITER" if held else "LOITER not seen: take over")
+                return 130
     finally:
+        if interrupts.lander is not None:
+            history[:] = list(interrupts.lander.machine.history)
         session.close()
         tele = session.telemetry
         if history and tele is not None:
@@ -337,6 +331,54 @@ def _fly(args: argparse.Namespace, url: str, out: Path, cfg, table, calibration)
         (out / "result.json").write_text(json.dumps(outcome, indent=1, default=str))
         print(f"transitions: {out / 'transitions.jsonl'}; telemetry log: {out / 'flight.tlog'}", flush=True)
         print(f"outcome: {outcome['outcome']}", flush=True)
+
+
+def _land(
+    args: argparse.Namespace, session, outcome: dict, interrupts: PilotInterrupts, history: list
+) -> int:
+    """Connect, measure the slope, plan, open the legs and land; the exit code."""
+    from slopelander.controller.landing import angle_instruction
+
+    link = session.link
+    tick = lambda: (link.poll(), interrupts.check())  # noqa: E731
+    info = session.connect()
+    print(f"autopilot: {info.describe()}")
+    interrupts.check()
+    slope = session.measure_slope(args.slope, tick=tick)
+    interrupts.check()
+    outcome["slope_deg"] = slope.slope_deg
+    if slope.slope_deg is None:
+        outcome.update(outcome="REFUSED", why=slope.refusal)
+        return EXIT_NOT_LANDED
+    preset, speed = session.plan(slope.slope_deg)
+    outcome.update(preset=asdict(preset), expected_impact_mps=speed)
+    up, down = preset.tau_up, preset.tau_down
+    angle = "" if preset.angle_up_deg is None else f", uphill angle {preset.angle_up_deg:.1f} deg"
+    print(
+        f"expected impact {speed:.2f} m/s on {slope.slope_deg:.1f} deg; "
+        f"legs {up:.2f}/{down:.2f} N*m{angle} ({preset.source})"
+    )
+    legs = session.open_legs(args.legs)
+    interrupts.check()
+    todo = angle_instruction(preset.angle_up_deg, legs.info.angle_stop)
+    if todo is not None:
+        print(todo)
+        link.send_statustext(f"SL set uphill legs to {preset.angle_up_deg:.1f} deg")
+    lander = session.make_lander(preset, slope_deg=slope.slope_deg, record=LiveTransitions(), slope=slope)
+    interrupts.lander = lander
+    end = lander.run(args.timeout, interrupts=interrupts)
+    history[:] = list(lander.machine.history)
+    left = session.settle()
+    if left:
+        print(f"warning: {left} command(s) to the autopilot unanswered at exit", flush=True)
+    if end == "SETTLED":  # ended on the roof, armed, motors held: said, not hidden
+        print(
+            "the vehicle is ARMED on the roof with its motors held stopped by the on-board script; "
+            "it disarms itself once still (the companion is silent now): stay clear",
+            flush=True,
+        )
+    outcome["outcome"] = end
+    return EXIT_LANDED if end == "LANDED" else EXIT_NOT_LANDED
 
 
 def _picture(out: Path, tele, history: list[dict], outcome: dict) -> None:
@@ -359,13 +401,18 @@ class PilotInterrupts:
     and a KeyboardInterrupt thrown out of the middle of a step would leave the vehicle wherever
     it was. Each one is answered with a line saying what happens now."""
 
-    def __init__(self, lander) -> None:
+    def __init__(self, lander=None) -> None:
+        #: the landing's controller, once made; before it (connecting, the survey pass, the plan)
+        #: an interrupt stops the flight where it is (:meth:`check`)
         self.lander = lander
         self.count = 0
         self._old: dict[int, object] = {}
 
     def _on_signal(self, signum: int, frame: object) -> None:
         self.count += 1
+        if self.lander is None:
+            print("interrupted before the landing: holding position in LOITER", flush=True)
+            return
         state = self.lander.machine.name if self.lander.machine._started else "PRESET"
         if state in ("CUT", "REVERSE", "SETTLED") and self.count == 1:
             what = "on the roof with the motors held: finishing the landing to its disarm (again to leave)"
@@ -380,6 +427,11 @@ class PilotInterrupts:
     def __call__(self) -> int:
         return self.count
 
+    def check(self) -> None:
+        """Raise :class:`PilotInterruptedError` if the pilot interrupted before the landing began."""
+        if self.count and self.lander is None:
+            raise PilotInterruptedError()
+
     def __enter__(self) -> PilotInterrupts:
         for sig in (signal.SIGINT, signal.SIGTERM):
             self._old[sig] = signal.signal(sig, self._on_signal)
@@ -388,3 +440,7 @@ class PilotInterrupts:
     def __exit__(self, *exc: object) -> None:
         for sig, old in self._old.items():
             signal.signal(sig, old)
+
+
+class PilotInterruptedError(Exception):
+    """The pilot interrupted before the landing's controller took over (the survey, the plan)."""

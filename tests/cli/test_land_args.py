@@ -89,6 +89,25 @@ def test_arguments_are_refused_before_the_autopilot_is_waited_for(args: list[str
     assert time.monotonic() - t0 < 8.0  # the wait for an autopilot alone is 10 s
 
 
+def test_only_a_pseudo_terminal_may_hold_a_simulated_board() -> None:
+    """A board that says SIMULATED is trusted with the assumed calibration only on a
+    pseudo-terminal, where the simulator lives; on a real serial device (here the character
+    device /dev/null stands for one) the claim is refused before anything flies."""
+    import os
+
+    from slopelander.land_cli import pseudo_terminal
+
+    main, sub = os.openpty()
+    try:
+        assert pseudo_terminal(os.ttyname(sub))
+    finally:
+        os.close(main)
+        os.close(sub)
+    assert not pseudo_terminal("/dev/null")
+    assert not pseudo_terminal("/no/such/device")
+    assert not pseudo_terminal("socket://127.0.0.1:5000")
+
+
 def test_the_old_record_option_is_refused_with_its_new_name() -> None:
     out = land("--connect", free_udp(), "--legs", "/dev/null", "--slope", "35", "--record", "x.jsonl")
     assert out.returncode == 2 and "name it with --out DIR" in out.stderr, out.stderr

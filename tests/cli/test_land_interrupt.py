@@ -22,12 +22,15 @@ ENV = {**os.environ, "MAVLINK20": "1"}
 ABORTING = "aborting the landing: the autopilot holds position in LOITER"
 
 
-def fly_land_and_interrupt(tmp_path: Path, when: str, slope: float = 20.0):
+def fly_land_and_interrupt(tmp_path: Path, when: str, slope: float = 20.0, survey: bool = False):
     """Hover over the roof, run ``land`` on a second endpoint, SIGINT it when it prints ``when``;
     returns its output lines, its exit status and the rig (the vehicle seen from a ground station)."""
     port = free_port()
     cfg = tmp_path / "no-survey.yaml"
-    cfg.write_text("slope:\n  check_pilot: false\n")  # the pilot's slope as given: no survey pass
+    if not survey:
+        cfg.write_text("slope:\n  check_pilot: false\n")  # the pilot's slope as given: no survey pass
+    else:
+        cfg.write_text("slope:\n  check_pilot: true\n")  # the companion surveys first (it has seen nothing)
     # the pilot holds the throttle centred: LOITER holds height (a low stick would descend)
     centred = [{"t": 0.0, "channels": {3: 1500}}]
     rig = Rig(slope_deg=slope, seed=8, scenario={"rc": centred}, extra_endpoints=[f"tcpin:127.0.0.1:{port}"])
@@ -98,6 +101,27 @@ def test_ctrl_c_in_the_descent_aborts_to_loiter_and_the_vehicle_stops_descending
         rig.wait(3.0)
         assert abs(rig.height() - h0) < 0.3, (h0, rig.height())
         assert not rig.track.event_times("EV_STOP", sent_at - 5.0)  # the motors never stopped
+    finally:
+        rig.close()
+
+
+@pytest.mark.slow
+def test_ctrl_c_during_the_survey_pass_stops_it_and_hands_the_vehicle_to_loiter(tmp_path: Path) -> None:
+    """The survey pass flies the vehicle over the roof before the landing's controller exists: an
+    interrupt there killed the process and left the pass's GUIDED target moving on. Now it stops
+    the pass where the vehicle is, asks LOITER and exits 130."""
+    lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "survey: ", survey=True)
+    try:
+        assert sent_at is not None, lines
+        assert "interrupted before the landing: holding position in LOITER" in lines, lines
+        assert status == 130 and "Traceback" not in err, (status, err[-500:])
+        assert lines[-1] == "outcome: INTERRUPTED", lines[-3:]
+        rig.wait(0.5)
+        assert rig.armed() and rig.mode() == 5, (rig.armed(), rig.mode())  # LOITER
+        x0 = rig.track.pos[-1][1]
+        rig.wait(3.0)
+        assert abs(rig.track.pos[-1][1] - x0) < 0.3  # the pass's target does not carry it on
+        assert not any("-> PRESET" in ln for ln in lines)
     finally:
         rig.close()
 

@@ -78,6 +78,34 @@ def test_bad_settings_name_the_field(tmp_path, doc, field):
     assert err.value.field == field and field in str(err.value)
 
 
+@pytest.mark.parametrize(
+    ("doc", "field"),
+    [
+        ({"link": {"heartbeats_missed": 1}}, "link.heartbeats_missed"),  # one dropped frame is no loss
+        ({"slope": {"survey_min_range_m": 0.2}}, "slope.survey_min_range_m"),  # below the foot's reach
+        ({"slope": {"survey_speed_mps": 3.0}}, "slope.survey_speed_mps"),  # past the fixed look-ahead
+    ],
+)
+def test_settings_that_leave_a_guard_blind_are_refused(tmp_path, doc, field):
+    with pytest.raises(ConfigError) as err:
+        load_config(write(tmp_path, doc))
+    assert err.value.field == field
+
+
+def test_the_survey_turns_back_above_the_uphill_foot_on_the_steepest_roof():
+    """The floor of ``slope.survey_min_range_m`` is at least the range at which the uphill foot
+    touches the steepest roof of the shipped table, at the table's uphill angle there."""
+    from slopelander.controller.config import SURVEY_MIN_RANGE_FLOOR_M
+    from slopelander.controller.landing import contact_range, leg_geometry
+    from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+
+    table = LookupTable.load(DEFAULT_TABLE)
+    steepest = table.slope_range[1]
+    angle = table.lookup(steepest, 0.5).angle_up_deg
+    assert contact_range(steepest, leg_geometry(), angle) <= SURVEY_MIN_RANGE_FLOOR_M
+    assert load_config()["slope.survey_min_range_m"] >= SURVEY_MIN_RANGE_FLOOR_M
+
+
 def test_unreadable_and_not_yaml(tmp_path):
     with pytest.raises(ConfigError, match="cannot read"):
         load_config(tmp_path / "missing.yaml")

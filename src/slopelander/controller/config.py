@@ -24,11 +24,16 @@ from slopelander.errors import SlopelanderError
 #: equal; imported by value so that the settings do not depend on the MAVLink modules)
 IMPACT_MIN_MPS2 = 2 * 9.80665
 
+#: the uphill foot touches at this range (m) on a 60 deg roof, the shipped table's steepest
+#: (controller/landing.py ``contact_range``; tests/controller/test_controller_config.py holds them)
+SURVEY_MIN_RANGE_FLOOR_M = 0.55
+
 # field -> (low, high, integer?)  (inclusive bounds)
 LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.link_loss_s": (0.2, 30.0, False),
     "link.heartbeat_wait_s": (1.0, 300.0, False),
-    "link.heartbeats_missed": (1, 20, True),
+    # one missed 1 Hz HEARTBEAT is a dropped frame on a noisy radio, not a lost link: at least 2
+    "link.heartbeats_missed": (2, 20, True),
     "link.command_timeout_s": (0.05, 5.0, False),
     "link.command_retries": (0, 10, True),
     "link.imu_hz": (1, 200, False),
@@ -87,8 +92,13 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "slope.attitude_error_deg": (0.0, 10.0, False),
     "slope.height_walk_m": (0.0, 1.0, False),
     "slope.survey_length_m": (0.4, 20.0, False),
-    "slope.survey_speed_mps": (0.05, 3.0, False),
-    "slope.survey_min_range_m": (0.2, 3.0, False),
+    # the pass turns back where the range will read ``survey_min_range_m`` once braked, looking
+    # ahead a fixed 0.6 s (controller/survey.py): measured for the simulated vehicle at 0.35 m/s,
+    # so the pass is flown no faster than twice that
+    "slope.survey_speed_mps": (0.05, 0.8, False),
+    # at least the range at which the uphill foot touches the steepest roof the shipped table
+    # covers (SURVEY_MIN_RANGE_FLOOR_M): a lower turn-back lets the feet meet a rising roof first
+    "slope.survey_min_range_m": (SURVEY_MIN_RANGE_FLOOR_M, 3.0, False),
     "slope.survey_timeout_s": (1.0, 600.0, False),
 }
 RC_PRESET_LIMITS = {

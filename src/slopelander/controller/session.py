@@ -260,6 +260,25 @@ class Session:
         )
         return self.lander
 
+    def hand_to_loiter(self, wait_s: float = 3.0) -> bool:
+        """Stop where the vehicle is: a zero-velocity setpoint first (a survey pass's target
+        moves on otherwise, until GUID_TIMEOUT), then LOITER; True once the autopilot reports
+        LOITER (or is disarmed) within ``wait_s`` local seconds."""
+        from slopelander.controller.actions import MODES, MavActions
+
+        act = MavActions(self.link, self.cfg)
+        act.hold(0.0)
+        act.set_mode("LOITER")
+        end = time.monotonic() + wait_s
+        while time.monotonic() < end:
+            self.link.poll()
+            hb = self.link.last.get("HEARTBEAT")
+            armed = hb is not None and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+            if hb is not None and (not armed or hb.custom_mode == MODES["LOITER"]):
+                return True
+            time.sleep(0.01)
+        return False
+
     def settle(self) -> int:
         """Let the last commands be answered before the link closes; how many were not."""
         return self.link.settle()
