@@ -152,6 +152,32 @@ def test_command_rejected_and_timeout(pair):
     assert h2.state == "timeout" and h2.tries == 2
 
 
+def test_a_late_ack_of_a_timed_out_command_does_not_confirm_the_next_of_its_id(pair):
+    """ArduPilot's COMMAND_ACK names only the command id: the answer to a request given up on could
+    confirm the next request of that id. The id is held back for a second after a timeout: the
+    new request is sent after it, and the late ACK arriving meanwhile is dropped."""
+    from slopelander.controller.link.commands import QUARANTINE_S
+
+    link, peer, clk = pair
+    found(link, peer)
+    old = link.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 5, retries=0, timeout_s=0.2)
+    clk.advance(0.25)
+    settle(link, peer, 2)
+    assert old.state == "timeout"
+    new = link.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4, retries=2, timeout_s=0.5)
+    sent = [m for m in settle(link, peer, 2) if m.get_type() == "COMMAND_LONG" and m.command == 176]
+    assert sent == [] and new.tries == 0  # held back
+    peer.conn.mav.command_ack_send(176, mavlink.MAV_RESULT_ACCEPTED)  # the old one's late answer
+    settle(link, peer, 2)
+    assert not new.done
+    clk.advance(QUARANTINE_S)
+    sent = [m for m in settle(link, peer, 2) if m.get_type() == "COMMAND_LONG" and m.command == 176]
+    assert [m.param2 for m in sent] == [4] and not new.done
+    peer.conn.mav.command_ack_send(176, mavlink.MAV_RESULT_ACCEPTED)  # its own answer
+    settle(link, peer, 2)
+    assert new.ok
+
+
 def test_link_loss_on_local_clock_and_clock_from_vehicle_stamps(pair):
     link, peer, clk = pair
     assert link.lost  # nothing heard yet
@@ -520,7 +546,8 @@ def test_lander_over_the_link_aborts_without_a_leg_board(pair, tmp_path):
     got = settle(link, peer)
     aborts = [m for m in peer.received if m.get_type() == "COMMAND_LONG" and m.command == 31011]
     assert aborts and aborts[-1].param1 == 0
-    assert not [m for m in got + peer.received if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
+    setpoints = [m for m in got + peer.received if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
+    assert setpoints and all(m.vz < 0 for m in setpoints)  # the abort's climb, never a descent
     assert (tmp_path / "t.jsonl").read_text().count("\n") == len(lander.machine.history)
     assert any("SL ABORTED" in m.text for m in peer.received if m.get_type() == "STATUSTEXT")
 

@@ -4,6 +4,12 @@ ArduPilot's COMMAND_ACK names only the command id (``GCS_MAVLINK::handle_command
 answers with ``mavlink_msg_command_ack_send(chan, packet.command, result, ...)``), so two requests
 of one id in flight cannot be told apart: they are sent one at a time, in order. A command whose
 receiver echoes a request number in ``result_param2`` (the on-board script does) is matched by it.
+
+A request given up on (out of tries) may still be answered late, and that ACK would confirm the
+next request of its id. So an id whose request timed out is held back for :data:`QUARANTINE_S`:
+a new request of it waits its turn (sent once the quarantine ends), and an ACK of the id arriving
+meanwhile, with nothing of it in flight, is the late answer and is dropped. A state that must know
+(a mode change) reads the HEARTBEAT as well; the ACK is only the quick answer.
 """
 
 from __future__ import annotations
@@ -12,6 +18,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from slopelander.controller.link.messages import LinkError, mavlink
+
+#: local seconds a command id whose request timed out is held back (its late ACK is dropped)
+QUARANTINE_S = 1.0
 
 
 @dataclass
@@ -59,6 +68,8 @@ class Commands:
         self.monotonic = monotonic
         #: every command not yet answered nor out of tries, oldest first
         self.pending: list[CommandHandle] = []
+        #: command id -> local time until which it is held back after a request of it timed out
+        self.quarantine: dict[int, float] = {}
 
     def send(
         self,
@@ -79,9 +90,18 @@ class Commands:
         h = CommandHandle(command, tuple(float(x) for x in params), retries, timeout_s, request)
         busy = any(c.command == command and c.request is None and not c.done for c in self.pending)
         self.pending.append(h)
-        if request is not None or not busy:
+        if request is not None or not (busy or self._held(command)):
             self._send(h)
         return h
+
+    def _held(self, command: int) -> bool:
+        until = self.quarantine.get(command)
+        if until is None:
+            return False
+        if self.monotonic() >= until:
+            del self.quarantine[command]
+            return False
+        return True
 
     def _send(self, h: CommandHandle) -> None:
         self._transmit(h)
@@ -95,6 +115,8 @@ class Commands:
                 continue
             if h.tries > h.retries:
                 h.state = "timeout"
+                if h.request is None:  # its late ACK must not answer the next of its id
+                    self.quarantine[h.command] = now + QUARANTINE_S
             else:
                 self._send(h)
         self.settle()
@@ -104,7 +126,7 @@ class Commands:
         self.pending = [h for h in self.pending if not h.done]
         busy = {h.command for h in self.pending if h.request is None and h.tries > 0}
         for h in self.pending:
-            if h.request is None and h.tries == 0 and h.command not in busy:
+            if h.request is None and h.tries == 0 and h.command not in busy and not self._held(h.command):
                 busy.add(h.command)
                 self._send(h)
 
