@@ -177,8 +177,16 @@ def test_diagnose_prints_its_evidence_and_the_noise_floor(tmp_path):
         "--workers",
         "1",
         "--quiet",
+        "--json",
+        str(tmp_path / "verdict.json"),
     )
-    assert r.returncode == 0, r.stderr
+    from slopelander.ident.cli import DIAGNOSE_EXIT
+
+    verdict = json.loads((tmp_path / "verdict.json").read_text())
+    assert r.returncode == DIAGNOSE_EXIT[verdict["verdict"]], (r.returncode, verdict["verdict"], r.stderr)
+    assert verdict["verdict"] in ("nothing_missing", "too_small", "not_among", "unknown")  # nothing named
+    assert verdict["text"] in r.stdout and len(verdict["drops"]) == 4
+    assert {c["name"] for c in verdict["candidates"]} >= {"downhill_torque_growth"}
     assert "| gain | p |" in r.stdout, r.stdout
     assert "noise floor" in r.stdout and "over 16 all sign flips of 4 drops" in r.stdout, r.stdout
     assert "no candidate can pass the test: the smallest p is 1/16" in r.stdout, r.stdout

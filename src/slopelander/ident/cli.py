@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -243,12 +244,14 @@ def register_compare(subparsers: argparse._SubParsersAction) -> None:
     )
     _dataset_arg(p)
     p.add_argument("--report", type=Path, metavar="DIR", help="folder for report.md and one PNG per drop")
+    p.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON")
     _model_args(p, "analysed")
     p.set_defaults(handler=run_compare)
 
 
 def run_compare(args: argparse.Namespace) -> int:
     check_output_dir(args.report, "--report")
+    check_output(args.json, "--json")
     from slopelander.ident.compare import compare
     from slopelander.ident.recording import STATES, load_dataset
     from slopelander.ident.report import write_report
@@ -269,6 +272,24 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.report:
         out = write_report(c, args.report, model_note=f"Model: effects {', '.join(model.effects)}.")
         print(f"report: {out}")
+    if args.json:
+        figures = {
+            "nrmse": c.nrmse,
+            "drops": [d.name for d in drops],
+            "outcomes_match": ok,
+            "outcomes_known": known,
+            "per_state": dict(zip(STATES, map(float, c.per_state), strict=True)),
+            "per_phase": {p: float(v) for p, v in c.per_phase().items()},
+            "phase_share": {p: float(v) for p, v in share.items()},
+            "worst": [
+                {"drop": w.drop, "start_s": w.start, "end_s": w.end, "phase": w.phase, "state": w.state,
+                 "share": w.share}
+                for w in c.worst_windows(3)
+            ],
+            "effects": list(model.effects),
+        }  # fmt: skip
+        args.json.write_text(json.dumps(figures, indent=1, default=_plain) + "\n")
+        print(f"json: {args.json}")
     return 0
 
 
@@ -437,8 +458,10 @@ def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
         description="Refit the model with each candidate effect it lacks (built-in: leg_flex, "
         "downhill_torque_growth, downhill_friction_growth; plus --candidates), predict each drop "
         "with fits that did not see it, and name a candidate missing only when its held-out gains "
-        "pass a sign-flip test over drops (5 %% level, corrected for the candidates tried); "
-        "compare the residual with the recordings' noise floor.",
+        "pass a sign-flip test over drops (5 % level, corrected for the candidates tried); "
+        "compare the residual with the recordings' noise floor. Exit codes: 0 nothing missing, "
+        "3 missing and named, 4 missing but not among the candidates, 5 too small to tell (or no "
+        "noise declared to tell it by), 1 an error.",
     )
     _dataset_arg(p)
     p.add_argument(
@@ -467,6 +490,9 @@ def register_diagnose(subparsers: argparse._SubParsersAction) -> None:
         help="share each refit's search between the base optimum and the centre of the bounds "
         "(when the base model bent its parameters far to mimic the missing effect)",
     )
+    p.add_argument(
+        "--json", type=Path, metavar="FILE", help="also write the verdict and its evidence as JSON"
+    )
     _model_args(p, "analysed")
     _search_args(p)
     p.set_defaults(handler=run_diagnose, repeats=1)
@@ -490,8 +516,14 @@ def candidate_effects(paths: list[Path] | None) -> list | None:
     return [e for f in files for e in load_effects(f)]
 
 
+#: ``diagnose``'s exit codes by verdict (1: an error, 2: a usage error, as every command)
+DIAGNOSE_EXIT = {"nothing_missing": 0, "missing": 3, "not_among": 4, "too_small": 5, "unknown": 5}
+
+
 def run_diagnose(args: argparse.Namespace) -> int:
     from slopelander.ident.diagnose import diagnose
+
+    check_output(args.json, "--json")
     from slopelander.ident.fit import FitError
     from slopelander.ident.recording import load_dataset
 
@@ -520,7 +552,22 @@ def run_diagnose(args: argparse.Namespace) -> int:
         bar.close()
     print(d.table())
     print(d.verdict())
-    return 0
+    weighing = d.weighing()
+    if weighing:
+        print(weighing)
+    if args.json:
+        args.json.write_text(json.dumps(d.to_dict(), indent=1, default=_plain) + "\n")
+        print(f"json: {args.json}")
+    return DIAGNOSE_EXIT[d.kind]
+
+
+def _plain(value):
+    """numpy numbers in the JSON as plain ones; NaN stays NaN (json writes it as NaN)."""
+    import numpy as np
+
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON: {type(value).__name__}")
 
 
 def register_steps(subparsers: argparse._SubParsersAction) -> None:

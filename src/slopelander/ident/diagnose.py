@@ -273,6 +273,136 @@ class Diagnosis:
             f"{NOT_AMONG:g} floors), and no candidate's gain holds over enough drops ({tried}){hint}"
         )
 
+    # --------------------------------------------------------------- machine-readable verdict
+    @property
+    def kind(self) -> str:
+        """The verdict as one word, the same rules as :meth:`verdict`: ``missing`` (a candidate
+        named), ``nothing_missing`` (at the noise floor), ``not_among`` (far above the floor, no
+        candidate explains it), ``too_small`` (above the floor by less than that), ``unknown``
+        (no candidate named and no noise declared: nothing to measure the residual against)."""
+        if self.missing is not None:
+            return "missing"
+        if self.floor is None:
+            return "unknown"
+        ratio = self.base_validation / self.floor if self.floor else math.inf
+        if ratio <= ABOVE_FLOOR:
+            return "nothing_missing"
+        if (self.excess or 0.0) > NOT_AMONG * self.floor:
+            return "not_among"
+        return "too_small"
+
+    def log_gains(self, r: CandidateResult) -> np.ndarray:
+        """Per drop: log(base held-out MSE / the candidate's), the statistic the test reads."""
+        if r.heldout_mse is None:
+            return np.zeros(len(self.drops))
+        return np.log(self.base_heldout_mse / np.maximum(r.heldout_mse, 1e-300))
+
+    def drops_needed(self, r: CandidateResult, power: float = 0.8) -> int | None:
+        """Drops like these that a one-sided test of the candidate's per-drop gains would need to
+        pass at the test's level (corrected for the candidates tried, Bonferroni) with ``power``,
+        were the observed mean gain and its spread the truth: ((z_a + z_power) sd / mean)^2.
+        None when the observed mean gain is not positive (more drops would not show it)."""
+        from statistics import NormalDist
+
+        g = self.log_gains(r)
+        mean, sd = float(np.mean(g)), float(np.std(g, ddof=1)) if len(g) > 1 else 0.0
+        if not mean > 0:
+            return None
+        if sd == 0.0:
+            return len(g)
+        alpha = self.alpha / max(1, len(self.fitted))
+        z = NormalDist().inv_cdf(1 - alpha) + NormalDist().inv_cdf(power)
+        return max(len(g), math.ceil((z * sd / mean) ** 2))
+
+    def alike(self, r: CandidateResult, within: float = 0.8) -> list[tuple[CandidateResult, float]]:
+        """The other refitted candidates whose held-out gain reaches ``within`` of ``r``'s, each
+        with the correlation of their per-drop gains with ``r``'s (near 1: they correct the same
+        drops the same way, and these drops cannot tell the two mechanisms apart)."""
+        g = self.log_gains(r)
+        out = []
+        for o in self.fitted:
+            if o is r or not self.gain(o) >= within * self.gain(r) or self.gain(r) <= 0:
+                continue
+            h = self.log_gains(o)
+            corr = float(np.corrcoef(g, h)[0, 1]) if np.std(g) > 0 and np.std(h) > 0 else math.nan
+            out.append((o, corr))
+        return out
+
+    def to_dict(self) -> dict:
+        """Everything the verdict rests on, for a program to read (``diagnose --json``)."""
+        best = self.missing or max(self.fitted, key=self.gain, default=None)
+
+        def cand(r: CandidateResult) -> dict:
+            d = {
+                "name": r.candidate.name,
+                "screening": float(r.screening),
+                "nested": r.nested,
+                "nested_note": r.nested_note or None,
+            }
+            if r.fits:
+                mse = r.heldout_mse
+                better = int(np.sum(mse < self.base_heldout_mse)) if mse is not None else 0
+                d.update(
+                    train_nrmse=r.train_nrmse,
+                    heldout_nrmse=r.validation_nrmse,
+                    gain=self.gain(r),
+                    p=r.p,
+                    better_on_drops=better,
+                    values=r.values(),
+                    drops_needed=self.drops_needed(r),
+                )
+            return d
+
+        out = {
+            "verdict": self.kind,
+            "text": self.verdict(),
+            "drops": [d.name for d in self.drops],
+            "base": {"train_nrmse": self.base_train, "heldout_nrmse": self.base_validation},
+            "noise_floor_nrmse": self.floor,
+            "alpha": self.alpha,
+            "candidates": [cand(r) for r in self.results],
+            "best": None if best is None else best.candidate.name,
+        }
+        if best is not None:
+            out["alike"] = [
+                {"name": o.candidate.name, "gain": self.gain(o), "gain_correlation": c}
+                for o, c in self.alike(best)
+            ]
+        m = self.missing
+        if m is not None and self.final is not None:
+            out["missing"] = {
+                "name": m.candidate.name,
+                "values": {k: float(self.final.values[k]) for k in m.candidate.params},
+                "ci95": {k: float(self.final.ci95[k]) for k in m.candidate.params},
+            }
+        return out
+
+    def weighing(self) -> str:
+        """What the evidence weighs, in numbers a user can act on: the best candidate's gain and p,
+        how many drops of the kind it acts on would settle it, and the candidates that explain the
+        residual nearly as well."""
+        best = self.missing or max(self.fitted, key=self.gain, default=None)
+        if best is None:
+            return ""
+        lines = []
+        need = self.drops_needed(best)
+        name = best.candidate.name
+        if self.missing is None:
+            if need is None:
+                lines.append(
+                    f"{name} does not help on average on drops it did not see: more would not show it"
+                )
+            else:
+                lines.append(
+                    f"{name}: gain {100 * self.gain(best):+.1f} %, p {best.p:.3g}; about {need} drops like "
+                    f"these (now {len(self.drops)}) would show a gain this size at the {self.alpha:g} level "
+                    "with 80 % power"
+                )
+        for o, corr in self.alike(best):
+            how = "" if math.isnan(corr) else f", per-drop gains correlated {corr:+.2f} with {name}'s"
+            lines.append(f"{o.candidate.name} explains nearly as much: gain {100 * self.gain(o):+.1f} %{how}")
+        return "\n".join(lines)
+
     def table(self) -> str:
         lines = [
             "| rank | candidate | screening | train NRMSE | held-out NRMSE | gain | p "
