@@ -114,6 +114,37 @@ def test_a_candidate_at_its_neutral_values_is_the_base_model(model):
     assert "no neutral value for hc_stiffness" in out["hunt_crossley_ground"].note
 
 
+FIXED_GROUND = """
+import numba
+from slopelander.model.effects import EffectParameter, UserEffect
+
+@numba.njit
+def soft_ground(t, st, ctx, up, point, depth, rate):
+    k, b = 2.17e4, 437.0  # the paper's ground written as constants: the mistake
+    force = up[0] * k * depth + b * rate
+    return (force, up[0] * k, b) if force > 0.0 else (0.0, 0.0, 0.0)
+
+EFFECTS = [UserEffect("fixed_ground", "a scaled ground, its values fixed", normal_force=soft_ground,
+    parameters={"ground_scale": EffectParameter(1.0, "1", 0.5, 2.0, "assumed", neutral=1.0)})]
+"""
+
+
+def test_a_candidate_hard_coding_the_ground_is_told_to_read_the_accessors(model, tmp_path):
+    """At its neutral value a law with the ground's values as constants is the model only while
+    the model's ground is those values; on another ground it is not nested, and the note says how
+    to write it nested (docs/effects.md, "Nested effects")."""
+    base = model.without("downhill_torque_growth", "downhill_friction_growth").with_params(
+        ground_stiffness=3.0e4
+    )
+    drops = synthesize(base, paper_drops(3, seed=2), NoiseModel(), seed=2, duration=0.4)
+    path = tmp_path / "fixed_ground.py"
+    path.write_text(FIXED_GROUND)
+    cands = [c for c in candidates_for(base, load_effects(path)) if c.user is not None]
+    out = screen(base, drops, cands, resolve_params(base, ["ground_damping"]), state_ranges(drops), {})
+    assert not out["fixed_ground"].nested
+    assert "state.ground_stiffness(ctx)" in out["fixed_ground"].note, out["fixed_ground"].note
+
+
 def _diagnosis(base_nrmse, cand_nrmse, floor, p):
     n = len(base_nrmse)
     cand = CandidateResult(Candidate("leg_flex", ("flex_stiffness",)), 0.1, p=p)

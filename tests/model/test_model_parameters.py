@@ -88,6 +88,16 @@ def test_broken_yaml_and_missing_file(tmp_path):
         ModelParams.load(tmp_path / "nope.yaml")
 
 
+def test_a_note_with_a_comma_in_a_flow_mapping_names_the_quoting(tmp_path):
+    """``{value: 0.8, note: measured, not guessed}``: YAML reads ``not guessed`` as a key of its
+    own. The error says to quote the note, not only "unknown key"."""
+    from slopelander.model.parameters import SCHEMA
+
+    text = f"schema: {SCHEMA}\nparameters:\n  friction_kinetic: {{value: 0.8, note: measured, not guessed}}\n"
+    with pytest.raises(ParameterError, match=r"must be quoted: note: \"a, b\""):
+        _load(tmp_path, text)
+
+
 def test_unknown_parameter_by_name():
     with pytest.raises(ParameterError, match="unknown parameter"):
         ModelParams.default().with_values(flux_capacitance=1.0)

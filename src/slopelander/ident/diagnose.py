@@ -549,7 +549,16 @@ def screen(
             gap = prob.residuals([p.unit(off[p.name]) for p in params]) - r
             size = math.sqrt(float(gap @ gap))
             nested = size <= 1e-9 * max(math.sqrt(rr), 1e-12)
-            note = "" if nested else f"at its neutral values it differs from the base by {size:.3g} NRMSE"
+            note = (
+                ""
+                if nested
+                else (
+                    f"at its neutral values it differs from the base by {size:.3g} NRMSE: write it so that "
+                    "at them it returns exactly what the model would (read the model's own values with the "
+                    "state accessors, e.g. state.ground_stiffness(ctx) and state.ground_damping(ctx) for a "
+                    "normal-force law, not constants; docs/effects.md, 'Nested effects')"
+                )
+            )
         out[c.name] = Screening(share, _per_drop(prob, d), nested, note)
     return out
 

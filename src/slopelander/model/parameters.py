@@ -241,7 +241,11 @@ class ModelParams:
                 raise ParameterError(name, "missing 'value'", source)
             extra = sorted(str(k) for k in entry if k not in ("value", "unit", "provenance", "note"))
             if extra:
-                raise ParameterError(name, f"unknown key(s) {extra}: value, unit, provenance, note", source)
+                why = f"unknown key(s) {extra}: value, unit, provenance, note"
+                if all(entry[k] is None for k in entry if k not in ("value", "unit", "provenance", "note")):
+                    # `{value: 1, note: a, b}`: YAML read the text after the comma as keys of their own
+                    why += ' (a note or unit with a comma inside { } must be quoted: note: "a, b")'
+                raise ParameterError(name, why, source)
             try:
                 value = float(entry["value"])
             except (TypeError, ValueError):
