@@ -51,7 +51,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--angle-up", type=float, default=_D.angle_up_deg, help="uphill leg angle, deg")
     p.add_argument("--angle-down", type=float, default=_D.angle_down_deg, help="downhill leg angle, deg")
     p.add_argument("--rvt", action="store_true", help="100 %% reverse thrust commanded at impact")
-    p.add_argument("--rvt-percent", type=float, default=None, help="reverse thrust percent (implies --rvt)")
+    p.add_argument(
+        "--rvt-percent",
+        type=float,
+        default=None,
+        help="reverse rotor command, percent of full: a speed, thrust goes with its square (implies --rvt)",
+    )
     p.add_argument("--rvt-delay", type=float, default=0.0, help="seconds from impact to the command")
     p.add_argument(
         "--rvt-duration",

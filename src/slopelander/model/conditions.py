@@ -49,7 +49,8 @@ class LandingConditions:
     angle_up_deg: float = 37.5
     angle_down_deg: float = 37.5
     reverse_percent: float = 0.0
-    """Reverse thrust commanded from impact, percent of full reverse; 0 = rotors stay off."""
+    """Reverse rotor command from impact, percent of the full reverse command (a rotor speed:
+    thrust goes with its square, so 70 % gives 49 % of full reverse thrust); 0 = rotors stay off."""
     reverse_delay: float = 0.0
     """Seconds between impact and the reverse-thrust command (detection latency)."""
     reverse_duration: float = math.inf

@@ -48,7 +48,7 @@ class Impact:
 class ThrustProfile:
     """What the rotors were commanded from first contact to the decision."""
 
-    reverse_percent: float  # the first reverse command, percent of full reverse (0: none)
+    reverse_percent: float  # the first reverse command, percent of the full reverse rotor command (0: none)
     reverse_delay: float  # s from first contact to that command (NaN: none)
     reverse_changed: bool  # the reverse command changed or ended before the decision
     forward_after_contact: float  # the largest forward command after contact (0..1)
