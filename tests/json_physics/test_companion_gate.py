@@ -165,6 +165,13 @@ def test_the_tap_reads_the_echoes_out_of_the_companions_bytes() -> None:
     assert tap.sent == 2
 
 
+#: wall seconds within which 30 frames that are not paced must pass: half of what pacing them to
+#: real time takes (0.29 s). A pace call costs microseconds, but on a loaded 2-core machine the
+#: test process itself can be descheduled for tens of ms (0.05 s failed in a loaded suite,
+#: 2026-12-06): the bound tells paced from free, not how fast the machine is
+FREE_S = 0.145
+
+
 def test_near_the_ground_it_keeps_to_real_time_and_above_it_runs_free() -> None:
     """With a companion echoing, frames below the height are paced to the wall clock (a frame
     of 10 ms takes 10 ms); above it, or with nobody echoing, they are not paced at all."""
@@ -181,9 +188,9 @@ def test_near_the_ground_it_keeps_to_real_time_and_above_it_runs_free() -> None:
             return time.monotonic() - t0
 
         assert run(1.0) >= 0.29 - 0.01  # 30 frames of 10 ms: 0.29 s after the first
-        assert run(3.0) < 0.05
+        assert run(3.0) < FREE_S
         g.reset()  # the companion gone
-        assert run(1.0) < 0.05
+        assert run(1.0) < FREE_S
         assert g.paced_s > 0.25
     finally:
         g.close()
@@ -207,12 +214,12 @@ def test_near_the_ground_real_time_is_kept_only_while_the_script_may_time_and_a_
                 g.pace(t0 + i * dt, 1.0, on)
             return time.monotonic() - w0
 
-        assert run(1.0, [False] * 30) < 0.05  # still on the ground: free
+        assert run(1.0, [False] * 30) < FREE_S  # still on the ground: free
         assert run(2.0, [True] * 30) >= 0.29 - 0.01  # a descent: real time
         # one timed frame, then still: real time goes on for LINGER_S, then stops
         frames = round(LINGER_S / 0.01)
         assert run(3.0, [True] + [False] * frames) >= LINGER_S - 0.02
-        assert run(3.0 + (frames + 1) * 0.01 + 0.02, [False] * 30) < 0.05
+        assert run(3.0 + (frames + 1) * 0.01 + 0.02, [False] * 30) < FREE_S
     finally:
         g.close()
 
