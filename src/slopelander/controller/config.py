@@ -90,6 +90,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "slope.survey_speed_mps": (0.05, 3.0, False),
     "slope.survey_min_range_m": (0.2, 3.0, False),
     "slope.survey_timeout_s": (1.0, 600.0, False),
+    "slope.max_cross_deg": (0.5, 20.0, False),
+    "slope.turn_timeout_s": (1.0, 600.0, False),
 }
 RC_PRESET_LIMITS = {
     "min_us": (800, 2200),
