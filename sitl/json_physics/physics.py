@@ -5,8 +5,11 @@ The same parts as the simulated vehicle (``sitl.vehicle``): the model's Stepper 
 scenario's pad, roof and wind, the route-A ESC mapping (1500 us stopped, reversible, the model's
 rotors holding the reversal delay), the IMU and rangefinder geometry, the scenario's sensor
 faults and, when connected, the simulated leg board's torques. The planar model flies in the
-north-down plane: model x is north, model z is up, model pitch is ArduPilot's pitch; roll, yaw
-and east stay zero. Positions are from where the vehicle boots (ArduPilot's home).
+vertical plane along the vehicle's heading (``sitl.vehicle.world``): model x is the heading, model
+z is up, model pitch is ArduPilot's pitch; roll stays zero. The heading turns with the motors'
+yaw torque (:class:`Yaw`): ArduCopter's yaw control drives it, as it drives a real quad's. At
+heading 0 (every vehicle until something turns it) model x is north and east stays zero.
+Positions are from where the vehicle boots (ArduPilot's home).
 """
 
 from __future__ import annotations
@@ -25,13 +28,26 @@ from sitl.vehicle.events import Events
 from sitl.vehicle.legs_link import LegsLink
 from sitl.vehicle.scenario import Scenario
 from sitl.vehicle.sensors import Imu, NormalStream, Range
-from sitl.vehicle.world import start_on_ground, world_beam
-from slopelander.model.stepper import BodyState
+from sitl.vehicle.world import World, start_on_ground, world_beam
+from slopelander.model.stepper import BodyState, Stepper
 
 NO_RETURN_M = 999.0  # beam pointing away from the ground: beyond any rangefinder's maximum
 #: what ArduPilot's SITL rangefinder reads as "no data": only a NaN or an infinity
 #: (libraries/AP_RangeFinder/AP_RangeFinder_SITL.cpp); a negative distance reads as 0 m, "too close"
 NO_DATA_M = math.nan
+#: ArduPilot's quad X: motors 1 and 2 spin counter-clockwise (seen from above), 3 and 4 clockwise;
+#: a motor's drag torque turns the body the other way, so more thrust on 1 and 2 turns it clockwise
+#: (AP_MotorsMatrix: AP_MOTORS_MATRIX_YAW_FACTOR_CCW = +1 for motors 1 and 2)
+YAW_SIGNS = (1.0, 1.0, -1.0, -1.0)
+#: the body's yaw inertia (kg m^2): a flat quad's is about the sum of its roll and pitch
+#: inertias, the pitch's being the model's ``body_inertia`` (assumed, not measured)
+YAW_INERTIA_PER_PITCH = 2.0
+#: a rotor's drag torque per newton of its thrust (m): 9-10 inch props (assumed)
+YAW_TORQUE_PER_THRUST_M = 0.016
+#: the heading is handed to the physics' plane (a new slice) once it has moved this far (deg):
+#: each new slice costs a beam trace, and ArduCopter's yaw control moves the heading a little
+#: every frame at hover
+SLICE_STEP_DEG = 0.05
 #: how far (m, and rad of pitch) the body may move before the beam is traced again: a body at
 #: rest moves by 1e-14 m a frame, and ArduPilot reads the range in centimetres at 20 Hz, while
 #: the trace is a third of a frame's work at 800 frames a second (ArduCopter's boot on its pad)
@@ -61,9 +77,11 @@ class JsonPhysics:
         self.imu = Imu(self.normals, self.scn.accel_noise, self.scn.gyro_noise)
         self.range = Range(0.0, 1, 0)
         self._motion = self.stepper.motion()  # the body this frame reports, as a plain tuple
-        self._beam: tuple[float, float, float, float, float, bool, float] | None = None
+        self._beam: tuple[float, float, float, float, float, bool, float, float] | None = None
         self._outputs: tuple | None = None  # the last frame's motor outputs and their commands
         self.events = Events(self._send_event) if self._send_event is not None else None
+        self.home_ne = self.world.ne(self.home[0])
+        self.yaw = Yaw(self.stepper.model.params)
         if self.legs is not None:
             self.legs.next_t = 0.0
 
@@ -93,13 +111,19 @@ class JsonPhysics:
             st.set_external_force(*scn.wind.force_at(st.t - t0))
         st.step(dt, u_left, u_right)
         self.world.update(st)  # the surface under the position this frame reports
+        self.yaw.step(dt, pwm, st, self.world)
         t = st.t - t0
         self._motion = m = st.motion()
         fx, fz = st.specific_force_body()
         imu = self.imu
         imu.accel_noise = scn.accel_noise + scn.imu_extra_noise(t)
         # ArduPilot filters the IMU itself (INS_*_FILTER): hand it the unfiltered reading
-        imu.update(dt, fx, fz, m[6], 0.0, 0.0, scn.imu_spike(t))
+        r = self.yaw.rate
+        if r:
+            roll_rate, yaw_rate = -r * math.sin(m[3]), r * math.cos(m[3])
+            imu.update(dt, fx, fz, m[6], 0.0, 0.0, scn.imu_spike(t), roll_rate, yaw_rate)
+        else:
+            imu.update(dt, fx, fz, m[6], 0.0, 0.0, scn.imu_spike(t))
         true = self._trace_beam(m)  # NaN: the footprint straddles an edge
         status = 1 if math.isnan(true) else 4 if math.isfinite(true) else 3
         raw = Range(0.0, 1, 0) if status == 1 else Range(true, status, 100)
@@ -136,11 +160,11 @@ class JsonPhysics:
             and abs(x - last[0]) < BEAM_REUSE
             and abs(z - last[1]) < BEAM_REUSE
             and abs(pitch - last[2]) < BEAM_REUSE
-            and (w.ox, w.oz, w.on_roof) == last[3:6]
+            and (w.ox, w.oz, w.on_roof, w.heading_deg) == last[3:7]
         ):
-            return last[6]
+            return last[7]
         value = world_beam(self.stepper, w)
-        self._beam = (x, z, pitch, w.ox, w.oz, w.on_roof, value)
+        self._beam = (x, z, pitch, w.ox, w.oz, w.on_roof, w.heading_deg, value)
         return value
 
     def _rng_1(self) -> float:
@@ -155,22 +179,38 @@ class JsonPhysics:
     def fdm(self) -> Fdm:
         """This frame's report."""
         _t, bx, bz, pitch, vx, vz, _q = self._motion
-        x, z = self.world.to_world(bx, bz)
+        w = self.world
+        x, z = w.to_world(bx, bz)
         a, g = self.imu.accel, self.imu.gyro
+        if self._turned():
+            n, e = w.ne(x)
+            c, s = w._dir()
+            position = (n - self.home_ne[0], e - self.home_ne[1], -(z - self.home[1]))
+            velocity = (vx * c, vx * s, -vz)
+        else:
+            position, velocity = (x - self.home[0], 0.0, -(z - self.home[1])), (vx, 0.0, -vz)
         return Fdm(
             timestamp=self.t,
             gyro=(float(g[0]), float(g[1]), float(g[2])),
             accel_body=(float(a[0]), float(a[1]), float(a[2])),
-            position=(x - self.home[0], 0.0, -(z - self.home[1])),
-            velocity=(vx, 0.0, -vz),
-            attitude=(0.0, pitch, 0.0),
+            position=position,
+            velocity=velocity,
+            attitude=(0.0, pitch, math.radians(wrap_deg(self.yaw.heading_deg))),
             rng_1=self._rng_1(),
         )
+
+    def _turned(self) -> bool:
+        """Whether the vehicle has left the north axis it booted on (the planar reply no longer
+        says it)."""
+        w = self.world
+        return self.yaw.heading_deg != 0.0 or w.heading_deg != 0.0 or w.e0 != 0.0 or w.n0 != 0.0
 
     def reply(self) -> bytes:
         """``encode_reply(self.fdm())``, the same bytes, without building the report (a third of
         a frame's work at 800 frames a second); what encode_reply refuses goes through it, so it
         raises the same error."""
+        if self._turned():
+            return encode_reply(self.fdm())
         _t, bx, bz, pitch, vx, vz, _q = self._motion
         world, home = self.world, self.home
         a, g = self.imu.accel, self.imu.gyro
@@ -186,3 +226,43 @@ class JsonPhysics:
             float(self._rng_1()),
         )
         return encode_planar_reply(values) or encode_reply(self.fdm())
+
+
+def wrap_deg(angle: float) -> float:
+    """An angle (deg) in -180..180."""
+    return (angle + 180.0) % 360.0 - 180.0
+
+
+class Yaw:
+    """The heading, turned by the motors' drag torques: each motor's thrust from its command (the
+    ESC mapping, thrust growing with the square of the command), its drag torque
+    :data:`YAW_TORQUE_PER_THRUST_M` per newton with the sign of its spin (:data:`YAW_SIGNS`), the
+    sum lagging the command by the rotors' time constant, over :data:`YAW_INERTIA_PER_PITCH` times
+    the model's pitch inertia. The feet on the ground hold it (in contact, and below the height
+    the world turns its plane at, the heading stays: :meth:`World.turn`)."""
+
+    def __init__(self, params) -> None:
+        self.inertia = YAW_INERTIA_PER_PITCH * params["body_inertia"]
+        self.thrust_max = 0.5 * params["rotor_thrust_max"]  # a planar rotor is a pair of motors
+        self.reverse = params["rotor_reverse_ratio"]
+        self.tau = params["rotor_time_constant"]
+        self.torque = 0.0  # N m, clockwise seen from above (NED yaw)
+        self.rate = 0.0  # rad/s
+        self.heading_deg = 0.0
+
+    def step(self, dt: float, pwm: Sequence[int], stepper: Stepper, world: World) -> None:
+        want = 0.0
+        for sign, p in zip(YAW_SIGNS, pwm, strict=False):
+            u = esc.pwm_to_command(p)
+            thrust = self.thrust_max * u * abs(u) * (self.reverse if u < 0 else 1.0)
+            want += sign * YAW_TORQUE_PER_THRUST_M * thrust
+        self.torque += (want - self.torque) * min(1.0, dt / self.tau)
+        if stepper.in_contact():
+            self.rate = 0.0
+            return
+        self.rate += self.torque / self.inertia * dt
+        heading = self.heading_deg + math.degrees(self.rate * dt)
+        if abs(wrap_deg(heading - world.heading_deg)) >= SLICE_STEP_DEG and not world.turn(stepper, heading):
+            self.rate = 0.0  # low over the surface: the world does not turn (see World.turn)
+            return
+        self.heading_deg = heading % 360.0

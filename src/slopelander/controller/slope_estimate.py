@@ -43,6 +43,11 @@ SCALE_FLOOR_M = 0.005
 OUTLIER_WEIGHT = 0.1
 #: contiguous blocks of the block jackknife (points along a track are correlated within a block)
 JACKKNIFE_BLOCKS = 8
+#: a point belongs to the leg along a direction when it lies within this angle's tangent of it
+#: (tan 20 deg), seen from the spot
+LEG_HALF_ANGLE_TAN = 0.364
+#: the second direction the points are seen along is at least this far from the first (deg)
+SECOND_DIRECTION_DEG = 45.0
 #: MAV_SENSOR_ROTATION_PITCH_270: the downward rangefinder
 DOWNWARD = 25
 
@@ -535,15 +540,22 @@ def _wls(a: np.ndarray, h: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(a * sw[:, None], h * sw, rcond=None)[0]
 
 
-def fit_plane(dn: np.ndarray, de: np.ndarray, h: np.ndarray, iterations: int = 30) -> PlaneFit:
-    """Robust ``h = a + gn dn + ge de``: a least-absolute-deviations start (a plane that a quarter
-    of the heights being wrong does not move: the points of a pass lie in a bounded patch, so no
-    point pulls by its position), then IRLS with Tukey's biweight on the MAD scale of the residuals
-    (re-estimated each round, floored at :data:`SCALE_FLOOR_M`)."""
+def fit_plane(
+    dn: np.ndarray, de: np.ndarray, h: np.ndarray, groups: np.ndarray | None = None, iterations: int = 30
+) -> PlaneFit:
+    """Robust ``h = a_k + gn dn + ge de``: one plane, an intercept ``a_k`` per group of points
+    (``groups``, labels 0..; None: one group) so that the legs of a pass flown at different times
+    may sit at different heights (the position's height wanders; both legs cross the spot, so the
+    gradients are each leg's own), a least-absolute-deviations start (a plane that a quarter of the
+    heights being wrong does not move: the points of a pass lie in a bounded patch, so no point
+    pulls by its position), then IRLS with Tukey's biweight on the MAD scale of the residuals
+    (re-estimated each round, floored at :data:`SCALE_FLOOR_M`). ``intercept``: the first group's."""
     dn, de, h = (np.asarray(v, float) for v in (dn, de, h))
     if h.size < 3:
         raise ValueError("a plane needs at least three points")
-    a = np.column_stack([np.ones_like(h), dn, de])
+    labels = np.zeros(h.size, int) if groups is None else np.asarray(groups, int)
+    ones = [(labels == k).astype(float) for k in np.unique(labels)]
+    a = np.column_stack([*ones, dn, de])
     beta = _wls(a, h, np.ones_like(h))
     for _ in range(50):  # L1 by reweighting: weights 1/|r|, held off zero
         r = np.abs(h - a @ beta)
@@ -572,18 +584,18 @@ def fit_plane(dn: np.ndarray, de: np.ndarray, h: np.ndarray, iterations: int = 3
     try:
         inv = np.linalg.inv(normal)
     except np.linalg.LinAlgError:
-        inv = np.full((3, 3), np.inf)
+        inv = np.full(normal.shape, np.inf)
     neff = float(np.count_nonzero(w > OUTLIER_WEIGHT))
-    var = float((w * r * r).sum() / max(1.0, sw)) * neff / max(1.0, neff - 3.0)
-    cov = max(var, SCALE_FLOOR_M**2) * inv[1:, 1:]
-    rows = (inv @ (a * w[:, None]).T)[1:] if np.all(np.isfinite(inv)) else np.full((2, h.size), np.inf)
-    return PlaneFit(float(beta[0]), (float(beta[1]), float(beta[2])), w, s, cov, rows)
+    var = float((w * r * r).sum() / max(1.0, sw)) * neff / max(1.0, neff - a.shape[1])
+    cov = max(var, SCALE_FLOOR_M**2) * inv[-2:, -2:]
+    rows = (inv @ (a * w[:, None]).T)[-2:] if np.all(np.isfinite(inv)) else np.full((2, h.size), np.inf)
+    return PlaneFit(float(beta[0]), (float(beta[-2]), float(beta[-1])), w, s, cov, rows)
 
 
 def walk_gradient_cov(t: np.ndarray, rows: np.ndarray, walk: float) -> np.ndarray:
     """:func:`walk_gradient_se` for a plane: the 2x2 covariance of (gn, ge) = ``rows @ h`` from a
     height error that is a random walk of ``walk`` m per sqrt(s). Each row sums to zero (the
-    intercept takes a common offset), so the covariance is ``walk^2`` times the integral over time
+    intercepts take a common offset), so the covariance is ``walk^2`` times the integral over time
     of ``S_a(s) S_b(s)``, ``S`` the sums of each row's entries after ``s``."""
     if walk <= 0:
         return np.zeros((2, 2))
@@ -601,8 +613,57 @@ def _unit(azimuth_deg: float) -> np.ndarray:
     return np.array([math.cos(a), math.sin(a)])
 
 
-def _azimuth(u: np.ndarray) -> float:
-    return math.degrees(math.atan2(float(u[1]), float(u[0]))) % 360.0
+def _leg_labels(t: np.ndarray, legs: list[np.ndarray]) -> np.ndarray:
+    """Which leg each point was seen on: the direction it lies along from the spot (``legs``: a mask
+    per direction, of the points clear of the spot), or, near the spot (on both or neither), the
+    leg of the nearest point in time that has one; legs flown twice
+    (out, elsewhere, back) are one leg each time: a label per run of consecutive points."""
+    order = np.argsort(t, kind="stable")
+    own = np.full(t.size, -1)
+    for k, m in enumerate(legs):
+        own[m & (own == -1)] = k
+    own[legs[0] & legs[1]] = -1
+    seq = own[order]
+    known = np.flatnonzero(seq >= 0)
+    if known.size == 0:
+        return np.zeros(t.size, int)
+    nearest = known[np.clip(np.searchsorted(known, np.arange(seq.size)), 0, known.size - 1)]
+    before = known[np.clip(np.searchsorted(known, np.arange(seq.size)) - 1, 0, known.size - 1)]
+    pick = np.where(
+        np.abs(before - np.arange(seq.size)) < np.abs(nearest - np.arange(seq.size)), before, nearest
+    )
+    seq = seq[pick]
+    runs = np.concatenate([[0], np.cumsum(seq[1:] != seq[:-1])])
+    out = np.empty(t.size, int)
+    out[order] = runs
+    return out
+
+
+def _directions(dn: np.ndarray, de: np.ndarray, st: EstimateSettings) -> list[float]:
+    """The one or two directions (deg, 0..180) the points around the spot lie along: the most
+    populated 5-deg bin of their bearings from the spot (mod 180), then the most populated one at
+    least :data:`SECOND_DIRECTION_DEG` from it, each refined to the median bearing near it; a
+    direction seen by fewer than a quarter of ``min_points`` points is not one."""
+    r = np.hypot(dn, de)
+    far = r >= max(0.1, 0.5 * st.min_side_m)
+    if np.count_nonzero(far) < 5:
+        return []
+    bearing = np.degrees(np.arctan2(de[far], dn[far])) % 180.0
+    counts = np.bincount((bearing // 5.0).astype(int) % 36, minlength=36)
+    smooth = counts + np.roll(counts, 1) + np.roll(counts, -1)
+    need = max(5, st.min_points // 4)
+    out = []
+    for _ in range(2):
+        if out:
+            gap = np.abs((np.arange(36) * 5.0 + 2.5 - out[0] + 90.0) % 180.0 - 90.0)
+            smooth = np.where(gap >= SECOND_DIRECTION_DEG, smooth, 0)
+        i = int(np.argmax(smooth))
+        if smooth[i] < need:
+            break
+        centre = i * 5.0 + 2.5
+        off = (bearing - centre + 90.0) % 180.0 - 90.0
+        out.append(float((centre + np.median(off[np.abs(off) <= 10.0])) % 180.0))
+    return out
 
 
 @dataclass
@@ -745,29 +806,41 @@ def estimate_plane(
     if len(near) < st.min_points:
         est.refusal = f"{LACK}: {len(near)} points, {st.min_points} needed"
         return est
-    # the points' principal directions, the longer first
+    # the directions the points were seen along (a survey pass: its two legs), the most seen first
     xy = np.column_stack([dn, de])
-    _vals, vecs = np.linalg.eigh(np.cov(xy.T) if len(near) > 1 else np.eye(2))
-    axes = [vecs[:, 1], vecs[:, 0]]
-    proj = [xy @ ax for ax in axes]
-    est.extents_m = (float(np.ptp(proj[0])), float(np.ptp(proj[1])))
-    if est.extents_m[1] < st.min_baseline_m:
+    dirs = _directions(dn, de, st)
+    if len(dirs) < 2:
+        along = f"along {dirs[0]:.0f} deg only" if dirs else "around the spot only"
         est.refusal = (
-            f"{LACK}: the points span {est.extents_m[0]:.2f} m toward {_azimuth(axes[0]) % 180:.0f} deg "
-            f"but {est.extents_m[1]:.2f} m across it ({st.min_baseline_m:g} m needed both ways: "
-            "the slope across the pass is unseen)"
+            f"{LACK}: the points lie {along}: the slope across is unseen "
+            f"({st.min_baseline_m:g} m needed two ways)"
         )
         return est
-    for ax, p in zip(axes, proj, strict=True):
-        behind, ahead = -float(p.min()), float(p.max())
+    axes = [_unit(d) for d in dirs]
+    proj = [xy @ ax for ax in axes]
+    legs = [
+        np.abs(xy @ _unit(d + 90.0)) <= LEG_HALF_ANGLE_TAN * np.abs(p)
+        for d, p in zip(dirs, proj, strict=True)
+    ]
+    est.extents_m = tuple(float(np.ptp(p[m])) for p, m in zip(proj, legs, strict=True))
+    for d, p, m, ext in zip(dirs, proj, legs, est.extents_m, strict=True):
+        if ext < st.min_baseline_m:
+            est.refusal = (
+                f"{LACK}: the points span {ext:.2f} m along {d:.0f} deg ({st.min_baseline_m:g} m needed "
+                "two ways: the slope across the pass is unseen)"
+            )
+            return est
+        behind, ahead = -float(p[m].min()), float(p[m].max())
         if min(behind, ahead) < st.min_side_m:
-            toward = _azimuth(ax if ahead < behind else -ax)
+            toward = d if ahead < behind else d + 180.0
             est.refusal = (
                 f"{LACK}: surface seen only {min(behind, ahead):.2f} m toward {az_text(toward)} of the spot "
                 f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
             )
             return est
-    fit = fit_plane(dn, de, h)
+    far = np.hypot(dn, de) >= max(0.1, 0.5 * st.min_side_m)
+    groups = _leg_labels(t, [m & far for m in legs])
+    fit = fit_plane(dn, de, h, groups)
     est.points = [
         (float(a), float(b), float(c), float(d), float(w))
         for (a, b, c, d), w in zip(near, fit.weights, strict=True)
@@ -784,15 +857,19 @@ def estimate_plane(
             f"({st.min_inlier_fraction:.0%} needed): the surface under the pass is not flat"
         )
         return est
-    # the two sides of the spot along each principal direction: one plane has one slope there
+    # the two sides of the spot along each direction, from that leg's points alone (a slow height
+    # wander offsets one leg from the other): one plane has one slope there
     g = np.array(fit.gradient)
-    for ax, p in zip(axes, proj, strict=True):
+    for d, ax, p, m in zip(dirs, axes, proj, legs, strict=True):
         across = np.array([-ax[1], ax[0]])
         hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
         sides = []
-        for m in (p < 0, p >= 0):
-            if np.count_nonzero(m) >= max(5, st.min_points // 4) and np.ptp(p[m]) >= 0.5 * st.min_side_m:
-                f = fit_line(p[m], hh[m])
+        for side in (m & (p < 0), m & (p >= 0)):
+            if (
+                np.count_nonzero(side) >= max(5, st.min_points // 4)
+                and np.ptp(p[side]) >= 0.5 * st.min_side_m
+            ):
+                f = fit_line(p[side], hh[side])
                 sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
         if len(sides) == 2:
             diff = abs(sides[0][0] - sides[1][0])
@@ -801,7 +878,7 @@ def estimate_plane(
                 est.sides_deg = (sides[0][0], sides[1][0])
             if diff > allowed:
                 est.refusal = (
-                    f"the surface is not one plane: toward {az_text(_azimuth(ax))} it falls "
+                    f"the surface is not one plane: toward {az_text(d)} it falls "
                     f"{sides[0][0]:.1f} deg before the spot and {sides[1][0]:.1f} deg beyond it "
                     "(a ridge or an edge under the path)"
                 )
@@ -812,8 +889,12 @@ def estimate_plane(
     for b in np.array_split(order, JACKKNIFE_BLOCKS):
         keep = np.ones(t.size, bool)
         keep[b] = False
-        if keep.sum() >= 3 and min(np.ptp(p[keep]) for p in proj) > 0.25 * est.extents_m[1]:
-            leave.append(fit_plane(dn[keep], de[keep], h[keep]).gradient)
+        if keep.sum() >= 3 and all(
+            np.ptp(p[keep & m]) > 0.25 * ext
+            for p, m, ext in zip(proj, legs, est.extents_m, strict=True)
+            if (keep & m).any()
+        ):
+            leave.append(fit_plane(dn[keep], de[keep], h[keep], groups[keep]).gradient)
     k = len(leave)
     if k >= 3:
         d = np.array(leave) - np.mean(leave, axis=0)
