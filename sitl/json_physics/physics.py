@@ -39,11 +39,14 @@ NO_DATA_M = math.nan
 #: a motor's drag torque turns the body the other way, so more thrust on 1 and 2 turns it clockwise
 #: (AP_MotorsMatrix: AP_MOTORS_MATRIX_YAW_FACTOR_CCW = +1 for motors 1 and 2)
 YAW_SIGNS = (1.0, 1.0, -1.0, -1.0)
-#: the body's yaw inertia (kg m^2): a flat quad's is about the sum of its roll and pitch
-#: inertias, the pitch's being the model's ``body_inertia`` (assumed, not measured)
-YAW_INERTIA_PER_PITCH = 2.0
-#: a rotor's drag torque per newton of its thrust (m): 9-10 inch props (assumed)
-YAW_TORQUE_PER_THRUST_M = 0.016
+#: the body's yaw inertia (kg m^2) as a multiple of the model's pitch inertia, and a rotor's drag
+#: torque per newton of its thrust (m): assumed, not measured. Only their ratio matters to the
+#: turn, and it is set so that ArduCopter's default yaw gains turn the vehicle 90 deg with about
+#: 10 deg of overshoot, within 1 deg after 3.5 s (2026-11-27, real ArduCopter SITL); a flat quad's
+#: yaw inertia (twice the pitch's) with 9-inch props' 0.016 m overshot by 31 deg and wobbled +-5
+#: deg: a real quad also turns by its rotors' reaction torque as they speed up, not modelled
+YAW_INERTIA_PER_PITCH = 1.0
+YAW_TORQUE_PER_THRUST_M = 0.03
 #: the heading is handed to the physics' plane (a new slice) once it has moved this far (deg):
 #: each new slice costs a beam trace, and ArduCopter's yaw control moves the heading a little
 #: every frame at hover
@@ -105,7 +108,7 @@ class JsonPhysics:
             self.events.after_outputs(st.t - t0, True, pwm)
         outputs = self._outputs
         if outputs is None or outputs[0] != pwm:
-            self._outputs = outputs = (tuple(pwm), esc.planar_rotor_commands(pwm))
+            self._outputs = outputs = (tuple(pwm), planar_rotor_commands(pwm))
         u_left, u_right = outputs[1]
         if not scn.wind.calm:
             st.set_external_force(*scn.wind.force_at(st.t - t0))
@@ -226,6 +229,25 @@ class JsonPhysics:
             float(self._rng_1()),
         )
         return encode_planar_reply(values) or encode_reply(self.fdm())
+
+
+def planar_rotor_commands(pwm: Sequence[float]) -> tuple[float, float]:
+    """(left, right) rotor commands of the planar model for ArduCopter's four motor outputs: the
+    rear pair the model's left (-x) rotor, the front pair its right (+x) rotor, each pair's command
+    the one whose thrust (growing with the command's square) is the mean of its two motors'.
+    ArduCopter turns the vehicle by speeding one diagonal pair and slowing the other: the mean of
+    the commands (:func:`sitl.vehicle.esc.planar_rotor_commands`) would lose thrust in every turn
+    (two motors at 0.6 and 0.4 push 4 % more than two at 0.5), the power mean keeps it. The same
+    command when a pair's two are equal, as they are at rest and in every reverse thrust."""
+    out = []
+    for a, b in (esc.REAR, esc.FRONT):
+        u, v = esc.pwm_to_command(pwm[a]), esc.pwm_to_command(pwm[b])
+        if u == v:
+            out.append(u)
+            continue
+        m = 0.5 * (u * abs(u) + v * abs(v))
+        out.append(math.copysign(math.sqrt(abs(m)), m))
+    return out[0], out[1]
 
 
 def wrap_deg(angle: float) -> float:

@@ -220,7 +220,12 @@ def test_over_a_45_deg_roof_falling_east_auto_turns_to_face_it_and_lands_with_th
         rig.take_off(3.0)
         flight, est, took, preset, first = fly(rig, "auto", over_roof=True, height_m=1.5)
         yaw = math.degrees(rig.link.last["ATTITUDE"].yaw)
-    ctx = (est.describe(), est.plane_text(), flight.history[-4:])
+    check_east_landing(flight, est, took, preset, first, yaw)
+
+
+def check_east_landing(flight, est, took, preset, first, yaw: float, autopilot: str = "sim") -> None:
+    ctx = (autopilot, est.describe(), est.plane_text(), flight.history[-4:])
+    print(f"{autopilot}: {est.describe()}; {est.plane_text()}; survey and turns {took:.1f} s")
     assert took > 0, ctx
     assert est.fall_azimuth_deg == pytest.approx(90.0, abs=2.0), ctx
     assert est.heading_deg == pytest.approx(90.0, abs=2.0) and abs(est.cross_deg) <= 1.5, ctx
@@ -248,3 +253,21 @@ def test_a_pilot_slope_of_0_over_the_east_falling_roof_is_refused_along_the_head
     assert "pilot's slope 0 deg" in last["reason"] and f"measured {est.slope_deg:.1f}" in last["reason"], last
     assert "along heading 90 deg" in last["reason"], last
     assert "CUT" not in flight.states and flight.contact is None
+
+
+@pytest.mark.arducopter
+def test_on_arducopter_the_cross_slope_is_faced_and_landed() -> None:
+    """The 45 deg roof falling east on real ArduCopter: its GUIDED takes the survey's headings (the
+    JSON physics turns with the motors' yaw torque), the vehicle faces the fall line, and lands
+    there with the 45 deg preset."""
+    try:
+        binary = arducopter_binary()
+    except ArduCopterMissingError as exc:
+        if os.environ.get("SLOPELANDER_ARDUCOPTER"):
+            pytest.fail(str(exc))
+        pytest.skip(str(exc))
+    with Rig(slope_deg=45.0, seed=43, scenario=EAST, autopilot="ardupilot", arducopter=str(binary)) as rig:
+        rig.take_off(3.0)
+        flight, est, took, preset, first = fly(rig, "auto", over_roof=True, height_m=1.5)
+        yaw = math.degrees(rig.link.last["ATTITUDE"].yaw)
+    check_east_landing(flight, est, took, preset, first, yaw, "ardupilot")
