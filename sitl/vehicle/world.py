@@ -160,18 +160,20 @@ class World:
 
     def surface_under(self, x_world: float) -> tuple[bool, float, float, float]:
         """(is roof, slope deg, origin x, origin z) of the physics' surface below world x: the
-        pad, or the roof's section along the slice (level when it falls toward -x) through the
-        point where the slice meets the roof's top edge (or, on a slice nearly along that edge,
-        the point below x)."""
+        pad, or the roof's section along the slice through the point where the slice meets the
+        roof's top edge (on a slice nearly along that edge, the point below x); a section falling
+        toward -x level, through the roof's point below x."""
         n, _e = self.ne(x_world)
         if n < self.roof_x:
             return False, 0.0, 0.0, 0.0
         if self.heading_deg == 0.0 and self.n0 == 0.0 and self.fall_azimuth_deg == 0.0:
             return True, self.roof_slope_deg, self.roof_x, self.roof_z  # as it always was
         c, _s = self._dir()
-        x0 = (self.roof_x - self.n0) / c if abs(c) >= 0.1 else x_world
+        section = self.section_slope_deg()
+        # a section falling toward -x is handed over level, at the roof's height below x
+        x0 = (self.roof_x - self.n0) / c if abs(c) >= 0.1 and section >= 0.0 else x_world
         z0 = self.roof_height(*self.ne(x0))
-        return True, max(0.0, self.section_slope_deg()), x0, z0
+        return True, max(0.0, section), x0, z0
 
     def surface_z(self, x_world: float) -> float:
         """The height of the surface below world x (the roof's true section, not the physics')."""

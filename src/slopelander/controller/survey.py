@@ -46,8 +46,12 @@ POSITION_YAW_MASK = 0x09F8
 POSITION_MASK = 0x0DF8
 GUIDED = 4
 SEND_HZ = 10.0
-#: at the spot again: within this (m) and slower than this (m/s)
+#: at the spot again: within this (m) along the leg, within ACROSS_SPOT_M across it, and slower
+#: than AT_REST_MPS (m/s). Across a leg the pass's geometry needs less (the legs cross within it
+#: of the spot, and each leg's sides are checked on its own points); a planar simulator cannot
+#: move across its heading at all, so what a turn left across stays there
 AT_SPOT_M = 0.15
+ACROSS_SPOT_M = 0.3
 AT_REST_MPS = 0.1
 #: a leg is flown once the heading is within this of the leg's (deg)
 LEG_HEADING_DEG = 3.0
@@ -168,15 +172,36 @@ def low_range(track: SurfaceTrack, now: float, min_range_m: float) -> float | No
     return ahead if ahead < min_range_m else None
 
 
-def _at_rest_over(link: Link, spot, tol_m: float = AT_SPOT_M) -> bool:
+def _at_rest_over(link: Link, spot, heading: float) -> bool:
+    """At rest over the spot: within AT_SPOT_M of it along ``heading``, ACROSS_SPOT_M across."""
     p = link.last.get("LOCAL_POSITION_NED")
+    if p is None:
+        return False
+    along, across = _offsets(p, spot, heading)
     return (
-        p is not None
-        and math.hypot(p.x - spot[0], p.y - spot[1]) < tol_m
+        abs(along) < AT_SPOT_M
+        and abs(across) < ACROSS_SPOT_M
         and abs(p.vx) < AT_REST_MPS
         and abs(p.vy) < AT_REST_MPS
         and abs(p.vz) < AT_REST_MPS
     )
+
+
+def _offsets(p, spot, heading: float) -> tuple[float, float]:
+    """The position ``p``'s offset from the spot along ``heading`` and across it (to its right)."""
+    a = math.radians(heading)
+    dn, de = p.x - spot[0], p.y - spot[1]
+    return dn * math.cos(a) + de * math.sin(a), -dn * math.sin(a) + de * math.cos(a)
+
+
+def _where(link: Link, spot, heading: float) -> str:
+    """Where the vehicle is from the spot, for a refusal."""
+    p = link.last.get("LOCAL_POSITION_NED")
+    if p is None:
+        return "no position"
+    along, across = _offsets(p, spot, heading)
+    speed = math.sqrt(p.vx**2 + p.vy**2 + p.vz**2)
+    return f"{along:+.2f} m along, {across:+.2f} m across the spot at {speed:.2f} m/s"
 
 
 def _turn(
@@ -218,11 +243,14 @@ def _turn(
         if not told and off > LEG_HEADING_DEG:
             note(f"survey: turning from {az_text(have or 0.0)} to face {az_text(heading)}")
             told = True
-        if there and _at_rest_over(link, spot):
+        if there and _at_rest_over(link, spot, heading):
             return None
         if now - t0 > limit or time.monotonic() > end_wall:
             at = "no heading" if have is None else f"heading {have:.1f} deg"
-            return f"not facing {az_text(heading)} at rest over the spot within {limit:g} s ({at})"
+            return (
+                f"not facing {az_text(heading)} at rest over the spot within {limit:g} s "
+                f"({at}, {_where(link, spot, heading)})"
+            )
         time.sleep(0.001)
 
 
@@ -266,7 +294,7 @@ def _fly_leg(
         el = now - t0
         if el > limit or time.monotonic() > end_wall:
             _send(link, n0, e0, d0, heading)
-            return f"not back over the spot within {limit:g} s"
+            return f"not back over the spot within {limit:g} s ({_where(link, spot, heading)})"
         step = v * max(0.0, now - last_t)
         last_t = now
         if leg < len(goals):
@@ -293,7 +321,7 @@ def _fly_leg(
         if now - last_sent >= 1.0 / SEND_HZ or now < last_sent:
             _send(link, n0 + target * u[0], e0 + target * u[1], d0, heading)
             last_sent = now
-        if leg >= len(goals) and _at_rest_over(link, spot):
+        if leg >= len(goals) and _at_rest_over(link, spot, heading):
             return None
         time.sleep(0.001)
 
