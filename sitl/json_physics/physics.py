@@ -28,7 +28,7 @@ from sitl.vehicle.events import Events
 from sitl.vehicle.legs_link import LegsLink
 from sitl.vehicle.scenario import Scenario
 from sitl.vehicle.sensors import Imu, NormalStream, Range
-from sitl.vehicle.world import World, start_on_ground, world_beam
+from sitl.vehicle.world import CLEAR_M, World, start_on_ground, world_beam
 from slopelander.model.stepper import BodyState, Stepper
 
 NO_RETURN_M = 999.0  # beam pointing away from the ground: beyond any rangefinder's maximum
@@ -235,10 +235,12 @@ def planar_rotor_commands(pwm: Sequence[float]) -> tuple[float, float]:
     """(left, right) rotor commands of the planar model for ArduCopter's four motor outputs: the
     rear pair the model's left (-x) rotor, the front pair its right (+x) rotor, each pair's command
     the one whose thrust (growing with the command's square) is the mean of its two motors'.
-    ArduCopter turns the vehicle by speeding one diagonal pair and slowing the other: the mean of
-    the commands (:func:`sitl.vehicle.esc.planar_rotor_commands`) would lose thrust in every turn
-    (two motors at 0.6 and 0.4 push 4 % more than two at 0.5), the power mean keeps it. The same
-    command when a pair's two are equal, as they are at rest and in every reverse thrust."""
+    ArduCopter mixes in thrust (MOT_THST_EXPO 1): it turns the vehicle by adding thrust to one
+    diagonal pair and taking as much from the other, so motors asked for 0.35 and 0.15 of full
+    thrust (commands 0.59 and 0.39) push what two at 0.25 do; the mean of the commands
+    (:func:`sitl.vehicle.esc.planar_rotor_commands`), 0.49, would push 4 % less, and the vehicle
+    sank 0.66 m in a 90 deg turn on real ArduCopter. The same command when a pair's two are equal,
+    as they are at rest and in every reverse thrust."""
     out = []
     for a, b in (esc.REAR, esc.FRONT):
         u, v = esc.pwm_to_command(pwm[a]), esc.pwm_to_command(pwm[b])
@@ -279,8 +281,10 @@ class Yaw:
             thrust = self.thrust_max * u * abs(u) * (self.reverse if u < 0 else 1.0)
             want += sign * YAW_TORQUE_PER_THRUST_M * thrust
         self.torque += (want - self.torque) * min(1.0, dt / self.tau)
-        if stepper.in_contact():
-            self.rate = 0.0
+        _t, x, z = stepper.motion()[:3]
+        a = math.radians(stepper.slope_deg)
+        if stepper.in_contact() or x * math.sin(a) + z * math.cos(a) < CLEAR_M:
+            self.rate = 0.0  # on the ground or close over it: the world does not turn (World.turn)
             return
         self.rate += self.torque / self.inertia * dt
         heading = self.heading_deg + math.degrees(self.rate * dt)

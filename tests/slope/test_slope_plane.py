@@ -48,6 +48,7 @@ def track_of_pass(
     bias_deg: float = 0.5,
     noise_deg: float = 0.2,
     range_noise: float = 0.005,
+    beside: tuple[float, ...] = (),
 ) -> SurfaceTrack:
     """A pass of one leg per heading (each flown facing its heading) at 20 Hz, level, with the
     errors a real vehicle has: the height wandering as a random walk of ``walk`` m per sqrt(s), a
@@ -57,9 +58,11 @@ def track_of_pass(
     rng = np.random.default_rng(seed)
     dt = 0.05
     rows = []
-    for heading in headings:
+    for k, heading in enumerate(headings):
         a = math.radians(heading)
-        rows += [(SPOT[0] + s * math.cos(a), SPOT[1] + s * math.sin(a), a) for s in leg_offsets()]
+        off = beside[k] if k < len(beside) else 0.0
+        n0, e0 = SPOT[0] - off * math.sin(a), SPOT[1] + off * math.cos(a)
+        rows += [(n0 + s * math.cos(a), e0 + s * math.sin(a), a) for s in leg_offsets()]
     drift = np.cumsum(rng.normal(0.0, walk * math.sqrt(dt), len(rows)))
     bias = np.radians(rng.normal(0.0, bias_deg, 2))
     tr = SurfaceTrack(0.1)
@@ -218,3 +221,16 @@ def test_heading_interpolation_takes_the_short_way_across_north() -> None:
     tr.add(0.05, range_m=2.0)
     ((_t, n, e, _h),) = tr.surface_points()
     assert n > 0.3 and abs(e) < 0.01  # pitched nose up facing north: the point is north
+
+
+@pytest.mark.parametrize("beside", [(0.0, 0.25), (0.2, -0.25)])
+def test_a_leg_flown_beside_the_spot_is_still_a_leg(beside) -> None:
+    """A turn on the spot can leave the vehicle a little beside it (on ArduCopter over the planar
+    physics, 0.17 m: it cannot move across its heading), and the next leg is flown there: its
+    points are still that leg's, both sides of the spot are seen, and the plane is read."""
+    tr = track_of_pass(35.0, 0.0, headings=(-14.0, 76.0), seed=8, beside=beside)
+    plane = estimate_plane(tr.surface_points(), SPOT)
+    assert plane.ok, plane.refusal
+    est = plane.along(0.0)
+    assert est.plane_slope_deg == pytest.approx(35.0, abs=3 * est.plane_sigma_deg)
+    assert abs((est.fall_azimuth_deg + 180.0) % 360.0 - 180.0) < 3.0

@@ -43,9 +43,9 @@ SCALE_FLOOR_M = 0.005
 OUTLIER_WEIGHT = 0.1
 #: contiguous blocks of the block jackknife (points along a track are correlated within a block)
 JACKKNIFE_BLOCKS = 8
-#: a point belongs to the leg along a direction when it lies within this angle's tangent of it
-#: (tan 20 deg), seen from the spot
-LEG_HALF_ANGLE_TAN = 0.364
+#: a point belongs to the leg along a direction when it lies within this of the line through the
+#: spot along it (m): a leg may be flown up to 0.3 m beside the spot (survey.ACROSS_SPOT_M)
+LEG_BAND_M = 0.35
 #: the second direction the points are seen along is at least this far from the first (deg)
 SECOND_DIRECTION_DEG = 45.0
 #: MAV_SENSOR_ROTATION_PITCH_270: the downward rangefinder
@@ -640,19 +640,22 @@ def _leg_labels(t: np.ndarray, legs: list[np.ndarray]) -> np.ndarray:
 
 
 def _directions(dn: np.ndarray, de: np.ndarray, st: EstimateSettings) -> list[float]:
-    """The one or two directions (deg, 0..180) the points around the spot lie along: the most
-    populated 5-deg bin of their bearings from the spot (mod 180), then the most populated one at
-    least :data:`SECOND_DIRECTION_DEG` from it, each refined to the median bearing near it; a
-    direction seen by fewer than a quarter of ``min_points`` points is not one."""
-    r = np.hypot(dn, de)
-    far = r >= max(0.1, 0.5 * st.min_side_m)
+    """The one or two directions (deg, 0..180) the points around the spot lie along (a pass's
+    legs): the most populated 5-deg bin of the bearings from the spot (mod 180) of the points at
+    least :data:`LEG_BAND_M` away, then the most populated one at least
+    :data:`SECOND_DIRECTION_DEG` from it; each then refined to the principal axis of the points
+    in its band (within :data:`LEG_BAND_M` of the line through the spot along it, clear of the
+    spot), since a leg flown beside the spot skews the bearings near it. A direction seen by fewer
+    than a quarter of ``min_points`` points is not one."""
+    xy = np.column_stack([dn, de])
+    far = np.hypot(dn, de) >= LEG_BAND_M
     if np.count_nonzero(far) < 5:
         return []
     bearing = np.degrees(np.arctan2(de[far], dn[far])) % 180.0
     counts = np.bincount((bearing // 5.0).astype(int) % 36, minlength=36)
     smooth = counts + np.roll(counts, 1) + np.roll(counts, -1)
     need = max(5, st.min_points // 4)
-    out = []
+    out: list[float] = []
     for _ in range(2):
         if out:
             gap = np.abs((np.arange(36) * 5.0 + 2.5 - out[0] + 90.0) % 180.0 - 90.0)
@@ -660,9 +663,15 @@ def _directions(dn: np.ndarray, de: np.ndarray, st: EstimateSettings) -> list[fl
         i = int(np.argmax(smooth))
         if smooth[i] < need:
             break
-        centre = i * 5.0 + 2.5
-        off = (bearing - centre + 90.0) % 180.0 - 90.0
-        out.append(float((centre + np.median(off[np.abs(off) <= 10.0])) % 180.0))
+        d = i * 5.0 + 2.5
+        for _ in range(3):
+            band = (np.abs(xy @ _unit(d + 90.0)) <= LEG_BAND_M) & (np.abs(xy @ _unit(d)) >= LEG_BAND_M)
+            if np.count_nonzero(band) < 5:
+                break
+            c = xy[band] - xy[band].mean(axis=0)
+            axis = np.linalg.eigh(c.T @ c)[1][:, 1]
+            d = math.degrees(math.atan2(float(axis[1]), float(axis[0]))) % 180.0
+        out.append(float(d))
     return out
 
 
@@ -818,10 +827,7 @@ def estimate_plane(
         return est
     axes = [_unit(d) for d in dirs]
     proj = [xy @ ax for ax in axes]
-    legs = [
-        np.abs(xy @ _unit(d + 90.0)) <= LEG_HALF_ANGLE_TAN * np.abs(p)
-        for d, p in zip(dirs, proj, strict=True)
-    ]
+    legs = [np.abs(xy @ _unit(d + 90.0)) <= LEG_BAND_M for d in dirs]
     est.extents_m = tuple(float(np.ptp(p[m])) for p, m in zip(proj, legs, strict=True))
     for d, p, m, ext in zip(dirs, proj, legs, est.extents_m, strict=True):
         if ext < st.min_baseline_m:
@@ -860,7 +866,12 @@ def estimate_plane(
     # the two sides of the spot along each direction, from that leg's points alone (a slow height
     # wander offsets one leg from the other): one plane has one slope there
     g = np.array(fit.gradient)
-    for d, ax, p, m in zip(dirs, axes, proj, legs, strict=True):
+    own = []  # each leg's points: the run of its own clear of the crossing, with its stretch near the spot
+    for k, m in enumerate(legs):
+        clear = m & far & ~legs[1 - k]
+        label = np.bincount(groups[clear]).argmax() if clear.any() else -1
+        own.append(m & (groups == label))
+    for d, ax, p, m in zip(dirs, axes, proj, own, strict=True):
         across = np.array([-ax[1], ax[0]])
         hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
         sides = []

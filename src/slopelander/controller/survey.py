@@ -131,8 +131,10 @@ def measure_slope(
         plane = estimate_plane(track.surface_points(), spot[:2], st)
         if not plane.ok:
             return plane.along(track.heading_deg()), link.clock.now() - t0
-    face = plane.fall_azimuth_deg if plane.plane_slope_deg >= cfg["slope.max_cross_deg"] else heading
-    done = _turn(link, cfg, track, spot, face, plane, tick, wall_s, note)
+    if plane.plane_slope_deg >= cfg["slope.max_cross_deg"]:  # face the fall line
+        done = _turn(link, cfg, track, spot, plane.fall_azimuth_deg, plane, tick, wall_s, note)
+    else:  # no fall line worth the name: back to the heading the pilot gave it
+        done = _turn(link, cfg, track, spot, heading, None, tick, wall_s, note)
     took = link.clock.now() - t0
     est = _along(plane, track.heading_deg(), cfg)
     if done is not None and est.ok and est.cross_deg is not None:
