@@ -95,8 +95,14 @@ class World:
         f = math.radians(self.fall_azimuth_deg)
         return self.roof_z - t * ((north - self.roof_x) * math.cos(f) + east * math.sin(f))
 
-    def section_slope_deg(self) -> float:
-        """The roof's slope along the slice (deg, positive falling toward +x)."""
+    def section_slope_deg(self, turn_deg: float = 0.0) -> float:
+        """The roof's slope along the slice (deg, positive falling toward +x), or along the slice
+        turned by ``turn_deg`` clockwise (90: falling to the vehicle's right)."""
+        if turn_deg:
+            a = math.radians(self.heading_deg + turn_deg)
+            f = math.radians(self.fall_azimuth_deg)
+            k = math.cos(a) * math.cos(f) + math.sin(a) * math.sin(f)
+            return math.degrees(math.atan(math.tan(math.radians(self.roof_slope_deg)) * k))
         c, s = self._dir()
         f = math.radians(self.fall_azimuth_deg)
         k = c * math.cos(f) + s * math.sin(f)
@@ -203,8 +209,9 @@ class World:
         self.ox, self.oz, self.on_roof = x0, z0, roof
         return True
 
-    def turn(self, stepper: Stepper, heading_deg: float) -> bool:
-        """Turn the slice to ``heading_deg`` about the vehicle: a new slice through the body, the
+    def turn(self, stepper: Stepper, heading_deg: float, across_m: float = 0.0) -> bool:
+        """Turn the slice to ``heading_deg`` about the vehicle: a new slice through the body (moved
+        ``across_m`` to the right of the old slice first: a vehicle that slid sideways), the
         physics handed the surface under it along the new heading. Only while airborne and clear
         of that surface (a turning vehicle's feet would sweep through it); False: not turned (the
         world unchanged)."""
@@ -213,6 +220,9 @@ class World:
         _t, x, z = stepper.motion()[:3]
         xw, zw = x + self.ox, z + self.oz
         n, e = self.ne(xw)
+        if across_m:
+            c, s = self._dir()
+            n, e = n - across_m * s, e + across_m * c
         old = (self.heading_deg, self.n0, self.e0)
         self.heading_deg, self.n0, self.e0 = heading_deg % 360.0, n, e
         roof, slope, x0, z0 = self.surface_under(0.0)

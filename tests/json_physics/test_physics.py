@@ -224,14 +224,16 @@ def test_arducopters_yaw_torque_turns_the_vehicle_clockwise_and_the_reply_says_s
 
     quiet = {"accel": 0.0, "gyro": 0.0, "range": 0.0}
     scn = scenario_from_dict({"slope_deg": 20.0, "seed": 5, "noise": quiet})
-    u0, d = 0.68, 0.08  # a command near hover, and a thrust differential (of full thrust squared)
-    turning = tuple(esc.command_to_pwm(math.sqrt(u0 * u0 + s * d)) for s in (1, 1, -1, -1))
+    hi, lo = 1870, 1808  # what ArduCopter sends (whole microseconds) to turn near hover
+    u_hi, u_lo = esc.pwm_to_command(hi), esc.pwm_to_command(lo)
+    u0 = math.sqrt(0.5 * (u_hi * u_hi + u_lo * u_lo))  # four equal motors with the same thrust
+    turning = (hi, hi, lo, lo)
     on_pad = JsonPhysics(scn)
     for _ in range(800):
         on_pad.step(1 / 800, turning)
     assert on_pad.fdm().attitude[2] == 0.0  # the feet hold it
     dv = {}
-    for pwm in ((esc.command_to_pwm(u0),) * 4, turning):
+    for pwm in ((esc.NEUTRAL_US + 500.0 * u0,) * 4, turning):
         physics = JsonPhysics(scn)
         for _ in range(2400):  # climb clear of the pad
             physics.step(1 / 800, (1900,) * 4)
@@ -244,4 +246,4 @@ def test_arducopters_yaw_torque_turns_the_vehicle_clockwise_and_the_reply_says_s
     assert f.gyro[2] > 0.1, f.gyro
     assert physics.reply() == encode_reply(f)
     straight, turn = dv.values()
-    assert turn == pytest.approx(straight, abs=0.01), dv  # pwm in whole microseconds: 1 cm/s
+    assert turn == pytest.approx(straight, abs=0.002), dv
