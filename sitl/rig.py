@@ -520,10 +520,16 @@ class Rig:
     #: (125 MB) for it; ``tests/vehicle/test_track.py`` checks it against the vehicle's rangefinder.
     home_range_m: float = 0.148
 
-    def surface_z(self, x: float) -> float:
+    def surface_z(self, x: float, east: float = 0.0) -> float:
+        """The surface's height (m) at north ``x`` and ``east`` (m from home): the pad, or the
+        roof's plane, falling toward the scenario's ``fall_azimuth_deg`` (north by default)."""
         if x < ROOF_X_M:
             return 0.0
-        return ROOF_Z_M - (x - ROOF_X_M) * math.tan(math.radians(self.slope_deg))
+        fall = math.radians(float(self.scenario.get("fall_azimuth_deg", 0.0)))
+        if fall == 0.0:
+            return ROOF_Z_M - (x - ROOF_X_M) * math.tan(math.radians(self.slope_deg))
+        across = (x - ROOF_X_M) * math.cos(fall) + east * math.sin(fall)
+        return ROOF_Z_M - across * math.tan(math.radians(self.slope_deg))
 
     # ------------------------------------------------------------------- flying
     def pilot_stick_down_while_disarmed(self) -> None:

@@ -123,6 +123,19 @@ def encode_planar_reply(values: tuple[float, ...]) -> bytes | None:
     return (_PLANAR_REPLY % values).encode("ascii")
 
 
+_FULL_REPLY = "\n" + _REPLY + ',"rng_1":%r}\n'
+
+
+def encode_full_reply(values: tuple[float, ...]) -> bytes | None:
+    """:func:`encode_reply`'s bytes for a frame with a rangefinder value, formatted once from the
+    floats (timestamp, gyro x3, accel_body x3, position x3, velocity x3, attitude x3, rng_1):
+    a float's repr is most of the reply's cost, an :class:`Fdm` built for it the rest. None when
+    encode_reply would refuse the frame (a non-finite value): let it say why."""
+    if not math.isfinite(sum(values[:16])) or math.isinf(values[16]):
+        return None
+    return (_FULL_REPLY % values).encode("ascii")
+
+
 def _name(i: int) -> str:
     if i == 0:
         return "timestamp"

@@ -22,6 +22,8 @@ UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 FAILED = mavlink.MAV_RESULT_FAILED
 AUX_MOTOR_ESTOP = 31
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial, as ArduPilot's Location offsets
+#: SET_POSITION_TARGET_* type_mask: the yaw field is ignored
+YAW_IGNORE = 0x400
 
 
 def handle(v: Vehicle, chan: int, m) -> None:
@@ -193,37 +195,62 @@ def _pname(raw) -> str:
 
 
 def _position_target(v: Vehicle, chan: int, m) -> None:
-    """SET_POSITION_TARGET_LOCAL_NED in GUIDED (arducopter_rules.local_target_is_offset)."""
+    """SET_POSITION_TARGET_LOCAL_NED in GUIDED (arducopter_rules.local_target_is_offset): the
+    planar vehicle flies to the point of its heading's line nearest the target (an offset across
+    the heading is not flown). A yaw (type_mask bit 10 clear) turns it to that heading: from north
+    in LOCAL_NED and LOCAL_OFFSET_NED, from its own heading in the BODY frames (ModeGuided's
+    set_yaw_state); a target without a yaw holds the heading it has."""
     if v.mode != modes.GUIDED:
         return
     b = v._world_body()
     if m.coordinate_frame not in rules.LOCAL_TARGET_FRAMES:
         _hold_here(v, b)
         return
-    hx, hz = v.home
-    if rules.local_target_is_offset(m.coordinate_frame):
-        north, up = b.x + m.x, b.z - m.z  # yaw is 0: body x is north
+    w = v.world
+    c, s = w._dir()
+    body = m.coordinate_frame in (mavlink.MAV_FRAME_BODY_NED, mavlink.MAV_FRAME_BODY_OFFSET_NED)
+    v_along = m.vx if body else m.vx * c + m.vy * s
+    if body:
+        along, up = b.x + m.x, b.z - m.z  # body x is the heading
+    elif rules.local_target_is_offset(m.coordinate_frame):
+        along, up = b.x + m.x * c + m.y * s, b.z - m.z
     else:
-        north, up = hx + m.x, hz - m.z
-    _set_guided_target(v, m.type_mask, (m.x, m.y, m.z, m.vx, m.vy, m.vz), north, up, m.vx, -m.vz)
+        along, up = w.slice_x(v.home_ne[0] + m.x, v.home_ne[1] + m.y), v.home[1] - m.z
+    if _set_guided_target(v, m.type_mask, (m.x, m.y, m.z, m.vx, m.vy, m.vz), along, up, v_along, -m.vz):
+        _set_heading(v, m.type_mask, m.yaw, body)
+        if not body and not rules.local_target_is_offset(m.coordinate_frame) and v.target.x is not None:
+            v.target_ne = (v.target, v.home_ne[0] + m.x, v.home_ne[1] + m.y)
+
+
+def _set_heading(v: Vehicle, mask: int, yaw: float, relative: bool) -> None:
+    if mask & YAW_IGNORE or not math.isfinite(yaw):
+        v.heading_target = None
+    else:
+        v.heading_target = (math.degrees(yaw) + (v.world.heading_deg if relative else 0.0)) % 360.0
 
 
 def _position_target_global(v: Vehicle, chan: int, m) -> None:
-    """SET_POSITION_TARGET_GLOBAL_INT in GUIDED: latitude to north of home on the flat earth
-    around home (the planar vehicle cannot move east: longitude is ignored)."""
+    """SET_POSITION_TARGET_GLOBAL_INT in GUIDED: latitude and longitude to north and east of home
+    on the flat earth around home, then as a local target."""
     if v.mode != modes.GUIDED:
         return
     b = v._world_body()
     if m.coordinate_frame not in rules.GLOBAL_TARGET_FRAMES:
         _hold_here(v, b)
         return
-    hx, hz = v.home
+    hz = v.home[1]
     lat0 = v.params["SIM_OPOS_LAT"]
-    north = hx + math.radians(m.lat_int / 1e7 - lat0) * EARTH_RADIUS_M
+    north = v.home_ne[0] + math.radians(m.lat_int / 1e7 - lat0) * EARTH_RADIUS_M
+    east_radius = EARTH_RADIUS_M * math.cos(math.radians(lat0))
+    east = v.home_ne[1] + math.radians(m.lon_int / 1e7 - v.params["SIM_OPOS_LNG"]) * east_radius
     terrain = (b.z - v.range_alt.alt_m - hz) if v.range_alt.healthy else 0.0
     up = hz + rules.global_target_height(m.coordinate_frame, m.alt, v.params["SIM_OPOS_ALT"], terrain)
     vals = (m.lat_int, m.lon_int, m.alt, m.vx, m.vy, m.vz)
-    _set_guided_target(v, m.type_mask, vals, north, up, m.vx, -m.vz)
+    c, s = v.world._dir()
+    if _set_guided_target(v, m.type_mask, vals, v.world.slice_x(north, east), up, m.vx * c + m.vy * s, -m.vz):
+        _set_heading(v, m.type_mask, m.yaw, False)
+        if v.target.x is not None:
+            v.target_ne = (v.target, north, east)
 
 
 def _hold_here(v: Vehicle, b) -> None:
@@ -231,11 +258,12 @@ def _hold_here(v: Vehicle, b) -> None:
     v.target_is_velocity = False
 
 
-def _set_guided_target(v: Vehicle, mask: int, vals, north: float, up: float, vn: float, vup: float) -> None:
+def _set_guided_target(v: Vehicle, mask: int, vals, north: float, up: float, vn: float, vup: float) -> bool:
+    """Set the target (``north``: along the heading's line); False: not finite, ignored."""
     use_pos = mask & 7 != 7
     use_vel = mask & 56 != 56
     if not all(math.isfinite(x) for x in vals):
-        return
+        return False
     t = Target()
     if use_pos:
         t.x, t.z = north, up
@@ -246,6 +274,7 @@ def _set_guided_target(v: Vehicle, mask: int, vals, north: float, up: float, vn:
     v.target = t
     v.target_is_velocity = use_vel  # a velocity part lapses after GUID_TIMEOUT (rules (f))
     v.target_time = v.t
+    return True
 
 
 FTP_NAK, FTP_ERR_FILE_NOT_FOUND = 129, 10

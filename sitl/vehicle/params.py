@@ -22,6 +22,7 @@ VEHICLE_DEFAULTS: dict[str, float] = {
     "PILOT_SPEED_UP": 250,
     "PILOT_SPEED_DN": 0,
     "ANGLE_MAX": 3000,  # cdeg
+    "ATC_SLEW_YAW": 6000,  # cdeg/s: the fastest GUIDED turns to a heading
     "ARMING_CHECK": 1,
     "RC_OPTIONS": 32,  # ArduCopter's default: ARMING_CHECK_THROTTLE (arm with the throttle down)
     "MAV_GCS_SYSID": 255,  # the ground station's system id: RC overrides only from it

@@ -34,6 +34,7 @@ TOP_KEYS = {
     "ridge",
     "roof_length",
     "rangefinder",
+    "fall_azimuth_deg",
 }
 RIDGES = ("step", "gable")
 BEAM_RETURNS = ("mean", "nearest")
@@ -56,6 +57,8 @@ class Fault:
 class Scenario:
     seed: int = 0
     slope_deg: float = 20.0
+    #: where the roof's plane falls (deg from north, clockwise): 0 away from the pad, 90 east
+    fall_azimuth_deg: float = 0.0
     roof_x: float = 3.0
     roof_z: float = 0.5
     start_x: float = 0.0  # m, world x; on the roof: beyond roof_x
@@ -179,6 +182,14 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
     if s.ridge not in RIDGES:
         raise ScenarioError(f"{src}: ridge must be one of {', '.join(RIDGES)}, got {s.ridge!r}")
     s.roof_length = _num(src, "roof_length", data.get("roof_length", s.roof_length), 0.5, 1e4)
+    s.fall_azimuth_deg = (
+        _num(src, "fall_azimuth_deg", data.get("fall_azimuth_deg", s.fall_azimuth_deg), -360.0, 360.0) % 360.0
+    )
+    if s.ridge == "gable" and s.fall_azimuth_deg != 0.0:
+        raise ScenarioError(
+            f"{src}: ridge 'gable' needs a roof falling north (fall_azimuth_deg 0), "
+            f"got fall_azimuth_deg {data['fall_azimuth_deg']!r}"
+        )
     beam = data.get("rangefinder", {})
     if not isinstance(beam, dict) or set(beam) - {"beam_deg", "return", "edge_dropout_m"}:
         raise ScenarioError(f"{src}: rangefinder must be a mapping with beam_deg, return, edge_dropout_m")

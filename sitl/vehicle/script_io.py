@@ -57,13 +57,15 @@ class ScriptIO:
 
     def attitude(self) -> tuple[float, float, float]:
         """Roll, pitch, yaw (rad) as ``ahrs:get_roll()`` ... read them (the planar model pitches only)."""
-        return 0.0, float(self.v.stepper.body().pitch), 0.0
+        heading = (self.v.world.heading_deg + 180.0) % 360.0 - 180.0
+        return 0.0, float(self.v.stepper.body().pitch), math.radians(heading)
 
     def velocity_ned(self) -> tuple[float, float, float] | None:
         """The velocity ``ahrs:get_velocity_NED()`` returns (m/s, north-east-down), as the
         LOCAL_POSITION_NED stream sends it."""
         b = self.v._world_body()
-        return float(b.vx), 0.0, float(-b.vz)
+        c, s = self.v.world._dir()
+        return float(b.vx * c), float(b.vx * s), float(-b.vz)
 
     def rangefinder(self, orientation: int):  # -> RangeReading | None
         """The newest 20 Hz sample (:data:`RANGEFINDER_PERIOD_MS`), held between samples."""

@@ -94,14 +94,19 @@ class Imu:
         cut_a_hz: float,
         cut_g_hz: float,
         spike: float = 0.0,
+        roll_rate: float = 0.0,
+        yaw_rate: float = 0.0,
     ) -> None:
+        """One sample: the planar body's forward and up specific force and pitch rate, and the
+        turn's body rates (a heading turning at r with the nose pitched by theta: roll rate
+        -r sin(theta), yaw rate r cos(theta)); noise added, then the filters."""
         # plain floats, in the order numpy's vector arithmetic took (the same numbers): 1,200
         # times a simulated second, small arrays cost more than the arithmetic
         stream = self._stream
         n0, n1, n2, n3, n4, n5 = stream.take(6) if stream is not None else self.rng.normal(size=6).tolist()
         sa, sg = self.accel_noise, self.gyro_noise
         a = (fx + sa * n0, 0.0 + sa * n1, (-fz_up + sa * n2) + spike)
-        g = (0.0 + sg * n3, pitch_rate + sg * n4, 0.0 + sg * n5)
+        g = (roll_rate + sg * n3, pitch_rate + sg * n4, yaw_rate + sg * n5)
         self.raw_accel, self.raw_gyro = a, g
         self.accel = self._accel_lp.apply(a, dt, cut_a_hz)
         self.gyro = self._gyro_lp.apply(g, dt, cut_g_hz)

@@ -65,33 +65,48 @@ def _sys_status(v: Vehicle):
     return M.MAVLink_sys_status_message(sensors, sensors, health, 200, 16000, 500, 90, 0, 0, 0, 0, 0, 0)
 
 
+def _yaw(v: Vehicle) -> float:
+    """The heading as ATTITUDE's yaw (rad, -pi..pi)."""
+    return math.radians((v.world.heading_deg + 180.0) % 360.0 - 180.0)
+
+
 def _attitude(v: Vehicle):
     b = v.stepper.body()
-    return M.MAVLink_attitude_message(int(v.t * 1000), 0.0, b.pitch, 0.0, 0.0, b.pitch_rate, 0.0)
+    return M.MAVLink_attitude_message(int(v.t * 1000), 0.0, b.pitch, _yaw(v), 0.0, b.pitch_rate, v.yaw_rate)
+
+
+def _ne(v: Vehicle, b) -> tuple[float, float, float, float]:
+    """(north, east) from home and (v north, v east) of the body ``b`` along the heading's slice."""
+    w = v.world
+    n, e = w.ne(b.x)
+    c, s = w._dir()
+    return n - v.home_ne[0], e - v.home_ne[1], b.vx * c, b.vx * s
 
 
 def _local_position(v: Vehicle):
     b = v._world_body()
-    hx, hz = v.home
-    return M.MAVLink_local_position_ned_message(int(v.t * 1000), b.x - hx, 0.0, -(b.z - hz), b.vx, 0.0, -b.vz)
+    n, e, vn, ve = _ne(v, b)
+    return M.MAVLink_local_position_ned_message(int(v.t * 1000), n, e, -(b.z - v.home[1]), vn, ve, -b.vz)
 
 
 def _global_position(v: Vehicle):
-    """GLOBAL_POSITION_INT on the flat earth around home (SIM_OPOS_*): north is the model's x."""
+    """GLOBAL_POSITION_INT on the flat earth around home (SIM_OPOS_*)."""
     b = v._world_body()
-    hx, hz = v.home
-    lat = v.params["SIM_OPOS_LAT"] + math.degrees((b.x - hx) / EARTH_RADIUS_M)
-    rel = b.z - hz
+    n, e, vn, ve = _ne(v, b)
+    lat0 = v.params["SIM_OPOS_LAT"]
+    lat = lat0 + math.degrees(n / EARTH_RADIUS_M)
+    lng = v.params["SIM_OPOS_LNG"] + math.degrees(e / (EARTH_RADIUS_M * math.cos(math.radians(lat0))))
+    rel = b.z - v.home[1]
     return M.MAVLink_global_position_int_message(
         int(v.t * 1000),
         round(lat * 1e7),
-        round(v.params["SIM_OPOS_LNG"] * 1e7),
+        round(lng * 1e7),
         round((v.params["SIM_OPOS_ALT"] + rel) * 1000),
         round(rel * 1000),
-        round(b.vx * 100),
-        0,
+        round(vn * 100),
+        round(ve * 100),
         round(-b.vz * 100),
-        0,
+        round(v.world.heading_deg % 360.0 * 100) % 36000,
     )
 
 

@@ -52,6 +52,7 @@ class Vehicle:
         self.judge = LandingJudge(self.stepper)  # each landing's record, as the model judges it
         b = self.stepper.body()
         self.home = self.world.to_world(b.x, b.z)  # world frame: it stays put when the surface switches
+        self.home_ne = self.world.ne(self.home[0])  # (north, east): it stays put when the vehicle turns
         p = self.stepper.model.params
         mass = p["body_mass"] + 2 * p["leg_mass"]
         self.fc = FlightControl(mass, p["body_inertia"], p["rotor_arm"], p["gravity"], p["rotor_thrust_max"])
@@ -69,6 +70,11 @@ class Vehicle:
         self.target = Target()
         self.target_time = -1.0  # vehicle time of the last GUIDED velocity target
         self.target_is_velocity = False
+        #: the heading GUIDED turns to (deg from north), None: hold the heading there is
+        self.heading_target: float | None = None
+        self.yaw_rate = 0.0  # rad/s, the last tick's turn
+        #: a GUIDED position target and the point on the earth (north, east) it was asked for
+        self.target_ne: tuple[Target, float, float] | None = None
         self.mixer_pwm = [int(params["MOT_PWM_MIN"])] * 4
         self.out_pwm = list(self.mixer_pwm)
         self._rotors: tuple | None = None  # the last outputs and their rotor commands
@@ -168,6 +174,7 @@ class Vehicle:
         z = (b.z - self.range_alt.alt_m + t.height_m) if t.above_terrain else self.home[1] + t.height_m
         self.target = Target(x=b.x, z=z)
         self.target_is_velocity = False
+        self.heading_target = None
         self.land.set_landed(False)
         self.fc.ix = 0.0
         return True
@@ -179,6 +186,7 @@ class Vehicle:
         self.mode = mode
         self.target = Target(x=b.x, z=b.z) if not self.land.landed else Target(x=b.x, vz=-0.5)
         self.target_is_velocity = False
+        self.heading_target = None
         if mode == modes.LAND:
             self.target = Target(x=b.x)
         self.fc.ix = 0.0
@@ -220,6 +228,7 @@ class Vehicle:
             self.handle(chan, m)
         if self.world.update(st):
             self.fc.ix = 0.0
+        self._turn(dt)
         b = self._world_body()
         tgt = self._mode_target(b)
         front, rear = self.fc.update(dt, b, tgt, math.radians(self.params["ANGLE_MAX"] / 100))
@@ -247,6 +256,8 @@ class Vehicle:
         ca, cg = self.params["INS_ACCEL_FILTER"], self.params["INS_GYRO_FILTER"]
         wind = None if scn.wind.calm else scn.wind
         h = 1.0 / PHYSICS_HZ
+        turn_rate = self.yaw_rate
+        roll_rate = yaw_rate = 0.0
         for _ in range(SUBSTEPS):
             if wind is not None:
                 st.set_external_force(*wind.force_at(t))
@@ -255,7 +266,10 @@ class Vehicle:
                 landing_record.send(self, judge)
             fx, fz = st.specific_force_body()
             t = st.t - t0
-            imu.update(h, fx, fz, st.pitch_rate, ca, cg, scn.imu_spike(t))
+            if turn_rate:
+                pitch = st.motion()[3]
+                roll_rate, yaw_rate = -turn_rate * math.sin(pitch), turn_rate * math.cos(pitch)
+            imu.update(h, fx, fz, st.pitch_rate, ca, cg, scn.imu_spike(t), roll_rate, yaw_rate)
             events.after_physics_step(st, t, self._world_body)
         if rules.rangefinder_due(self.ticks, CONTROL_HZ):
             self._update_range()
@@ -298,6 +312,29 @@ class Vehicle:
         thr = min(1.0, max(0.0, (self.rc(3) - 1000) / 1000.0))
         return rules.pilot_takes_off(self.mode, _stick(self.rc(3)), thr * 0.9, 0.5)
 
+    def _turn(self, dt: float) -> None:
+        """Turn toward :attr:`heading_target` at up to ATC_SLEW_YAW (ArduCopter's default yaw
+        slew, 60 deg/s), in the air only. The planar physics turns with the heading
+        (:meth:`World.turn`); its position target goes to the nearest point of the new slice to the
+        point on the earth it was asked for (a turn is flown at hover, over the target)."""
+        self.yaw_rate = 0.0
+        w = self.world
+        if self.heading_target is None or not self.armed or self.land.landed:
+            return
+        err = (self.heading_target - w.heading_deg + 180.0) % 360.0 - 180.0
+        if err == 0.0:
+            return
+        most = self.params["ATC_SLEW_YAW"] / 100.0 * dt
+        step = err if abs(err) <= most else math.copysign(most, err)
+        x_target = self.target.x
+        ne_target = None if x_target is None else w.ne(x_target)
+        if self.target_ne is not None and self.target_ne[0] is self.target:
+            ne_target = self.target_ne[1:]  # the point asked for, not its projection on the old line
+        if w.turn(self.stepper, self.heading_target if step == err else w.heading_deg + step):
+            self.yaw_rate = math.radians(step) / dt
+            if ne_target is not None:
+                self.target.x = w.slice_x(*ne_target)
+
     def _world_body(self) -> BodyState:
         """The body in world coordinates (world.to_world), built once from the plain state."""
         t, x, z, pitch, vx, vz, pitch_rate = self.stepper.motion()
@@ -339,7 +376,7 @@ class Vehicle:
                 self.target = t = Target(x=b.x, z=b.z)
             return t
         if m == modes.RTL:
-            hx, hz = self.home
+            hx, hz = self.world.slice_x(*self.home_ne), self.home[1]
             alt = max(self.params["RTL_ALT"] / 100.0, 0.0)
             if abs(b.x - hx) > 0.3:
                 return Target(x=hx, z=max(b.z, hz + alt))

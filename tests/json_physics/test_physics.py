@@ -209,3 +209,41 @@ def test_outputs_without_a_pulse_leave_the_rotors_stopped(ap: ArduPilotSide) -> 
     fall = run(ap, 0.5, [0, 0, 0, 0])
     assert _down_accel(fall[180:]) == pytest.approx(G, abs=0.1)
     assert np.abs(np.array([st["imu.accel_body"] for st in fall[180:]])).max() < 0.1
+
+
+def test_arducopters_yaw_torque_turns_the_vehicle_clockwise_and_the_reply_says_so() -> None:
+    """ArduCopter turns a quad X clockwise (seen from above, positive yaw) by adding thrust to
+    motors 1 and 2 (counter-clockwise props) and taking as much from 3 and 4 (it mixes in thrust):
+    so does the physics, in the air, and the pairs' thrust is kept (the vertical speed changes as
+    with four equal motors: the mean of the pairs' commands lost 4 % and sank the vehicle). The
+    reply's yaw and body yaw rate follow; on the pad the same outputs turn nothing."""
+    from sitl.json_physics.physics import JsonPhysics
+    from sitl.json_physics.protocol import encode_reply
+    from sitl.vehicle import esc
+    from sitl.vehicle.scenario import scenario_from_dict
+
+    quiet = {"accel": 0.0, "gyro": 0.0, "range": 0.0}
+    scn = scenario_from_dict({"slope_deg": 20.0, "seed": 5, "noise": quiet})
+    hi, lo = 1870, 1808  # what ArduCopter sends (whole microseconds) to turn near hover
+    u_hi, u_lo = esc.pwm_to_command(hi), esc.pwm_to_command(lo)
+    u0 = math.sqrt(0.5 * (u_hi * u_hi + u_lo * u_lo))  # four equal motors with the same thrust
+    turning = (hi, hi, lo, lo)
+    on_pad = JsonPhysics(scn)
+    for _ in range(800):
+        on_pad.step(1 / 800, turning)
+    assert on_pad.fdm().attitude[2] == 0.0  # the feet hold it
+    dv = {}
+    for pwm in ((esc.NEUTRAL_US + 500.0 * u0,) * 4, turning):
+        physics = JsonPhysics(scn)
+        for _ in range(2400):  # climb clear of the pad
+            physics.step(1 / 800, (1900,) * 4)
+        v0 = physics.fdm().velocity[2]
+        for _ in range(800):
+            physics.step(1 / 800, pwm)
+        f = physics.fdm()
+        dv[pwm] = f.velocity[2] - v0
+    assert f.attitude[2] > math.radians(5.0), f.attitude  # clockwise
+    assert f.gyro[2] > 0.1, f.gyro
+    assert physics.reply() == encode_reply(f)
+    straight, turn = dv.values()
+    assert turn == pytest.approx(straight, abs=0.002), dv

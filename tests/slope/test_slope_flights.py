@@ -39,13 +39,13 @@ def preset_for(slope_deg: float, cfg):
     return TABLE.lookup(slope_deg, speed)
 
 
-def fly(rig: Rig, pilot, over_roof: bool):
+def fly(rig: Rig, pilot, over_roof: bool, height_m: float = 2.0):
     """Measure as ``slopelander land`` does, then land with the slope it gives (the measured one
     for ``pilot='auto'``, else the pilot's) and the cut height set for the true roof's slope."""
     cut = round(max(0.3, contact_range(rig.slope_deg if over_roof else 0.0) + FALL_M), 2)
     cfg = config(reflex={"cut_height_m": cut})
     if over_roof:
-        rig.go_over_roof(2.0)
+        rig.go_over_roof(height_m)
     track = SurfaceTrack(cfg["slope.pair_window_s"])
     rig.link.add_listener(track.feed)
     est, took = measure_slope(rig.link, cfg, track, tick=rig.poll, note=lambda _: None)
@@ -204,3 +204,70 @@ def test_a_pass_low_over_a_60_deg_roof_turns_back_uphill_before_the_roof() -> No
         assert "south of the spot" in est.refusal, est.refusal
     else:
         assert abs(est.slope_deg - 60.0) < 3 * est.sigma_deg, est.describe()
+
+
+#: a roof falling east, across the way the vehicle comes from the pad (issue 40, finding 4)
+EAST = {"fall_azimuth_deg": 90.0}
+
+
+def test_over_a_45_deg_roof_falling_east_auto_turns_to_face_it_and_lands_with_the_45_deg_preset() -> None:
+    """The vehicle arrives facing north over a 45 deg roof falling east: along its heading the
+    roof is level (before, the pass along north read 0.0 +/- 0.9 deg and the 0 deg preset was
+    flown onto it). The pass's second leg sees the slope across, the vehicle turns to face the
+    fall line, and the landing is the planar one: 45 deg along the heading, the 45 deg preset, the
+    physics' section under the vehicle 45 deg at contact, and the heading still east."""
+    with Rig(slope_deg=45.0, seed=41, scenario=EAST) as rig:
+        rig.take_off(3.0)
+        flight, est, took, preset, first = fly(rig, "auto", over_roof=True, height_m=1.5)
+        yaw = math.degrees(rig.link.last["ATTITUDE"].yaw)
+    check_east_landing(flight, est, took, preset, first, yaw)
+
+
+def check_east_landing(flight, est, took, preset, first, yaw: float, autopilot: str = "sim") -> None:
+    ctx = (autopilot, est.describe(), est.plane_text(), flight.history[-4:])
+    print(f"{autopilot}: {est.describe()}; {est.plane_text()}; survey and turns {took:.1f} s")
+    assert took > 0, ctx
+    assert est.fall_azimuth_deg == pytest.approx(90.0, abs=2.0), ctx
+    assert est.heading_deg == pytest.approx(90.0, abs=2.0) and abs(est.cross_deg) <= 1.5, ctx
+    assert abs(est.slope_deg - 45.0) <= 1.5 and est.sigma_deg <= 2.0, ctx
+    want = preset_for(45.0, flight.cfg)
+    assert math.isclose(preset.tau_up, want.tau_up, abs_tol=0.3), (preset, want)
+    assert math.isclose(preset.tau_down, want.tau_down, abs_tol=0.3), (preset, want)
+    assert flight.end == "LANDED", ctx
+    assert flight.contact is not None and abs(flight.contact["slope"] - 45.0) < 0.5, (flight.contact, ctx)
+    assert abs(yaw - 90.0) < 2.0, yaw
+    rec = first["slope_estimate"]
+    assert rec["fall_azimuth_deg"] == pytest.approx(est.fall_azimuth_deg, abs=0.01)
+    assert rec["heading_deg"] == pytest.approx(est.heading_deg, abs=0.01)
+
+
+def test_a_pilot_slope_of_0_over_the_east_falling_roof_is_refused_along_the_heading() -> None:
+    """``--slope 0`` over the roof falling east (what the pilot sees looking north from the pad):
+    the vehicle turns to face the fall line and CHECKS refuses, naming the slope along its heading."""
+    with Rig(slope_deg=45.0, seed=42, scenario=EAST) as rig:
+        rig.take_off(3.0)
+        flight, est, _took, _p, _first = fly(rig, 0.0, over_roof=True, height_m=1.5)
+    assert flight.end == "ABORTED", flight.history
+    last = flight.history[-1]
+    assert last["from"] == "CHECKS", flight.history
+    assert "pilot's slope 0 deg" in last["reason"] and f"measured {est.slope_deg:.1f}" in last["reason"], last
+    assert "along heading 90 deg" in last["reason"], last
+    assert "CUT" not in flight.states and flight.contact is None
+
+
+@pytest.mark.arducopter
+def test_on_arducopter_the_cross_slope_is_faced_and_landed() -> None:
+    """The 45 deg roof falling east on real ArduCopter: its GUIDED takes the survey's headings (the
+    JSON physics turns with the motors' yaw torque), the vehicle faces the fall line, and lands
+    there with the 45 deg preset."""
+    try:
+        binary = arducopter_binary()
+    except ArduCopterMissingError as exc:
+        if os.environ.get("SLOPELANDER_ARDUCOPTER"):
+            pytest.fail(str(exc))
+        pytest.skip(str(exc))
+    with Rig(slope_deg=45.0, seed=43, scenario=EAST, autopilot="ardupilot", arducopter=str(binary)) as rig:
+        rig.take_off(3.0)
+        flight, est, took, preset, first = fly(rig, "auto", over_roof=True, height_m=1.5)
+        yaw = math.degrees(rig.link.last["ATTITUDE"].yaw)
+    check_east_landing(flight, est, took, preset, first, yaw, "ardupilot")

@@ -100,6 +100,8 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     # covers (SURVEY_MIN_RANGE_FLOOR_M): a lower turn-back lets the feet meet a rising roof first
     "slope.survey_min_range_m": (SURVEY_MIN_RANGE_FLOOR_M, 3.0, False),
     "slope.survey_timeout_s": (1.0, 600.0, False),
+    "slope.max_cross_deg": (0.5, 20.0, False),
+    "slope.turn_timeout_s": (1.0, 600.0, False),
 }
 RC_PRESET_LIMITS = {
     "min_us": (800, 2200),

@@ -1,7 +1,8 @@
 """The slope under the vehicle, measured from what it already has: points on the surface from the
-downward rangefinder, each reading placed with the attitude and the local position of its own
-moment, and a robust line fit through them along the landing direction (north, the planar
-model's x).
+downward rangefinder, each reading placed with the attitude (heading included) and the local
+position of its own moment, and a robust plane fitted through them: both gradients, the fall line
+(the way the surface falls steepest) and the slope along the vehicle's heading, the planar
+model's x.
 
 Pure and numpy-only: it runs on the companion. How it works, what it cannot see and how far it
 is to be trusted: docs/slope-estimate.md.
@@ -10,12 +11,16 @@ is to be trusted: docs/slope-estimate.md.
   (fed every message, e.g. as a :meth:`Link.add_listener`) and turns each range reading into a
   point with the attitude and position interpolated to the reading's stamp (none within the
   window: the reading is dropped; a reading out of the sensor's range is no point).
-* :func:`fit_line` is the robust fit: a Theil-Sen start, then iteratively reweighted least
-  squares with Tukey's biweight on a MAD scale.
-* :func:`estimate` fits the points near the landing spot and says why it will not be trusted
-  (too few points, too short a baseline, one side of the spot unseen, many outliers, two
-  different slopes on the two sides of the spot, too uncertain). A refused estimate carries no
-  slope to land on: the caller refuses, it does not guess.
+* :func:`fit_plane` is the robust plane fit: a least-absolute-deviations start, then iteratively
+  reweighted least squares with Tukey's biweight on a MAD scale; :func:`fit_line` the same along
+  one direction (a Theil-Sen start).
+* :func:`estimate_plane` fits the points near the landing spot and says why it will not be trusted
+  (too few points, one direction only seen, one side of the spot unseen, many outliers, two
+  different slopes on the two sides of the spot, too uncertain); :meth:`PlaneEstimate.along` gives
+  the slope along a heading and the cross-slope the legs' plane does not see. :func:`estimate` is
+  the older fit along north alone (a pass flown along north; kept for the tools that synthesize
+  such passes). A refused estimate carries no slope to land on: the caller refuses, it does not
+  guess.
 """
 
 from __future__ import annotations
@@ -38,6 +43,11 @@ SCALE_FLOOR_M = 0.005
 OUTLIER_WEIGHT = 0.1
 #: contiguous blocks of the block jackknife (points along a track are correlated within a block)
 JACKKNIFE_BLOCKS = 8
+#: a point belongs to the leg along a direction when it lies within this of the line through the
+#: spot along it (m): a leg may be flown up to 0.3 m beside the spot (survey.ACROSS_SPOT_M)
+LEG_BAND_M = 0.35
+#: the second direction the points are seen along is at least this far from the first (deg)
+SECOND_DIRECTION_DEG = 45.0
 #: MAV_SENSOR_ROTATION_PITCH_270: the downward rangefinder
 DOWNWARD = 25
 
@@ -92,9 +102,14 @@ class LineFit:
 
 @dataclass
 class SlopeEstimate:
-    """The slope along north (deg; positive: the surface falls toward north, the way the vehicle
-    faces to land) with its 1-sigma uncertainty, or the reason there is none (``refusal``).
-    ``points``: (t, north m, height up m, weight) of every point fitted."""
+    """The slope along the vehicle's heading (deg; positive: the surface falls the way the vehicle
+    faces, as it must to land: the planar model's x) with its 1-sigma uncertainty, or the reason
+    there is none (``refusal``). ``points``: (t, along the heading m, height up m, weight) of every
+    point fitted (from a plane fit: the height less the cross-slope's share, so that the points
+    show the section along the heading). Without a heading (``heading_deg`` None) the slope is
+    along north from a line fit. From a plane fit the estimate also carries the plane: its slope
+    down the fall line and the fall line's azimuth (deg from north, clockwise), and the cross-slope
+    along the heading (deg, positive: falling to the vehicle's right)."""
 
     slope_deg: float | None
     sigma_deg: float | None
@@ -106,6 +121,14 @@ class SlopeEstimate:
     scale_m: float | None = None
     sides_deg: tuple[float, float] | None = None
     points: list[tuple[float, float, float, float]] = field(default_factory=list)
+    heading_deg: float | None = None
+    cross_deg: float | None = None
+    cross_sigma_deg: float | None = None
+    plane_slope_deg: float | None = None
+    plane_sigma_deg: float | None = None
+    fall_azimuth_deg: float | None = None
+    fall_azimuth_sigma_deg: float | None = None
+    spot_ne_m: tuple[float, float] | None = None
 
     @property
     def ok(self) -> bool:
@@ -116,25 +139,78 @@ class SlopeEstimate:
         """Refused for want of points, not for what the points showed: a survey pass may help."""
         return self.refusal is not None and self.refusal.startswith(LACK)
 
+    def plane_text(self) -> str:
+        """The plane in words: its slope, where it falls, and across the heading."""
+        if self.plane_slope_deg is None or self.fall_azimuth_deg is None:
+            return ""
+        text = (
+            f"the surface falls {self.plane_slope_deg:.1f} +/- {self.plane_sigma_deg:.1f} deg toward "
+            f"{az_text(self.fall_azimuth_deg)}"
+        )
+        if self.heading_deg is not None and self.cross_deg is not None:
+            side = "right" if self.cross_deg >= 0 else "left"
+            text += (
+                f"; heading {round(self.heading_deg) % 360} deg: {self.slope_deg:.1f} deg along it, "
+                f"{abs(self.cross_deg):.1f} deg across (to its {side})"
+            )
+        return text
+
     def describe(self) -> str:
         if not self.ok:
             return f"slope not measured: {self.refusal}"
-        return f"{self.slope_deg:.1f} +/- {self.sigma_deg:.1f} deg ({self.n_inliers}/{self.n_points} points)"
+        text = f"{self.slope_deg:.1f} +/- {self.sigma_deg:.1f} deg ({self.n_inliers}/{self.n_points} points)"
+        if self.heading_deg is not None:
+            text += f" along heading {round(self.heading_deg) % 360} deg"
+            if self.cross_deg is not None:
+                text += f", {self.cross_deg:+.1f} deg across"
+        return text
 
     def record(self) -> dict:
         """The JSON form written to the landing's record."""
-        return {
-            "slope_deg": None if self.slope_deg is None else round(self.slope_deg, 3),
-            "sigma_deg": None if self.sigma_deg is None else round(self.sigma_deg, 3),
+
+        def r(v: float | None, nd: int = 3) -> float | None:
+            return None if v is None else round(v, nd)
+
+        out = {
+            "slope_deg": r(self.slope_deg),
+            "sigma_deg": r(self.sigma_deg),
             "refusal": self.refusal,
             "spot_x_m": round(self.spot_x_m, 3),
             "n_points": self.n_points,
             "n_inliers": self.n_inliers,
             "baseline_m": round(self.baseline_m, 3),
-            "scale_m": None if self.scale_m is None else round(self.scale_m, 4),
+            "scale_m": r(self.scale_m, 4),
             "sides_deg": None if self.sides_deg is None else [round(s, 2) for s in self.sides_deg],
             "points": [[round(t, 3), round(x, 4), round(h, 4), round(w, 3)] for t, x, h, w in self.points],
         }
+        if self.plane_slope_deg is not None or self.heading_deg is not None:
+            out.update(
+                heading_deg=r(self.heading_deg, 2),
+                cross_deg=r(self.cross_deg),
+                cross_sigma_deg=r(self.cross_sigma_deg),
+                plane_slope_deg=r(self.plane_slope_deg),
+                plane_sigma_deg=r(self.plane_sigma_deg),
+                fall_azimuth_deg=r(self.fall_azimuth_deg, 2),
+                fall_azimuth_sigma_deg=r(self.fall_azimuth_sigma_deg, 2),
+                spot_ne_m=None if self.spot_ne_m is None else [round(v, 3) for v in self.spot_ne_m],
+            )
+        return out
+
+
+def az_text(azimuth_deg: float) -> str:
+    """An azimuth as whole degrees, 0..359, and its compass point: "90 deg (east)"."""
+    return f"{round(azimuth_deg) % 360} deg ({compass(azimuth_deg)})"
+
+
+def compass(azimuth_deg: float) -> str:
+    """The nearest of the 8 compass points to an azimuth (deg from north, clockwise)."""
+    names = ("north", "north-east", "east", "south-east", "south", "south-west", "west", "north-west")
+    return names[round((azimuth_deg % 360.0) / 45.0) % 8]
+
+
+def wrap_deg(angle: float) -> float:
+    """An angle (deg) in -180..180."""
+    return (angle + 180.0) % 360.0 - 180.0
 
 
 #: refusals that more points could cure start with this
@@ -214,24 +290,45 @@ class SurfaceTrack:
     def points(self, since_s: float = -math.inf) -> list[tuple[float, float, float]]:
         """(t, north m, height up m) of each range reading since ``since_s`` whose attitude and
         position are known within the window; the others are dropped (counted in ``dropped``)."""
+        return [(t, n, h) for t, n, _e, h in self.surface_points(since_s)]
+
+    def surface_points(self, since_s: float = -math.inf) -> list[tuple[float, float, float, float]]:
+        """(t, north m, east m, height up m) of each range reading since ``since_s`` whose attitude
+        and position are known within the window; the others are dropped (``dropped``)."""
         at, av = [a[0] for a in self.attitudes], [a[1] for a in self.attitudes]
         pt, pv = [p[0] for p in self.positions], [p[1] for p in self.positions]
         out, self.dropped = [], 0
         for t, d in sorted(self.ranges):
             if t < since_s:
                 continue
-            att = _interp(at, av, t, self.window_s)
+            att = _interp_attitude(at, av, t, self.window_s)
             pos = _interp(pt, pv, t, self.window_s)
             if att is None or pos is None:
                 self.dropped += 1
                 continue
-            n, _e, down = beam_point(d, *att, *pos)
-            out.append((t, n, -down))
+            n, e, down = beam_point(d, *att, *pos)
+            out.append((t, n, e, -down))
         return out
 
     def position(self) -> tuple[float, float, float] | None:
         """The newest position (north, east, down)."""
         return self.positions[-1][1] if self.positions else None
+
+    def heading_deg(self) -> float | None:
+        """The newest heading (ATTITUDE yaw, deg from north, clockwise, 0..360)."""
+        return math.degrees(self.attitudes[-1][1][2]) % 360.0 if self.attitudes else None
+
+
+def _interp_attitude(stamps: list[float], values: list[tuple], t: float, window: float) -> tuple | None:
+    """:func:`_interp` for (roll, pitch, yaw): the yaw taken the short way across +-180 deg."""
+    i = bisect_left(stamps, t)
+    if 0 < i < len(stamps):
+        y0, y1 = values[i - 1][2], values[i][2]
+        if abs(y1 - y0) > math.pi:  # the two samples straddle the wrap: interpolate unwrapped
+            y1 += -2 * math.pi if y1 > y0 else 2 * math.pi
+            lo, hi = values[i - 1], (*values[i][:2], y1)
+            return _interp([stamps[i - 1], stamps[i]], [lo, hi], t, window)
+    return _interp(stamps, values, t, window)
 
 
 def _insert(dq: deque, t: float, value: tuple) -> None:
@@ -422,6 +519,400 @@ def estimate(
     return est
 
 
+@dataclass(frozen=True)
+class PlaneFit:
+    """``h = intercept + gn dn + ge de`` (h up; dn, de north and east of the spot); ``weights``
+    per point (0..1), ``scale_m`` the residuals' robust scale, ``cov`` the 2x2 covariance of
+    (gn, ge) from the weighted fit and ``rows`` the two rows of the fit that give (gn, ge) as
+    weighted sums of the heights (for the height wander's share)."""
+
+    intercept: float
+    gradient: tuple[float, float]
+    weights: np.ndarray
+    scale_m: float
+    cov: np.ndarray
+    rows: np.ndarray
+
+
+def _wls(a: np.ndarray, h: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The weighted least-squares coefficients (rank-deficient designs: the minimum norm)."""
+    sw = np.sqrt(w)
+    return np.linalg.lstsq(a * sw[:, None], h * sw, rcond=None)[0]
+
+
+def fit_plane(
+    dn: np.ndarray, de: np.ndarray, h: np.ndarray, groups: np.ndarray | None = None, iterations: int = 30
+) -> PlaneFit:
+    """Robust ``h = a_k + gn dn + ge de``: one plane, an intercept ``a_k`` per group of points
+    (``groups``, labels 0..; None: one group) so that the legs of a pass flown at different times
+    may sit at different heights (the position's height wanders; both legs cross the spot, so the
+    gradients are each leg's own), a least-absolute-deviations start (a plane that a quarter of the
+    heights being wrong does not move: the points of a pass lie in a bounded patch, so no point
+    pulls by its position), then IRLS with Tukey's biweight on the MAD scale of the residuals
+    (re-estimated each round, floored at :data:`SCALE_FLOOR_M`). ``intercept``: the first group's."""
+    dn, de, h = (np.asarray(v, float) for v in (dn, de, h))
+    if h.size < 3:
+        raise ValueError("a plane needs at least three points")
+    labels = np.zeros(h.size, int) if groups is None else np.asarray(groups, int)
+    ones = [(labels == k).astype(float) for k in np.unique(labels)]
+    a = np.column_stack([*ones, dn, de])
+    beta = _wls(a, h, np.ones_like(h))
+    for _ in range(50):  # L1 by reweighting: weights 1/|r|, held off zero
+        r = np.abs(h - a @ beta)
+        nb = _wls(a, h, 1.0 / np.maximum(r, 0.1 * SCALE_FLOOR_M))
+        done = float(np.max(np.abs(nb - beta))) < 1e-9
+        beta = nb
+        if done:
+            break
+    w = np.ones_like(h)
+    s = SCALE_FLOOR_M
+    for _ in range(iterations):
+        r = h - a @ beta
+        s = max(SCALE_FLOOR_M, MAD_NORMAL * float(np.median(np.abs(r - np.median(r)))))
+        u = r / (TUKEY_C * s)
+        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        if np.count_nonzero(w) < 3:
+            break
+        nb = _wls(a, h, w)
+        done = float(np.max(np.abs(nb - beta))) < 1e-9
+        beta = nb
+        if done:
+            break
+    r = h - a @ beta
+    sw = float(w.sum())
+    normal = (a * w[:, None]).T @ a
+    try:
+        inv = np.linalg.inv(normal)
+    except np.linalg.LinAlgError:
+        inv = np.full(normal.shape, np.inf)
+    neff = float(np.count_nonzero(w > OUTLIER_WEIGHT))
+    var = float((w * r * r).sum() / max(1.0, sw)) * neff / max(1.0, neff - a.shape[1])
+    cov = max(var, SCALE_FLOOR_M**2) * inv[-2:, -2:]
+    rows = (inv @ (a * w[:, None]).T)[-2:] if np.all(np.isfinite(inv)) else np.full((2, h.size), np.inf)
+    return PlaneFit(float(beta[0]), (float(beta[-2]), float(beta[-1])), w, s, cov, rows)
+
+
+def walk_gradient_cov(t: np.ndarray, rows: np.ndarray, walk: float) -> np.ndarray:
+    """:func:`walk_gradient_se` for a plane: the 2x2 covariance of (gn, ge) = ``rows @ h`` from a
+    height error that is a random walk of ``walk`` m per sqrt(s). Each row sums to zero (the
+    intercepts take a common offset), so the covariance is ``walk^2`` times the integral over time
+    of ``S_a(s) S_b(s)``, ``S`` the sums of each row's entries after ``s``."""
+    if walk <= 0:
+        return np.zeros((2, 2))
+    if not np.all(np.isfinite(rows)):
+        return np.full((2, 2), np.inf)
+    order = np.argsort(t, kind="stable")
+    c = rows[:, order]
+    after = np.cumsum(c[:, ::-1], axis=1)[:, ::-1][:, 1:]
+    gaps = np.diff(t[order])
+    return walk * walk * (after * gaps) @ after.T
+
+
+def _unit(azimuth_deg: float) -> np.ndarray:
+    a = math.radians(azimuth_deg)
+    return np.array([math.cos(a), math.sin(a)])
+
+
+def _leg_labels(t: np.ndarray, legs: list[np.ndarray]) -> np.ndarray:
+    """Which leg each point was seen on: the direction it lies along from the spot (``legs``: a mask
+    per direction, of the points clear of the spot), or, near the spot (on both or neither), the
+    leg of the nearest point in time that has one; legs flown twice
+    (out, elsewhere, back) are one leg each time: a label per run of consecutive points."""
+    order = np.argsort(t, kind="stable")
+    own = np.full(t.size, -1)
+    for k, m in enumerate(legs):
+        own[m & (own == -1)] = k
+    own[legs[0] & legs[1]] = -1
+    seq = own[order]
+    known = np.flatnonzero(seq >= 0)
+    if known.size == 0:
+        return np.zeros(t.size, int)
+    nearest = known[np.clip(np.searchsorted(known, np.arange(seq.size)), 0, known.size - 1)]
+    before = known[np.clip(np.searchsorted(known, np.arange(seq.size)) - 1, 0, known.size - 1)]
+    pick = np.where(
+        np.abs(before - np.arange(seq.size)) < np.abs(nearest - np.arange(seq.size)), before, nearest
+    )
+    seq = seq[pick]
+    runs = np.concatenate([[0], np.cumsum(seq[1:] != seq[:-1])])
+    out = np.empty(t.size, int)
+    out[order] = runs
+    return out
+
+
+def _directions(dn: np.ndarray, de: np.ndarray, st: EstimateSettings) -> list[float]:
+    """The one or two directions (deg, 0..180) the points around the spot lie along (a pass's
+    legs): the most populated 5-deg bin of the bearings from the spot (mod 180) of the points at
+    least :data:`LEG_BAND_M` away, then the most populated one at least
+    :data:`SECOND_DIRECTION_DEG` from it; each then refined to the principal axis of the points
+    in its band (within :data:`LEG_BAND_M` of the line through the spot along it, clear of the
+    spot), since a leg flown beside the spot skews the bearings near it. A direction seen by fewer
+    than a quarter of ``min_points`` points is not one."""
+    xy = np.column_stack([dn, de])
+    far = np.hypot(dn, de) >= LEG_BAND_M
+    if np.count_nonzero(far) < 5:
+        return []
+    bearing = np.degrees(np.arctan2(de[far], dn[far])) % 180.0
+    counts = np.bincount((bearing // 5.0).astype(int) % 36, minlength=36)
+    smooth = counts + np.roll(counts, 1) + np.roll(counts, -1)
+    need = max(5, st.min_points // 4)
+    out: list[float] = []
+    for _ in range(2):
+        if out:
+            gap = np.abs((np.arange(36) * 5.0 + 2.5 - out[0] + 90.0) % 180.0 - 90.0)
+            smooth = np.where(gap >= SECOND_DIRECTION_DEG, smooth, 0)
+        i = int(np.argmax(smooth))
+        if smooth[i] < need:
+            break
+        d = i * 5.0 + 2.5
+        for _ in range(3):
+            band = (np.abs(xy @ _unit(d + 90.0)) <= LEG_BAND_M) & (np.abs(xy @ _unit(d)) >= LEG_BAND_M)
+            if np.count_nonzero(band) < 5:
+                break
+            c = xy[band] - xy[band].mean(axis=0)
+            axis = np.linalg.eigh(c.T @ c)[1][:, 1]
+            d = math.degrees(math.atan2(float(axis[1]), float(axis[0]))) % 180.0
+        out.append(float(d))
+    return out
+
+
+@dataclass
+class PlaneEstimate:
+    """The plane under the spot from :func:`estimate_plane`: its gradient (dh/dnorth, dh/deast),
+    the gradient's covariances (the weighted fit's own with the height's wander, and the block
+    jackknife's: a direction's variance is the larger of the two), or why it is refused."""
+
+    refusal: str | None
+    spot_ne: tuple[float, float]
+    settings: EstimateSettings
+    gradient: tuple[float, float] | None = None
+    cov_fit: np.ndarray | None = None
+    cov_jack: np.ndarray | None = None
+    n_points: int = 0
+    n_inliers: int = 0
+    extents_m: tuple[float, float] = (0.0, 0.0)
+    scale_m: float | None = None
+    sides_deg: tuple[float, float] | None = None
+    #: (t, north m, east m, height up m, weight) of every point fitted
+    points: list[tuple[float, float, float, float, float]] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.refusal is None
+
+    @property
+    def needs_survey(self) -> bool:
+        return self.refusal is not None and self.refusal.startswith(LACK)
+
+    @property
+    def fall_azimuth_deg(self) -> float | None:
+        """Where the surface falls steepest (deg from north, clockwise); None without a gradient."""
+        if self.gradient is None:
+            return None
+        gn, ge = self.gradient
+        if gn == 0.0 and ge == 0.0:
+            return 0.0
+        return math.degrees(math.atan2(-ge, -gn)) % 360.0
+
+    @property
+    def plane_slope_deg(self) -> float | None:
+        return None if self.gradient is None else math.degrees(math.atan(math.hypot(*self.gradient)))
+
+    def gradient_along(self, azimuth_deg: float) -> tuple[float, float]:
+        """The height's gradient along ``azimuth_deg`` and its standard error."""
+        u = _unit(azimuth_deg)
+        g = float(np.dot(self.gradient, u))
+        var = max(float(u @ self.cov_fit @ u), float(u @ self.cov_jack @ u))
+        return g, math.sqrt(var) if var >= 0 else math.inf
+
+    def slope_along(self, azimuth_deg: float) -> tuple[float, float]:
+        """The slope (deg, positive falling toward ``azimuth_deg``) and its 1 sigma: the
+        statistical error, the attitude's bias (sin^2 of the plane's slope of
+        ``attitude_error_deg``) and the floor, as :func:`estimate` has them."""
+        st = self.settings
+        g, se = self.gradient_along(azimuth_deg)
+        stat = _deg_se(g, se)
+        att = math.sin(math.radians(self.plane_slope_deg)) ** 2 * st.attitude_error_deg
+        return _deg(g), max(st.sigma_floor_deg, math.hypot(stat, att))
+
+    def fall_azimuth_sigma_deg(self) -> float:
+        """1 sigma of the fall line's azimuth: the gradient's error across it over its length."""
+        g = math.hypot(*self.gradient)
+        if g <= 0:
+            return 180.0
+        _, se = self.gradient_along(self.fall_azimuth_deg + 90.0)
+        return min(180.0, math.degrees(se / g))
+
+    def along(self, heading_deg: float) -> SlopeEstimate:
+        """The estimate along the vehicle's heading (deg from north): the slope along it (the
+        planar model's x), the cross-slope (to its right), the plane's slope and fall line, and the
+        points as a section along the heading; refused when the plane was, or when the slope along
+        the heading is too uncertain (``max_sigma_deg``)."""
+        st = self.settings
+        u = _unit(heading_deg)
+        v = _unit(heading_deg + 90.0)
+        spot_n, spot_e = self.spot_ne
+        est = SlopeEstimate(
+            None,
+            None,
+            self.refusal,
+            float(spot_n * u[0] + spot_e * u[1]),
+            n_points=self.n_points,
+            n_inliers=self.n_inliers,
+            baseline_m=float(min(self.extents_m)),
+            scale_m=self.scale_m,
+            sides_deg=self.sides_deg,
+            heading_deg=heading_deg % 360.0,
+            spot_ne_m=self.spot_ne,
+        )
+        g_cross = float(np.dot(self.gradient, v)) if self.gradient is not None else 0.0
+        est.points = [
+            (
+                t,
+                float(n * u[0] + e * u[1]),
+                float(h - g_cross * ((n - spot_n) * v[0] + (e - spot_e) * v[1])),
+                w,
+            )
+            for t, n, e, h, w in self.points
+        ]
+        if self.gradient is None:
+            return est
+        est.slope_deg, est.sigma_deg = self.slope_along(heading_deg)
+        est.cross_deg, est.cross_sigma_deg = self.slope_along(heading_deg + 90.0)
+        est.plane_slope_deg = self.plane_slope_deg
+        est.fall_azimuth_deg = self.fall_azimuth_deg
+        est.plane_sigma_deg = self.slope_along(est.fall_azimuth_deg)[1]
+        est.fall_azimuth_sigma_deg = self.fall_azimuth_sigma_deg()
+        if est.ok and est.sigma_deg > st.max_sigma_deg:
+            est.refusal = (
+                f"too uncertain: {est.slope_deg:.1f} +/- {est.sigma_deg:.1f} deg along heading "
+                f"{heading_deg % 360.0:.0f} deg (at most {st.max_sigma_deg:g} deg)"
+            )
+        return est
+
+
+def estimate_plane(
+    points: list[tuple[float, float, float, float]],
+    spot_ne: tuple[float, float],
+    settings: EstimateSettings | None = None,
+) -> PlaneEstimate:
+    """The plane at the landing spot (north, east) from ``points`` (t, north, east, height up)
+    within ``half_span_m`` of it, or a refusal saying why not. What :func:`estimate` asks of a line
+    it asks of the plane along both of the points' principal directions (a pass flown one way only
+    sees one gradient: too little seen), and its uncertainty has the same parts, as covariances of
+    the two gradients: the weighted fit's own with the height's slow wander
+    (:func:`walk_gradient_cov`), and the block jackknife over :data:`JACKKNIFE_BLOCKS` runs of
+    consecutive points; a direction's variance is the larger of the two."""
+    st = settings or EstimateSettings()
+    sn, se_ = spot_ne
+    near = [p for p in points if math.hypot(p[1] - sn, p[2] - se_) <= st.half_span_m]
+    est = PlaneEstimate(None, (float(sn), float(se_)), st, n_points=len(near))
+    if not near:
+        est.refusal = f"{LACK}: no rangefinder point within {st.half_span_m:g} m of the spot"
+        return est
+    arr = np.array(near, float)
+    t, dn, de, h = arr[:, 0], arr[:, 1] - sn, arr[:, 2] - se_, arr[:, 3]
+    est.points = [(float(a), float(b), float(c), float(d), 1.0) for a, b, c, d in near]
+    if len(near) < st.min_points:
+        est.refusal = f"{LACK}: {len(near)} points, {st.min_points} needed"
+        return est
+    # the directions the points were seen along (a survey pass: its two legs), the most seen first
+    xy = np.column_stack([dn, de])
+    dirs = _directions(dn, de, st)
+    if len(dirs) < 2:
+        along = f"along {dirs[0]:.0f} deg only" if dirs else "around the spot only"
+        est.refusal = (
+            f"{LACK}: the points lie {along}: the slope across is unseen "
+            f"({st.min_baseline_m:g} m needed two ways)"
+        )
+        return est
+    axes = [_unit(d) for d in dirs]
+    proj = [xy @ ax for ax in axes]
+    legs = [np.abs(xy @ _unit(d + 90.0)) <= LEG_BAND_M for d in dirs]
+    est.extents_m = tuple(float(np.ptp(p[m])) for p, m in zip(proj, legs, strict=True))
+    for d, p, m, ext in zip(dirs, proj, legs, est.extents_m, strict=True):
+        if ext < st.min_baseline_m:
+            est.refusal = (
+                f"{LACK}: the points span {ext:.2f} m along {d:.0f} deg ({st.min_baseline_m:g} m needed "
+                "two ways: the slope across the pass is unseen)"
+            )
+            return est
+        behind, ahead = -float(p[m].min()), float(p[m].max())
+        if min(behind, ahead) < st.min_side_m:
+            toward = d if ahead < behind else d + 180.0
+            est.refusal = (
+                f"{LACK}: surface seen only {min(behind, ahead):.2f} m toward {az_text(toward)} of the spot "
+                f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
+            )
+            return est
+    far = np.hypot(dn, de) >= max(0.1, 0.5 * st.min_side_m)
+    groups = _leg_labels(t, [m & far for m in legs])
+    fit = fit_plane(dn, de, h, groups)
+    est.points = [
+        (float(a), float(b), float(c), float(d), float(w))
+        for (a, b, c, d), w in zip(near, fit.weights, strict=True)
+    ]
+    est.scale_m = fit.scale_m
+    est.n_inliers = int(np.count_nonzero(fit.weights > OUTLIER_WEIGHT))
+    est.gradient = fit.gradient
+    est.cov_fit = fit.cov + walk_gradient_cov(t, fit.rows, st.height_walk_m)
+    est.cov_jack = np.full((2, 2), np.inf)
+    frac = est.n_inliers / len(near)
+    if frac < st.min_inlier_fraction:
+        est.refusal = (
+            f"only {frac:.0%} of {len(near)} points lie on one plane "
+            f"({st.min_inlier_fraction:.0%} needed): the surface under the pass is not flat"
+        )
+        return est
+    # the two sides of the spot along each direction, from that leg's points alone (a slow height
+    # wander offsets one leg from the other): one plane has one slope there
+    g = np.array(fit.gradient)
+    own = []  # each leg's points: the run of its own clear of the crossing, with its stretch near the spot
+    for k, m in enumerate(legs):
+        clear = m & far & ~legs[1 - k]
+        label = np.bincount(groups[clear]).argmax() if clear.any() else -1
+        own.append(m & (groups == label))
+    for d, ax, p, m in zip(dirs, axes, proj, own, strict=True):
+        across = np.array([-ax[1], ax[0]])
+        hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
+        sides = []
+        for side in (m & (p < 0), m & (p >= 0)):
+            if (
+                np.count_nonzero(side) >= max(5, st.min_points // 4)
+                and np.ptp(p[side]) >= 0.5 * st.min_side_m
+            ):
+                f = fit_line(p[side], hh[side])
+                sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
+        if len(sides) == 2:
+            diff = abs(sides[0][0] - sides[1][0])
+            allowed = 3.0 * math.hypot(sides[0][1], sides[1][1]) + st.plane_tolerance_deg
+            if est.sides_deg is None or diff > abs(est.sides_deg[0] - est.sides_deg[1]):
+                est.sides_deg = (sides[0][0], sides[1][0])
+            if diff > allowed:
+                est.refusal = (
+                    f"the surface is not one plane: toward {az_text(d)} it falls "
+                    f"{sides[0][0]:.1f} deg before the spot and {sides[1][0]:.1f} deg beyond it "
+                    "(a ridge or an edge under the path)"
+                )
+                return est
+    # block jackknife in time order
+    order = np.argsort(t)
+    leave = []
+    for b in np.array_split(order, JACKKNIFE_BLOCKS):
+        keep = np.ones(t.size, bool)
+        keep[b] = False
+        if keep.sum() >= 3 and all(
+            np.ptp(p[keep & m]) > 0.25 * ext
+            for p, m, ext in zip(proj, legs, est.extents_m, strict=True)
+            if (keep & m).any()
+        ):
+            leave.append(fit_plane(dn[keep], de[keep], h[keep], groups[keep]).gradient)
+    k = len(leave)
+    if k >= 3:
+        d = np.array(leave) - np.mean(leave, axis=0)
+        est.cov_jack = (k - 1) / k * (d.T @ d)
+    return est
+
+
 def check_bound(cell_deg: float, sigma_deg: float, sigmas: float, fixed_deg: float | None = None) -> float:
     """How far a pilot's slope may lie from the measured one (deg): ``fixed_deg`` when set, else
     half the table's slope cell (a slope within it picks a neighbouring cell's preset at worst)
@@ -433,24 +924,41 @@ def check_bound(cell_deg: float, sigma_deg: float, sigmas: float, fixed_deg: flo
 
 def slope_to_land(est: SlopeEstimate, bound_deg: float) -> tuple[float | None, str | None]:
     """The slope (deg, >= 0) a landing may use from ``est``, or why none: a surface falling toward
-    south by more than ``bound_deg`` has the vehicle facing uphill (its uphill legs downhill)."""
+    the vehicle's back (south, without a heading) by more than ``bound_deg`` has the vehicle facing
+    uphill (its uphill legs downhill)."""
     if not est.ok:
         return None, est.describe()
     if est.slope_deg < -bound_deg:
+        back = compass((est.heading_deg or 0.0) + 180.0)
+        where = back if est.heading_deg is None else f"the vehicle's back ({back})"
         return None, (
-            f"the surface falls toward south ({-est.slope_deg:.1f} deg): the vehicle must face downhill "
-            "(north) to land"
+            f"the surface falls toward {where} ({-est.slope_deg:.1f} deg): the vehicle must face "
+            f"downhill ({compass(est.fall_azimuth_deg if est.fall_azimuth_deg is not None else 0.0)}) to land"
         )
     return max(0.0, est.slope_deg), None
 
 
 def pilot_refusal(pilot_deg: float, est: SlopeEstimate, bound_deg: float) -> str | None:
-    """Why the pilot's slope does not fit the measured one, naming both, or None."""
+    """Why the pilot's slope does not fit the measured one (along the vehicle's heading, when the
+    estimate has one), naming both, or None."""
     if not est.ok:
         return est.describe()
     if abs(pilot_deg - est.slope_deg) > bound_deg:
+        along = f" along heading {round(est.heading_deg) % 360} deg" if est.heading_deg is not None else ""
         return (
-            f"pilot's slope {pilot_deg:g} deg, measured {est.slope_deg:.1f} +/- {est.sigma_deg:.1f} deg "
-            f"(they may differ by {bound_deg:.1f} deg)"
+            f"pilot's slope {pilot_deg:g} deg, measured {est.slope_deg:.1f} +/- {est.sigma_deg:.1f} deg"
+            f"{along} (they may differ by {bound_deg:.1f} deg)"
         )
     return None
+
+
+def cross_refusal(est: SlopeEstimate, max_cross_deg: float) -> str | None:
+    """Why a landing on ``est`` is refused for the slope across the vehicle's heading (the legs'
+    plane and the lookup table know none), naming the plane, the heading and the way to face, or
+    None."""
+    if not est.ok or est.cross_deg is None or abs(est.cross_deg) <= max_cross_deg:
+        return None
+    return (
+        f"{est.plane_text()}: more than {max_cross_deg:g} deg across; "
+        f"face {az_text(est.fall_azimuth_deg)} to land"
+    )

@@ -1,30 +1,62 @@
-"""Measuring the slope before PRESET: the estimate from what the rangefinder has seen near the
-spot, and when that is too little, a short survey pass the companion flies itself.
+"""Measuring the slope before PRESET: the plane from what the rangefinder has seen near the spot,
+and when that is too little, a short survey pass the companion flies itself; then the vehicle
+turned to face the fall line, the way the planar legs and the lookup table land.
 
-The pass: in GUIDED, armed, at the hover's height (NED down held), a position target moving at
-``slope.survey_speed_mps`` from the spot ``slope.survey_length_m``/2 south, then the whole length
-north, then back to the spot, where the vehicle must come to rest before the landing starts; it
-turns back early where the range falls below ``slope.survey_min_range_m`` (the roof rising). It
-is flown before the state machine starts because the preset (PRESET, the first state) is chosen
-from the slope. A vehicle not in GUIDED or not armed is not flown: the estimate is refused.
-See docs/slope-estimate.md.
+The pass: in GUIDED, armed, at the hover's height (NED down held), two legs through the spot, the
+first along the vehicle's heading, the second along the heading turned 90 deg to its right. Each
+leg is flown facing its way: the vehicle turns on the spot to the leg's heading, then a position
+target moves at ``slope.survey_speed_mps`` from the spot ``slope.survey_length_m``/2 back, then
+the whole length ahead, then back to the spot, where the vehicle must come to rest. A leg turns
+back early where the range falls below ``slope.survey_min_range_m`` (the roof rising). Every
+setpoint carries the heading (SET_POSITION_TARGET_LOCAL_NED with its yaw): ArduCopter's GUIDED
+resets a heading given any other way (MAV_CMD_CONDITION_YAW) at the next setpoint without one, and
+left to its default (WP_YAW_BEHAVIOR) it may turn the vehicle to face its way of travel.
+
+Then the turn: facing the fall line (the plane's steepest way down, when the plane is at least
+``slope.max_cross_deg`` steep; else back to the heading the pass started from), held over the spot
+until the slope across the heading is within half of ``slope.max_cross_deg`` and the vehicle is at
+rest. The estimate is the plane's along the heading the vehicle then has (ATTITUDE's yaw), refused
+when the slope across it exceeds ``slope.max_cross_deg``. All of it is flown before the state
+machine starts because the preset (PRESET, the first state) is chosen from the slope. A vehicle not
+in GUIDED or not armed is not flown: the estimate is refused. See docs/slope-estimate.md.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 
 from slopelander.controller.link import Link, mavlink
-from slopelander.controller.slope_estimate import EstimateSettings, SlopeEstimate, SurfaceTrack, estimate
+from slopelander.controller.slope_estimate import (
+    EstimateSettings,
+    PlaneEstimate,
+    SlopeEstimate,
+    SurfaceTrack,
+    az_text,
+    cross_refusal,
+    estimate_plane,
+    wrap_deg,
+)
 
-#: position-only setpoint (velocity, acceleration and yaw ignored), as ArduCopter's GUIDED reads it
+#: position and yaw setpoint (velocity, acceleration and yaw rate ignored), as ArduCopter's GUIDED
+#: reads it: its yaw sets the heading (ModeGuided::set_yaw_state)
+POSITION_YAW_MASK = 0x09F8
+#: the same without the yaw (bit 10 set): the heading left to the autopilot
 POSITION_MASK = 0x0DF8
 GUIDED = 4
 SEND_HZ = 10.0
-#: at the spot again: within this (m) and slower than this (m/s)
+#: at the spot again: within this (m) along the leg, within ACROSS_SPOT_M across it, and slower
+#: than AT_REST_MPS (m/s). Across a leg the pass's geometry needs less (the legs cross within it
+#: of the spot, and each leg's sides are checked on its own points); a planar simulator cannot
+#: move across its heading at all, so what a turn left across stays there
 AT_SPOT_M = 0.15
+ACROSS_SPOT_M = 0.3
 AT_REST_MPS = 0.1
+#: a leg is flown once the heading is within this of the leg's (deg)
+LEG_HEADING_DEG = 3.0
+#: the second leg's heading from the first's (deg, clockwise)
+SECOND_LEG_DEG = 90.0
 #: a range reading older than this (s of vehicle time) does not guard the pass
 RANGE_FRESH_S = 0.3
 #: the range's fall rate is read over this much of the newest readings (s)
@@ -56,36 +88,69 @@ def measure_slope(
     note: Callable[[str], None] = print,
     wall_s: float = 300.0,
 ) -> tuple[SlopeEstimate, float]:
-    """The slope at the spot under the vehicle now, and the vehicle seconds a survey pass took (0
-    when none was flown). ``tick`` polls the link (and whatever else must stay alive: the leg
-    board) while the pass is flown; by default ``link.poll``."""
+    """The slope at the spot under the vehicle now, along the heading it lands with, and the
+    vehicle seconds the survey pass and the turns took (0 when none was flown). ``tick`` polls the
+    link (and whatever else must stay alive: the leg board) meanwhile; by default ``link.poll``.
+    ``fly=False``: nothing is flown, the plane is read along the heading there is."""
     st = EstimateSettings.from_config(cfg)
     tick = tick or link.poll
     end = time.monotonic() + 5.0  # the streams were just asked for: a moment for the first position
-    while track.position() is None and time.monotonic() < end:
+    while (track.position() is None or track.heading_deg() is None) and time.monotonic() < end:
         tick()
         time.sleep(0.002)
-    pos = track.position()
-    if pos is None:
-        est = estimate([], 0.0, st)
-        est.refusal = "no position (LOCAL_POSITION_NED) to place the rangefinder's points"
+    pos, heading = track.position(), track.heading_deg()
+    if pos is None or heading is None:
+        est = estimate_plane([], (0.0, 0.0), st).along(heading or 0.0)
+        missing = "LOCAL_POSITION_NED" if pos is None else "ATTITUDE"
+        est.refusal = f"no {missing} to place the rangefinder's points"
         return est, 0.0
-    spot_n, spot_e, spot_d = pos
-    est = estimate(track.points(), spot_n, st)
-    if est.ok or not est.needs_survey or not fly:
-        return est, 0.0
-    why = survey_refusal(link)
-    if why is not None:
-        est.refusal = f"{est.refusal}; {why}"
-        return est, 0.0
-    note(f"survey: {est.refusal}; flying {cfg['slope.survey_length_m']:g} m along north over the spot")
+    spot = pos
+    plane = estimate_plane(track.surface_points(), spot[:2], st)
+    if not fly:
+        return _along(plane, heading, cfg), 0.0
     t0 = link.clock.now()
-    done = _fly_pass(link, cfg, track, (spot_n, spot_e, spot_d), tick, wall_s, note)
+    if not plane.ok:
+        why = survey_refusal(link) if plane.needs_survey else None
+        if not plane.needs_survey or why is not None:
+            est = plane.along(heading)
+            if why is not None:
+                est.refusal = f"{est.refusal}; {why}"
+            return est, 0.0
+        length = cfg["slope.survey_length_m"]
+        note(
+            f"survey: {plane.refusal}; flying {length:g} m toward {az_text(heading)} and "
+            f"{length:g} m toward {az_text(heading + SECOND_LEG_DEG)} over the spot"
+        )
+        for leg_heading in (heading, heading + SECOND_LEG_DEG):
+            done = _turn(link, cfg, track, spot, leg_heading, None, tick, wall_s, note)
+            done = done or _fly_leg(link, cfg, track, spot, leg_heading % 360.0, tick, wall_s, note)
+            if done is not None:
+                est = estimate_plane(track.surface_points(), spot[:2], st).along(track.heading_deg())
+                est.refusal = f"survey pass not finished: {done}"
+                return est, link.clock.now() - t0
+        plane = estimate_plane(track.surface_points(), spot[:2], st)
+        if not plane.ok:
+            return plane.along(track.heading_deg()), link.clock.now() - t0
+    if plane.plane_slope_deg >= cfg["slope.max_cross_deg"]:  # face the fall line
+        done = _turn(link, cfg, track, spot, plane.fall_azimuth_deg, plane, tick, wall_s, note)
+    else:  # no fall line worth the name: back to the heading the pilot gave it
+        done = _turn(link, cfg, track, spot, heading, None, tick, wall_s, note)
     took = link.clock.now() - t0
-    est = estimate(track.points(), spot_n, st)
-    if done is not None:
-        est.refusal = f"survey pass not finished: {done}"
+    est = _along(plane, track.heading_deg(), cfg)
+    if done is not None and est.ok and est.cross_deg is not None:
+        why = cross_refusal(est, cfg["slope.max_cross_deg"])
+        if why is not None:
+            est.refusal = f"{why} (the turn: {done})"
     return est, took
+
+
+def _along(plane: PlaneEstimate, heading: float, cfg) -> SlopeEstimate:
+    """The plane along ``heading``, refused when the slope across it is too steep."""
+    est = plane.along(heading)
+    why = cross_refusal(est, cfg["slope.max_cross_deg"])
+    if why is not None:
+        est.refusal = why
+    return est
 
 
 def low_range(track: SurfaceTrack, now: float, min_range_m: float) -> float | None:
@@ -109,23 +174,114 @@ def low_range(track: SurfaceTrack, now: float, min_range_m: float) -> float | No
     return ahead if ahead < min_range_m else None
 
 
-def _fly_pass(
-    link: Link, cfg, track: SurfaceTrack, spot, tick, wall_s: float, note: Callable[[str], None] = print
-) -> str | None:
-    """Fly the pass; None when the vehicle is back at rest over the spot, else why not.
+def _at_rest_over(link: Link, spot, heading: float) -> bool:
+    """At rest over the spot: within AT_SPOT_M of it along ``heading``, ACROSS_SPOT_M across."""
+    p = link.last.get("LOCAL_POSITION_NED")
+    if p is None:
+        return False
+    along, across = _offsets(p, spot, heading)
+    return (
+        abs(along) < AT_SPOT_M
+        and abs(across) < ACROSS_SPOT_M
+        and abs(p.vx) < AT_REST_MPS
+        and abs(p.vy) < AT_REST_MPS
+        and abs(p.vz) < AT_REST_MPS
+    )
 
-    The target moves at the survey speed toward each end in turn, then back to the spot. The
-    pass holds its height while the surface may rise under it: where the range reads below
-    ``slope.survey_min_range_m`` (or will, by the time a vehicle turned now has stopped) the
-    target turns back at once (uphill on a steep roof: at
-    60 deg, 1 m of the pass rises the roof 1.7 m, into a vehicle hovering 1 m over the spot)."""
+
+def _offsets(p, spot, heading: float) -> tuple[float, float]:
+    """The position ``p``'s offset from the spot along ``heading`` and across it (to its right)."""
+    a = math.radians(heading)
+    dn, de = p.x - spot[0], p.y - spot[1]
+    return dn * math.cos(a) + de * math.sin(a), -dn * math.sin(a) + de * math.cos(a)
+
+
+def _where(link: Link, spot, heading: float) -> str:
+    """Where the vehicle is from the spot, for a refusal."""
+    p = link.last.get("LOCAL_POSITION_NED")
+    if p is None:
+        return "no position"
+    along, across = _offsets(p, spot, heading)
+    speed = math.sqrt(p.vx**2 + p.vy**2 + p.vz**2)
+    return f"{along:+.2f} m along, {across:+.2f} m across the spot at {speed:.2f} m/s"
+
+
+def _turn(
+    link: Link,
+    cfg,
+    track: SurfaceTrack,
+    spot,
+    heading: float,
+    plane: PlaneEstimate | None,
+    tick,
+    wall_s: float,
+    note: Callable[[str], None],
+) -> str | None:
+    """Hold the spot and turn to ``heading``; None once there and at rest, else why not. With a
+    ``plane``, "there" is: the slope across the vehicle's heading within half of
+    ``slope.max_cross_deg`` (on a steep roof a degree of heading is most of a degree across);
+    without, within :data:`LEG_HEADING_DEG`."""
+    limit = cfg["slope.turn_timeout_s"]
+    half_cross = 0.5 * cfg["slope.max_cross_deg"]
+    t0 = link.clock.now()
+    end_wall = time.monotonic() + wall_s
+    last_sent = -1.0
+    told = False
+    while True:
+        tick()
+        why = survey_refusal(link)
+        if why is not None:
+            return why
+        now = link.clock.now()
+        if now - last_sent >= 1.0 / SEND_HZ or now < last_sent:
+            _send(link, *spot, heading)
+            last_sent = now
+        have = track.heading_deg()
+        off = abs(wrap_deg(heading - have)) if have is not None else 180.0
+        if plane is not None and have is not None:
+            there = abs(plane.slope_along(have + 90.0)[0]) <= half_cross
+        else:
+            there = off <= LEG_HEADING_DEG
+        if not told and off > LEG_HEADING_DEG:
+            note(f"survey: turning from {az_text(have or 0.0)} to face {az_text(heading)}")
+            told = True
+        if there and _at_rest_over(link, spot, heading):
+            return None
+        if now - t0 > limit or time.monotonic() > end_wall:
+            at = "no heading" if have is None else f"heading {have:.1f} deg"
+            return (
+                f"not facing {az_text(heading)} at rest over the spot within {limit:g} s "
+                f"({at}, {_where(link, spot, heading)})"
+            )
+        time.sleep(0.001)
+
+
+def _fly_leg(
+    link: Link,
+    cfg,
+    track: SurfaceTrack,
+    spot,
+    heading: float,
+    tick,
+    wall_s: float,
+    note: Callable[[str], None] = print,
+) -> str | None:
+    """Fly one leg along ``heading``, facing it; None when the vehicle is back at rest over the
+    spot, else why not.
+
+    The target moves at the survey speed toward each end in turn (behind the spot, then ahead),
+    then back to the spot. The leg holds its height while the surface may rise under it: where
+    the range reads below ``slope.survey_min_range_m`` (or will, by the time a vehicle turned now
+    has stopped) the target turns back at once (uphill on a steep roof: at 60 deg, 1 m of the pass
+    rises the roof 1.7 m, into a vehicle hovering 1 m over the spot)."""
     n0, e0, d0 = spot
+    u = (math.cos(math.radians(heading)), math.sin(math.radians(heading)))
     half = cfg["slope.survey_length_m"] / 2
     v = cfg["slope.survey_speed_mps"]
     min_range = cfg["slope.survey_min_range_m"]
-    goals = [n0 - half, n0 + half, n0]
+    goals = [-half, half, 0.0]  # along the heading from the spot
     leg = 0
-    target = n0
+    target = 0.0
     t0 = link.clock.now()
     last_t = t0
     limit = cfg["slope.survey_timeout_s"]
@@ -139,8 +295,8 @@ def _fly_pass(
         now = link.clock.now()
         el = now - t0
         if el > limit or time.monotonic() > end_wall:
-            _send(link, n0, e0, d0)
-            return f"not back over the spot within {limit:g} s"
+            _send(link, n0, e0, d0, heading)
+            return f"not back over the spot within {limit:g} s ({_where(link, spot, heading)})"
         step = v * max(0.0, now - last_t)
         last_t = now
         if leg < len(goals):
@@ -151,42 +307,39 @@ def _fly_pass(
             else:
                 target += step if goal > target else -step
         here = link.last.get("LOCAL_POSITION_NED")
-        north = float(here.x) if here is not None else target
-        # guarded: going out south, and north of the spot going out north (between the south
-        # end and the spot the vehicle has just flown; a turn there would undo the pass)
-        guarded = leg == 0 or (leg == 1 and north >= n0)
+        along = (here.x - n0) * u[0] + (here.y - e0) * u[1] if here is not None else target
+        # guarded: going out behind, and ahead of the spot going out ahead (between the far end
+        # behind and the spot the vehicle has just flown; a turn there would undo the pass)
+        guarded = leg == 0 or (leg == 1 and along >= 0.0)
         r = low_range(track, now, min_range) if guarded else None
         if r is not None:  # the surface rises ahead
-            target = north  # the target leads the vehicle: turn where the vehicle is
-            note(f"survey: range falling to {r:.2f} m {target - n0:+.2f} m north of the spot: turned back")
+            target = along  # the target leads the vehicle: turn where the vehicle is
+            note(
+                f"survey: range falling to {r:.2f} m {target:+.2f} m toward {az_text(heading)} "
+                "of the spot: turned back"
+            )
             leg += 1
             last_sent = -1.0  # the new direction goes out now
         if now - last_sent >= 1.0 / SEND_HZ or now < last_sent:
-            _send(link, target, e0, d0)
+            _send(link, n0 + target * u[0], e0 + target * u[1], d0, heading)
             last_sent = now
-        if leg >= len(goals):
-            p = link.last.get("LOCAL_POSITION_NED")
-            if (
-                p is not None
-                and abs(p.x - n0) < AT_SPOT_M
-                and abs(p.vx) < AT_REST_MPS
-                and abs(p.vy) < AT_REST_MPS
-                and abs(p.vz) < AT_REST_MPS
-            ):
-                return None
+        if leg >= len(goals) and _at_rest_over(link, spot, heading):
+            return None
         time.sleep(0.001)
 
 
-def _send(link: Link, n: float, e: float, d: float) -> None:
+def _send(link: Link, n: float, e: float, d: float, heading_deg: float | None = None) -> None:
+    """A GUIDED position target (LOCAL_NED) and, given one, the heading to face (deg)."""
     info = link.info
     if info is None:
         return
+    yaw = 0.0 if heading_deg is None else math.radians(wrap_deg(heading_deg))
     link.conn.mav.set_position_target_local_ned_send(
         int(link.clock.now() * 1000) & 0xFFFFFFFF,
         info.system,
         info.component,
         mavlink.MAV_FRAME_LOCAL_NED,
-        POSITION_MASK,
+        POSITION_MASK if heading_deg is None else POSITION_YAW_MASK,
         float(n),
         float(e),
         float(d),
@@ -196,6 +349,6 @@ def _send(link: Link, n: float, e: float, d: float) -> None:
         0,
         0,
         0,
-        0,
+        yaw,
         0,
     )
