@@ -204,30 +204,50 @@ class Link:
         return msg.get_srcSystem() == self.info.system and msg.get_srcComponent() == self.info.component
 
     def _handle(self, msg) -> None:
+        """One message in: the autopilot found (first HEARTBEAT), then, for the autopilot's own
+        messages, the newest kept, the clock moved on, the listeners told, and the message's
+        own meaning read (:data:`_BY_TYPE`)."""
         mtype = msg.get_type()
         if mtype == "BAD_DATA":
             return
         now = self.monotonic()
-        if (
-            mtype == "HEARTBEAT"
-            and self.info is None
-            and msg.type not in (mavlink.MAV_TYPE_GCS, mavlink.MAV_TYPE_ONBOARD_CONTROLLER)
-            and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID
-        ):
-            self.info = AutopilotInfo(msg.get_srcSystem(), msg.get_srcComponent(), msg.type, msg.autopilot)
-            self.conn.mav.srcSystem = msg.get_srcSystem()
-            self.conn.target_system = msg.get_srcSystem()
-            self.conn.target_component = msg.get_srcComponent()
-            self.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        if mtype == "HEARTBEAT" and self.info is None:
+            self._found(msg)
         if not self._from_autopilot(msg):
             return
         fld = USEC_FIELDS.get(mtype)
         stamp = stamp_usec(msg, fld) if fld is not None else None
+        self._keep(mtype, msg, stamp, now)
+        for fn in self._listeners:
+            fn(msg)
+        if stamp is not None:
+            self._observe_clock(stamp)
+        stream = self.streams.get(mtype)
+        if stream is not None:
+            stream.add(stamp / 1e6 if stamp is not None else self.clock.now())
+        read = _BY_TYPE.get(mtype)
+        if read is not None:
+            read(self, msg, stamp, now)
+
+    def _found(self, msg) -> None:
+        """The first HEARTBEAT of an autopilot (not a ground station, not another companion)."""
+        if msg.type in (mavlink.MAV_TYPE_GCS, mavlink.MAV_TYPE_ONBOARD_CONTROLLER):
+            return
+        if msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
+            return
+        self.info = AutopilotInfo(msg.get_srcSystem(), msg.get_srcComponent(), msg.type, msg.autopilot)
+        self.conn.mav.srcSystem = msg.get_srcSystem()
+        self.conn.target_system = msg.get_srcSystem()
+        self.conn.target_component = msg.get_srcComponent()
+        self.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+
+    def _keep(self, mtype: str, msg, stamp: int | None, now: float) -> None:
+        """The newest of its type (a reordered, older message never replaces a newer one: a link
+        that reorders would hand the take-off an older range reading, or undo a newer script
+        state, for a step), the recent ones a reader needs every one of, counts and rates."""
         if stamp is not None and self.clock.known:
             self.reboot.observe(stamp, self.clock.usec)
         if stamp is None or stamp >= self._stamps.get(mtype, -1):
-            # a reordered, older message never replaces a newer one: a link that reorders would
-            # hand the take-off an older range reading, or undo a newer script state, for a step
             self.last[mtype] = msg
             if stamp is not None:
                 self._stamps[mtype] = stamp
@@ -237,44 +257,48 @@ class Link:
         if recent is not None:
             recent.append(msg)
         self._rates.setdefault(mtype, Rate()).add(now)
-        for fn in self._listeners:
-            fn(msg)
-        if stamp is not None:
-            before = self.clock.usec if self.clock.known else None
-            self.clock.observe_usec(stamp)
-            if before is not None and self.clock.usec - before > GAP_S * 1e6:
-                self.resumed_at = self.clock.now()
-            if self._last_heartbeat_rx is not None and self._last_heartbeat_vt is None:
-                # a HEARTBEAT came before any vehicle time: count the missed ones from the first
-                self._last_heartbeat_vt = self.clock.now()
-        stream = self.streams.get(mtype)
-        if stream is not None:
-            stream.add(stamp / 1e6 if stamp is not None else self.clock.now())
-        if mtype == "HEARTBEAT":
-            self._last_heartbeat_rx = now
-            self._last_heartbeat_vt = self.clock.now() if self.clock.known else None
-        elif mtype == "COMMAND_ACK":
-            h = self.commands.ack(msg, now)
-            if h is not None and h.ok and h.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
-                cls = mavlink.mavlink_map.get(int(h.params[0]))
-                stream = self.streams.get(cls.msgname) if cls is not None else None
-                if stream is not None:  # the new rate holds from now: measure it from here
-                    stream.since = max(stream.since, self.clock.now())
-        elif mtype == "STATUSTEXT":
-            self.statustext.append(msg.text)
-        elif mtype == "AUTOPILOT_VERSION" and self.info is not None:
+
+    def _observe_clock(self, stamp: int) -> None:
+        """The vehicle's clock moved to ``stamp`` (us); a jump past GAP_S is a telemetry gap."""
+        before = self.clock.usec if self.clock.known else None
+        self.clock.observe_usec(stamp)
+        if before is not None and self.clock.usec - before > GAP_S * 1e6:
+            self.resumed_at = self.clock.now()
+        if self._last_heartbeat_rx is not None and self._last_heartbeat_vt is None:
+            # a HEARTBEAT came before any vehicle time: count the missed ones from the first
+            self._last_heartbeat_vt = self.clock.now()
+
+    def _read_heartbeat(self, msg, stamp: int | None, now: float) -> None:
+        self._last_heartbeat_rx = now
+        self._last_heartbeat_vt = self.clock.now() if self.clock.known else None
+
+    def _read_ack(self, msg, stamp: int | None, now: float) -> None:
+        h = self.commands.ack(msg, now)
+        if h is not None and h.ok and h.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
+            cls = mavlink.mavlink_map.get(int(h.params[0]))
+            stream = self.streams.get(cls.msgname) if cls is not None else None
+            if stream is not None:  # the new rate holds from now: measure it from here
+                stream.since = max(stream.since, self.clock.now())
+
+    def _read_statustext(self, msg, stamp: int | None, now: float) -> None:
+        self.statustext.append(msg.text)
+
+    def _read_version(self, msg, stamp: int | None, now: float) -> None:
+        if self.info is not None:
             v = msg.flight_sw_version
             self.info.firmware = f"{(v >> 24) & 0xFF}.{(v >> 16) & 0xFF}.{(v >> 8) & 0xFF}"
-        elif mtype == "NAMED_VALUE_FLOAT":
-            name = msg.name.rstrip("\x00") if isinstance(msg.name, str) else msg.name
-            if name == "SL_STATE":
-                self._script_seen_at = self.clock.now()
-                if stamp is None or stamp >= self._script_stamp:  # a late, older state is history
-                    self._script_stamp = stamp if stamp is not None else self._script_stamp
-                    self.script_state = int(msg.value)
-            elif name == "SL_VER" and self.info is not None:
-                self.info.script_version = float(msg.value)
-                self._script_seen_at = self.clock.now()
+
+    def _read_named_value(self, msg, stamp: int | None, now: float) -> None:
+        """The on-board script's state (SL_STATE, 5 Hz) and version (SL_VER, 1 Hz)."""
+        name = msg.name.rstrip("\x00") if isinstance(msg.name, str) else msg.name
+        if name == "SL_STATE":
+            self._script_seen_at = self.clock.now()
+            if stamp is None or stamp >= self._script_stamp:  # a late, older state is history
+                self._script_stamp = stamp if stamp is not None else self._script_stamp
+                self.script_state = int(msg.value)
+        elif name == "SL_VER" and self.info is not None:
+            self.info.script_version = float(msg.value)
+            self._script_seen_at = self.clock.now()
 
     # ------------------------------------------------------------------ sending
     def _send_due(self) -> None:
@@ -459,3 +483,13 @@ class Link:
     def reboot_note(self) -> str | None:
         """What the reboot looked like, for the pilot."""
         return self.reboot.note
+
+
+#: what each message means to the link beyond being kept (:meth:`Link._handle`)
+_BY_TYPE: dict[str, Callable] = {
+    "HEARTBEAT": Link._read_heartbeat,
+    "COMMAND_ACK": Link._read_ack,
+    "STATUSTEXT": Link._read_statustext,
+    "AUTOPILOT_VERSION": Link._read_version,
+    "NAMED_VALUE_FLOAT": Link._read_named_value,
+}
