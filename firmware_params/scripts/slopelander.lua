@@ -242,28 +242,32 @@ local function ground_range()
   return trusted_range()
 end
 
--- moving too much to disarm: why, or nil when still
-local function moving()
+-- moving too much to disarm: why (true when not ``describe``d), or nil when still
+local function moving(describe)
   local g = ins:get_gyro(0):length()
-  if g > math.rad(STILL.GYRO_DEGS) then return string.format("turning %.0f deg/s", math.deg(g)) end
+  if g > math.rad(STILL.GYRO_DEGS) then
+    return describe and string.format("turning %.0f deg/s", math.deg(g)) or true
+  end
   ---@type Vector3f_ud
   local v = ahrs:get_velocity_NED()
-  if v == nil then return "velocity unknown" end
+  if v == nil then return describe and "velocity unknown" or true end
   local speed = v:length()
-  if speed > STILL.SPEED_MPS then return string.format("moving %.2f m/s", speed) end
+  if speed > STILL.SPEED_MPS then return describe and string.format("moving %.2f m/s", speed) or true end
   return nil
 end
 
--- why the vehicle may not be disarmed now (moving, or not yet still for STILL.MS), or nil.
--- still_since follows every update (note_stillness): a single moving sample restarts the window
-local function not_still(t)
-  local why = moving()
+-- why the vehicle may not be disarmed now (moving, or not yet still for STILL.MS; true when not
+-- ``describe``d: every update asks, without building strings), or nil. A single moving sample
+-- restarts the window
+local function not_still(t, describe)
+  local why = moving(describe)
   if why then
     still_since = nil
     return why
   end
   still_since = still_since or t
   if t - still_since < STILL.MS then
+    if not describe then return true end
     return string.format("still for %.1f s of %.1f", (t - still_since) / 1000, STILL.MS / 1000)
   end
   return nil
@@ -383,7 +387,7 @@ end
 local function disarm_request(t)
   if not arming:is_armed() then return ACCEPTED end
   if state ~= HOLD and state ~= STOP then return TEMP_REJECTED, "disarm: motors not held stopped" end
-  local why = not_still(t)
+  local why = not_still(t, true)
   if why then return TEMP_REJECTED, "disarm: " .. why end
   arming:disarm()
   if arming:is_armed() then return TEMP_REJECTED, "disarm: refused by the autopilot" end
@@ -532,7 +536,9 @@ local function run_reflex(t, fresh, d)
     local a = ins:get_accel(0):length()
     if floor_a == nil or a < floor_a then floor_a = a end
     local threshold = reflex.impact
-    if t - entered_ms >= RISE_AFTER_MS then threshold = math.min(threshold, floor_a + reflex.impact - GRAVITY) end
+    if t - entered_ms >= RISE_AFTER_MS then
+      threshold = math.min(threshold, floor_a + reflex.impact - GRAVITY)
+    end
     if near and a > threshold then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
@@ -551,7 +557,7 @@ local function run_reflex(t, fresh, d)
     if t >= valid_until then
       -- a silent companion: disarm, but never a vehicle still moving (a slide, a pivot): still for
       -- STILL.MS
-      local why = not_still(t)
+      local why = not_still(t, true)
       if why == nil then
         arming:disarm()
         release(t, "companion silent after landing: disarmed")
@@ -687,7 +693,7 @@ function fault.command(command, p, t)
   if command == CMD_REFLEX and p[1] == RFX.DISARM then
     if not arming:is_armed() then return ACCEPTED end
     if not fault.held then return TEMP_REJECTED, "disarm: motors not held stopped" end
-    local why = not_still(t)
+    local why = not_still(t, true)
     if why then return TEMP_REJECTED, "disarm: " .. why end
     arming:disarm()
     if arming:is_armed() then return TEMP_REJECTED, "disarm: refused by the autopilot" end
