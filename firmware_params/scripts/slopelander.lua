@@ -14,7 +14,7 @@
 
 -- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
 -- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
-local VERSION = 4 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 5 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
 --    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
@@ -24,6 +24,11 @@ local VERSION = 4 -- 2: a refresh during RVT sets its duration (the companion en
 --    when the range says the vehicle left the roof; the missed-impact bound follows the cut height
 --    and the descent rate; an abort or release during CUT/RVT/HOLD is refused; a silent
 --    companion's HOLD disarms only while still; the impact threshold is at least 2 g.
+-- 5: an error in the update no longer stops the script: it reports FAULT (30) or, from the cut
+--    on, FAULT_HELD (31: the motors held stopped, the reverse thrust ramped down, disarmed once
+--    still) with the error; an ARMED reflex whose validity lapses stops the descent itself and
+--    climbs (CLIMB, 14); a disarm needs the vehicle still for STILL.MS, not one sample; CUT's
+--    override outlasts a stalled scripting thread as RVT's and HOLD's do.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
@@ -37,17 +42,19 @@ local RF = { LOW = 2, HIGH = 3, GOOD = 4 } -- RangeFinder::Status OutOfRangeLow,
 local MOTORS = { 0, 1, 2, 3 } -- SERVO1..4, 0-based channel index
 local PWM_STOP = 1500
 local OVERRIDE_MS = 30 -- each override lapses this soon unless refreshed
--- On the ground (RVT, HOLD) the override outlasts a stalled scripting thread. ArduPilot counts an
--- override's timeout in main-loop ticks (SRV_Channels::set_output_pwm_chan_timeout), not in the
--- script's own runs: a scripting thread starved for more than OVERRIDE_MS hands the outputs back
--- to the mixer, and an armed mixer on a steep roof fights the tilt at full forward thrust (seen on
--- ArduCopter SITL at 55 deg: 40 ms at 1600-1976 us, twice in 25 s). Stopped or reversed motors on
--- the ground are the safe side of a stall, so they hold this long; leaving RVT/HOLD clears them.
-local GROUND_OVERRIDE_MS = 250
-local FAST_MS = 2 -- update period while anything is active
-local IDLE_MS = 10 -- update period otherwise (command latency)
-local ANNOUNCE_MS = 200 -- SL_STATE at 5 Hz
-local VERSION_MS = 1000
+-- From the cut on (CUT, RVT, HOLD, FAULT_HELD) the override outlasts a stalled scripting thread.
+-- ArduPilot counts an override's timeout in main-loop ticks (SRV_Channels::
+-- set_output_pwm_chan_timeout), not in the script's own runs: a scripting thread starved for more
+-- than OVERRIDE_MS hands the outputs back to the mixer. On a steep roof an armed mixer fights the
+-- tilt at full forward thrust (seen on ArduCopter SITL at 55 deg: 40 ms at 1600-1976 us, twice in
+-- 25 s); in CUT it is a mixer demanding climb for a vehicle falling onto the roof. Stopped or
+-- reversed motors are the safe side of a stall once the motors are cut, so they hold this long;
+-- leaving these states clears them at once. In the air (STOP, REVERSE) 30 ms gives the vehicle
+-- back quickly.
+local HELD_OVERRIDE_MS = 250
+-- update periods: while anything is active, otherwise (command latency); SL_STATE at 5 Hz, SL_VER
+-- at 1 Hz, a fault's STATUSTEXT every 5 s
+local MS = { FAST = 2, IDLE = 10, ANNOUNCE = 200, VERSION = 1000, FAULT_SAY = 5000 }
 local GRAVITY = 9.80665
 -- The filtered accelerometer reads the thrust over the mass, ~1 g, in the steady descent at the
 -- cut, and falls toward 0 g as the thrust decays: an impact threshold must lie well above 1 g.
@@ -59,6 +66,13 @@ local IMPACT_MIN = 2 * GRAVITY
 -- leg near the horizontal slips at a small foot force) lifts a falling vehicle's 0.2 g by more than
 -- a g within milliseconds and is seen, where 2 g waited for the downhill feet (150-180 ms later on
 -- ArduCopter SITL at 45 and 55 deg); at the cut, before the thrust decays, it is the 2 g rule.
+-- The rise counts only RISE_AFTER_MS after the cut, the rotors' time constant: the thrust and the
+-- vibration the rotors make (an imbalance, the blades' thrust ripple: both their speed squared)
+-- have fallen to e^-2, 14 %, of hover. Before it, the rotors' vibration at hover is still there,
+-- and a trough followed by a crest read as a rise: on a vehicle at twice ArduPilot's acceptable
+-- vibration the rule fired 2-8 ms after the cut, 27 cm above the roof (issue 40;
+-- tests/firmware/test_script_vibration.py). Before it, the 2 g rule (and the range) alone.
+local RISE_AFTER_MS = 50
 -- ArduCopter reads the rangefinder at 20 Hz (ArduCopter/Copter.cpp), this script every 2-10 ms:
 -- only a new sample (a new driver reading time) counts. Two distinct samples at or below the cut
 -- height: one low glitch cannot cut.
@@ -76,8 +90,8 @@ local THRUST_DECAY_MS = 100
 local RANGE_PERIOD_MS = 50
 -- left the roof (slid off an edge, or high above it): this many distinct samples in a row, each
 -- with all three of
---  * the body within LEAVE_TILT_DEG of level, and staying within it should the autopilot stop
---    its rotation at once: tilt + w^2 / (2 * ATT_ACCEL_DEGS2) <= LEAVE_TILT_DEG, w the body rate.
+--  * the body within LEAVE.TILT_DEG of level, and staying within it should the autopilot stop
+--    its rotation at once: tilt + w^2 / (2 * LEAVE.ATT_ACCEL_DEGS2) <= LEAVE.TILT_DEG, w the body rate.
 --    The beam runs along the body's down axis: tilted more, it meets a roof at a grazing angle or
 --    misses it (pointing sideways or up, a tumbling or flipped vehicle reads out of range high
 --    while it lies on the roof), so its range says nothing of the ground below; and the autopilot
@@ -86,28 +100,35 @@ local RANGE_PERIOD_MS = 50
 --    10 deg for the pivot. A vehicle cartwheeling down the roof (200-360 deg/s) passes upright
 --    between its bounces, airborne, its beam along the roof: its rotation keeps it out;
 --  * the beam's vertical share, range * cos(tilt), farther than the cut height plus
---    LEAVE_MARGIN_M (or out of range high). The margin covers a beam tilted by the touchdown's
+--    LEAVE.MARGIN_M (or out of range high). The margin covers a beam tilted by the touchdown's
 --    pivot on a steep roof;
 --  * the vehicle falling: the accelerometer's upward specific force in the earth frame under
---    FALL_SUPPORT. On a roof of slope a the roof carries all of the weight but the downward part
+--    LEAVE.FALL_SUPPORT. On a roof of slope a the roof carries all of the weight but the downward part
 --    of a slide's acceleration, g * sin(a) * (sin(a) - mu * cos(a)) <= g * sin(a)^2: at least
 --    g / 2 up to 45 deg even on ice (0.9 g on shingles, mu_k 0.8). Off the roof nothing carries
 --    it: 0 with the motors stopped, below 0 with reverse thrust pushing it down.
 -- Found on a 45 deg roof: a vehicle tumbling over on the roof read out of range high (its beam
 -- pointing up the roof) and had its motors released by the range rule alone.
-local LEAVE_SAMPLES = 2
-local LEAVE_MARGIN_M = 0.30
-local LEAVE_TILT_DEG = 60
--- the fastest the attitude controller changes a roll or pitch rate: ArduCopter's default
--- ATC_ACCEL_R_MAX / ATC_ACCEL_P_MAX (AC_AttitudeControl.h, ACCEL_RP_MAX_DEFAULT_CDSS 110000 cdeg/s/s)
-local ATT_ACCEL_DEGS2 = 1100
-local FALL_SUPPORT = 0.5 * GRAVITY
--- still enough to disarm: body rates and the autopilot's velocity estimate both small
-local STILL_GYRO_RADS = math.rad(5)
-local STILL_SPEED_MPS = 0.10
+-- ATT_ACCEL_DEGS2: the fastest the attitude controller changes a roll or pitch rate, ArduCopter's
+-- default ATC_ACCEL_R_MAX / ATC_ACCEL_P_MAX (AC_AttitudeControl.h, ACCEL_RP_MAX_DEFAULT_CDSS
+-- 110000 cdeg/s/s)
+local LEAVE = { SAMPLES = 2, MARGIN_M = 0.30, TILT_DEG = 60, ATT_ACCEL_DEGS2 = 1100 }
+LEAVE.FALL_SUPPORT = 0.5 * GRAVITY
+-- still enough to disarm: body rates and the autopilot's velocity estimate both small, and held so
+-- for MS ms. One sample is not enough: a sliding vehicle whose feet stick for an instant, or one at
+-- the top of a bounce, reads still for a few ms. 1 s is ArduCopter's own land detector's time
+-- (LAND_DETECTOR_TRIGGER_SEC, ArduCopter/land_detector.cpp), the check this disarm goes around.
+local STILL = { GYRO_DEGS = 5, SPEED_MPS = 0.10, MS = 1000 }
+-- the descent stopped by the script (an ARMED reflex whose companion went silent, or a fault in
+-- ARMED): a GUIDED velocity target MPS up, re-sent every RESEND_MS for MS; ArduCopter then drops it
+-- after GUID_TIMEOUT and holds. Not in GUIDED: the vehicle is the pilot's, nothing is sent. GUIDED
+-- refusing the target: BRAKE.
+local CLIMB_UP = { MPS = 0.5, MS = 2000, RESEND_MS = 100 }
+local MODE = { GUIDED = 4, BRAKE = 17 }
 local TILT_BOUND_MAX_DEG = 30 -- the largest take-off tilt bound a release may ask for
 
 local IDLE, STOP, REVERSE, ARMED, CUT, RVT, HOLD, ESTOP = 0, 1, 2, 10, 11, 12, 13, 20
+local CLIMB, FAULT, FAULT_HELD = 14, 30, 31
 
 local state = IDLE
 local valid_until = 0
@@ -117,14 +138,18 @@ local setup = nil -- {ramp_ms, descent_mps}: the landing's settings, sent before
 local armed_cut_m = nil -- the cut height of the last accepted ARM (bounds a commanded reverse)
 local entered_ms = 0
 local below = 0
-local believed, believed_ms, disagree_ms, seed_ms, seed_d = nil, 0, nil, 0, 0
+-- the chain of trusted readings (follow_chain): the believed reading d, when (at), since when
+-- readings disagree with it, and where and when the chain began
+local chain = { d = nil, at = 0, disagree = nil, seed_ms = 0, seed_d = 0 }
 local last_stamp = nil -- the driver's reading time of the newest sample seen
 local floor_a = nil -- the lowest filtered accel magnitude since the cut (m/s^2)
 local last_d = nil -- the newest sample's distance (0: too close, huge: too far), nil before any
 local far_count = 0
 local silent_said = false
-local last_announce, last_version = -ANNOUNCE_MS, -VERSION_MS
+local said = { announce = -MS.ANNOUNCE, version = -MS.VERSION }
 local rf_backend = nil
+local still_since = nil -- since when the vehicle has read still (STILL), nil while it moves
+local climb_until, climb_sent = nil, 0 -- the script's climb (CLIMB_UP): until when, last sent
 
 local function now() return millis():toint() end
 
@@ -132,10 +157,11 @@ local function say(severity, text) gcs:send_text(severity, "SL: " .. text) end
 
 local function announce(t)
   gcs:send_named_float("SL_STATE", state)
-  last_announce = t
+  said.announce = t
 end
 
 local function enter(new, t, why)
+  if new ~= CLIMB then climb_until = nil end -- a climb ends with any other state
   if new ~= state then
     state = new
     entered_ms = t
@@ -144,14 +170,15 @@ local function enter(new, t, why)
   end
 end
 
-local long_override = false -- outputs set with GROUND_OVERRIDE_MS, to clear when they end
+-- the outputs last set: whether with HELD_OVERRIDE_MS (to clear when they end), and their PWM
+local out = { long = false, pwm = PWM_STOP }
 
 local function output(pwm, timeout_ms)
   timeout_ms = timeout_ms or OVERRIDE_MS
   for _, ch in ipairs(MOTORS) do
     SRV_Channels:set_output_pwm_chan_timeout(ch, pwm, timeout_ms)
   end
-  long_override = timeout_ms > OVERRIDE_MS
+  out.long, out.pwm = timeout_ms > OVERRIDE_MS, pwm
 end
 
 -- a zero timeout clears the override at once (SRV_Channels::set_output_pwm_chan_timeout)
@@ -159,7 +186,7 @@ local function clear_outputs()
   for _, ch in ipairs(MOTORS) do
     SRV_Channels:set_output_pwm_chan_timeout(ch, PWM_STOP, 0)
   end
-  long_override = false
+  out.long = false
 end
 
 local function reverse_pwm(pct) return math.floor(PWM_STOP - 5 * pct + 0.5) end
@@ -215,16 +242,65 @@ local function ground_range()
   return trusted_range()
 end
 
--- moving too much to disarm: why, or nil when still
-local function moving()
+-- moving too much to disarm: why (true when not ``describe``d), or nil when still
+local function moving(describe)
   local g = ins:get_gyro(0):length()
-  if g > STILL_GYRO_RADS then return string.format("turning %.0f deg/s", math.deg(g)) end
+  if g > math.rad(STILL.GYRO_DEGS) then
+    return describe and string.format("turning %.0f deg/s", math.deg(g)) or true
+  end
   ---@type Vector3f_ud
   local v = ahrs:get_velocity_NED()
-  if v == nil then return "velocity unknown" end
+  if v == nil then return describe and "velocity unknown" or true end
   local speed = v:length()
-  if speed > STILL_SPEED_MPS then return string.format("moving %.2f m/s", speed) end
+  if speed > STILL.SPEED_MPS then return describe and string.format("moving %.2f m/s", speed) or true end
   return nil
+end
+
+-- why the vehicle may not be disarmed now (moving, or not yet still for STILL.MS; true when not
+-- ``describe``d: every update asks, without building strings), or nil. A single moving sample
+-- restarts the window
+local function not_still(t, describe)
+  local why = moving(describe)
+  if why then
+    still_since = nil
+    return why
+  end
+  still_since = still_since or t
+  if t - still_since < STILL.MS then
+    if not describe then return true end
+    return string.format("still for %.1f s of %.1f", (t - still_since) / 1000, STILL.MS / 1000)
+  end
+  return nil
+end
+
+-- the climb (CLIMB_UP) while it lasts: re-sent every RESEND_MS in GUIDED; over, or the vehicle
+-- no longer in GUIDED (the pilot's or the companion's mode change), it ends
+local function climb_step(t)
+  if climb_until == nil then return end
+  if t >= climb_until or vehicle:get_mode() ~= MODE.GUIDED then
+    climb_until = nil
+  elseif t - climb_sent >= CLIMB_UP.RESEND_MS then
+    ---@type Vector3f_ud
+    local up = Vector3f()
+    up:z(-CLIMB_UP.MPS) -- NED: up is negative
+    climb_sent = t
+    local ok, done = pcall(function() return vehicle:set_target_velocity_NED(up) end)
+    if not (ok and done) then
+      climb_until = nil
+      vehicle:set_mode(MODE.BRAKE)
+    end
+  end
+end
+
+-- stop a GUIDED descent: the companion's last target runs on for GUID_TIMEOUT, the reflex that
+-- protected it is gone. Starts the climb; says what was done
+local function stop_descent(t)
+  if vehicle:get_mode() ~= MODE.GUIDED then return "not in GUIDED, left to the pilot" end
+  climb_until, climb_sent = t + CLIMB_UP.MS, t - CLIMB_UP.RESEND_MS
+  climb_step(t)
+  if climb_until ~= nil then return "climbing" end
+  if vehicle:get_mode() == MODE.BRAKE then return "BRAKE" end
+  return "descent not stopped"
 end
 
 local function tilt_deg()
@@ -311,7 +387,7 @@ end
 local function disarm_request(t)
   if not arming:is_armed() then return ACCEPTED end
   if state ~= HOLD and state ~= STOP then return TEMP_REJECTED, "disarm: motors not held stopped" end
-  local why = moving()
+  local why = not_still(t, true)
   if why then return TEMP_REJECTED, "disarm: " .. why end
   arming:disarm()
   if arming:is_armed() then return TEMP_REJECTED, "disarm: refused by the autopilot" end
@@ -335,7 +411,7 @@ local function reflex_command(p, t)
   local action = p[1]
   if action == RFX.ABORT then
     if landing() then return TEMP_REJECTED, "motors held: disarm or take-off release" end
-    if state == ARMED or reflex ~= nil then release(t, "reflex aborted") end
+    if state == ARMED or state == CLIMB or reflex ~= nil then release(t, "reflex aborted") end
     return ACCEPTED
   elseif action == RFX.ARM or action == RFX.END_REVERSE then
     return arm_reflex(p, t)
@@ -352,44 +428,56 @@ local function reflex_command(p, t)
   return DENIED, "unknown reflex action"
 end
 
-local function handle(msg, chan, t)
-  local msgid = string.unpack("<I3", msg, 10)
-  if msgid ~= MSG.COMMAND_LONG then return end
-  local sysid, compid = string.unpack("<BB", msg, 8)
+-- a COMMAND_LONG for this script: its command, parameters 1..6, request number (nil: not a
+-- valid one) and whether it is addressed to this vehicle; nil for any other message
+local function decode(msg)
+  if string.unpack("<I3", msg, 10) ~= MSG.COMMAND_LONG then return nil end
   local p1, p2, p3, p4, p5, p6, p7, command, tsys, tcomp = string.unpack("<fffffffHBB", msg, 13)
-  if command ~= CMD_ACTUATOR and command ~= CMD_REFLEX then return end
-  local request = 0
-  local result, why
-  local mysys = param:get("MAV_SYSID") or 1
-  if bad(p7, 1, REQUEST_MAX) or p7 ~= math.floor(p7) then
-    result, why = DENIED, "bad request number"
-  else
-    request = math.floor(p7)
-    if tsys ~= mysys or (tcomp ~= 0 and tcomp ~= 1) then
-      result, why = DENIED, "command for another vehicle"
-    elseif command == CMD_ACTUATOR then
-      result, why = actuator({ p1, p2, p3 }, t)
-    else
-      result, why = reflex_command({ p1, p2, p3, p4, p5, p6 }, t)
-    end
-  end
-  ack(chan, command, result, request, sysid, compid)
+  if command ~= CMD_ACTUATOR and command ~= CMD_REFLEX then return nil end
+  local request = nil
+  if not bad(p7, 1, REQUEST_MAX) and p7 == math.floor(p7) then request = math.floor(p7) end
+  local ours = tsys == (param:get("MAV_SYSID") or 1) and (tcomp == 0 or tcomp == 1)
+  return command, { p1, p2, p3, p4, p5, p6 }, request, ours
+end
+
+-- the COMMAND_ACK to msg's sender (echoing the request number), then the reason of a refusal
+local function answer(msg, chan, command, result, request, why)
+  local sysid, compid = string.unpack("<BB", msg, 8)
+  ack(chan, command, result, request or 0, sysid, compid)
   if why then say(SEV.WARNING, why) end
 end
 
--- whether a sample of range g (m) says the vehicle is off the roof (see LEAVE_SAMPLES): upright
+local function handle(msg, chan, t)
+  local command, p, request, ours = decode(msg)
+  if command == nil then return end
+  local result, why = DENIED, nil
+  if request == nil then
+    why = "bad request number"
+  elseif not ours then
+    why = "command for another vehicle"
+  else
+    if command == CMD_ACTUATOR then
+      result, why = actuator(p, t)
+    else
+      result, why = reflex_command(p, t)
+    end
+  end
+  answer(msg, chan, command, result, request, why)
+end
+
+-- whether a sample of range g (m) says the vehicle is off the roof (see LEAVE.SAMPLES): upright
 -- enough for the beam to point at the ground below, and to be flown; that ground far below; falling
 local function off_roof(g, cut_m)
   local roll, pitch = ahrs:get_roll_rad(), ahrs:get_pitch_rad()
   local c = math.cos(roll) * math.cos(pitch) -- cos(tilt): the beam's vertical share
   local w = math.deg(ins:get_gyro(0):length())
-  local stopped_at = math.deg(math.acos(math.max(-1, math.min(1, c)))) + w * w / (2 * ATT_ACCEL_DEGS2)
-  if stopped_at > LEAVE_TILT_DEG or g * c <= cut_m + LEAVE_MARGIN_M then return false end
+  local stopped_at = math.deg(math.acos(math.max(-1, math.min(1, c)))) + w * w / (2 * LEAVE.ATT_ACCEL_DEGS2)
+  if stopped_at > LEAVE.TILT_DEG or g * c <= cut_m + LEAVE.MARGIN_M then return false end
   ---@type Vector3f_ud
   local a = ins:get_accel(0)
   -- the body's specific force rotated to the earth frame's down axis (ZYX Euler angles)
   local down = -math.sin(pitch) * a:x() + math.sin(roll) * math.cos(pitch) * a:y() + c * a:z()
-  return -down < FALL_SUPPORT
+  return -down < LEAVE.FALL_SUPPORT
 end
 
 -- a new rangefinder sample: the newest ground evidence, and how long it has read off the roof
@@ -408,15 +496,15 @@ local function follow_chain(t)
   if d == nil then return nil end
   -- the allowance grows over time without readings (a dropout), not while readings keep
   -- coming and disagree: a lasting spike must not grow into agreement
-  local since = (disagree_ms or t) - believed_ms
-  if believed ~= nil and math.abs(d - believed) > MAX_JUMP_M + MAX_RATE_MPS * since / 1000 then
-    disagree_ms = disagree_ms or t
-    if t - disagree_ms < RESEED_MS then return nil end
-    believed = nil -- a lasting change: a new chain, seen since the disagreement began
+  local since = (chain.disagree or t) - chain.at
+  if chain.d ~= nil and math.abs(d - chain.d) > MAX_JUMP_M + MAX_RATE_MPS * since / 1000 then
+    chain.disagree = chain.disagree or t
+    if t - chain.disagree < RESEED_MS then return nil end
+    chain.d = nil -- a lasting change: a new chain, seen since the disagreement began
   end
-  if believed == nil then seed_ms, seed_d = disagree_ms or t, d end
-  disagree_ms = nil
-  believed, believed_ms = d, t
+  if chain.d == nil then chain.seed_ms, chain.seed_d = chain.disagree or t, d end
+  chain.disagree = nil
+  chain.d, chain.at = d, t
   return d
 end
 
@@ -425,11 +513,14 @@ end
 local function run_reflex(t, fresh, d)
   if state == ARMED then
     if t >= valid_until then
-      release(t, "reflex validity lapsed")
+      -- the companion silent: its descent target runs on for GUID_TIMEOUT, the reflex does not
+      local how = stop_descent(t)
+      reflex = nil
+      enter(climb_until and CLIMB or IDLE, t, "reflex validity lapsed, " .. how)
       return
     end
     if not fresh then return end -- only a new sample says anything new
-    if d == nil or (seed_d <= reflex.cut_m and t - seed_ms < RESEED_MS) then
+    if d == nil or (chain.seed_d <= reflex.cut_m and t - chain.seed_ms < RESEED_MS) then
       below = 0
       return
     end
@@ -444,7 +535,11 @@ local function run_reflex(t, fresh, d)
     local near = last_d ~= nil and last_d <= reflex.cut_m
     local a = ins:get_accel(0):length()
     if floor_a == nil or a < floor_a then floor_a = a end
-    if near and a > math.min(reflex.impact, floor_a + reflex.impact - GRAVITY) then
+    local threshold = reflex.impact
+    if t - entered_ms >= RISE_AFTER_MS then
+      threshold = math.min(threshold, floor_a + reflex.impact - GRAVITY)
+    end
+    if near and a > threshold then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
       if last_d ~= nil and last_d > reflex.cut_m then
@@ -460,12 +555,13 @@ local function run_reflex(t, fresh, d)
     if reflex.ramp_from ~= nil and t - reflex.ramp_from >= reflex.ramp_ms then enter(HOLD, t) end
   elseif state == HOLD then
     if t >= valid_until then
-      -- a silent companion: disarm, but never a vehicle still moving (a slide, a pivot)
-      local why = moving()
+      -- a silent companion: disarm, but never a vehicle still moving (a slide, a pivot): still for
+      -- STILL.MS
+      local why = not_still(t, true)
       if why == nil then
         arming:disarm()
         release(t, "companion silent after landing: disarmed")
-      elseif not silent_said then
+      elseif not silent_said and still_since == nil then
         silent_said = true
         say(SEV.WARNING, "companion silent, " .. why .. ": holding")
       end
@@ -475,13 +571,15 @@ local function run_reflex(t, fresh, d)
   end
   -- off the roof (an edge, or high above it): stopped or reversed motors would drop it; the
   -- autopilot, still armed in its flying mode, can fly it
-  if (state == RVT or state == HOLD) and far_count >= LEAVE_SAMPLES then
+  if (state == RVT or state == HOLD) and far_count >= LEAVE.SAMPLES then
     release(t, "left the roof: motors released")
   end
 end
 
-local function update()
+-- one run of the script, unprotected (update() runs it under pcall): the delay to the next
+local function step()
   local t = now()
+  not_still(t) -- the stillness window follows every update
   if SRV_Channels:get_emergency_stop() then
     reflex = nil
     enter(ESTOP, t)
@@ -508,28 +606,193 @@ local function update()
     enter(IDLE, t, "command validity lapsed")
   end
   if reflex ~= nil then run_reflex(t, fresh, d) end
+  climb_step(t)
+  if state == CLIMB and climb_until == nil then enter(IDLE, t, "climb over") end
 
-  if state == HOLD then
-    output(PWM_STOP, GROUND_OVERRIDE_MS)
-  elseif state == STOP or state == CUT then
+  if state == HOLD or state == CUT then
+    output(PWM_STOP, HELD_OVERRIDE_MS)
+  elseif state == STOP then
     output(PWM_STOP)
   elseif state == REVERSE then
     output(reverse_pwm(reverse_pct))
   elseif state == RVT then
     local pct = reflex.pct
     if reflex.ramp_from ~= nil then pct = pct * (1 - (t - reflex.ramp_from) / reflex.ramp_ms) end
-    output(reverse_pwm(pct), GROUND_OVERRIDE_MS)
-  elseif long_override then
+    output(reverse_pwm(pct), HELD_OVERRIDE_MS)
+  elseif out.long then
     clear_outputs() -- released, disarmed or emergency stop: the mixer (or nothing) at once
   end
 
-  if t - last_announce >= ANNOUNCE_MS then announce(t) end
-  if t - last_version >= VERSION_MS then
+  if t - said.announce >= MS.ANNOUNCE then announce(t) end
+  if t - said.version >= MS.VERSION then
     gcs:send_named_float("SL_VER", VERSION)
-    last_version = t
+    said.version = t
   end
-  if state == IDLE or state == ESTOP then return update, IDLE_MS end
-  return update, FAST_MS
+  if state == IDLE or state == ESTOP then return MS.IDLE end
+  return MS.FAST
+end
+
+-- A Lua error stops an ArduPilot script (lua_scripts::run_next_script removes it), and with it
+-- every override within OVERRIDE_MS or HELD_OVERRIDE_MS: the mixer spins the motors up on the
+-- roof, or mid-fall after the cut, and an ARMED descent goes on with no reflex. So the update runs
+-- under pcall (ArduPilot's own examples/protected_call.lua), and an error leaves a defined safe
+-- state, reported as SL_STATE and STATUSTEXT:
+--  * FAULT_HELD (31), from CUT, RVT or HOLD (armed, no emergency stop): the motors held stopped
+--    (a reverse thrust ramped down over the SETUP's ramp), disarmed once still for STILL.MS or
+--    on the companion's DISARM, released by the emergency stop or a disarm;
+--  * FAULT (30), from any other state: the motors with the autopilot; from ARMED (or CLIMB) the
+--    descent stopped first (stop_descent: the climb).
+-- A fault is kept until the script restarts (a reboot): every command but DISARM and ABORT (which
+-- ends a climb) is refused "script fault". Exceeding ArduPilot's instruction budget cannot be
+-- caught (its hook raises again at every instruction) and still stops the script: the companion
+-- treats a silent script as a dead one.
+-- the fault's record (from, held, msg, t0, pwm, ramp_ms, said, set by fault.enter), and what
+-- fault.last_resort holds: the motors stopped (bare), or nothing
+local fault = {
+  NAMES = {
+    [IDLE] = "IDLE", [STOP] = "STOP", [REVERSE] = "REVERSE", [ARMED] = "ARMED", [CUT] = "CUT", [RVT] = "RVT",
+    [HOLD] = "HOLD", [CLIMB] = "CLIMB", [ESTOP] = "ESTOP",
+  },
+  bare = false,
+}
+
+function fault.name(s) return fault.NAMES[s] or tostring(s) end
+
+-- what the fault left and the error (each STATUSTEXT holds 50 characters), MAV_SEVERITY_CRITICAL
+function fault.say()
+  say(2, string.format("fault in %s, %s", fault.name(fault.from), fault.how))
+  say(2, ("error " .. fault.msg):sub(1, 46))
+end
+
+function fault.enter(err)
+  local t = now()
+  local from = state
+  local held = (from == CUT or from == RVT or from == HOLD) and arming:is_armed()
+    and not SRV_Channels:get_emergency_stop()
+  local ramp_ms = 0
+  if from == RVT and setup ~= nil then ramp_ms = setup.ramp_ms end
+  local msg = tostring(err):gsub("^[^:]*%.lua:", "") -- "<line>: <message>", without the file
+  fault.from, fault.held, fault.msg, fault.t0, fault.pwm, fault.ramp_ms = from, held, msg, t, out.pwm, ramp_ms
+  fault.said = t
+  reflex = nil
+  state = held and FAULT_HELD or FAULT
+  entered_ms = t
+  local how = "motors with the autopilot"
+  if held then
+    how = "motors held stopped"
+  elseif from == ARMED or from == CLIMB then
+    how = stop_descent(t)
+  end
+  fault.how = how
+  fault.say()
+  announce(t)
+end
+
+-- a command while in a fault: DISARM (held and still), ABORT (ends a climb); nothing else
+function fault.command(command, p, t)
+  if command == CMD_REFLEX and p[1] == RFX.DISARM then
+    if not arming:is_armed() then return ACCEPTED end
+    if not fault.held then return TEMP_REJECTED, "disarm: motors not held stopped" end
+    local why = not_still(t, true)
+    if why then return TEMP_REJECTED, "disarm: " .. why end
+    arming:disarm()
+    if arming:is_armed() then return TEMP_REJECTED, "disarm: refused by the autopilot" end
+    return ACCEPTED
+  end
+  if command == CMD_REFLEX and p[1] == RFX.ABORT then
+    climb_until = nil
+    return ACCEPTED
+  end
+  return TEMP_REJECTED, "script fault: reboot to clear"
+end
+
+-- one run in a fault: the safe state fault.enter left, kept
+function fault.step()
+  local t = now()
+  local why_not = not_still(t)
+  while true do
+    local msg, chan = mavlink:receive_chan()
+    if msg == nil then break end
+    local command, p, request, ours = decode(msg)
+    if command ~= nil then
+      local result, why = DENIED, "bad request number"
+      if request ~= nil then
+        if ours then
+          result, why = fault.command(command, p, t)
+        else
+          why = "command for another vehicle"
+        end
+      end
+      answer(msg, chan, command, result, request, why)
+    end
+  end
+  if fault.held and arming:is_armed() and not SRV_Channels:get_emergency_stop() and why_not == nil then
+    arming:disarm() -- still on the roof: the landing is over
+  end
+  if fault.held and (SRV_Channels:get_emergency_stop() or not arming:is_armed()) then
+    fault.held = false
+    state = FAULT
+    say(SEV.INFO, arming:is_armed() and "fault: motors released (emergency stop)" or "fault: disarmed")
+    announce(t)
+  end
+  climb_step(t)
+  if fault.held then
+    local pwm = PWM_STOP
+    if fault.pwm < PWM_STOP and t - fault.t0 < fault.ramp_ms then
+      pwm = math.floor(fault.pwm + (PWM_STOP - fault.pwm) * (t - fault.t0) / fault.ramp_ms + 0.5)
+    end
+    output(pwm, HELD_OVERRIDE_MS)
+  elseif out.long then
+    clear_outputs()
+  end
+  if t - fault.said >= MS.FAULT_SAY then
+    fault.said = t
+    fault.say()
+  end
+  if t - said.announce >= MS.ANNOUNCE then announce(t) end
+  if t - said.version >= MS.VERSION then
+    gcs:send_named_float("SL_VER", VERSION)
+    said.version = t
+  end
+  if fault.held or climb_until ~= nil then return MS.FAST end
+  return MS.IDLE
+end
+
+-- when the fault handling itself raised: only the outputs, and the state announced
+function fault.last_resort()
+  pcall(function()
+    local t = now()
+    if fault.bare and arming:is_armed() and not SRV_Channels:get_emergency_stop() then
+      for _, ch in ipairs(MOTORS) do
+        SRV_Channels:set_output_pwm_chan_timeout(ch, PWM_STOP, HELD_OVERRIDE_MS)
+      end
+    elseif fault.bare then
+      fault.bare = false
+      for _, ch in ipairs(MOTORS) do
+        SRV_Channels:set_output_pwm_chan_timeout(ch, PWM_STOP, 0)
+      end
+    end
+    if t - said.announce >= MS.ANNOUNCE then
+      said.announce = t
+      gcs:send_named_float("SL_STATE", fault.bare and FAULT_HELD or FAULT)
+    end
+  end)
+  return fault.last_resort, MS.FAST
+end
+
+function fault.loop()
+  local ok, delay = pcall(fault.step)
+  if ok then return fault.loop, delay end
+  fault.bare = fault.held == true
+  return fault.last_resort, MS.FAST
+end
+
+local function update()
+  local ok, delay = pcall(step)
+  if ok then return update, delay end
+  fault.bare = state == CUT or state == RVT or state == HOLD
+  if pcall(fault.enter, delay) then return fault.loop, MS.FAST end
+  return fault.last_resort, MS.FAST
 end
 
 mavlink:init(8, 1)
@@ -537,4 +800,4 @@ mavlink:register_rx_msgid(MSG.COMMAND_LONG)
 mavlink:block_command(CMD_ACTUATOR)
 mavlink:block_command(CMD_REFLEX)
 gcs:send_text(SEV.INFO, "SL: slopelander script v" .. VERSION .. " ready")
-return update, IDLE_MS
+return update, MS.IDLE

@@ -6,6 +6,9 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from sitl.vehicle import modes
+from sitl.vehicle.flight_control import Target
+
 if TYPE_CHECKING:
     from sitl.vehicle.vehicle import Vehicle
 
@@ -43,6 +46,17 @@ class ScriptIO:
 
     def set_mode(self, mode: int) -> bool:
         return self.v.set_mode(int(mode), source="Script")
+
+    def set_target_velocity_ned(self, north: float, east: float, down: float) -> bool:
+        """``vehicle:set_target_velocity_NED`` (Copter::set_target_velocity_NED): refused outside
+        GUIDED; a velocity target, which lapses after GUID_TIMEOUT like the companion's
+        (the planar vehicle flies north and up only: east is not flown)."""
+        if self.v.mode != modes.GUIDED or not all(map(math.isfinite, (north, east, down))):
+            return False
+        self.v.target = Target(vx=north, vz=-down)
+        self.v.target_is_velocity = True
+        self.v.target_time = self.v.t
+        return True
 
     def emergency_stop(self) -> bool:
         return self.v.estop

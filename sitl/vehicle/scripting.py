@@ -52,6 +52,7 @@ class VehicleIO(Protocol):
     def disarm(self) -> bool: ...
     def mode(self) -> int: ...
     def set_mode(self, mode: int) -> bool: ...
+    def set_target_velocity_ned(self, north: float, east: float, down: float) -> bool: ...
     def emergency_stop(self) -> bool: ...
     def accel(self) -> tuple[float, float, float]: ...
     def gyro(self) -> tuple[float, float, float]: ...
@@ -180,6 +181,7 @@ function arming:disarm() return P.disarm() end
 vehicle = {}
 function vehicle:get_mode() return P.get_mode() end
 function vehicle:set_mode(mode) return P.set_mode(mode) end
+function vehicle:set_target_velocity_NED(vel) return P.set_velocity(vel:x(), vel:y(), vel:z()) end
 
 rc = {}
 function rc:get_pwm(chan) return P.rc_pwm(chan) end
@@ -188,9 +190,15 @@ param = {}
 function param:get(name) return P.param_get(tostring(name)) end
 function param:set(name, value) return P.param_set(tostring(name), value) end
 
--- runs one callback under an instruction budget, as ArduPilot's SCR_VM_I_COUNT
+-- runs one callback under an instruction budget, as ArduPilot's SCR_VM_I_COUNT. Over it, the hook
+-- raises again at every instruction (lua_scripts::hook re-arms itself with a count of 1): a pcall
+-- in the script cannot catch its way past the budget, the script is stopped
 local sethook, pack, unpack, pcall, error = debug.sethook, table.pack, table.unpack, pcall, error
-local function over_budget() error("exceeded time allocation", 0) end
+local over_budget
+over_budget = function()
+  sethook(over_budget, "", 1)
+  error("exceeded time allocation", 0)
+end
 return function(fn)
   sethook(over_budget, "", instruction_limit)
   local r = pack(pcall(fn))
@@ -284,7 +292,9 @@ class ScriptHost:
         for name in ("python", "require", "dofile", "loadfile", "load", "io", "os", "debug", "package"):
             g[name] = None
         try:
-            chunk = self._lua.compile(source)
+            # named as ArduPilot's luaL_loadfile names it (SITL's ./scripts/), so error messages
+            # read "./scripts/<file>:<line>: ..." as on the autopilot
+            chunk = self._lua.compile(source, name=f"@./scripts/{self.path.name}")
         except lua53.LuaSyntaxError as exc:
             raise ScriptError(f"{self.path.name}: {exc}") from None
         limit = ardupilot_load_error(source)  # a limit ArduPilot's Lua has and stock Lua has not
@@ -425,6 +435,7 @@ class ScriptHost:
             "disarm": lambda: bool(io.disarm()),
             "get_mode": lambda: io.mode(),
             "set_mode": lambda mode: bool(io.set_mode(int(mode))),
+            "set_velocity": lambda n, e, d: bool(io.set_target_velocity_ned(float(n), float(e), float(d))),
             "rc_pwm": lambda chan: io.rc_pwm(int(chan)),
             "param_get": lambda name: io.param(name),
             "param_set": lambda name, value: bool(io.set_param(name, float(value))),

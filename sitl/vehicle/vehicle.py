@@ -239,6 +239,8 @@ class Vehicle:
         now_ms = int(t * 1000)
         if self.host is not None and not scn.script_stalled(t):
             self.host.run_due(now_ms)
+            if not self.armed:  # the script disarmed: this tick's outputs are the disarmed ones
+                self.mixer_pwm = self._mix(front, rear)
         out = list(self.mixer_pwm)
         if self.host is not None and self.armed:
             for ch in range(4):

@@ -159,7 +159,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 3.0}, "v3, v4 needed"),  # contract 4 numbers its requests
+        ({"script_version": 4.0}, "v4, v5 needed"),  # contract 5 reports faults, climbs, disarms only still
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),

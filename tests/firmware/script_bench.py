@@ -54,6 +54,12 @@ class TestVehicle:
     attitude_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
     gyro_rads: tuple[float, float, float] = (0.0, 0.0, 0.0)
     velocity: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
+    #: the autopilot's flight mode (GUIDED), what the script set it to, the velocity targets it
+    #: sent (t, north, east, down), and whether GUIDED takes them
+    flight_mode: int = 4
+    modes_set: list[int] = field(default_factory=list)
+    velocity_targets: list[tuple[int, float, float, float]] = field(default_factory=list)
+    takes_velocity_targets: bool = True
     _sample: RangeReading | None = None
     params: dict[str, float] = field(default_factory=lambda: {"MAV_SYSID": 1.0})
     texts: list[tuple[int, int, str]] = field(default_factory=list)
@@ -78,10 +84,18 @@ class TestVehicle:
         return True
 
     def mode(self) -> int:
-        return 4
+        return self.flight_mode
 
     def set_mode(self, mode: int) -> bool:
-        return False
+        self.modes_set.append(mode)
+        self.flight_mode = mode
+        return True
+
+    def set_target_velocity_ned(self, north: float, east: float, down: float) -> bool:
+        if self.flight_mode != 4 or not self.takes_velocity_targets:
+            return False
+        self.velocity_targets.append((self.now_ms, north, east, down))
+        return True
 
     def emergency_stop(self) -> bool:
         return self.estop

@@ -161,3 +161,18 @@ def test_the_simulated_vehicle_and_the_script_use_real_parameter_names(
     }
     assert units["RNGFND1_MIN"] == units["RNGFND1_MAX"] == "m"
     assert VEHICLE_DEFAULTS["RNGFND1_MIN"] < 1.0 < VEHICLE_DEFAULTS["RNGFND1_MAX"] < 100.0  # metres, not cm
+
+
+def test_no_descent_target_outlives_the_reflex() -> None:
+    """Issue 40 finding 1: the companion's GUIDED descent target runs on for GUID_TIMEOUT after its
+    last word, its reflex for ``reflex.validity_ms``. The script, alive, stops the descent when the
+    validity lapses (CLIMB); dead too (an instruction budget it cannot catch), only GUID_TIMEOUT
+    does. So GUID_TIMEOUT is at most the validity, on the vehicle and in both simulators, and the
+    companion's re-sends still refresh the target through a lost one."""
+    from slopelander.controller.config import load_config
+
+    cfg = load_config()
+    for path in PARM_FILES:
+        v = {name: val for _, name, val, _ in parse_parm(path)}
+        assert v["GUID_TIMEOUT"] * 1000 <= cfg["reflex.validity_ms"], path.name
+        assert v["GUID_TIMEOUT"] >= 3 / cfg["descent.resend_hz"], path.name

@@ -57,8 +57,13 @@ def test_the_numbers_are_the_scripts() -> None:
     assert (lua["CMD_ACTUATOR"], lua["CMD_REFLEX"]) == (CMD_ACTUATOR, CMD_REFLEX)
     assert lua["REQUEST_MAX"] == script_contract.REQUEST_MAX
     assert {s.name: s.value for s in ScriptState} == {
-        n: lua[n] for n in ("IDLE", "STOP", "REVERSE", "ARMED", "CUT", "RVT", "HOLD", "ESTOP")
+        n: lua[n]
+        for n in (
+            *("IDLE", "STOP", "REVERSE", "ARMED", "CUT", "RVT", "HOLD"),
+            *("CLIMB", "ESTOP", "FAULT", "FAULT_HELD"),
+        )
     }
+    assert lua["STILL_MS"] == script_contract.STILL_S * 1000
     assert {a.name: a.value for a in Actuator} == {n[4:]: v for n, v in lua.items() if n.startswith("ACT_")}
     assert {a.name: a.value for a in Reflex} == {n[4:]: v for n, v in lua.items() if n.startswith("RFX_")}
     assert "local IMPACT_MIN = 2 * GRAVITY" in src and lua["GRAVITY"] == script_contract.G

@@ -83,6 +83,26 @@ def test_a_runaway_loop_is_stopped(tmp_path: Path) -> None:
     assert texts(io) == ["Lua: exceeded time allocation"]
 
 
+def test_a_runaway_loop_is_stopped_even_inside_a_pcall(tmp_path: Path) -> None:
+    """ArduPilot's instruction hook (lua_scripts::hook) re-arms itself to fire at every instruction
+    once over budget: a script's pcall catches the first error, the next instruction raises
+    again, and the script is stopped all the same. A pcall is no way round the budget."""
+    io = TestVehicle()
+    text = """
+local function f()
+  local ok = pcall(function() while true do end end)
+  gcs:send_text(6, "caught: " .. tostring(ok))
+  return f, 1
+end
+return f, 1
+"""
+    host = ScriptHost(script(tmp_path, text), io)
+    io.now_ms = 5
+    host.run_due(5)
+    assert not host.running
+    assert texts(io) == ["Lua: exceeded time allocation"]
+
+
 def test_a_binding_given_a_bad_argument_stops_the_script(tmp_path: Path) -> None:
     io = TestVehicle()
     host = ScriptHost(script(tmp_path, 'SRV_Channels:set_output_pwm_chan_timeout(0, "fast", 10)\n'), io)

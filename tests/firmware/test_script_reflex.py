@@ -3,6 +3,7 @@ reverse thrust, HOLD, and the rules for lapses and missed impacts."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 
@@ -390,12 +391,68 @@ def test_refresh_extends_the_hold(bench: Bench) -> None:
     assert bench.io.armed and bench.io.state() == HOLD
 
 
-def test_armed_reflex_lapses_to_idle(bench: Bench) -> None:
+def test_an_armed_reflex_that_lapses_stops_the_descent_and_climbs(bench: Bench) -> None:
+    """Issue 40 finding 1: the companion silent in ARMED. Its GUIDED descent target runs on for
+    GUID_TIMEOUT after its last word, the reflex lapsed 1 s after it: the descent went on onto the
+    roof with no reflex. Now the lapse sends a climb (0.5 m/s up, NED down -0.5) every 100 ms for
+    2 s (CLIMB), then IDLE: ArduCopter drops the last one after GUID_TIMEOUT and holds."""
     bench.io.range = good(1.0)
     arm(bench, validity_ms=200)
+    t_arm = bench.io.now_ms
     bench.run(250)
-    assert bench.io.state() == IDLE
-    assert "SL: reflex validity lapsed" in bench.io.sl_texts()
+    assert bench.io.state() == S.CLIMB
+    assert "SL: reflex validity lapsed, climbing" in bench.io.sl_texts()
+    sent = bench.io.velocity_targets
+    assert sent and sent[0][0] - t_arm <= 200 + 3 and sent[0][1:] == (0.0, 0.0, -0.5)
+    bench.run(2000)
+    assert bench.io.state() == IDLE and "SL: climb over" in bench.io.sl_texts()
+    times = [t for t, *_ in bench.io.velocity_targets]
+    assert 19 <= len(times) <= 21 and all(95 <= b - a <= 105 for a, b in itertools.pairwise(times))
+    assert {tuple(v) for _, *v in bench.io.velocity_targets} == {(0.0, 0.0, -0.5)}
+    assert bench.outputs() == [None] * 4  # the autopilot flies it
+
+
+def test_a_lapse_outside_guided_leaves_the_vehicle_to_the_pilot(bench: Bench) -> None:
+    bench.io.range = good(1.0)
+    arm(bench, validity_ms=200)
+    bench.io.flight_mode = 5  # the pilot switched to LOITER
+    bench.run(250)
+    assert bench.io.state() == IDLE and not bench.io.velocity_targets and not bench.io.modes_set
+    assert "SL: reflex validity lapsed, not in GUIDED, left to the pilot" in bench.io.sl_texts()
+
+
+def test_a_climb_guided_refuses_brakes(bench: Bench) -> None:
+    bench.io.range = good(1.0)
+    arm(bench, validity_ms=200)
+    bench.io.takes_velocity_targets = False
+    bench.run(250)
+    assert bench.io.modes_set == [17] and bench.io.state() == IDLE  # BRAKE
+    assert "SL: reflex validity lapsed, BRAKE" in bench.io.sl_texts()
+
+
+def test_the_companion_back_in_the_climb_ends_it(bench: Bench) -> None:
+    """An ABORT or a new ARM during the climb ends it at once (the companion flies again); a mode
+    change away from GUIDED ends it too."""
+    for how in ("abort", "arm", "mode"):
+        b = Bench()
+        b.run(50)
+        b.io.range = good(1.0)
+        arm(b, validity_ms=200)
+        b.run(300)
+        assert b.io.state() == S.CLIMB
+        if how == "abort":
+            assert b.command(REFLEX, Reflex.ABORT).result == ACCEPTED
+            assert b.io.state() == IDLE
+        elif how == "arm":
+            assert refresh(b).result == ACCEPTED
+            assert b.io.state() == ARMED
+        else:
+            b.io.flight_mode = 5
+            b.run(5)
+            assert b.io.state() == IDLE
+        n = len(b.io.velocity_targets)
+        b.run(500)
+        assert len(b.io.velocity_targets) == n, how
 
 
 def test_abort_and_release_after_the_cut_are_refused(bench: Bench) -> None:

@@ -17,8 +17,9 @@ from slopelander.controller.link import CommandHandle, Link, LinkError
 
 #: the contract version this companion speaks (the script's SL_VER must be at least this):
 #: 2 ends the reverse thrust on a refresh, 3 ramps it down, 4 numbers every request and adds
-#: SETUP, END_REVERSE, TAKEOFF_RELEASE and DISARM
-SCRIPT_CONTRACT = 4
+#: SETUP, END_REVERSE, TAKEOFF_RELEASE and DISARM, 5 adds CLIMB, FAULT and FAULT_HELD, a disarm
+#: only after the vehicle has been still for :data:`STILL_S`
+SCRIPT_CONTRACT = 5
 
 CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
 CMD_REFLEX = 31011  # MAV_CMD_USER_2
@@ -58,7 +59,11 @@ class ScriptState(IntEnum):
     CUT = 11  # motors stopped at the cut height, watching for the impact
     RVT = 12  # reflex reverse thrust after the impact
     HOLD = 13  # on the ground, motors held stopped
+    CLIMB = 14  # an ARMED reflex lapsed (the companion silent): the script climbs in GUIDED, then IDLE
     ESTOP = 20  # the pilot's emergency stop: everything released
+    FAULT = 30  # the script's update raised: reflex gone for good, motors the autopilot's (an ARMED
+    #           descent stopped: climbing); only DISARM and ABORT (ends the climb) answered
+    FAULT_HELD = 31  # raised from the cut on: motors held stopped until disarmed (still) or e-stop
 
 
 def state_name(state: int | None) -> str:
@@ -72,6 +77,12 @@ def state_name(state: int | None) -> str:
 #: the script's landing sequence: from the cut on, it holds the motors and refuses an abort or a
 #: release; only a disarm, a level take-off release, the emergency stop or leaving the roof end it
 LANDING = frozenset({ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD})
+#: the script failed (contract 5): it will never cut or reverse again until the autopilot restarts
+#: it. FAULT_HELD still holds the motors stopped on the roof and answers DISARM
+FAULTS = frozenset({ScriptState.FAULT, ScriptState.FAULT_HELD})
+#: how long (s) the vehicle must read still (body rates under 5 deg/s, speed at most 0.10 m/s) before
+#: the script disarms it, on a DISARM or by itself (contract 5): ArduCopter's land detector's time
+STILL_S = 1.0
 
 
 class Actuator(IntEnum):
