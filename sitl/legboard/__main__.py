@@ -109,6 +109,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     try:
         server.serve_forever()
+    except RuntimeError as exc:  # the firmware's process ended or hangs
+        print(f"legboard: {exc}", file=sys.stderr)
+        return 1
     finally:
         server.close()
     return 0

@@ -170,17 +170,24 @@ class MicroPythonChild(Runner):
             ready, _, _ = select.select([out], [], [], max(0.0, left))
             chunk = os.read(out, 65536) if ready else b""
             if not chunk:
-                self.proc.poll()
-                why = "did not answer" if self.proc.returncode is None else f"ended ({self.proc.returncode})"
-                self._err.seek(0)
-                tail = self._err.read()[-2000:].decode(errors="replace")
-                raise RuntimeError(f"the firmware on MicroPython {why}: {tail.strip()}")
+                raise self._gone()
             self._buf += chunk
         line, _, self._buf = self._buf.partition(b"\n")
         return json.loads(line)
 
+    def _gone(self) -> RuntimeError:
+        """The child ended or hangs: an error with what it wrote to stderr."""
+        self.proc.poll()
+        why = "did not answer" if self.proc.returncode is None else f"ended ({self.proc.returncode})"
+        self._err.seek(0)
+        tail = self._err.read()[-2000:].decode(errors="replace")
+        return RuntimeError(f"the firmware on MicroPython {why}: {tail.strip()}")
+
     def control(self, req: dict) -> dict:
-        self.proc.stdin.write(json.dumps(req).encode() + b"\n")
+        try:
+            self.proc.stdin.write(json.dumps(req).encode() + b"\n")
+        except BrokenPipeError:
+            raise self._gone() from None
         return self._reply()
 
     def close(self) -> None:

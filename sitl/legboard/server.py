@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import select
 import socket
@@ -44,6 +45,14 @@ class FaultSpec:
     def parse(cls, text: str) -> FaultSpec:
         """``KIND[:ARG][@T]``, e.g. ``stuck:1``, ``corrupt:0.2``, ``unplug@5``."""
         return cls(*parse_fault(text))
+
+
+def _finite(to_s: object) -> float:
+    """A time to feed the board: a finite number of seconds (JSON has no NaN to pass it on)."""
+    t = float(to_s)
+    if not math.isfinite(t):
+        raise ValueError(f"advance: time must be a finite number of seconds, got {to_s!r}")
+    return t
 
 
 class BoardServer:
@@ -171,7 +180,7 @@ class BoardServer:
             raise ValueError(
                 "the board runs on the wall clock; start it with --clock external to feed it time"
             )
-        return self._checked({"op": "advance", "to_s": to_s, "reply": "time"})["time_s"]
+        return self._checked({"op": "advance", "to_s": _finite(to_s), "reply": "time"})["time_s"]
 
     def _checked(self, req: dict) -> dict:
         reply = self._run(req)
@@ -244,10 +253,12 @@ class BoardServer:
         if op == "quit":
             self.running = False
             return {"ok": True}
-        if op == "advance" and self.clock != "external":
-            raise ValueError(
-                "the board runs on the wall clock; start it with --clock external to feed it time"
-            )
+        if op == "advance":
+            if self.clock != "external":
+                raise ValueError(
+                    "the board runs on the wall clock; start it with --clock external to feed it time"
+                )
+            req = dict(req, to_s=_finite(req["to_s"]))
         if op == "fault" and req.get("kind") == "unplug":
             self._unplug()
             return {"ok": True, "time_s": self._time}

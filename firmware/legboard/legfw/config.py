@@ -38,9 +38,11 @@ class Config:
     endstop_ma = 300  # reverse current with the encoder still: the nut is at its back stop
     stall_ms = 100  # driven above stall_mv with no encoder count this long: STUCK
     stall_mv = 1000
-    sense_mv = 400  # driven above this ...
-    sense_floor_ua = 5000  # ... with less current than this ...
-    sense_ms = 40  # ... this long: SENSE (current sense or motor wiring open)
+    # driven above sense_mv (a stalled motor then draws 30 mA, a turning one its no-load 40 mA)
+    # with less current than sense_floor_ua for sense_ms: SENSE (current sense or wiring open)
+    sense_mv = 60
+    sense_floor_ua = 5000
+    sense_ms = 40
     early_mm_pct = 50  # target reached with the nut under this % of the clearance: STUCK
     clearance_mm_x100 = 290  # nut travel before the stack (2.9 mm)
     max_travel_mm_x100 = 620  # clearance + stack to flat + margin: beyond it, TRAVEL

@@ -117,6 +117,8 @@ class Leg:
         if self.state != wire.FAULT:
             self.pending_ua = -1
             self._enter(wire.STOPPED, _IDLE)
+            self.v_mv = 0
+            self.hal.drive(self.index, 0)  # at once, not at the next tick
 
     # ---- reports --------------------------------------------------------------------
     def report(self) -> tuple:
@@ -197,6 +199,8 @@ class Leg:
     def _fail(self, code: int) -> bool:
         self._enter(wire.FAULT, _IDLE)
         self.fault = code
+        if code == wire.FAULT_TRAVEL:
+            self.known = False  # the encoder ran on without the nut: where the nut is, is lost
         self.pending_ua = -1
         self.v_mv = 0
         return True

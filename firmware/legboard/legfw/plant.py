@@ -44,8 +44,9 @@ class PlantParams:
     sense_range_ma = 3200  # current sense saturates here
     encoder_cpr = 3  # motor encoder counts per motor revolution (x1 decoding)
     angle_counts = 4096  # joint angle sensor (AS5600, 12 bit)
-    r_short = 0.1  # Ω of a shorted winding (fault "overcurrent")
+    r_short = 0.1  # Ω of a short across the motor terminals (fault "overcurrent")
     gear_skip = 0.3  # a skipping gear (fault "erratic") loses up to this share of the clamp at each stop
+    start_travel = 0.0  # m of nut travel at power-up (a leg left clamped when the board was switched off)
 
     def __init__(self, **overrides) -> None:
         for key in overrides:
@@ -108,14 +109,14 @@ class LegPlant:
         self.volts = 0.0  # applied by the H-bridge (0 = braked)
         self.omega = 0.0  # motor rad/s
         self.motor_rad = 0.0  # motor shaft angle (the encoder's)
-        self.travel = 0.0  # m of nut travel from the back stop
+        self.travel = p.start_travel  # m of nut travel from the back stop
         self.current = 0.0  # A, true, signed
         self.angle_deg = 37.5
         self.stop_deg = 37.5
         # injected faults
         self.stuck = False  # the drive is jammed
         self.slip = False  # a stripped gear: the motor turns, the nut does not
-        self.shorted = False  # a shorted winding
+        self.shorted = False  # a short across the motor's terminals
         self.sense_dead = False  # the current sense reads zero
         self.erratic = False  # a gear that skips teeth under load
         # the calibration bench (docs/legs-build.md): a mass on a lever, a peg, the spring off
@@ -146,14 +147,16 @@ class LegPlant:
     def _motor(self, dt: float, noise: Noise) -> None:
         p = self.p
         v = self.volts
-        r = p.r_short if self.shorted else p.r_winding
+        r = p.r_winding
         k = p.k_motor
+        if self.shorted:  # the motor's terminals shorted: the driver's current bypasses it
+            v = 0.0
         if self.stuck:
             self.omega = 0.0
             self.current = v / r
             return
         if v == 0.0 and self.omega == 0.0:
-            self.current = 0.0
+            self.current = self.volts / p.r_short if self.shorted else 0.0
             return
         force = self.force()
         tau_nl = k * p.i_no_load
@@ -172,7 +175,7 @@ class LegPlant:
             elif stall < -back and (self.travel > 0.0 or self.slip):
                 s = -1.0
             else:  # the screw holds: stalled
-                self.current = v / r
+                self.current = self.volts / p.r_short if self.shorted else v / r
                 return
         else:
             s = 1.0 if w > 0 else -1.0
@@ -191,7 +194,7 @@ class LegPlant:
             turn = w_inf * dt + (w - w_inf) * tau * (1.0 - decay)
         self.omega = w_new
         self.motor_rad += turn
-        self.current = (v - k * w_new) / r
+        self.current = self.volts / p.r_short if self.shorted else (v - k * w_new) / r
         if not self.slip:
             self.travel += turn / (p.gear_ratio * 2.0 * math.pi) * p.screw_pitch
             if self.travel <= 0.0:  # the back stop

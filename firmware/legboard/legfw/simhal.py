@@ -18,6 +18,8 @@ except (ImportError, AttributeError):  # MicroPython's os has no read/write: use
 from legfw.compat import wire
 from legfw.hal import Hal
 
+READ_CHUNK = 256
+
 
 class Port:
     """A non-blocking serial descriptor, read and written without ever waiting."""
@@ -31,10 +33,12 @@ class Port:
         return self.fd
 
     def read(self) -> bytes:
+        # a few frames at a time, as a board's UART loop reads: a burst of kilobytes in one
+        # buffer fragments a small heap (MemoryError on MicroPython with 192 KB)
         try:
             if self._file is None:
-                return _os_read(self.fd, 4096)
-            return self._file.read(4096) or b""
+                return _os_read(self.fd, READ_CHUNK)
+            return self._file.read(READ_CHUNK) or b""
         except OSError:
             return b""  # nothing there (EAGAIN) or nobody on the other side (EIO)
 
