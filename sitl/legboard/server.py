@@ -30,6 +30,7 @@ from sitl.legboard.runtime import FAULT_KINDS, IO_FAULTS, LEG_FAULTS, MAX_ADVANC
 from slopelander.legs.messages import Capability
 
 CLOCKS = ("wall", "external")
+TICK_S = 0.004  # the firmware's tick (legfw.config.Config.tick_ms)
 __all__ = ["CLOCKS", "FAULT_KINDS", "IO_FAULTS", "LEG_FAULTS", "MAX_ADVANCE_S", "BoardServer", "FaultSpec"]
 
 
@@ -150,14 +151,16 @@ class BoardServer:
             return
         wall0 = time.monotonic()
         board0 = self.time_s()
-        chunk = max(0.004, 0.05 * self.speed)  # board seconds one step may take at most
+        chunk = max(TICK_S, 0.05 * self.speed)  # board seconds one step may take at most
         while self.running:
             now = time.monotonic()
             goal = board0 + (now - wall0) * self.speed
-            reached = self._run({"op": "advance", "to_s": min(goal, self._time + chunk), "reply": "time"})
-            if goal - reached["time_s"] > chunk:  # overloaded: let board time lag, not spiral
-                wall0, board0 = now, reached["time_s"]
-            self._wait_io(0.002)
+            if goal - self._time >= TICK_S:  # a firmware tick is due
+                reached = self._run({"op": "advance", "to_s": min(goal, self._time + chunk), "reply": "time"})
+                if goal - reached["time_s"] > chunk:  # overloaded: let board time lag, not spiral
+                    wall0, board0 = now, reached["time_s"]
+            wait = (self._time + TICK_S - goal) / self.speed  # wall seconds to the next tick
+            self._wait_io(min(0.01, max(0.0005, wait)))
 
     # ---- the firmware -----------------------------------------------------------------
     _time = 0.0

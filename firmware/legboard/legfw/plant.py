@@ -113,6 +113,8 @@ class LegPlant:
         self.current = 0.0  # A, true, signed
         self.angle_deg = 37.5
         self.stop_deg = 37.5
+        self.sensed_for = -1.0  # the angle the sensor's last reading is of
+        self.sensed_cdeg = 0
         # injected faults
         self.stuck = False  # the drive is jammed
         self.slip = False  # a stripped gear: the motor turns, the nut does not
@@ -206,6 +208,8 @@ class LegPlant:
         p = self.p
         if self.peg:
             return
+        if self.angle_deg == self.stop_deg and self.spring and self.load_nm == 0.0:
+            return  # at rest against its stop: the spring only presses it there
         friction = self.friction_torque() + p.loose_drag
         if self.angle_deg > self.stop_deg:
             if friction < p.stop_force_limit:
@@ -238,7 +242,7 @@ class Plant:
         """The current sense: noise, resolution, range; zero when it is dead."""
         lg = self.legs[leg]
         p = self.p
-        if lg.sense_dead:
+        if lg.sense_dead or (lg.current == 0.0 and lg.volts == 0.0):
             return 0
         ua = lg.current * 1e6
         if lg.volts != 0.0 or lg.current != 0.0:
@@ -253,6 +257,10 @@ class Plant:
 
     def angle_cdeg(self, leg: int) -> int:
         """The joint's magnetic angle sensor, quantised to its counts per turn."""
-        n = self.p.angle_counts
-        counts = math.floor(self.legs[leg].angle_deg / 360.0 * n + 0.5)
-        return math.floor(counts * 36000.0 / n + 0.5)
+        lg = self.legs[leg]
+        if lg.angle_deg != lg.sensed_for:
+            n = self.p.angle_counts
+            counts = math.floor(lg.angle_deg / 360.0 * n + 0.5)
+            lg.sensed_cdeg = math.floor(counts * 36000.0 / n + 0.5)
+            lg.sensed_for = lg.angle_deg
+        return lg.sensed_cdeg
