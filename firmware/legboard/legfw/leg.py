@@ -246,7 +246,10 @@ class Leg:
                 return 0
             self._phase(_BRAKE)
             return 0
-        return min(self.v_mv + cfg.soft_start_mv, self.run_mv)
+        limit = self.run_mv
+        if self.known and self.travel_x100() < cfg.clearance_mm_x100 * 9 // 10:
+            limit = cfg.v_max_mv  # still in the clearance: no force to approach gently yet
+        return min(self.v_mv + cfg.soft_start_mv, limit)
 
     def _brake(self) -> int:
         # the braked rotor slows with the motor's mechanical time constant (about 20 ms); the

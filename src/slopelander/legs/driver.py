@@ -649,10 +649,10 @@ class LegBoard:
         torque of 0 loosens the leg.
         """
         legs = self._legs(torques)
-        target_ma = {leg: self.calibration.current_for(leg, torques[leg]) for leg in legs}
-        for leg in legs:
-            if torques[leg] == 0:
-                target_ma[leg] = 0
+        # torque 0 is loosening, whatever the curve's lowest calibrated torque
+        target_ma = {
+            leg: self.calibration.current_for(leg, torques[leg]) if torques[leg] else 0 for leg in legs
+        }
         currents = tuple(target_ma.get(i, 0) for i in range(N_LEGS))
         msg = messages.SetFriction(mask_of(legs), currents)
         return self._start("friction", msg, legs, dict(torques), target_ma, timeout, tolerance_nm)
