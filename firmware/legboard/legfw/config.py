@@ -22,7 +22,8 @@ class Config:
     counts_per_mm = 2980  # motor encoder (x1 of 3 cycles/rev) through 1:298 and 0.3 mm/rev
     # the clamp: full speed until the load current reaches the target, brake, hold the current
     accel_ms = 200  # after a start the current is the rotor's, not the load's, for this long
-    lead_ua = 300  # brake this far below the target: the rotor coasts into it while stopping
+    lead_ua = 1200  # at full speed, brake this far below the target (less in proportion when slower):
+    # the rotor runs on into it while it stops, and the hold's noise adds a little
     brake_ms = 120  # brake this long before the hold (six mechanical time constants)
     hold_gain_pct = 10  # hold loop: µV of integral per µA of error per tick (R/20 per tick)
     hold_wait_ms = 40  # the hold's integral starts once the filter has the stall current

@@ -239,7 +239,8 @@ class Leg:
 
     def _run(self) -> int:
         cfg = self.cfg
-        if self.phase_ms >= cfg.accel_ms and self.i_filt >= self.target_ua - cfg.lead_ua:
+        lead = cfg.lead_ua * self.v_mv // cfg.v_max_mv  # the faster the rotor, the further it runs on
+        if self.phase_ms >= cfg.accel_ms and self.i_filt >= self.target_ua - lead:
             early = cfg.clearance_mm_x100 * cfg.early_mm_pct // 100
             if self.from_loose and self.known and not self.moved and self.travel_x100() < early:
                 self._fail(wire.FAULT_STUCK)  # stalled before the nut could reach the stack

@@ -1,12 +1,12 @@
 """Measuring each leg's current → friction-torque curve on the bench, and fitting it.
 
 The procedure (docs/legs-build.md, "Calibration"): every leg carries a lever of known length
-with a known mass, held at its mark by a peg. For each mass, from loose, the board clamps
-every leg at a current a little below the one the curve so far predicts, the pegs are
-pulled, and the joint angle shows whether the leg held or slipped; a leg that slipped is
-lifted back and clamped one step (2 mA) higher. The first current that holds brackets the
-leg's slip current within a step. Every mass is measured ``repeats`` times, in alternating
-order (light to heavy, then heavy to light), so hysteresis shows as a spread.
+with a known mass, held at its mark by a peg. For each mass, every trial loosens the legs,
+clamps them from loose at a current (as a landing's preset clamps), pulls the pegs and reads
+the joint angles: a leg that slipped needs more current, one that held less. The currents
+bracket, then bisect, each leg's slip current to within a step (2 mA); the curve so far
+predicts the first current of the next mass. Every mass is measured ``repeats`` times, in
+alternating order (light to heavy, then heavy to light), so hysteresis shows as a spread.
 
 The fit per leg is current as a quadratic (or, with fewer than four masses, linear) function
 of torque — the torques are exact, the currents carry the bracket's error — by least squares,
@@ -50,14 +50,14 @@ class Procedure:
     lever_moment_nm: float = 0.0  # the bare lever's own torque at the mark
     repeats: int = 3
     step_ma: int = 2
-    margin_ma: int = 8  # the first clamp of a mass: this far below the predicted slip current
+    margin_ma: int = 6  # a one-sided bracket looks this far past its end (doubling each time)
     watch_s: float = 1.0  # after the peg is pulled, watch the angle this long
     slip_deg: float = 0.5  # a drop larger than this is a slip
     max_ma: int = 175  # the board's limit (legfw.config.Config.max_target_ma)
     clamp_timeout_s: float = 40.0
     max_spread_ma: float = 6.0  # one mass's slip currents over the repeats
     max_rms_nm: float = 0.06  # points about the fitted curve
-    max_restarts: int = 3
+    max_trials: int = 12  # per mass and run
 
     def __post_init__(self) -> None:
         if len(self.masses_kg) < 3 or any(not (m > 0 and math.isfinite(m)) for m in self.masses_kg):
@@ -174,17 +174,22 @@ def _one_mass(
     run: int,
     tau: float,
 ) -> list[SlipPoint]:
-    _wait(board, bench, board.start_loosen(timeout=proc.clamp_timeout_s))
+    """Bracket every leg's slip current for one mass: each trial clamps from loose, as a
+    landing's preset does, at a current that brackets then bisects."""
     bench.hang([tau] * N_LEGS)
     current = {
-        leg: max(0, min(proc.max_ma, round(_predict(points, guess, leg, tau)) - proc.margin_ma))
-        for leg in range(N_LEGS)
+        leg: max(0, min(proc.max_ma, round(_predict(points, guess, leg, tau)))) for leg in range(N_LEGS)
     }
-    slipped_once = dict.fromkeys(range(N_LEGS), False)
-    restarts = dict.fromkeys(range(N_LEGS), 0)
+    slipped: dict[int, int | None] = dict.fromkeys(range(N_LEGS))  # highest current that slipped
+    held: dict[int, int | None] = dict.fromkeys(range(N_LEGS))  # lowest current that held
+    reach = dict.fromkeys(range(N_LEGS), proc.margin_ma)  # how far to look past a one-sided bracket
     found: list[SlipPoint] = []
     active = list(range(N_LEGS))
-    while active:
+    for _trial in range(proc.max_trials):
+        if not active:
+            break
+        _wait(board, bench, board.start_loosen(active, timeout=proc.clamp_timeout_s))
+        bench.hold(active)
         _wait(
             board,
             bench,
@@ -193,13 +198,20 @@ def _one_mass(
         bench.release(active)
         bench.wait(proc.watch_s)
         status = board.query(timeout=5.0)
-        lift = []
         for leg in list(active):
-            drop = MARK_DEG - status.legs[leg].angle_deg
-            if drop > proc.slip_deg:  # slipped: one step tighter
-                slipped_once[leg] = True
-                lift.append(leg)
-                if current[leg] + proc.step_ma > proc.max_ma:
+            if MARK_DEG - status.legs[leg].angle_deg > proc.slip_deg:
+                slipped[leg] = current[leg]
+            else:
+                held[leg] = current[leg]
+            lo, hi = slipped[leg], held[leg]
+            if lo is not None and hi is not None:
+                if hi - lo <= proc.step_ma:
+                    found.append(SlipPoint(leg, run, tau, lo, hi))
+                    active.remove(leg)
+                    continue
+                current[leg] = (lo + hi + 1) // 2
+            elif lo is not None:  # only slipped so far: look higher, further each time
+                if lo >= proc.max_ma:
                     raise CalibrationRefused(
                         [
                             f"leg {leg} never held {tau:.3f} N·m, not even at the board's limit "
@@ -207,20 +219,20 @@ def _one_mass(
                             "heavier than the legs are for"
                         ]
                     )
-                current[leg] += proc.step_ma
-            elif not slipped_once[leg]:  # held at the first try: start lower
-                restarts[leg] += 1
-                if restarts[leg] > proc.max_restarts or current[leg] == 0:
-                    raise CalibrationRefused(
-                        [f"leg {leg} held {tau:.3f} N·m at every current tried, down to {current[leg]} mA"]
-                    )
-                current[leg] = max(0, current[leg] - 4 * proc.margin_ma)
-                lift.append(leg)
-            else:
-                found.append(SlipPoint(leg, run, tau, current[leg] - proc.step_ma, current[leg]))
-                active.remove(leg)
-        if lift:
-            bench.hold(lift)
+                current[leg] = min(proc.max_ma, lo + reach[leg])
+                reach[leg] *= 2
+            else:  # only held so far: look lower
+                if hi <= 0:
+                    raise CalibrationRefused([f"leg {leg} held {tau:.3f} N·m with no current at all"])
+                current[leg] = max(0, hi - reach[leg])
+                reach[leg] *= 2
+    if active:
+        raise CalibrationRefused(
+            [
+                f"leg {leg}: no slip current found for {tau:.3f} N·m in {proc.max_trials} trials"
+                for leg in active
+            ]
+        )
     return sorted(found, key=lambda p: p.leg)
 
 
