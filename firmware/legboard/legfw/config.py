@@ -26,7 +26,7 @@ class Config:
     # the rotor runs on into it while it stops, and the hold's noise adds a little
     brake_ms = 120  # brake this long before the hold (six mechanical time constants)
     hold_gain_pct = 10  # hold loop: µV of integral per µA of error per tick (R/20 per tick)
-    hold_wait_ms = 40  # the hold's integral starts once the filter has the stall current
+    hold_still_ms = 250  # the hold's integral acts once the encoder has been still this long
     hold_deadband_ua = 1000  # and not for errors smaller than this (the sensor's noise)
     hold_integral_mv = 100  # limit of the hold loop's integral term (the winding's resistance varies ±20 %)
     creep_ms = 200  # the nut still moving this long in the hold: the clamp is not there yet, run again

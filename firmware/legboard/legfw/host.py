@@ -18,7 +18,7 @@ from legfw.simhal import CAPABILITIES, Port, SimHal
 
 STATE_NAMES = ("LOOSE", "LOOSENING", "TIGHTENING", "HOLDING", "STOPPED", "POSITIONING", "FAULT")
 FAULT_NAMES = ("NONE", "OVERCURRENT", "STUCK", "TIMEOUT", "SENSE", "TRAVEL")
-LEG_FAULTS = ("stuck", "slip", "overcurrent", "sense", "erratic")
+LEG_FAULTS = ("stuck", "slip", "overcurrent", "sense", "erratic", "grip")
 IO_FAULTS = ("silent", "corrupt", "unplug")
 FAULT_KINDS = LEG_FAULTS + IO_FAULTS
 MAX_ADVANCE_S = 10.0  # board seconds one ``advance`` may step (a guard against a runaway time)
@@ -119,7 +119,8 @@ class HostBoard:
 
     def clear_faults(self) -> None:
         for lg in self.plant.legs:
-            lg.stuck = lg.slip = lg.shorted = lg.sense_dead = lg.erratic = False
+            lg.stuck = lg.slip = lg.shorted = lg.sense_dead = lg.erratic = lg.grip = False
+            lg.grip_factor = 1.0
         self.hal.silent = False
         self.hal.corrupt_rate = 0.0
 

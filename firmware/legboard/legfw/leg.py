@@ -268,12 +268,17 @@ class Leg:
         error = self.target_ua - self.i_filt
         if self.moved:
             self.creep_ms += dt
+            self.still_ms = 0
             if self.creep_ms >= cfg.creep_ms and error > 2 * cfg.band_ua:
                 self._tighten(self.target_ua, False, self.i_filt)  # short of the clamp: run on to it
                 return 0
         else:
             self.creep_ms = 0
-        settling = self.state == wire.TIGHTENING and self.phase_ms > cfg.hold_wait_ms and not self.moved
+            self.still_ms += dt
+        # integrate only on a rotor that has been still for a while: a creeping one (a count every
+        # few hundred ms) draws less than its stall current, and an integral that made up for
+        # that would drive the self-locking nut on past the target
+        settling = self.state == wire.TIGHTENING and self.still_ms >= cfg.hold_still_ms
         if settling and (error > cfg.hold_deadband_ua or -error > cfg.hold_deadband_ua):
             # integrate only while settling and outside the noise: every upward wander of the
             # stall current above the clamp's breakaway advances the self-locking nut for good

@@ -46,6 +46,7 @@ class PlantParams:
     angle_counts = 4096  # joint angle sensor (AS5600, 12 bit)
     r_short = 0.1  # Ω of a short across the motor terminals (fault "overcurrent")
     gear_skip = 0.3  # a skipping gear (fault "erratic") loses up to this share of the clamp at each stop
+    grip_scatter = 0.3  # worn or greasy disks (fault "grip"): μ differs by up to this share per clamp
     start_travel = 0.0  # m of nut travel at power-up (a leg left clamped when the board was switched off)
 
     def __init__(self, **overrides) -> None:
@@ -121,6 +122,8 @@ class LegPlant:
         self.shorted = False  # a short across the motor's terminals
         self.sense_dead = False  # the current sense reads zero
         self.erratic = False  # a gear that skips teeth under load
+        self.grip = False  # disks whose grip differs from one clamp to the next
+        self.grip_factor = 1.0
         # the calibration bench (docs/legs-build.md): a mass on a lever, a peg, the spring off
         self.load_nm = 0.0
         self.peg = False
@@ -140,7 +143,9 @@ class LegPlant:
         """Friction torque the joint holds now (paper eq. 1 with this leg's μ)."""
         p = self.p
         f = self.force()
-        return p.torque_per_newton() * p.mu[self.index] * (1.0 + p.mu_slope * f / 100.0) * f
+        return (
+            p.torque_per_newton() * p.mu[self.index] * (1.0 + p.mu_slope * f / 100.0) * f * self.grip_factor
+        )
 
     def step(self, dt: float, noise: Noise) -> None:
         self._motor(dt, noise)
@@ -192,6 +197,8 @@ class LegPlant:
             w_new = 0.0
             if self.erratic and s > 0 and force > 5.0:  # the gear skips back under the load
                 self.travel -= p.gear_skip * noise.uniform() * force / p.stack_stiffness
+            if self.grip and s > 0:  # the disks settle differently at every clamp
+                self.grip_factor = 1.0 - p.grip_scatter * noise.uniform()
         else:
             turn = w_inf * dt + (w - w_inf) * tau * (1.0 - decay)
         self.omega = w_new
