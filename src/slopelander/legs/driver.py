@@ -910,9 +910,20 @@ class LegBoard:
                 return
             if isinstance(msg, messages.Ack):
                 pending.op._acknowledge(self.status)
+            elif msg.code == messages.NakCode.FAULTED and self._faulted(pending.op.legs):
+                pending.op._fail(self._faulted(pending.op.legs))  # say which fault, not only "faulted"
             else:
                 name = MsgType(msg.cmd_type).name
                 pending.op._fail(CommandRejected(name, msg.code, NAK_TEXT.get(msg.code, "?")))
+
+    def _faulted(self, legs: Iterable[int]) -> LegFault | None:
+        """The fault of the first of ``legs`` the latest status shows faulted."""
+        if self.status is not None:
+            for leg in legs:
+                s = self.status.legs[leg]
+                if s.state is LegState.FAULT:
+                    return LegFault(leg, int(s.fault), FAULT_TEXT[s.fault])
+        return None
 
     def _resend(self, now: float) -> None:
         for seq, p in list(self._pending.items()):
