@@ -107,7 +107,8 @@ def test_the_firmware_fits_the_heap_of_a_pico():
     """The firmware, its plant and a clamp of four legs in the 192 KB a Pico leaves free."""
     (free,) = run(
         "import gc, json\nfrom legfw.host import HostBoard\nb = HostBoard()\n"
-        "[b.fw.legs[i].set_friction(120) for i in range(4)]\nb.advance(b.time_s + 8)\nb.advance(b.time_s + 5)\n"
+        "[b.fw.legs[i].set_friction(120) for i in range(4)]\n"
+        "b.advance(b.time_s + 8)\nb.advance(b.time_s + 5)\n"
         "gc.collect()\nprint(json.dumps([gc.mem_alloc(), gc.mem_free(), [l.state for l in b.fw.legs]]))\n"
     )
     alloc, _free, states = free
