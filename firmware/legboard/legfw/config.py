@@ -29,7 +29,7 @@ class Config:
     hold_still_ms = 250  # the hold's integral acts once the encoder has been still this long
     hold_deadband_ua = 1000  # and not for errors smaller than this (the sensor's noise)
     hold_integral_mv = 100  # limit of the hold loop's integral term (the winding's resistance varies ±20 %)
-    creep_ms = 200  # the nut still moving this long in the hold: the clamp is not there yet, run again
+    creep_ms = 200  # the rotor crept on over a window this long in the hold: the clamp is short, run on
     filter_shift = 2  # current filter: new = old + (sample - old) >> 2 (about 14 ms)
     band_ua = 2000  # |current - target| counted as on target
     settle_ms = 300  # on target this long: HOLDING
@@ -53,6 +53,10 @@ class Config:
     boot_probe_mv = 1000
     # SET_FRICTION above this is refused (NAK above_limit): the stack goes flat near 180 mA
     max_target_ma = 175
+    # sensing on the reference board (legfw.rp2040)
+    adc_ref_mv = 3300  # the MCP3204's reference
+    sense_mv_per_a = 1100  # IPROPI volts per amp through the carrier's resistor: measure yours
+    angle_zero_cdeg = (0, 0, 0, 0)  # each AS5600's reading with its leg folded (0 deg)
     # rest stops (hobby servos; optional, the ANGLE_STOP capability)
     angle_stop = False
     stop_speed_cdeg_s = 1500  # rest-stop speed, 15 deg/s
@@ -64,6 +68,8 @@ class Config:
                 raise ValueError(f"unknown setting {key!r}")
             default = getattr(Config, key)
             value = overrides[key]
+            if isinstance(default, tuple) and isinstance(value, list):
+                value = tuple(value)  # JSON has lists only
             if type(value) is not type(default):
                 raise ValueError(f"setting {key} must be {type(default).__name__}, not {value!r}")
             setattr(self, key, value)

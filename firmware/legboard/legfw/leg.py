@@ -51,6 +51,7 @@ class Leg:
         self.run_mv = 0
         self.integral_uv = 0
         self.creep_ms = 0
+        self.creep_count = 0
         self.i_raw = 0
         self.i_filt = 0
         self.count = hal.encoder(index)
@@ -240,7 +241,10 @@ class Leg:
     def _run(self) -> int:
         cfg = self.cfg
         lead = cfg.lead_ua * self.v_mv // cfg.v_max_mv  # the faster the rotor, the further it runs on
-        if self.phase_ms >= cfg.accel_ms and self.i_filt >= self.target_ua - lead:
+        # in the clearance there is no clamp to reach: a current near a low target there is the
+        # motor's own friction (and noise), so the nut runs on to the stack first
+        free = self.known and self.moved and self.travel_x100() < cfg.clearance_mm_x100 * 9 // 10
+        if self.phase_ms >= cfg.accel_ms and not free and self.i_filt >= self.target_ua - lead:
             early = cfg.clearance_mm_x100 * cfg.early_mm_pct // 100
             if self.from_loose and self.known and not self.moved and self.travel_x100() < early:
                 self._fail(wire.FAULT_STUCK)  # stalled before the nut could reach the stack
@@ -265,15 +269,19 @@ class Leg:
         if self.phase_ms == dt:  # the rotor has stopped: the current is the stall current from here
             self.i_filt = self.i_raw
             self.creep_ms = 0
+            self.creep_count = self.count
         error = self.target_ua - self.i_filt
-        if self.moved:
-            self.creep_ms += dt
-            self.still_ms = 0
-            if self.creep_ms >= cfg.creep_ms and error > 2 * cfg.band_ua:
-                self._tighten(self.target_ua, False, self.i_filt)  # short of the clamp: run on to it
-                return 0
-        else:
+        self.creep_ms += dt
+        if self.creep_ms >= cfg.creep_ms:  # a window: did the rotor creep on through it?
+            crept = self.count - self.creep_count >= 2
             self.creep_ms = 0
+            self.creep_count = self.count
+            if crept:  # the stall current is above the clamp's: short of it, run on to it
+                self._tighten(self.target_ua, False, self.i_filt)
+                return 0
+        if self.moved:
+            self.still_ms = 0
+        else:
             self.still_ms += dt
         # integrate only on a rotor that has been still for a while: a creeping one (a count every
         # few hundred ms) draws less than its stall current, and an integral that made up for

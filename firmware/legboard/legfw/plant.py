@@ -40,7 +40,7 @@ class PlantParams:
     loose_drag = 0.005  # N·m of disk drag when loose
     stop_force_limit = 0.5  # N·m the rest stop can push a leg down against
     noise_ma = 1.5  # σ of the current sense
-    sense_lsb_ua = 100  # current sense resolution
+    sense_lsb_ua = 730  # current sense resolution (the reference board: 12 bits over 3.3 V at 1.1 V/A)
     sense_range_ma = 3200  # current sense saturates here
     encoder_cpr = 3  # motor encoder counts per motor revolution (x1 decoding)
     angle_counts = 4096  # joint angle sensor (AS5600, 12 bit)
