@@ -18,7 +18,15 @@ def load_config() -> Config:
         return Config()
 
 
+SAFE_BOOT_PIN = 27  # tied to ground at power-up: the firmware does not start (mpremote can talk)
+
+
 def main() -> None:
+    import machine
+
+    if machine.Pin(SAFE_BOOT_PIN, machine.Pin.IN, machine.Pin.PULL_UP).value() == 0:
+        print("leg board: safe boot (GP27 to ground), the firmware is not started")
+        return
     cfg = load_config()
     hal = Rp2040Hal(cfg)
     fw = Firmware(hal, cfg)
