@@ -119,12 +119,13 @@ def test_the_file_is_a_measured_calibration_of_this_board(calibrated):
     assert printed.count("±") == 4 and "wrote" in printed
 
 
-def _truth(currents: range, clamps: int = 6) -> dict[int, list[float]]:
+def _truth(currents: range, clamps: int = 6) -> dict[int, list[tuple[float, float]]]:
     """The hidden legs' true curve: the mean torque each holds when the firmware clamps it from
-    loose at each current (the same firmware and plant, in this process, several noise seeds)."""
-    out: dict[int, list[float]] = {leg: [] for leg in range(4)}
+    loose at each current (the same firmware and plant, in this process, several noise seeds),
+    with that mean's standard error."""
+    out: dict[int, list[tuple[float, float]]] = {leg: [] for leg in range(4)}
     for ma in currents:
-        sums = [0.0] * 4
+        held: list[list[float]] = [[] for _ in range(4)]
         for seed in range(clamps):
             b = HostBoard(plant=dict(HIDDEN, mu=tuple(HIDDEN["mu"])), seed=100 + seed)
             for leg in range(4):
@@ -133,9 +134,11 @@ def _truth(currents: range, clamps: int = 6) -> dict[int, list[float]]:
                 b.advance(b.time_s + 9.0)
             assert all(leg.state == wire.HOLDING for leg in b.fw.legs)
             for leg in range(4):
-                sums[leg] += b.plant.legs[leg].friction_torque()
+                held[leg].append(b.plant.legs[leg].friction_torque())
         for leg in range(4):
-            out[leg].append(sums[leg] / clamps)
+            mean = sum(held[leg]) / clamps
+            sd = (sum((h - mean) ** 2 for h in held[leg]) / (clamps - 1)) ** 0.5
+            out[leg].append((mean, sd / clamps**0.5))
     return out
 
 
@@ -150,10 +153,12 @@ def test_the_hidden_curve_is_recovered_within_the_stated_uncertainty(calibrated)
     shipped = load_calibration()
     ratios, worst_shipped = [], 0.0
     for leg in range(4):
-        for ma, true in zip(currents, truth[leg], strict=True):
+        for ma, (true, se) in zip(currents, truth[leg], strict=True):
             if not cal.legs[leg].current_ma[0] <= ma <= cal.legs[leg].current_ma[-1]:
                 continue
-            ratios.append(abs(cal.torque(leg, ma) - true) / unc[leg])
+            # the truth is itself a mean of a few clamps: its own 2σ joins the stated band
+            band = (unc[leg] ** 2 + (2 * se) ** 2) ** 0.5
+            ratios.append(abs(cal.torque(leg, ma) - true) / band)
             worst_shipped = max(worst_shipped, abs(shipped.torque(leg, ma) - true))
     # the stated uncertainty is a 95 % band (2σ): most comparisons inside it, none past 3σ
     inside = sum(r <= 1.0 for r in ratios) / len(ratios)

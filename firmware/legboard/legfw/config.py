@@ -29,7 +29,8 @@ class Config:
     hold_still_ms = 250  # the hold's integral acts once the encoder has been still this long
     hold_deadband_ua = 1000  # and not for errors smaller than this (the sensor's noise)
     hold_integral_mv = 100  # limit of the hold loop's integral term (the winding's resistance varies ±20 %)
-    creep_ms = 200  # the rotor crept on over a window this long in the hold: the clamp is short, run on
+    creep_ms = 1000  # the rotor crept on (2 counts) over a window this long in the hold: short, run on
+    max_reruns = 2  # runs on from a hold that crept, at most, per clamp
     filter_shift = 2  # current filter: new = old + (sample - old) >> 2 (about 14 ms)
     band_ua = 2000  # |current - target| counted as on target
     settle_ms = 300  # on target this long: HOLDING

@@ -52,6 +52,8 @@ class Leg:
         self.integral_uv = 0
         self.creep_ms = 0
         self.creep_count = 0
+        self.reached_ticks = 0
+        self.reruns = 0
         self.i_raw = 0
         self.i_filt = 0
         self.count = hal.encoder(index)
@@ -217,11 +219,13 @@ class Leg:
     def _phase(self, phase: int) -> None:
         self.phase = phase
         self.phase_ms = 0
+        self.reached_ticks = 0
         self.still_ms = 0
         self.sense_ms = 0
 
     def _tighten(self, target: int, from_loose: bool, start_ua: int = -1) -> None:
         cfg = self.cfg
+        self.reruns = 0
         if start_ua < 0:
             start_ua = 0 if from_loose or self.held_ua == UNKNOWN else self.held_ua
         self.target_ua = target
@@ -243,8 +247,10 @@ class Leg:
         lead = cfg.lead_ua * self.v_mv // cfg.v_max_mv  # the faster the rotor, the further it runs on
         # in the clearance there is no clamp to reach: a current near a low target there is the
         # motor's own friction (and noise), so the nut runs on to the stack first
-        free = self.known and self.moved and self.travel_x100() < cfg.clearance_mm_x100 * 9 // 10
-        if self.phase_ms >= cfg.accel_ms and not free and self.i_filt >= self.target_ua - lead:
+        free = self.known and self.moved and self.travel_x100() < cfg.clearance_mm_x100 * 97 // 100
+        reached = self.phase_ms >= cfg.accel_ms and not free and self.i_filt >= self.target_ua - lead
+        self.reached_ticks = self.reached_ticks + 1 if reached else 0
+        if self.reached_ticks >= 2:  # two ticks running: one is as likely the sensor's noise
             early = cfg.clearance_mm_x100 * cfg.early_mm_pct // 100
             if self.from_loose and self.known and not self.moved and self.travel_x100() < early:
                 self._fail(wire.FAULT_STUCK)  # stalled before the nut could reach the stack
@@ -253,7 +259,7 @@ class Leg:
             return 0
         limit = self.run_mv
         if self.known and self.travel_x100() < cfg.clearance_mm_x100 * 9 // 10:
-            limit = cfg.v_max_mv  # still in the clearance: no force to approach gently yet
+            limit = cfg.v_max_mv  # in the clearance: no force to approach gently yet
         return min(self.v_mv + cfg.soft_start_mv, limit)
 
     def _brake(self) -> int:
@@ -276,8 +282,13 @@ class Leg:
             crept = self.count - self.creep_count >= 2
             self.creep_ms = 0
             self.creep_count = self.count
-            if crept:  # the stall current is above the clamp's: short of it, run on to it
-                self._tighten(self.target_ua, False, self.i_filt)
+            if crept and self.reruns < cfg.max_reruns:
+                # the stall current is above the clamp's: short of it, run on to it (at least a few
+                # mA's worth of speed: a creep converges, but over tens of seconds). A few times
+                # only: near the motor's no-load current the creep is the clamp, and it settles
+                reruns = self.reruns + 1
+                self._tighten(self.target_ua, False, min(self.i_filt, self.target_ua - 5000))
+                self.reruns = reruns
                 return 0
         if self.moved:
             self.still_ms = 0
