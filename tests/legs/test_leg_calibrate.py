@@ -227,8 +227,9 @@ def test_disks_whose_grip_varies_are_refused_and_no_file_is_written(tmp_path):
 
 def test_a_gear_that_skips_is_a_leg_fault_and_no_file_is_written(tmp_path):
     """A gear that skips teeth under load loses the nut's position and its clamp: the board
-    faults the leg (its back stop where the encoder says the nut is not: STUCK; or a clamp that
-    never settles: TIMEOUT), and the calibration ends on that fault."""
+    faults the leg (its back stop where the encoder says the nut is not: STUCK; a clamp that
+    never settles: TIMEOUT), or the clamp misses the calibration's deadline; either ends the
+    calibration, naming the leg."""
     board = Board(tmp_path, HIDDEN, "--fault", "erratic:2")
     try:
         out = tmp_path / "cal.yaml"
@@ -236,7 +237,8 @@ def test_a_gear_that_skips_is_a_leg_fault_and_no_file_is_written(tmp_path):
     finally:
         board.stop()
     assert done.returncode == 1 and "Traceback" not in done.stderr
-    assert "leg 2 fault 2 (stuck" in done.stderr or "leg 2 fault 3 (timeout" in done.stderr, done.stderr
+    ends = ("leg 2 fault 2 (stuck", "leg 2 fault 3 (timeout", "leg 2 did not converge")
+    assert any(e in done.stderr for e in ends), done.stderr
     assert not out.exists()
 
 
