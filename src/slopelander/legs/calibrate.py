@@ -339,7 +339,8 @@ def document(fits: Sequence[LegFit], proc: Procedure, board_id: str, firmware: s
         "measured": {
             "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
             "firmware": firmware,
-            "method": "slip of a mass on a lever, current raised in steps (slopelander legs calibrate)",
+            "method": "slip of a mass on a lever, each trial clamped from loose, bracketed and bisected "
+            "(slopelander legs calibrate)",
             "masses_kg": list(proc.masses_kg),
             "lever_m": proc.lever_m,
             "lever_moment_nm": proc.lever_moment_nm,
