@@ -1,12 +1,13 @@
-"""``python -m sitl.legboard``: run a simulated leg board on a pseudo-terminal."""
+"""``python -m sitl.legboard``: the leg board's firmware over a plant model, on a pseudo-terminal."""
 
 from __future__ import annotations
 
 import argparse
+import json
 import signal
 import sys
 
-from sitl.legboard.physics import LegBoardPhysics
+from sitl.legboard.runtime import RUNTIMES, RuntimeChoiceError
 from sitl.legboard.server import CLOCKS, FAULT_KINDS, BoardServer, FaultSpec
 from sitl.parent_watch import watch_parent
 
@@ -40,6 +41,19 @@ def main(argv: list[str] | None = None) -> int:
         metavar="KIND[:ARG][@T]",
         help=f"inject a fault ({', '.join(FAULT_KINDS)}); @T = at board time T s",
     )
+    parser.add_argument(
+        "--runtime",
+        choices=RUNTIMES,
+        default="auto",
+        help="where the firmware runs: auto = MicroPython if SLOPELANDER_MICROPYTHON names one, "
+        "else this Python (default)",
+    )
+    parser.add_argument("--board-id", default="53494d424f415244", help="the board's id, 16 hex digits")
+    parser.add_argument(
+        "--plant",
+        type=argparse.FileType("r"),
+        help="JSON object of plant parameters (a hidden leg, for tests)",
+    )
     args = parser.parse_args(argv)
     try:
         faults = tuple(FaultSpec.parse(f) for f in args.fault)
@@ -47,8 +61,21 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(str(exc))
     if args.speed <= 0:
         parser.error("--speed must be positive")
+    try:
+        board_id = bytes.fromhex(args.board_id)
+    except ValueError:
+        board_id = b""
+    if len(board_id) != 8:
+        parser.error(f"--board-id must be 16 hex digits, got {args.board_id!r}")
+    plant = {}
+    if args.plant is not None:
+        try:
+            plant = json.load(args.plant)
+        except ValueError as exc:
+            parser.error(f"--plant {args.plant.name}: not JSON: {exc}")
+        if not isinstance(plant, dict):
+            parser.error(f"--plant {args.plant.name}: expected a JSON object of plant parameters")
     server = BoardServer(
-        LegBoardPhysics(seed=args.seed),
         link=args.link,
         control=args.control,
         speed=args.speed,
@@ -57,6 +84,9 @@ def main(argv: list[str] | None = None) -> int:
         faults=faults,
         seed=args.seed,
         clock=args.clock,
+        runtime=args.runtime,
+        board_id=board_id,
+        plant=plant,
     )
 
     def stop(_signum: int, _frame: object) -> None:
@@ -65,14 +95,23 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
     watch_parent()  # a launcher that dies takes its simulator with it
-    pty = server.open()
+    try:
+        pty = server.open()
+    except (RuntimeChoiceError, ValueError, RuntimeError) as exc:
+        print(f"legboard: {exc}", file=sys.stderr)
+        server.close()
+        return 2
     print(
         f"legboard ready pty={pty} link={server.link or ''} "
-        f"control={server.control_path or ''} speed={args.speed:g} clock={args.clock}",
+        f"control={server.control_path or ''} speed={args.speed:g} clock={args.clock} "
+        f"runtime={server.runner.name}",
         flush=True,
     )
     try:
         server.serve_forever()
+    except RuntimeError as exc:  # the firmware's process ended or hangs
+        print(f"legboard: {exc}", file=sys.stderr)
+        return 1
     finally:
         server.close()
     return 0

@@ -93,6 +93,8 @@ def test_out_of_range_torque_names_leg_range_and_file(tmp_path):
         (("provenance: measured", "provenance: guessed", 1), "provenance"),
         (("{leg: 3,", "{leg: 2,", 1), "legs[3].leg"),
         (("  - {leg: 3, current_ma: [0, 40, 100, 160], torque_nm: [0, 0, 1.5, 3.3]}\n", "", 1), "legs"),
+        (("provenance: measured\n", "provenance: measured\nboard_id: e661\n", 1), "board_id"),
+        (("provenance: measured\n", "provenance: measured\nboard_id: board-of-bob-123\n", 1), "board_id"),
     ],
 )
 def test_bad_files_name_the_file_and_the_field(tmp_path, change, field):

@@ -41,16 +41,19 @@ any_message = st.one_of(
     st.builds(messages.SetAngle, mask, st.tuples(*[st.integers(0, 3750)] * N_LEGS)),
     st.builds(messages.Stop, mask),
     st.just(messages.Query()),
+    st.just(messages.Keepalive()),
     st.builds(
         messages.HelloReply,
+        st.just(messages.PROTOCOL_VERSION),
         st.integers(1, 255),
-        st.just(N_LEGS),
         st.integers(0, 3),
         st.integers(1, 255),
         st.integers(0, 2**32 - 1),
+        st.binary(min_size=8, max_size=8),
+        st.integers(0, 65535),
     ),
-    st.builds(messages.Ack, u8, st.integers(1, 6)),
-    st.builds(messages.Nak, u8, st.integers(1, 6), st.integers(1, 5)),
+    st.builds(messages.Ack, u8, st.integers(1, 7)),
+    st.builds(messages.Nak, u8, st.integers(1, 7), st.integers(1, 6)),
     st.builds(
         messages.Status, st.integers(0, 2**32 - 1), u8, st.integers(0, 1), st.tuples(*[leg_report()] * N_LEGS)
     ),
@@ -71,7 +74,8 @@ def test_every_message_type_is_covered():
             messages.SetAngle(1, (0,) * 4),
             messages.Stop(1),
             messages.Query(),
-            messages.HelloReply(1, 4, 0, 64, 0),
+            messages.Keepalive(),
+            messages.HelloReply(messages.PROTOCOL_VERSION, 4, 0, 64, 0),
             messages.Ack(0, 1),
             messages.Nak(0, 1, 1),
             messages.Status(0, 0, 0, (messages.LegReport(LegState.LOOSE, FaultCode.NONE, 0, 0, 0),) * 4),
@@ -176,3 +180,25 @@ def test_mutation_run_accepts_no_corrupt_frame():
     r = fuzz.run(20_000, seed=1)
     assert r["accepted_corrupt"] == 0
     assert sum(r["rejects"].values()) > 0.8 * r["mutated_frames"]
+
+
+def test_a_hello_reply_of_another_version_is_named_not_just_rejected():
+    """A version-2 board answers HELLO_REPLY in its own 8-byte layout: the decoder drops it
+    (wrong length) but keeps its version, so the driver can say what the board speaks."""
+    from slopelander.legs.framing import encode_frame
+
+    old = encode_frame(messages.MsgType.HELLO_REPLY, 0, bytes((2, 4, 3, 64)) + (1234).to_bytes(4, "little"))
+    dec = codec.Decoder()
+    assert dec.feed(old) == [] and dec.rejects.payload_length == 1
+    assert dec.foreign_version == 2
+    # a board of a later version with this version's layout decodes; the driver compares it
+    (frame,) = dec.feed(codec.encode(messages.HelloReply(9, 4, 0, 64, 0), 1))
+    assert frame.message.version == 9
+
+
+def test_the_table_crc_is_the_same_crc():
+    """The shared module's fallback, for a MicroPython build without binascii.crc32."""
+    from slopelander.legs import wire
+
+    for data in (b"", b"123456789", bytes(range(256)) * 3):
+        assert wire.crc32_table(data) == wire.crc32(data)

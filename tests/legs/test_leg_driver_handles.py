@@ -52,12 +52,13 @@ def poll_until(drv: LegBoard, cond, what: str) -> None:
 
 @contextlib.contextmanager
 def stopped(proc):
-    """The board process frozen (SIGSTOP): it reads nothing, so the pty fills up."""
-    os.kill(proc.pid, signal.SIGSTOP)
+    """The board frozen (SIGSTOP): it reads nothing, so the pty fills up. The whole process
+    group, since the firmware may run in a MicroPython child that reads the pty itself."""
+    os.killpg(proc.pid, signal.SIGSTOP)
     try:
         yield
     finally:
-        os.kill(proc.pid, signal.SIGCONT)
+        os.killpg(proc.pid, signal.SIGCONT)
 
 
 def test_writes_never_block_and_a_full_queue_is_a_typed_error(board):

@@ -76,6 +76,19 @@ class Calibration:
     source: str
     #: the leg angles (deg below the horizontal, fully extended at 37.5) the legs can be set to and held at
     angle_range_deg: tuple[float, float] = PROTOCOL_ANGLE_RANGE_DEG
+    #: the board the curve was measured on (16 hex digits), None when the file names none
+    board_id: str | None = None
+
+    def check_board(self, board_id: str) -> None:
+        """Refuse a curve measured on another board (:class:`CalibrationError`): its motors,
+        screws and stacks are not these, so its torques would be wrong on every leg."""
+        if self.board_id is not None and board_id and self.board_id != board_id.lower():
+            raise CalibrationError(
+                self.source,
+                "board_id",
+                f"measured on leg board {self.board_id}, but the board connected is {board_id}: "
+                "use that board's calibration, or measure this one (slopelander legs calibrate)",
+            )
 
     def current_for(self, leg: int, torque_nm: float) -> int:
         """Current target (mA) for a torque (N·m) on one leg; refuses out-of-range torques."""
@@ -184,7 +197,22 @@ def parse_calibration(doc: object, name: str) -> Calibration:
                 name, "angle_range_deg", "must be [low, high] with 0 <= low < high <= 37.5 (deg)"
             )
         angles = (lo, hi)
-    return Calibration(tuple(curves[i] for i in range(N_LEGS)), provenance, name, angles)
+    board_id = doc.get("board_id")
+    if board_id is not None:
+        if not isinstance(board_id, str) or len(board_id) != 16 or not _is_hex(board_id):
+            raise CalibrationError(
+                name, "board_id", "must be the board's id, 16 hex digits (legs status prints it)"
+            )
+        board_id = board_id.lower()
+    return Calibration(tuple(curves[i] for i in range(N_LEGS)), provenance, name, angles, board_id)
+
+
+def _is_hex(text: str) -> bool:
+    try:
+        int(text, 16)
+    except ValueError:
+        return False
+    return True
 
 
 def _numbers(value: object, name: str, field: str) -> tuple[float, ...]:

@@ -28,9 +28,42 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "--downhill-legs", type=_leg_list, default=(2, 3), help="legs of the downhill pair (default 2,3)"
         )
 
-    p = sub.add_parser("status", help="print each leg's state, current, torque and angle")
+    p = sub.add_parser(
+        "status",
+        help="print the board and each leg's state, current, torque and angle; with "
+        "--calibration, check board, calibration and lookup table before a flight",
+    )
     common(p)
+    p.add_argument(
+        "--table",
+        metavar="FILE",
+        help="lookup table whose presets must be in the calibration (default: shipped)",
+    )
     p.set_defaults(handler=_status)
+
+    p = sub.add_parser(
+        "calibrate",
+        help="measure each leg's current-to-torque curve on the bench and write a calibration file",
+        description="Bench procedure: docs/legs-build.md, section Calibration.",
+    )
+    p.add_argument("--port", required=True, help="serial port path, e.g. /dev/ttyACM0")
+    p.add_argument("--baud", type=int, default=115200, help="baud rate (USB serial ignores it)")
+    p.add_argument(
+        "--masses", required=True, type=_masses, help="masses on the levers, kg, e.g. 0.2,0.45,0.7"
+    )
+    p.add_argument("--lever", required=True, type=float, help="lever length, joint axis to the mass, m")
+    p.add_argument("--lever-moment", type=float, default=0.0, help="the bare lever's torque at the mark, N·m")
+    p.add_argument("--repeats", type=int, default=3, help="runs over every mass (default 3)")
+    p.add_argument("--step", type=int, default=2, help="current step of the search, mA (default 2)")
+    p.add_argument("--out", required=True, help="calibration file to write (YAML)")
+    p.add_argument(
+        "--bench",
+        default="prompt",
+        metavar="prompt|sim:CONTROL",
+        help="who moves the pegs: prompt = you, asked at each step (default); sim:PATH = a simulated "
+        "board's control socket",
+    )
+    p.set_defaults(handler=_calibrate)
 
     p = sub.add_parser("set", help="set friction torques (N·m per joint) and wait")
     common(p)
@@ -131,10 +164,97 @@ def format_results(results: dict[int, LegResult], unit: str) -> str:
 
 
 def _status(args: argparse.Namespace) -> int:
+    """The board's status; with ``--calibration``, every check a flight makes of the legs."""
+    from slopelander.legs.checks import preflight
+
     with _open(args) as board:
-        print(format_status(board.query(timeout=min(args.timeout, 5.0))))
-        if board.calibration.assumed:
-            print(f"(torques from an ASSUMED calibration: {board.calibration.source})")
+        status = board.query(timeout=min(args.timeout, 5.0))
+        info = board.info
+        print(
+            f"board {info.board_id}  firmware {info.firmware}  protocol {info.version}  "
+            f"{'simulated' if info.simulated else 'real'}  "
+            f"{'angle stops' if info.angle_stop else 'no angle stops'}"
+        )
+        print(format_status(status))
+        if args.calibration is None:
+            if board.calibration.assumed:
+                print(f"(torques from an ASSUMED calibration: {board.calibration.source})")
+            return 0
+        problems = preflight(board, status, table=args.table)
+    for line in problems:
+        print(f"NOT READY: {line}")
+    if problems:
+        return 1
+    print(f"ready: board, calibration {board.calibration.source} and the lookup table agree")
+    return 0
+
+
+def _masses(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected masses in kg like 0.2,0.45,0.7: {text!r}") from None
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    """The bench procedure, the fit, the file; or the reasons it cannot be flown on."""
+    from pathlib import Path
+
+    import yaml
+
+    from slopelander.errors import SlopelanderError
+    from slopelander.legs import calibrate as cal
+    from slopelander.legs.bench import PromptBench, SimBench
+
+    try:
+        proc = cal.Procedure(
+            tuple(args.masses), args.lever, args.lever_moment, repeats=args.repeats, step_ma=args.step
+        )
+    except ValueError as exc:
+        raise SlopelanderError(str(exc)) from None
+    out = Path(args.out)
+    if out.exists():
+        raise SlopelanderError(f"--out {out} exists: give a new file name (a calibration is a record)")
+    if args.bench == "prompt":
+        bench = PromptBench()
+    elif args.bench.startswith("sim:"):
+        bench = SimBench(args.bench[4:])
+    else:
+        raise SlopelanderError(f"--bench must be prompt or sim:CONTROL_SOCKET, not {args.bench!r}")
+    board = LegBoard.open(args.port, args.baud, status_period_ms=20, timeout=5.0)
+    try:
+        board.set_clock(bench.clock)
+        if isinstance(bench, SimBench):
+            bench.poll = board.poll
+        points = cal.measure(board, bench, proc, board.calibration)
+        try:
+            fits = cal.fit_all(points, proc)
+        except cal.CalibrationRefused:
+            rejected = out.with_name(out.name + ".rejected")
+            fits = [cal.fit_leg(leg, points, proc) for leg in range(N_LEGS)]
+            rejected.write_text(
+                yaml.safe_dump(cal.document(fits, proc, board.info.board_id, board.info.firmware))
+            )
+            print(f"(the measurements are in {rejected}; not a calibration to fly on)")
+            raise
+        doc = cal.document(fits, proc, board.info.board_id, board.info.firmware)
+    finally:
+        bench.finish()
+        board.close()
+    header = (
+        "# Leg-board calibration: static friction torque of each joint vs motor current.\n"
+        "# PROVENANCE: MEASURED with `slopelander legs calibrate` (docs/legs-build.md).\n"
+    )
+    out.write_text(header + yaml.safe_dump(doc, sort_keys=False))
+    for f in fits:
+        c = f.coeffs
+        terms = " ".join(f"{v:+.3f}·τ^{k}" for k, v in enumerate(c))
+        print(
+            f"leg {f.leg}: current = {terms} mA over {f.torque_range[0]:.2f}–{f.torque_range[1]:.2f} N·m; "
+            f"±{f.uncertainty_nm:.3f} N·m (95 %), points {f.residual_rms_nm:.3f} N·m rms, "
+            f"spread {f.spread_ma:.0f} mA"
+        )
+    print(f"wrote {out} (provenance measured, board {board.info.board_id})")
     return 0
 
 

@@ -1,21 +1,23 @@
-"""The one codec the driver and the simulated board share: messages to bytes and back.
+"""The leg-board codec on the companion's side: typed messages to bytes and back.
 
-:class:`Decoder` is a byte stream in, messages out. It never raises on what the line
-delivers; every dropped frame increments a counter in :attr:`Decoder.rejects`.
+``encode(msg, seq)`` gives the bytes to write (delimiter included); a :class:`Decoder` is fed
+whatever the port returns and yields :class:`Frame` objects. Framing, CRC, payload layouts and
+the order of the checks are :mod:`slopelander.legs.wire`'s, shared with the board's firmware;
+every dropped frame increments a counter in :attr:`Decoder.rejects`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from slopelander.legs import messages
-from slopelander.legs.framing import FrameSplitter, RejectCounters, encode_frame
-from slopelander.legs.messages import PAYLOAD_LENGTH, BadPayloadError, Message, MsgType
+from slopelander.legs import messages, wire
+from slopelander.legs.messages import Message, MsgType
+from slopelander.legs.wire import RejectCounters
 
 
 def encode(msg: Message, seq: int) -> bytes:
     """Bytes to write for ``msg`` with sequence number ``seq`` (delimiter included)."""
-    return encode_frame(messages.type_of(msg), seq, messages.pack(msg))
+    return wire.encode_frame(messages.type_of(msg), seq, messages.pack(msg))
 
 
 @dataclass(frozen=True)
@@ -27,35 +29,29 @@ class Frame:
     raw: bytes
 
 
-@dataclass
 class Decoder:
     """Streaming decoder: feed bytes, get :class:`Frame` objects, count rejects."""
 
-    accepted: int = 0
-    _splitter: FrameSplitter = field(default_factory=FrameSplitter)
+    def __init__(self) -> None:
+        self._wire = wire.Decoder()
 
     @property
     def rejects(self) -> RejectCounters:
-        return self._splitter.rejects
+        return self._wire.rejects
+
+    @property
+    def accepted(self) -> int:
+        return self._wire.accepted
+
+    @property
+    def foreign_version(self) -> int | None:
+        """The protocol version of a board that answered HELLO in another version's layout."""
+        return self._wire.foreign_version
 
     def feed(self, data: bytes) -> list[Frame]:
-        out = []
-        for raw in self._splitter.feed(data):
-            expected = PAYLOAD_LENGTH.get(raw.msg_type)
-            if expected is None:
-                self.rejects.unknown_type += 1
-                continue
-            if len(raw.payload) != expected:
-                self.rejects.payload_length += 1
-                continue
-            try:
-                msg = messages.unpack(raw.msg_type, raw.payload)
-            except BadPayloadError:
-                self.rejects.bad_value += 1
-                continue
-            self.accepted += 1
-            out.append(Frame(raw.seq, msg, raw.raw))
-        return out
+        return [
+            Frame(seq, messages.from_fields(t, fields), raw) for t, seq, fields, raw in self._wire.feed(data)
+        ]
 
 
 __all__ = ["Decoder", "Frame", "MsgType", "encode"]

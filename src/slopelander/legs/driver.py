@@ -68,6 +68,9 @@ MAX_ANGLE_DEG = MAX_ANGLE_CDEG / 100.0
 STEADY_STATES = (LegState.LOOSE, LegState.HOLDING, LegState.STOPPED)
 SETTLE_SAMPLES = 3
 MAX_QUEUE_BYTES = 4096  # about 200 commands: far more than a landing sends between two polls
+#: a KEEPALIVE goes out when nothing else was sent for this long (driver clock or wall time, which
+#: ever comes first): the board stops holding its motors after 10 s of silence
+KEEPALIVE_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,10 @@ class BoardInfo:
     capabilities: int
     max_payload: int
     board_time_s: float
+    #: the board's own id (16 hex digits): a measured calibration names the board it was made on
+    board_id: str = ""
+    #: the firmware's version, "major.minor"
+    firmware: str = ""
 
     @property
     def angle_stop(self) -> bool:
@@ -213,7 +220,7 @@ class Operation:
     # ---- what the caller reads ----------------------------------------------------------
     @property
     def kind(self) -> str:
-        """friction, angle, loosen or stop."""
+        """friction, current, angle, loosen or stop."""
         return self._kind
 
     @property
@@ -336,7 +343,7 @@ class Operation:
         for leg in self._legs:
             if leg not in self._results:
                 r = partial.get(leg)
-                unit = "N·m" if self._kind == "friction" else "°"
+                unit = {"friction": "N·m", "current": "mA"}.get(self._kind, "°")
                 state = status.legs[leg].state.name if status else "unknown"
                 self._fail(
                     LegNotConverged(
@@ -355,7 +362,7 @@ class Operation:
 
     def _counts(self, s: LegStatus) -> bool:
         """Whether this status is one of the settled samples the leg needs."""
-        if self._kind == "friction":
+        if self._kind in ("friction", "current"):
             if self._target_ma[s.leg] == 0:
                 return s.state is LegState.LOOSE
             return s.state is LegState.HOLDING and s.target_ma == self._target_ma[s.leg]
@@ -373,6 +380,9 @@ class Operation:
         if self._kind == "friction":
             achieved = cal.torque(leg, current) if self._target_ma[leg] else 0.0
             ok = target is not None and abs(achieved - target) <= self._tolerance
+        elif self._kind == "current":  # held on its target: the board's band is the tolerance
+            achieved = current
+            ok = True
         elif self._kind == "angle":
             achieved = angle
             ok = target is not None and abs(angle - target) <= self._tolerance
@@ -417,6 +427,7 @@ class LegBoard:
         serial_factory: Callable[..., serial.Serial] = serial.Serial,
         clock: Callable[[], float] = time.monotonic,
         max_queue_bytes: int = MAX_QUEUE_BYTES,
+        keepalive_s: float = KEEPALIVE_S,
     ) -> None:
         self.port = port
         self.baud = baud
@@ -442,6 +453,8 @@ class LegBoard:
         self._ops: list[Operation] = []
         self._last_good = 0.0
         self._rejects_at_good = 0
+        self.keepalive_s = keepalive_s
+        self._sent_at = (-float("inf"), -float("inf"))  # (driver clock, wall) of the last frame
 
     # ---- connection -------------------------------------------------------------------
     @classmethod
@@ -477,28 +490,48 @@ class LegBoard:
                 msg = frame.message
                 if isinstance(msg, messages.HelloReply):
                     if msg.version != messages.PROTOCOL_VERSION:
+                        raise self._version_error(msg.version)
+                    if msg.legs != N_LEGS:
                         raise ProtocolError(
-                            f"leg board on {self.port} speaks protocol version {msg.version}, "
-                            f"this driver {messages.PROTOCOL_VERSION}"
+                            f"leg board on {self.port} reports {msg.legs} legs; slopelander drives "
+                            f"{N_LEGS} (legs 0..{N_LEGS - 1}, docs/legs-build.md)"
                         )
-                    self.info = BoardInfo(
+                    info = BoardInfo(
                         msg.version,
                         msg.legs,
                         msg.capabilities,
                         msg.max_payload,
                         msg.board_time_ms / 1000.0,
+                        msg.board_id_hex,
+                        msg.firmware_text,
                     )
+                    self.calibration.check_board(info.board_id)
+                    self.info = info
                     self._last_good = self.clock()
                     self._rejects_at_good = self.decoder.rejects.total()
                     return self.info
                 if isinstance(msg, messages.Nak) and msg.cmd_seq == seq:
+                    if msg.code == messages.NakCode.BAD_VERSION:
+                        raise ProtocolError(
+                            f"leg board on {self.port} does not speak protocol version "
+                            f"{messages.PROTOCOL_VERSION} (it refused HELLO): flash the firmware "
+                            "of this release (docs/legs-build.md)"
+                        )
                     raise ProtocolError(
                         f"leg board on {self.port} refused HELLO: {NAK_TEXT.get(msg.code, msg.code)}"
                     )
+            if self.decoder.foreign_version is not None:
+                raise self._version_error(self.decoder.foreign_version)
             if self.clock() >= deadline:
                 raise self._silence_error(f"no HELLO_REPLY within {timeout:g} s")
             self._flush()
             self._wait_readable(min(next_try, deadline, self.clock() + 0.05) - self.clock())
+
+    def _version_error(self, version: int) -> ProtocolError:
+        return ProtocolError(
+            f"leg board on {self.port} speaks protocol version {version}, this driver "
+            f"{messages.PROTOCOL_VERSION}: flash the firmware of this release (docs/legs-build.md)"
+        )
 
     def reconnect(self, timeout: float = 2.0) -> BoardInfo:
         """Start afresh with a board that came back (or was reset): close the port, fail every
@@ -593,6 +626,7 @@ class LegBoard:
             self._read()
             now = self.clock()
             self._resend(now)
+            self._keepalive(now)
             if now - self._last_good > self.silence_timeout:
                 raise self._silence_error(f"nothing for {self.silence_timeout:g} s")
         except LegBoardError as exc:
@@ -615,10 +649,10 @@ class LegBoard:
         torque of 0 loosens the leg.
         """
         legs = self._legs(torques)
-        target_ma = {leg: self.calibration.current_for(leg, torques[leg]) for leg in legs}
-        for leg in legs:
-            if torques[leg] == 0:
-                target_ma[leg] = 0
+        # torque 0 is loosening, whatever the curve's lowest calibrated torque
+        target_ma = {
+            leg: self.calibration.current_for(leg, torques[leg]) if torques[leg] else 0 for leg in legs
+        }
         currents = tuple(target_ma.get(i, 0) for i in range(N_LEGS))
         msg = messages.SetFriction(mask_of(legs), currents)
         return self._start("friction", msg, legs, dict(torques), target_ma, timeout, tolerance_nm)
@@ -639,6 +673,20 @@ class LegBoard:
         if not torques:
             raise ValueError("give an uphill or a downhill torque")
         return self.start_torques(torques, timeout=timeout, tolerance_nm=tolerance_nm)
+
+    def start_currents(self, currents_ma: Mapping[int, int], *, timeout: float = 20.0) -> Operation:
+        """Start clamping legs to motor-current targets (mA) directly, bypassing the calibration:
+        what measuring the calibration needs. Done when each leg holds its target."""
+        legs = self._legs(currents_ma)
+        target_ma = {leg: int(currents_ma[leg]) for leg in legs}
+        for leg, ma in target_ma.items():
+            if not 0 <= ma <= messages.MAX_TARGET_MA:
+                raise ValueError(f"leg {leg}: current target {ma} mA outside 0..{messages.MAX_TARGET_MA}")
+        currents = tuple(target_ma.get(i, 0) for i in range(N_LEGS))
+        msg = messages.SetFriction(mask_of(legs), currents)
+        return self._start(
+            "current", msg, legs, {k: float(v) for k, v in target_ma.items()}, target_ma, timeout, 0.0
+        )
 
     def start_loosen(self, legs: Iterable[int] | None = None, *, timeout: float = 20.0) -> Operation:
         """Start loosening legs (all by default) so their springs reset them."""
@@ -788,7 +836,17 @@ class LegBoard:
         seq = self._seq
         self._write(codec.encode(msg, seq))
         self._seq = (self._seq + 1) & 0xFF
+        self._sent_at = (self.clock(), time.monotonic())
         return seq
+
+    def _keepalive(self, now: float) -> None:
+        """Tell the board the companion is alive when nothing else went out for a while."""
+        last_clock, last_wall = self._sent_at
+        if self.info is None or self._ser is None:
+            return
+        due = now - last_clock >= self.keepalive_s or time.monotonic() - last_wall >= self.keepalive_s
+        if due and len(self._outq) < self.max_queue_bytes // 2:  # a board not reading gets no more
+            self._send(messages.Keepalive())
 
     def _write(self, data: bytes) -> None:
         """Queue ``data`` whole (or raise :class:`WriteQueueFull`), then flush what the port takes."""
@@ -852,9 +910,20 @@ class LegBoard:
                 return
             if isinstance(msg, messages.Ack):
                 pending.op._acknowledge(self.status)
+            elif msg.code == messages.NakCode.FAULTED and self._faulted(pending.op.legs):
+                pending.op._fail(self._faulted(pending.op.legs))  # say which fault, not only "faulted"
             else:
                 name = MsgType(msg.cmd_type).name
                 pending.op._fail(CommandRejected(name, msg.code, NAK_TEXT.get(msg.code, "?")))
+
+    def _faulted(self, legs: Iterable[int]) -> LegFault | None:
+        """The fault of the first of ``legs`` the latest status shows faulted."""
+        if self.status is not None:
+            for leg in legs:
+                s = self.status.legs[leg]
+                if s.state is LegState.FAULT:
+                    return LegFault(leg, int(s.fault), FAULT_TEXT[s.fault])
+        return None
 
     def _resend(self, now: float) -> None:
         for seq, p in list(self._pending.items()):

@@ -1,39 +1,50 @@
-"""The messages of leg-board protocol version 2 and their payload layouts.
+"""The messages of leg-board protocol version 3 as typed objects, for the companion's driver.
 
-One dataclass per message type; :func:`pack` and :func:`unpack` convert between them and
-payload bytes. ``unpack`` checks every field's range, because after the CRC the field checks
-are what stands between a rare undetected line error and a wrong command.
+The numbers, layouts and range checks are :mod:`slopelander.legs.wire`'s, the module the
+board's firmware shares; this layer gives each message a frozen dataclass and each code an
+enum. :func:`pack` and :func:`unpack` go through ``wire`` and nothing else, so the driver and
+the firmware cannot disagree about a byte.
 """
 
 from __future__ import annotations
 
-import struct
 from dataclasses import dataclass
 from enum import IntEnum
 
-PROTOCOL_VERSION = 2  # 2: CRC-32 frames (1 used CRC-16)
-N_LEGS = 4
-MAX_TARGET_MA = 1000
-MAX_ANGLE_CDEG = 3750  # 37.5°, the leg fully extended
-MAX_CURRENT_MA = 2000  # current sensor range, either sign
-ALL_LEGS_MASK = (1 << N_LEGS) - 1
+from slopelander.legs import wire
+from slopelander.legs.wire import (
+    ALL_LEGS_MASK,
+    BOARD_ID_LEN,
+    MAX_ANGLE_CDEG,
+    MAX_CURRENT_MA,
+    MAX_TARGET_MA,
+    N_LEGS,
+    PROTOCOL_VERSION,
+    STATUS_FLAG_SIMULATED,
+    legs_in,
+    mask_of,
+)
+
+BadPayloadError = wire.BadPayloadError
 
 
 class LegState(IntEnum):
-    LOOSE = 0
-    LOOSENING = 1
-    TIGHTENING = 2
-    HOLDING = 3
-    STOPPED = 4
-    POSITIONING = 5
-    FAULT = 6
+    LOOSE = wire.LOOSE
+    LOOSENING = wire.LOOSENING
+    TIGHTENING = wire.TIGHTENING
+    HOLDING = wire.HOLDING
+    STOPPED = wire.STOPPED
+    POSITIONING = wire.POSITIONING
+    FAULT = wire.FAULT
 
 
 class FaultCode(IntEnum):
-    NONE = 0
-    OVERCURRENT = 1
-    STUCK = 2
-    TIMEOUT = 3
+    NONE = wire.FAULT_NONE
+    OVERCURRENT = wire.FAULT_OVERCURRENT
+    STUCK = wire.FAULT_STUCK
+    TIMEOUT = wire.FAULT_TIMEOUT
+    SENSE = wire.FAULT_SENSE
+    TRAVEL = wire.FAULT_TRAVEL
 
 
 FAULT_TEXT = {
@@ -41,15 +52,18 @@ FAULT_TEXT = {
     FaultCode.OVERCURRENT: "over-current: motor current above the limit, motor switched off",
     FaultCode.STUCK: "stuck: the drive stalled where the nut had to move",
     FaultCode.TIMEOUT: "timeout: the motion did not finish within the board's limit",
+    FaultCode.SENSE: "no current while driven: current sense or motor wiring open, motor switched off",
+    FaultCode.TRAVEL: "end of travel: the nut ran past its range (a slipping gear?), motor switched off",
 }
 
 
 class NakCode(IntEnum):
-    BAD_VERSION = 1
-    BAD_VALUE = 2
-    UNSUPPORTED = 3
-    NO_HELLO = 4
-    FAULTED = 5
+    BAD_VERSION = wire.NAK_BAD_VERSION
+    BAD_VALUE = wire.NAK_BAD_VALUE
+    UNSUPPORTED = wire.NAK_UNSUPPORTED
+    NO_HELLO = wire.NAK_NO_HELLO
+    FAULTED = wire.NAK_FAULTED
+    ABOVE_LIMIT = wire.NAK_ABOVE_LIMIT
 
 
 NAK_TEXT = {
@@ -58,50 +72,30 @@ NAK_TEXT = {
     NakCode.UNSUPPORTED: "the board does not support this command",
     NakCode.NO_HELLO: "command before HELLO",
     NakCode.FAULTED: "the leg is faulted; loosen it first",
+    NakCode.ABOVE_LIMIT: "current target above the board's configured limit",
 }
 
 
 class Capability(IntEnum):
-    ANGLE_STOP = 1
-    SIMULATED = 2
-
-
-STATUS_FLAG_SIMULATED = 1
-_CAPABILITY_MASK = Capability.ANGLE_STOP | Capability.SIMULATED
+    ANGLE_STOP = wire.CAP_ANGLE_STOP
+    SIMULATED = wire.CAP_SIMULATED
 
 
 class MsgType(IntEnum):
-    HELLO = 0x01
-    SET_FRICTION = 0x02
-    LOOSEN = 0x03
-    SET_ANGLE = 0x04
-    STOP = 0x05
-    QUERY = 0x06
-    HELLO_REPLY = 0x81
-    ACK = 0x82
-    NAK = 0x83
-    STATUS = 0x84
+    HELLO = wire.HELLO
+    SET_FRICTION = wire.SET_FRICTION
+    LOOSEN = wire.LOOSEN
+    SET_ANGLE = wire.SET_ANGLE
+    STOP = wire.STOP
+    QUERY = wire.QUERY
+    KEEPALIVE = wire.KEEPALIVE
+    HELLO_REPLY = wire.HELLO_REPLY
+    ACK = wire.ACK
+    NAK = wire.NAK
+    STATUS = wire.STATUS
 
 
-class BadPayloadError(ValueError):
-    """A payload of the right length whose fields are out of range."""
-
-
-def legs_in(mask: int) -> tuple[int, ...]:
-    """Leg indices selected by a leg mask."""
-    return tuple(i for i in range(N_LEGS) if mask >> i & 1)
-
-
-def mask_of(legs) -> int:
-    mask = 0
-    for leg in legs:
-        mask |= 1 << leg
-    return mask
-
-
-def _check_mask(mask: int) -> None:
-    if mask == 0 or mask & ~ALL_LEGS_MASK:
-        raise BadPayloadError(f"leg mask 0x{mask:02x}")
+PAYLOAD_LENGTH = {MsgType(t): n for t, n in wire.PAYLOAD_LENGTH.items()}
 
 
 @dataclass(frozen=True)
@@ -138,12 +132,27 @@ class Query:
 
 
 @dataclass(frozen=True)
+class Keepalive:
+    """The companion is alive (no reply); sent when it has sent nothing else for a while."""
+
+
+@dataclass(frozen=True)
 class HelloReply:
     version: int
     legs: int
     capabilities: int
     max_payload: int
     board_time_ms: int
+    board_id: bytes = bytes(BOARD_ID_LEN)
+    firmware: int = 0
+
+    @property
+    def board_id_hex(self) -> str:
+        return self.board_id.hex()
+
+    @property
+    def firmware_text(self) -> str:
+        return f"{self.firmware >> 8}.{self.firmware & 0xFF}"
 
 
 @dataclass(frozen=True)
@@ -178,26 +187,7 @@ class Status:
     legs: tuple[LegReport, ...]
 
 
-Message = Hello | SetFriction | Loosen | SetAngle | Stop | Query | HelloReply | Ack | Nak | Status
-
-_LEG = struct.Struct("<BBhHH")
-_STATUS_HEAD = struct.Struct("<IBB")
-_FOUR = struct.Struct("<B4H")
-_HELLO = struct.Struct("<BH")
-_HELLO_REPLY = struct.Struct("<BBBBI")
-
-PAYLOAD_LENGTH = {
-    MsgType.HELLO: _HELLO.size,
-    MsgType.SET_FRICTION: _FOUR.size,
-    MsgType.LOOSEN: 1,
-    MsgType.SET_ANGLE: _FOUR.size,
-    MsgType.STOP: 1,
-    MsgType.QUERY: 0,
-    MsgType.HELLO_REPLY: _HELLO_REPLY.size,
-    MsgType.ACK: 2,
-    MsgType.NAK: 3,
-    MsgType.STATUS: _STATUS_HEAD.size + N_LEGS * _LEG.size,
-}
+Message = Hello | SetFriction | Loosen | SetAngle | Stop | Query | Keepalive | HelloReply | Ack | Nak | Status
 
 _TYPE_OF = {
     Hello: MsgType.HELLO,
@@ -206,6 +196,7 @@ _TYPE_OF = {
     SetAngle: MsgType.SET_ANGLE,
     Stop: MsgType.STOP,
     Query: MsgType.QUERY,
+    Keepalive: MsgType.KEEPALIVE,
     HelloReply: MsgType.HELLO_REPLY,
     Ack: MsgType.ACK,
     Nak: MsgType.NAK,
@@ -217,81 +208,85 @@ def type_of(msg: Message) -> MsgType:
     return _TYPE_OF[type(msg)]
 
 
+def fields_of(msg: Message) -> tuple:
+    """The message as ``wire``'s field tuple."""
+    if isinstance(msg, Hello):
+        return (msg.version, msg.status_period_ms)
+    if isinstance(msg, SetFriction):
+        return (msg.mask, tuple(msg.target_ma))
+    if isinstance(msg, SetAngle):
+        return (msg.mask, tuple(msg.angle_cdeg))
+    if isinstance(msg, Loosen | Stop):
+        return (msg.mask,)
+    if isinstance(msg, Query | Keepalive):
+        return ()
+    if isinstance(msg, HelloReply):
+        return (
+            msg.version,
+            msg.legs,
+            msg.capabilities,
+            msg.max_payload,
+            msg.board_time_ms,
+            msg.board_id,
+            msg.firmware,
+        )
+    if isinstance(msg, Ack):
+        return (msg.cmd_seq, msg.cmd_type)
+    if isinstance(msg, Nak):
+        return (msg.cmd_seq, msg.cmd_type, msg.code)
+    if isinstance(msg, Status):
+        legs = tuple((r.state, r.fault, r.current_ma, r.target_ma, r.angle_cdeg) for r in msg.legs)
+        return (msg.board_time_ms, msg.last_cmd_seq, msg.flags, legs)
+    raise TypeError(f"not a leg-board message: {msg!r}")
+
+
 def pack(msg: Message) -> bytes:
     """Payload bytes of a message (fields must already be in range)."""
-    if isinstance(msg, Hello):
-        return _HELLO.pack(msg.version, msg.status_period_ms)
-    if isinstance(msg, SetFriction):
-        return _FOUR.pack(msg.mask, *msg.target_ma)
-    if isinstance(msg, SetAngle):
-        return _FOUR.pack(msg.mask, *msg.angle_cdeg)
-    if isinstance(msg, Loosen | Stop):
-        return bytes((msg.mask,))
-    if isinstance(msg, Query):
-        return b""
-    if isinstance(msg, HelloReply):
-        return _HELLO_REPLY.pack(msg.version, msg.legs, msg.capabilities, msg.max_payload, msg.board_time_ms)
-    if isinstance(msg, Ack):
-        return bytes((msg.cmd_seq, msg.cmd_type))
-    if isinstance(msg, Nak):
-        return bytes((msg.cmd_seq, msg.cmd_type, msg.code))
-    if isinstance(msg, Status):
-        head = _STATUS_HEAD.pack(msg.board_time_ms, msg.last_cmd_seq, msg.flags)
-        return head + b"".join(
-            _LEG.pack(r.state, r.fault, r.current_ma, r.target_ma, r.angle_cdeg) for r in msg.legs
-        )
-    raise TypeError(f"not a leg-board message: {msg!r}")
+    return wire.pack(type_of(msg), fields_of(msg))
+
+
+def from_fields(msg_type: int, f: tuple) -> Message:
+    """The typed message of a field tuple ``wire.unpack`` returned."""
+    t = MsgType(msg_type)
+    if t is MsgType.HELLO:
+        return Hello(*f)
+    if t is MsgType.SET_FRICTION:
+        return SetFriction(f[0], tuple(f[1]))
+    if t is MsgType.SET_ANGLE:
+        return SetAngle(f[0], tuple(f[1]))
+    if t is MsgType.LOOSEN:
+        return Loosen(f[0])
+    if t is MsgType.STOP:
+        return Stop(f[0])
+    if t is MsgType.QUERY:
+        return Query()
+    if t is MsgType.KEEPALIVE:
+        return Keepalive()
+    if t is MsgType.HELLO_REPLY:
+        return HelloReply(*f)
+    if t is MsgType.ACK:
+        return Ack(*f)
+    if t is MsgType.NAK:
+        return Nak(*f)
+    legs = tuple(LegReport(LegState(s), FaultCode(fault), c, tg, a) for s, fault, c, tg, a in f[3])
+    return Status(f[0], f[1], f[2], legs)
 
 
 def unpack(msg_type: int, payload: bytes) -> Message:
     """Interpret a payload of known type and length; :class:`BadPayloadError` if out of range."""
-    t = MsgType(msg_type)
-    if t is MsgType.HELLO:
-        version, period = _HELLO.unpack(payload)
-        if version == 0:
-            raise BadPayloadError("version 0")
-        return Hello(version, period)
-    if t in (MsgType.SET_FRICTION, MsgType.SET_ANGLE):
-        mask, *values = _FOUR.unpack(payload)
-        _check_mask(mask)
-        limit = MAX_TARGET_MA if t is MsgType.SET_FRICTION else MAX_ANGLE_CDEG
-        if any(v > limit for v in values):
-            raise BadPayloadError(f"value above {limit}")
-        cls = SetFriction if t is MsgType.SET_FRICTION else SetAngle
-        return cls(mask, tuple(values))
-    if t in (MsgType.LOOSEN, MsgType.STOP):
-        _check_mask(payload[0])
-        return (Loosen if t is MsgType.LOOSEN else Stop)(payload[0])
-    if t is MsgType.QUERY:
-        return Query()
-    if t is MsgType.HELLO_REPLY:
-        version, legs, caps, max_payload, clock = _HELLO_REPLY.unpack(payload)
-        if version == 0 or legs != N_LEGS or caps & ~_CAPABILITY_MASK or max_payload == 0:
-            raise BadPayloadError("hello reply fields")
-        return HelloReply(version, legs, caps, max_payload, clock)
-    if t is MsgType.ACK:
-        return Ack(payload[0], _command_type(payload[1]))
-    if t is MsgType.NAK:
-        if payload[2] not in NakCode._value2member_map_:
-            raise BadPayloadError(f"NAK code {payload[2]}")
-        return Nak(payload[0], _command_type(payload[1]), payload[2])
-    clock, last_seq, flags = _STATUS_HEAD.unpack_from(payload)
-    if flags & ~STATUS_FLAG_SIMULATED:
-        raise BadPayloadError(f"status flags 0x{flags:02x}")
-    legs = []
-    for i in range(N_LEGS):
-        state, fault, current, target, angle = _LEG.unpack_from(payload, _STATUS_HEAD.size + i * _LEG.size)
-        if state > LegState.FAULT or fault > FaultCode.TIMEOUT:
-            raise BadPayloadError(f"leg {i} state {state} fault {fault}")
-        if target > MAX_TARGET_MA or angle > MAX_ANGLE_CDEG or abs(current) > MAX_CURRENT_MA:
-            raise BadPayloadError(f"leg {i} target {target} angle {angle}")
-        if (fault != FaultCode.NONE) != (state == LegState.FAULT):
-            raise BadPayloadError(f"leg {i} fault {fault} in state {state}")
-        legs.append(LegReport(LegState(state), FaultCode(fault), current, target, angle))
-    return Status(clock, last_seq, flags, tuple(legs))
+    return from_fields(msg_type, wire.unpack(msg_type, payload))
 
 
-def _command_type(value: int) -> int:
-    if value not in MsgType._value2member_map_ or value >= 0x80:
-        raise BadPayloadError(f"command type 0x{value:02x}")
-    return value
+__all__ = [
+    "ALL_LEGS_MASK",
+    "BOARD_ID_LEN",
+    "MAX_ANGLE_CDEG",
+    "MAX_CURRENT_MA",
+    "MAX_TARGET_MA",
+    "N_LEGS",
+    "PROTOCOL_VERSION",
+    "STATUS_FLAG_SIMULATED",
+    "BadPayloadError",
+    "legs_in",
+    "mask_of",
+]
