@@ -45,8 +45,9 @@ def prefix(n: int):
 
     @njit
     def run(p, fl, ctx, states, h, ws, sx, solves):  # pragma: no cover - compiled
-        st = np.zeros(states.shape[1])
         w = ws[0]
+        k._load(w, p, fl, ctx, states[0])
+        p, fl, ctx, st = w.p, w.fl, w.ctx, w.st
         for r in range(states.shape[0]):
             for i in range(states.shape[1]):
                 st[i] = states[r, i]

@@ -321,11 +321,26 @@ def _leg_geometry(p, j, q):
     return hx, hz, ux, uz, dux, duz
 
 
+@njit(cache=True, inline="always")
+def _columns(i):
+    """How many generalised coordinates move contact point i: x, z, pitch and a foot's own
+    leg (the other columns of its Jacobian are zero)."""
+    return 4 if i < 2 else 3
+
+
+@njit(cache=True, inline="always")
+def _column(i, b):
+    """The b-th of them (b < _columns(i))."""
+    return b if b < 3 else 3 + i
+
+
 @njit(cache=True)
 def kinematics(p, st, M, f, pts, vel, J):
     """Mass matrix, velocity-product + gravity forces, and the contact points' kinematics.
 
-    pts[i] / vel[i] are world position / velocity of point i, J[i] its 2x5 Jacobian.
+    pts[i] / vel[i] are world position / velocity of point i, J[i] its 2x5 Jacobian. J's
+    entries that are always zero (a foot's x row in z, the other leg's column, a point on
+    the body in the legs' columns) are never written: ``J`` starts at zero (make_workspace).
     """
     th = st[S_Q + 2]
     c = math.cos(th)
@@ -344,11 +359,6 @@ def kinematics(p, st, M, f, pts, vel, J):
     M[1, 1] = mb
     M[2, 2] = p[P_IB]
     f[1] = -mb * g
-
-    for i in range(N_POINTS):
-        for a in range(2):
-            for b in range(5):
-                J[i, a, b] = 0.0
 
     # Legs: centre of mass (for M and forces) and foot (contact points 0, 1).
     for j in range(2):
@@ -419,12 +429,12 @@ def kinematics(p, st, M, f, pts, vel, J):
     for i in range(N_POINTS):
         for a in range(2):
             acc = 0.0
-            for b in range(5):
-                acc += J[i, a, b] * st[S_V + b]
+            for b in range(_columns(i)):
+                acc += J[i, a, _column(i, b)] * st[S_V + _column(i, b)]
             vel[i, a] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _solve5(A, b, x, n):
     """Gaussian elimination with partial pivoting (A, b are overwritten)."""
     for k in range(n):
@@ -446,7 +456,7 @@ def _solve5(A, b, x, n):
         for r in range(k + 1, n):
             fct = A[r, k] / d
             if fct != 0.0:
-                for cc in range(k, n):
+                for cc in range(k + 1, n):  # (column k below the pivot is not read again)
                     A[r, cc] -= fct * A[k, cc]
                 b[r] -= fct * b[k]
     for k in range(n - 1, -1, -1):
@@ -456,12 +466,13 @@ def _solve5(A, b, x, n):
         x[k] = acc / A[k, k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _contact_rates(JNT, i, v):
     """Normal and tangential speed of contact point i for generalised velocities v."""
     ddn = 0.0
     sdn = 0.0
-    for b in range(5):
+    for bb in range(_columns(i)):
+        b = _column(i, bb)
         ddn += JNT[i, 0, b] * v[b]
         sdn += JNT[i, 1, b] * v[b]
     return ddn, sdn
@@ -767,7 +778,8 @@ def _contacts(p, fl, ctx, st, w, sx):
         active[i] = 0
         if d0[i] < 0.0 and N0 > 0.0:
             active[i] = 1
-            for b in range(5):
+            for bb in range(_columns(i)):  # (the other columns stay zero)
+                b = _column(i, bb)
                 JNT[i, 0, b] = nx * J[i, 0, b] + nz * J[i, 1, b]
                 JNT[i, 1, b] = tx * J[i, 0, b] + tz * J[i, 1, b]
             if st[S_CM + i] == 0.0:
@@ -847,33 +859,39 @@ def _solve(p, fl, st, h, w, sx):
             else:
                 nc0 = -kgp[i] * d0[i]
                 cn = h * h * kgp[i] * ik + h * bgp[i]
-            for a in range(5):
+            for aa in range(_columns(i)):
+                a = _column(i, aa)
                 jna = JNT[i, 0, a]
                 if jna != 0.0:
                     r[a] += h * jna * nc0
-                    for b in range(5):
+                    for bb in range(_columns(i)):
+                        b = _column(i, bb)
                         A[a, b] += cn * jna * JNT[i, 0, b]
             mode = st[S_CM + i]
             if stiction:
                 if mode == 1.0:
                     ct = h * h * kt * ik + h * bt
                     ft = -kt * (s0[i] - st[S_ANC + i])
-                    for a in range(5):
+                    for aa in range(_columns(i)):
+                        a = _column(i, aa)
                         jta = JNT[i, 1, a]
                         if jta != 0.0:
                             r[a] += h * jta * ft
-                            for b in range(5):
+                            for bb in range(_columns(i)):
+                                b = _column(i, bb)
                                 A[a, b] += ct * jta * JNT[i, 1, b]
                 else:
                     sg = 1.0 if mode == 2.0 else -1.0
-                    for a in range(5):
+                    for aa in range(_columns(i)):
+                        a = _column(i, aa)
                         jta = JNT[i, 1, a]
                         if jta != 0.0:
                             if normal_law:
                                 r[a] += h * jta * (-sg * mu[i] * nc0)
                             else:
                                 r[a] += h * jta * (sg * mu[i] * kgp[i] * d0[i])
-                            for b in range(5):
+                            for bb in range(_columns(i)):
+                                b = _column(i, bb)
                                 A[a, b] += -sg * mu[i] * cn * jta * JNT[i, 0, b]
             elif regular:
                 N0 = nN[i] if normal_law else -kgp[i] * d0[i] - bgp[i] * dd0[i]
@@ -881,11 +899,13 @@ def _solve(p, fl, st, h, w, sx):
                 th_ = math.tanh(xx)
                 gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
                 ft = -mu[i] * N0 * th_
-                for a in range(5):
+                for aa in range(_columns(i)):
+                    a = _column(i, aa)
                     jta = JNT[i, 1, a]
                     if jta != 0.0:
                         r[a] += h * jta * (ft + gg * sd0[i])
-                        for b in range(5):
+                        for bb in range(_columns(i)):
+                            b = _column(i, bb)
                             A[a, b] += h * gg * jta * JNT[i, 1, b]
         # locked joints (rigid gear, or a stuck joint without leg flex)
         for a in range(5):
@@ -957,7 +977,8 @@ def _contact_forces(p, fl, ctx, st, h, w, sx, user_forces):
                 # let go still pressed in (a rebounding foot's force reaches zero first): the
                 # massless contact's spring relaxes into its damper
                 acc = 0.0
-                for b in range(5):
+                for bb in range(_columns(i)):
+                    b = _column(i, bb)
                     acc += (nx * J[i, 0, b] + nz * J[i, 1, b]) * vn[b]
                 de = d0[i] + h * acc
                 if de < 0.0:
@@ -997,7 +1018,8 @@ def _contact_forces(p, fl, ctx, st, h, w, sx, user_forces):
     # every point's speed along the surface (downhill-positive), for user laws next step
     for i in range(N_POINTS):
         acc = 0.0
-        for b in range(5):
+        for bb in range(_columns(i)):
+            b = _column(i, bb)
             acc += (tx * J[i, 0, b] + tz * J[i, 1, b]) * vn[b]
         st[S_SLIP + i] = dsg * acc
     if user_forces:
