@@ -338,7 +338,8 @@ def _column(i, b):
 def kinematics(p, st, M, f, pts, vel, J):
     """Mass matrix, velocity-product + gravity forces, and the contact points' kinematics.
 
-    pts[i] / vel[i] are world position / velocity of point i, J[i] its 2x5 Jacobian. J's
+    pts[i] / vel[i] are world position / velocity of point i, J[i] its 2x5 Jacobian; returns
+    the cosine and sine of the pitch (later stages of the step reuse them). J's
     entries that are always zero (a foot's x row in z, the other leg's column, a point on
     the body in the legs' columns) are never written: ``J`` starts at zero (make_workspace).
     """
@@ -432,6 +433,7 @@ def kinematics(p, st, M, f, pts, vel, J):
             for b in range(_columns(i)):
                 acc += J[i, a, _column(i, b)] * st[S_V + _column(i, b)]
             vel[i, a] = acc
+    return c, s
 
 
 @njit(cache=True, inline="always")
@@ -576,7 +578,7 @@ def _substep(w, h, u0, u1, sx):
     costs two atomic operations for each stage it passes through).
     """
     p, fl, ctx, st = w.p, w.fl, w.ctx, w.st
-    kinematics(p, st, w.M, w.f, w.pts, w.vel, w.J)
+    w.pitch_cos, w.pitch_sin = kinematics(p, st, w.M, w.f, w.pts, w.vel, w.J)
     user_forces = _applied_forces(p, fl, ctx, st, w, sx)
     _joint_law(p, fl, ctx, st, h, w, sx)
     began = _contacts(p, fl, ctx, st, w, sx)
@@ -643,13 +645,14 @@ def _applied_forces(p, fl, ctx, st, w, sx):
     for a in range(3):
         f[a] += ctx[C_FEXT + a]
     # rotors: thrust along body z at the hubs, from the speed at the start of the step
-    bzx = -math.sin(st[S_Q + 2])
-    bzz = math.cos(st[S_Q + 2])
+    bzx = -w.pitch_sin
+    bzz = w.pitch_cos
     for rr in range(2):
         T = _thrust(p, st[S_W + rr]) if fl[F_ROTORS] != 0 else 0.0
         st[S_THR + rr] = T
-        for b in range(5):
-            f[b] += J[4 + rr, 0, b] * T * bzx + J[4 + rr, 1, b] * T * bzz
+        if T != 0.0:
+            for b in range(3):  # (a hub moves with the body alone)
+                f[b] += J[4 + rr, 0, b] * T * bzx + J[4 + rr, 1, b] * T * bzz
     return user_forces
 
 
@@ -1069,8 +1072,8 @@ def _integrate(p, fl, st, h, u0, u1, w):
 def _rotor_work(st, h, w):
     """The work the rotors' thrust did over the step (at the new velocities, the start pitch)."""
     J, vn = w.J, w.vn
-    bzx = -math.sin(st[S_Q + 2])
-    bzz = math.cos(st[S_Q + 2])
+    bzx = -w.pitch_sin  # the pitch at the start of the step, as the thrust was applied
+    bzz = w.pitch_cos
     for rr in range(2):
         vz = bzx * (J[4 + rr, 0, 0] * vn[0] + J[4 + rr, 0, 2] * vn[2])
         vz += bzz * (J[4 + rr, 1, 1] * vn[1] + J[4 + rr, 1, 2] * vn[2])
@@ -1158,11 +1161,13 @@ def _friction_joints(p, fl, st, h, w, qc_old0, qc_old1):
 @njit(cache=True, inline="always")
 def _rotor_speeds(p, fl, st, h, u0, u1):
     """Rotors: a direction change waits out the reversal delay, the speed is first order."""
+    if fl[F_ROTORS] == 0:
+        st[S_W] = 0.0
+        st[S_W + 1] = 0.0
+        return
+    e = -1.0  # the speed's decay over the step, once a rotor needs it
     for rr in range(2):
         u = u0 if rr == 0 else u1
-        if fl[F_ROTORS] == 0:
-            st[S_W + rr] = 0.0
-            continue
         want = 1.0 if u > 0.0 else (-1.0 if u < 0.0 else 0.0)
         target = u
         if want != 0.0 and want != st[S_DIR + rr]:
@@ -1179,8 +1184,10 @@ def _rotor_speeds(p, fl, st, h, u0, u1):
                     target = u
         else:
             st[S_WAIT + rr] = 0.0
-        e = math.exp(-h / p[P_TAUM])
-        st[S_W + rr] = target + (st[S_W + rr] - target) * e
+        if st[S_W + rr] != target:  # at its target a rotor stays there
+            if e < 0.0:
+                e = math.exp(-h / p[P_TAUM])
+            st[S_W + rr] = target + (st[S_W + rr] - target) * e
 
 
 @njit(cache=True, inline="always")

@@ -150,6 +150,8 @@ WORKSPACE = np.dtype(
         ("ctx", np.float64, N_CTX),  # context
         ("st", np.float64, N_STATE),  # state
         # kinematics at the start of the step
+        ("pitch_cos", np.float64),  # cosine of the pitch
+        ("pitch_sin", np.float64),  # and its sine
         ("M", np.float64, (5, 5)),  # mass matrix
         ("f", np.float64, 5),  # explicit generalised forces: velocity products, gravity, applied
         ("pts", np.float64, (N_POINTS, 2)),  # world position of each contact point
