@@ -826,131 +826,140 @@ def _solve(p, fl, st, h, w, sx):
     pulling on the ground lets go, a stuck foot whose force leaves the friction cone slides,
     a sliding foot that reverses sticks). Locked joints (rigid gear, a stuck joint without
     leg flex) keep their coordinate fixed. Returns the solves it took."""
-    A0, r0, A, r, vn, JNT = w.A0, w.r0, w.A, w.r, w.vn, w.JNT
-    d0, dd0, s0, sd0, mu = w.dist, w.dist_rate, w.tang, w.tang_rate, w.mu
-    nN, nk, nb = w.law_force, w.law_stiffness, w.law_damping
-    kgp, bgp, active, locked = w.kg, w.bg, w.active, w.locked
+    _lock_joints(fl, st, w)
+    solves = 0
+    for _ in range(MAX_ACTIVE_SET_ITERATIONS):
+        solves += 1
+        _assemble(p, fl, st, h, w, sx)
+        _solve5(w.A, w.r, w.vn, 5)
+        if not _modes_changed(p, fl, st, h, w, sx):
+            break
+    return solves
+
+
+@njit(cache=True, inline="always")
+def _lock_joints(fl, st, w):
+    """Which generalised coordinates the solve holds fixed: the legs of the rigid gear, and
+    without leg flex a leg whose joint is stuck."""
+    locked = w.locked
     rigid = fl[F_RIGID] != 0
     flex = fl[F_FLEX] != 0 and not rigid
-    ik = 1.0 if fl[F_IMPLICIT_K] != 0 else 0.0
-    normal_law = has_normal_law(sx)
-    kt = p[P_KT]
-    bt = p[P_BT]
-    mus = p[P_MUS]
-    stiction = fl[F_STICTION] != 0
-    regular = fl[F_REGULARISED] != 0
     for a in range(5):
         locked[a] = 0
     for j in range(2):
         if rigid or (not flex and st[S_JM + j] == 0.0):
             locked[3 + j] = 1
 
-    solves = 0
-    for _ in range(MAX_ACTIVE_SET_ITERATIONS):
-        solves += 1
-        for a in range(5):
-            r[a] = r0[a]
-            for b in range(5):
-                A[a, b] = A0[a, b]
-        for i in range(N_POINTS):
-            if not active[i]:
-                continue
-            if normal_law:
-                # N(v') ~ N0 + b (rate' - rate0) + k h rate' (rate = -normal speed)
-                nc0 = nN[i] + nb[i] * dd0[i]
-                cn = h * h * nk[i] * ik + h * nb[i]
-            else:
-                nc0 = -kgp[i] * d0[i]
-                cn = h * h * kgp[i] * ik + h * bgp[i]
-            for aa in range(_columns(i)):
-                a = _column(i, aa)
-                jna = JNT[i, 0, a]
-                if jna != 0.0:
-                    r[a] += h * jna * nc0
-                    for bb in range(_columns(i)):
-                        b = _column(i, bb)
-                        A[a, b] += cn * jna * JNT[i, 0, b]
-            mode = st[S_CM + i]
-            if stiction:
-                if mode == 1.0:
-                    ct = h * h * kt * ik + h * bt
-                    ft = -kt * (s0[i] - st[S_ANC + i])
-                    for aa in range(_columns(i)):
-                        a = _column(i, aa)
-                        jta = JNT[i, 1, a]
-                        if jta != 0.0:
-                            r[a] += h * jta * ft
-                            for bb in range(_columns(i)):
-                                b = _column(i, bb)
-                                A[a, b] += ct * jta * JNT[i, 1, b]
-                else:
-                    sg = 1.0 if mode == 2.0 else -1.0
-                    for aa in range(_columns(i)):
-                        a = _column(i, aa)
-                        jta = JNT[i, 1, a]
-                        if jta != 0.0:
-                            if normal_law:
-                                r[a] += h * jta * (-sg * mu[i] * nc0)
-                            else:
-                                r[a] += h * jta * (sg * mu[i] * kgp[i] * d0[i])
-                            for bb in range(_columns(i)):
-                                b = _column(i, bb)
-                                A[a, b] += -sg * mu[i] * cn * jta * JNT[i, 0, b]
-            elif regular:
-                N0 = nN[i] if normal_law else -kgp[i] * d0[i] - bgp[i] * dd0[i]
-                xx = sd0[i] / p[P_VS]
-                th_ = math.tanh(xx)
-                gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
-                ft = -mu[i] * N0 * th_
-                for aa in range(_columns(i)):
-                    a = _column(i, aa)
-                    jta = JNT[i, 1, a]
-                    if jta != 0.0:
-                        r[a] += h * jta * (ft + gg * sd0[i])
-                        for bb in range(_columns(i)):
-                            b = _column(i, bb)
-                            A[a, b] += h * gg * jta * JNT[i, 1, b]
-        # locked joints (rigid gear, or a stuck joint without leg flex)
-        for a in range(5):
-            if locked[a]:
-                for b in range(5):
-                    A[a, b] = 0.0
-                    A[b, a] = 0.0
-                A[a, a] = 1.0
-                r[a] = 0.0
-        _solve5(A, r, vn, 5)
-        changed = False
-        for i in range(N_POINTS):
-            if not active[i]:
-                continue
-            ddn, sdn = _contact_rates(JNT, i, vn)
-            if normal_law:
-                Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
-            else:
-                dn = d0[i] + h * ddn
-                Nn = -kgp[i] * dn - bgp[i] * ddn
-            if Nn < 0.0:
-                active[i] = 0
-                st[S_CM + i] = 0.0
-                changed = True
-                continue
-            if not stiction:
-                continue
-            mode = st[S_CM + i]
-            if mode == 1.0:
-                ftn = -kt * (s0[i] + h * sdn - st[S_ANC + i]) - bt * sdn
-                if abs(ftn) > mus * Nn:
-                    st[S_CM + i] = 2.0 if ftn < 0.0 else 3.0
-                    changed = True
-            else:
+
+@njit(cache=True, inline="always")
+def _assemble(p, fl, st, h, w, sx):
+    """The system ``A vn = r`` of one active-set iteration: A0 and r0, each active contact's
+    normal force and its friction in their present modes, the locked coordinates."""
+    A, r, A0, r0 = w.A, w.r, w.A0, w.r0
+    d0, dd0, s0, sd0, mu = w.dist, w.dist_rate, w.tang, w.tang_rate, w.mu
+    nN, nk, nb, kgp, bgp = w.law_force, w.law_stiffness, w.law_damping, w.kg, w.bg
+    ik = 1.0 if fl[F_IMPLICIT_K] != 0 else 0.0
+    normal_law = has_normal_law(sx)
+    kt = p[P_KT]
+    bt = p[P_BT]
+    stiction = fl[F_STICTION] != 0
+    regular = fl[F_REGULARISED] != 0
+    for a in range(5):
+        r[a] = r0[a]
+        for b in range(5):
+            A[a, b] = A0[a, b]
+    for i in range(N_POINTS):
+        if not w.active[i]:
+            continue
+        if normal_law:
+            # N(v') ~ N0 + b (rate' - rate0) + k h rate' (rate = -normal speed)
+            nc0 = nN[i] + nb[i] * dd0[i]
+            cn = h * h * nk[i] * ik + h * nb[i]
+        else:
+            nc0 = -kgp[i] * d0[i]
+            cn = h * h * kgp[i] * ik + h * bgp[i]
+        _add_rows(w, i, 0, 0, cn, h, nc0)
+        mode = st[S_CM + i]
+        if stiction:
+            if mode == 1.0:  # stuck: the pad's spring-damper along the surface
+                _add_rows(w, i, 1, 1, h * h * kt * ik + h * bt, h, -kt * (s0[i] - st[S_ANC + i]))
+            else:  # sliding: mu times the normal force, against the slip
                 sg = 1.0 if mode == 2.0 else -1.0
-                if sg * sdn < 0.0:
-                    st[S_CM + i] = 1.0
-                    st[S_ANC + i] = s0[i]
-                    changed = True
-        if not changed:
-            break
-    return solves
+                rhs = -sg * mu[i] * nc0 if normal_law else sg * mu[i] * kgp[i] * d0[i]
+                _add_rows(w, i, 1, 0, -sg * mu[i] * cn, h, rhs)
+        elif regular:
+            N0 = nN[i] if normal_law else -kgp[i] * d0[i] - bgp[i] * dd0[i]
+            th_ = math.tanh(sd0[i] / p[P_VS])
+            gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
+            _add_rows(w, i, 1, 1, h * gg, h, -mu[i] * N0 * th_ + gg * sd0[i])
+    for a in range(5):
+        if w.locked[a]:
+            for b in range(5):
+                A[a, b] = 0.0
+                A[b, a] = 0.0
+            A[a, a] = 1.0
+            r[a] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _add_rows(w, i, row_a, row_b, coeff, h, rhs):
+    """Add contact point i's force along its row ``row_a`` (0 normal, 1 tangent) to the
+    system: ``h * rhs`` to r and ``coeff`` times its coupling to row ``row_b`` to A, over the
+    columns that move the point."""
+    A, r, JNT = w.A, w.r, w.JNT
+    for aa in range(_columns(i)):
+        a = _column(i, aa)
+        ja = JNT[i, row_a, a]
+        if ja != 0.0:
+            r[a] += h * ja * rhs
+            for bb in range(_columns(i)):
+                b = _column(i, bb)
+                A[a, b] += coeff * ja * JNT[i, row_b, b]
+
+
+@njit(cache=True, inline="always")
+def _modes_changed(p, fl, st, h, w, sx):
+    """Settle each active contact's mode against the new velocities: a point pulling on the
+    ground lets go, a stuck foot whose force leaves the friction cone slides, a sliding foot
+    whose slip reverses sticks. Returns whether any changed (the system is solved again)."""
+    d0, dd0, s0 = w.dist, w.dist_rate, w.tang
+    nN, nk, nb, kgp, bgp = w.law_force, w.law_stiffness, w.law_damping, w.kg, w.bg
+    active = w.active
+    normal_law = has_normal_law(sx)
+    kt = p[P_KT]
+    bt = p[P_BT]
+    mus = p[P_MUS]
+    stiction = fl[F_STICTION] != 0
+    changed = False
+    for i in range(N_POINTS):
+        if not active[i]:
+            continue
+        ddn, sdn = _contact_rates(w.JNT, i, w.vn)
+        if normal_law:
+            Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
+        else:
+            dn = d0[i] + h * ddn
+            Nn = -kgp[i] * dn - bgp[i] * ddn
+        if Nn < 0.0:
+            active[i] = 0
+            st[S_CM + i] = 0.0
+            changed = True
+            continue
+        if not stiction:
+            continue
+        mode = st[S_CM + i]
+        if mode == 1.0:
+            ftn = -kt * (s0[i] + h * sdn - st[S_ANC + i]) - bt * sdn
+            if abs(ftn) > mus * Nn:
+                st[S_CM + i] = 2.0 if ftn < 0.0 else 3.0
+                changed = True
+        else:
+            sg = 1.0 if mode == 2.0 else -1.0
+            if sg * sdn < 0.0:
+                st[S_CM + i] = 1.0
+                st[S_ANC + i] = s0[i]
+                changed = True
+    return changed
 
 
 @njit(cache=True, inline="always")
