@@ -235,13 +235,17 @@ def compare_landing(
 ) -> LandingComparison:
     """One landing of ``log`` against ``model``: its contact, conditions and figures."""
     contact, rise = contact_time(log, ev)
-    after = ev.end - contact
+    end, why = ev.end, ev.end_why
+    for s in (log.imu, log.attitude):
+        if s.t[-1] < end:
+            end, why = float(s.t[-1]), f"the last {s.source} sample"
+    after = end - contact
     if after < MIN_AFTER_S:
-        why = f"; {log.truncated}" if log.truncated else ""
+        more = f"; {log.truncated}" if log.truncated else ""
         raise FlightLogError(
             log.path,
-            f"landing {ev.number}: the log holds only {after:.2f} s after first contact ({ev.end_why} at "
-            f"{ev.end:.3f} s{why}); {MIN_AFTER_S:g} s are needed",
+            f"landing {ev.number}: the log holds only {after:.2f} s after first contact ({why} at "
+            f"{end:.3f} s{more}); {MIN_AFTER_S:g} s are needed",
         )
     cond = landing_conditions(log, ev, contact, given)
     span = min(after, model.criteria.horizon + cond.conditions.thrust_off_time)

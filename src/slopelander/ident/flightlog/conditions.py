@@ -1,9 +1,10 @@
 """A landing's conditions from its log, each with where it came from.
 
-- **Slope**: the rangefinder's points on the surface before contact, each placed with the
-  attitude and position of its moment, fitted along the vehicle's heading by the companion's
-  own estimator (:mod:`slopelander.controller.slope_estimate`, docs/slope-estimate.md), with the
-  landing spot where the body was at contact.
+- **Slope**: the rangefinder's points on the surface from the passes over the roof before
+  contact, each placed with the estimator's attitude and position of its moment, fitted along
+  the vehicle's heading by the companion's own estimator
+  (:mod:`slopelander.controller.slope_estimate`, docs/slope-estimate.md), with the landing spot
+  where the body was at contact.
 - **Impact**: the estimator's velocity at its last sample before contact, carried to contact by
   the accelerometer (turned into the earth frame); pitch and pitch rate from the attitude and
   the gyro at contact. Horizontal speed is along the heading (the model's x, downhill).
@@ -41,6 +42,8 @@ TORQUES = re.compile(r"legs commanded to (\d+(?:\.\d+)?)/(\d+(?:\.\d+)?) N\*m")
 (controller/states/preset.py); its STATUSTEXT is ``SL LEGS_WAIT: <reason>``."""
 LATERAL_M = 1.0
 """Surface points farther than this across the heading from the landing spot are not used."""
+PASS_SPEED_MPS = 0.1
+"""Surface points count toward the slope only while the vehicle moves along its heading this fast."""
 POINT_WINDOW_S = 0.1
 """A range reading is placed with the attitude and position interpolated within this of it."""
 
@@ -104,12 +107,19 @@ def surface_points(log: FlightLog, until: float, psi: float) -> list[tuple[float
 def measure_slope(
     log: FlightLog, contact: float, psi: float, settings: EstimateSettings | None = None
 ) -> SlopeEstimate:
-    """The slope along the heading at the body's position at contact, from the points before it."""
+    """The slope along the heading at the body's position at contact, from the points taken
+    before it while the vehicle moved along its heading (:data:`PASS_SPEED_MPS`): hovering and
+    the vertical descent see one spot of the roof, and the estimator's slow height drift over
+    those seconds would read as slope."""
     e = log.ekf
     n, ea = float(e.at(contact, 3)), float(e.at(contact, 4))
     c, s = math.cos(psi), math.sin(psi)
     along, across = n * c + ea * s, -n * s + ea * c
-    pts = [(t, x, h) for t, x, h, y in surface_points(log, contact, psi) if abs(y - across) <= LATERAL_M]
+    pts = []
+    for t, x, h, y in surface_points(log, contact, psi):
+        speed = float(e.at(t, 0)) * c + float(e.at(t, 1)) * s
+        if abs(y - across) <= LATERAL_M and abs(speed) >= PASS_SPEED_MPS:
+            pts.append((t, x, h))
     return estimate(pts, along, settings)
 
 
