@@ -7,10 +7,11 @@ from the motor outputs alone: all four at the ESCs' neutral 1500 ± 30 µs after
 a cut, all four below it is reverse thrust; the outputs' log rate then limits the timing.
 
 First contact is read from the accelerometer, whose magnitude is at its lowest just before it:
-the thrust of the descent (1 g) or, after the cut, the free fall it decays to. Contact is the
-last sample before the magnitude rises above its running minimum by :data:`MIN_RISE` (or eight
-times its noise, when that is larger) and stays risen: the autopilot's 2-pole filter has no
-dead time, so its output leaves its level within a sample of the contact.
+the thrust of the descent (1 g) or, after the cut, the free fall it decays to. A contact is a rise
+of the magnitude above its running minimum by :data:`MIN_RISE` (or eight times its noise, when
+that is larger); its moment is where the filtered signal first leaves its smooth trend, walking
+back from that rise (:func:`first_contact`). The autopilot's 2-pole filter has no dead time: its
+output bends within a sample of the contact.
 """
 
 from __future__ import annotations
@@ -36,6 +37,10 @@ WINDOW_S = 10.0
 MIN_RISE = 1.0
 """m/s^2: the least rise of the filtered accelerometer's magnitude that is called a contact."""
 NOISE_SPAN_S = (1.5, 0.5)
+TREND_SAMPLES = 8
+"""Samples before the rise (less the two nearest it) whose bend the trend is allowed."""
+TREND_MARGIN = 1.25
+"""A sample bends away from the trend when it bends this many times more than those samples."""
 """The accelerometer's noise is measured from this long before the cut to this long before it."""
 
 
@@ -182,41 +187,54 @@ def accel_noise(log: FlightLog, cut: float) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
 
 
-def first_contact(t: np.ndarray, a: np.ndarray, noise: float = 0.0) -> tuple[int, float] | None:
-    """Index of first contact in the magnitudes ``a`` (sampled at ``t``) and the threshold that
-    found it, or None: the last sample before ``a`` rises more than the threshold above its
-    running minimum, walking back over the samples that already rose (by more than 3 noise, or
-    0.1 m/s^2)."""
-    if len(a) < 3:
+def first_contact(t: np.ndarray, accel: np.ndarray, noise: float = 0.0) -> tuple[int, float] | None:
+    """Index of the last sample before first contact in the filtered specific force ``accel``
+    (rows x, y, z; sampled at ``t``) and the rise threshold that found it, or None.
+
+    The contact is where the magnitude first rises more than the threshold (:data:`MIN_RISE`, or
+    8 noise) above its running minimum; its onset is then found walking back while each sample
+    departs from the straight line through the two before it (its bend) by more than 3 noise,
+    0.05 m/s^2, or :data:`TREND_MARGIN` times the largest bend of the :data:`TREND_SAMPLES`
+    samples before: before contact the filtered signal follows a smooth trend (the descent's
+    steady thrust, or the thrust decaying after the cut), and a foot's force bends it at once."""
+    if len(t) < 4:
         return None
+    a = np.linalg.norm(accel, axis=1)
     rise = max(MIN_RISE, 8.0 * noise)
-    settle = max(0.1, 3.0 * noise)
-    floor = np.minimum.accumulate(a)
-    above = np.nonzero(a - floor > rise)[0]
+    settle = max(0.05, 3.0 * noise)
+    above = np.nonzero(a - np.minimum.accumulate(a) > rise)[0]
     if not above.size:
         return None
+    bend = np.zeros(len(t))
+    bend[2:] = np.linalg.norm(accel[2:] - 2.0 * accel[1:-1] + accel[:-2], axis=1)
     i = int(above[0])
-    while i > 0 and a[i - 1] - floor[i - 1] > settle:
+    # how much the trend itself bends before: the thrust's decay after the cut is no straight line
+    before = bend[max(2, i - 2 - TREND_SAMPLES) : max(2, i - 2)]
+    if before.size:
+        settle = max(settle, TREND_MARGIN * float(before.max()))
+    while i > 2 and bend[i] > settle:
         i -= 1
-    return max(0, i - 1), rise
+    return i, rise
 
 
 def contact_time(log: FlightLog, ev: LandingEvents) -> tuple[float, float]:
-    """First contact of landing ``ev`` (s, log clock) and the rise threshold used (m/s^2).
-    Raises :class:`FlightLogError` when the accelerometer shows none, or the log ends first."""
+    """First contact of landing ``ev`` (s, log clock): half a sample after the last sample before
+    it (:func:`first_contact`); and the rise threshold used (m/s^2). Raises
+    :class:`FlightLogError` when the accelerometer shows none, or the log ends first."""
     if not len(log.imu):
         raise FlightLogError(log.path, f"landing {ev.number}: no accelerometer samples ({log.imu.source})")
     t0 = ev.cut - BEFORE_CUT_S
     t1 = (ev.reverse + 0.05) if ev.reverse is not None else ev.cut + NO_IMPACT_S
     t1 = min(t1, ev.end)
     s = log.imu.between(t0, t1)
-    if len(s) < 3:
+    if len(s) < 4:
+        more = f"; {log.truncated}" if log.truncated else ""
         raise FlightLogError(
             log.path,
             f"landing {ev.number}: no accelerometer samples between {t0:.2f} and {t1:.2f} s "
-            f"(the log's {log.imu.source} ends at {log.imu.t[-1]:.2f} s)",
+            f"(the log's {log.imu.source} ends at {log.imu.t[-1]:.2f} s{more})",
         )
-    found = first_contact(s.t, np.linalg.norm(s.v[:, 3:6], axis=1), accel_noise(log, ev.cut))
+    found = first_contact(s.t, s.v[:, 3:6], accel_noise(log, ev.cut))
     if found is None:
         raise FlightLogError(
             log.path,
@@ -224,4 +242,5 @@ def contact_time(log: FlightLog, ev: LandingEvents) -> tuple[float, float]:
             f"(no rise of {MIN_RISE:g} m/s^2 or more above its level)",
         )
     i, rise = found
-    return float(s.t[i]), rise
+    dt = float(s.t[i + 1] - s.t[i]) if i + 1 < len(s.t) else 0.0
+    return float(s.t[i]) + 0.5 * dt, rise
