@@ -85,7 +85,7 @@ def find_landings(log: FlightLog) -> list[LandingEvents]:
             log.path,
             f"no landing in this log: the on-board script's states ({log.states.source}) never went "
             f"from the cut (11) to reverse thrust (12) or a hold (13); states seen: "
-            f"{', '.join(map(str, codes))}{more}",
+            f"{', '.join(map(str, codes))}{more}{_tail(log)}",
         )
     found = _from_outputs(log)
     if found:
@@ -94,13 +94,17 @@ def find_landings(log: FlightLog) -> list[LandingEvents]:
         raise FlightLogError(
             log.path,
             "no landing in this log: it holds neither the on-board script's SL_STATE nor the motor "
-            f"outputs ({'RCOU' if log.kind == 'DataFlash' else 'SERVO_OUTPUT_RAW'})",
+            f"outputs ({'RCOU' if log.kind == 'DataFlash' else 'SERVO_OUTPUT_RAW'}){_tail(log)}",
         )
     raise FlightLogError(
         log.path,
         "no landing in this log: no SL_STATE from the on-board script, and the motor outputs never "
-        f"stop at {NEUTRAL_US} µs after flying forward",
+        f"stop at {NEUTRAL_US} µs after flying forward{_tail(log)}",
     )
+
+
+def _tail(log: FlightLog) -> str:
+    return f"; {log.truncated}" if log.truncated else ""
 
 
 def _end(log: FlightLog, cut: float, after: float, next_cut: float | None) -> tuple[float, str]:
@@ -228,11 +232,10 @@ def contact_time(log: FlightLog, ev: LandingEvents) -> tuple[float, float]:
     t1 = min(t1, ev.end)
     s = log.imu.between(t0, t1)
     if len(s) < 4:
-        more = f"; {log.truncated}" if log.truncated else ""
         raise FlightLogError(
             log.path,
             f"landing {ev.number}: no accelerometer samples between {t0:.2f} and {t1:.2f} s "
-            f"(the log's {log.imu.source} ends at {log.imu.t[-1]:.2f} s{more})",
+            f"(the log's {log.imu.source} ends at {log.imu.t[-1]:.2f} s{_tail(log)})",
         )
     found = first_contact(s.t, s.v[:, 3:6], accel_noise(log, ev.cut))
     if found is None:

@@ -263,7 +263,7 @@ def _dataflash_tail(r) -> str | None:
                 last_end, last_type = end, fmt.name
     if last_end > r.data_len:
         start = last_end - r.formats[r.name_to_id[last_type]].len
-        return f"the file ends inside a {last_type} message (at byte {start} of {r.data_len})"
+        return f"the file ends inside its last message ({last_type}, at byte {start} of {r.data_len})"
     return None
 
 
