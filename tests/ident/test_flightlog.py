@@ -37,10 +37,12 @@ def sim2(path: Path) -> np.ndarray:
     return np.array(rows)
 
 
-def true_contact(path: Path) -> tuple[float, float]:
-    """The SIM2 samples either side of the first contact: the downward speed, growing in the fall,
-    drops at once when a foot meets the roof."""
+def true_contact(path: Path, near: float | None = None) -> tuple[float, float]:
+    """The SIM2 samples either side of the first contact (within 50 ms of ``near``, when given):
+    the downward speed, growing in the fall, drops at once when a foot meets the roof."""
     s = sim2(path)
+    if near is not None:
+        s = s[np.abs(s[:, 0] - near) <= 0.05]
     i = int(np.argmax(np.diff(s[:, 1]) < -0.005))
     return float(s[i, 0]), float(s[i + 1, 0])
 
