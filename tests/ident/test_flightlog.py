@@ -166,3 +166,25 @@ def test_given_values_replace_the_logs_and_say_so(model) -> None:
     c = r.cond.conditions
     assert (c.slope_deg, c.tau_up, c.tau_down, c.angle_up_deg) == (25.0, 1.7, 2.3, 30.0)
     assert r.cond.sources["slope"] == r.cond.sources["legs"] == r.cond.sources["leg angles"] == "given"
+
+
+def test_trim_keeps_whole_messages_as_written(tmp_path, model) -> None:
+    """A trimmed log is the autopilot's own bytes: each message it holds is one of the source's,
+    byte for byte and in order, and compare reads the same landing from it."""
+    from slopelander.ident.flightlog.trim import trim
+
+    out = tmp_path / "again.bin"
+    counts = trim(EXAMPLE, out)
+    assert counts["IMU"] > 500 and counts["NVF"] > 10 and "SIM2" in counts
+    src, got = EXAMPLE.read_bytes(), out.read_bytes()
+    r = DFReader.DFReader_binary(str(out))
+    r._rewind()
+    at = 0
+    while (m := r._parse_next()) is not None:
+        piece = got[r.offset - m.fmt.len : r.offset]
+        found = src.find(piece, at)
+        assert found >= 0, m.get_type()
+        at = found + len(piece)
+    [a] = compare_log(model, EXAMPLE)
+    [b] = compare_log(model, out)
+    assert b.contact == a.contact and b.cond.conditions == a.cond.conditions

@@ -281,8 +281,9 @@ _LOG_OPTIONS = ("landing", "slope", "tau", "angles")
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    if args.dataset.is_file():
-        return run_compare_log(args)
+    path = args.dataset
+    if path.is_file() or (not path.exists() and path.suffix.lower() in (".bin", ".tlog")):
+        return run_compare_log(args)  # a file is read as a log whatever its name; a missing log says so
     given = [f"--{n}" for n in _LOG_OPTIONS if getattr(args, n) is not None]
     if given:
         raise IdentCliError(
