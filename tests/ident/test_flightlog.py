@@ -188,3 +188,21 @@ def test_trim_keeps_whole_messages_as_written(tmp_path, model) -> None:
     [a] = compare_log(model, EXAMPLE)
     [b] = compare_log(model, out)
     assert b.contact == a.contact and b.cond.conditions == a.cond.conditions
+
+
+def test_without_the_scripts_states_the_motor_outputs_time_the_landing(tmp_path, model) -> None:
+    """Firmware that does not log the script's NAMED_VALUE_FLOAT: the cut and the reverse thrust
+    come from the 10 Hz RCOU, and the comparison says so."""
+    from tests.ident.test_flightlog_bad_input import rewrite
+
+    blind = rewrite(tmp_path / "no-states.bin", lambda m: m.get_type() != "NVF")
+    [a] = compare_log(model, EXAMPLE)
+    [b] = compare_log(model, blind)
+    assert b.events.cut_source == "RCOU leaving forward thrust"
+    assert b.contact == a.contact  # the accelerometer's, either way
+    ca, cb = a.cond.conditions, b.cond.conditions
+    assert cb.reverse_percent == ca.reverse_percent
+    assert abs(cb.reverse_delay - ca.reverse_delay) <= 0.1  # one RCOU sample
+    assert abs(cb.reverse_ramp - ca.reverse_ramp) <= 0.1
+    assert any("timed by the 10 Hz motor outputs" in n for n in b.cond.notes)
+    assert not any("cut" in n and "after first contact" in n for n in b.cond.notes)

@@ -224,7 +224,9 @@ def reverse_as_flown(log: FlightLog, ev: LandingEvents, contact: float) -> tuple
     pct = min(100.0, (NEUTRAL_US - low) / 5.0)
     delay = max(0.0, ev.reverse - contact)
     fields = {"reverse_percent": round(pct, 1), "reverse_delay": delay}
-    how = f"{o.source} at {low:.0f} µs, the script's states"
+    how = f"{o.source} at {low:.0f} µs, " + (
+        "the script's states" if ev.cut_source.startswith(log.states.source) else "their timing"
+    )
     if ev.reverse_left is None:
         notes.append("the log ends during the reverse thrust: it is held to the model's horizon")
         return fields, how, notes
@@ -310,7 +312,13 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
         sources["leg angles"] = "not in the log: the shipped lookup table's for this slope"
     thrust, sources["reverse thrust"], more = reverse_as_flown(log, ev, contact)
     notes += more
-    if ev.cut > contact + 0.005:
+    from_states = ev.cut_source.startswith(log.states.source)
+    if not from_states:
+        notes.append(
+            f"the script's states are not in the log: the cut and the reverse thrust are timed by the "
+            f"{log.outputs.rate_hz:.0f} Hz motor outputs"
+        )
+    elif ev.cut > contact + 0.005:
         notes.append(
             f"the motors were cut {1000 * (ev.cut - contact):.0f} ms after first contact: the model's "
             "landing starts with them stopped"

@@ -129,7 +129,7 @@ def _from_states(log: FlightLog) -> list[LandingEvents]:
     out = []
     for k, i in enumerate(cuts):
         t_cut = ch[i][0]
-        after = ch[i + 1 :]
+        after = ch[i + 1 : cuts[k + 1]] if k + 1 < len(cuts) else ch[i + 1 :]
         if not after or after[0][1] not in (RVT, HOLD):
             continue  # a false cut (back to IDLE), or the log ends in CUT
         rvt = after[0][0] if after[0][1] == RVT else None
@@ -158,24 +158,25 @@ def _from_outputs(log: FlightLog) -> list[LandingEvents]:
     while i < len(o):
         if forward[i]:
             flying = True
-        elif flying and stopped[i]:
+        elif flying and (stopped[i] or reverse[i]):
             t_cut = float(o.t[i])
-            j = i + 1
+            j = i
             while j < len(o) and stopped[j]:
                 j += 1
             rvt = float(o.t[j]) if j < len(o) and reverse[j] else None
-            left = None
+            left = left_to = None
             if rvt is not None:
-                k = j
-                while k < len(o) and reverse[k]:
-                    k += 1
-                left = float(o.t[k]) if k < len(o) else None
-                j = k
+                while j < len(o) and reverse[j]:
+                    j += 1
+                left = float(o.t[j]) if j < len(o) else None
+                if left is not None and stopped[j]:
+                    left_to = HOLD  # back to neutral: the script's ramp ended there
             end, why = _end(log, t_cut, left or rvt or t_cut, None)
-            src = f"{o.source} at {NEUTRAL_US} µs"
-            out.append(LandingEvents(len(out) + 1, t_cut, src, rvt, left, None, None, end, why))
+            src = f"{o.source} leaving forward thrust"
+            hold = left if left_to == HOLD else None
+            out.append(LandingEvents(len(out) + 1, t_cut, src, rvt, left, left_to, hold, end, why))
             flying = False
-            i = j
+            i = max(j, i + 1)
             continue
         i += 1
     return out
