@@ -34,11 +34,12 @@ def plot_comparison(r: LandingComparison, path: Path) -> Path:
         ax.plot(mo.t[keep], model[keep], **model_kw)
         ax.set_ylabel(label)
         ax.axvline(0.0, color="k", lw=0.8)
-        for name, when in moments:
+        for k, (name, when) in enumerate(moments):
             if when is not None and -0.3 <= when - r.contact <= r.span:
                 ax.axvline(when - r.contact, color="grey", lw=0.8, ls=":")
-                if ax is axes[0]:
-                    ax.annotate(name, (when - r.contact, 1.0), xycoords=("data", "axes fraction"), fontsize=8)
+                if ax is axes[0]:  # staggered: the cut and the reverse thrust are often ms apart
+                    where = (when - r.contact, 0.92 - 0.09 * k)
+                    ax.annotate(f" {name}", where, xycoords=("data", "axes fraction"), fontsize=8)
         ax.grid(alpha=0.3)
     axes[0].legend(loc="best", fontsize=8)
     axes[-1].set_xlabel("time from first contact, s")
