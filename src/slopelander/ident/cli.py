@@ -339,6 +339,7 @@ def run_compare_log(args: argparse.Namespace) -> int:
 
     report = args.report if args.report is not None else Path(f"{args.dataset.stem}-compare")
     check_output_dir(report, "--report")
+    check_output(args.json, "--json")
     for name in ("tau", "angles"):
         values = getattr(args, name)
         if values is not None and not all(map(math.isfinite, values)):
@@ -354,7 +355,7 @@ def run_compare_log(args: argparse.Namespace) -> int:
     results = compare_log(model, args.dataset, given, args.landing)
     for r in results:
         print("\n".join(r.lines()))
-    written = write_results(results, report)
+    written = write_results(results, report, args.json)
     print("report: " + ", ".join(str(p) for p in written))
     return 0
 

@@ -275,12 +275,19 @@ def compare_log(
     return [compare_landing(model, log, ev, len(found), given or Given()) for ev in chosen]
 
 
-def write_results(results: list[LandingComparison], folder: Path) -> list[Path]:
-    """Each landing's JSON and plot into ``folder`` (created), written under temporary names and
-    renamed once all are drawn: a failure leaves none of them half-written."""
+def write_results(
+    results: list[LandingComparison], folder: Path, json_file: Path | None = None
+) -> list[Path]:
+    """Each landing's JSON and plot into ``folder`` (created), and with ``json_file`` every
+    landing's JSON in one list there; written under temporary names and renamed once all are
+    drawn: a failure leaves none of them half-written."""
     folder.mkdir(exist_ok=True)
     staged: list[tuple[Path, Path]] = []
     try:
+        if json_file is not None:
+            tmp = json_file.with_name(f".{json_file.name}.part")
+            tmp.write_text(json.dumps([_finite(r.to_dict()) for r in results], indent=1) + "\n")
+            staged.append((tmp, json_file))
         for r in results:
             js = folder / f".{r.name}.json.part"
             js.write_text(json.dumps(_finite(r.to_dict()), indent=1) + "\n")

@@ -1,10 +1,10 @@
 """A landing's conditions from its log, each with where it came from.
 
 - **Slope**: the rangefinder's points on the surface from the passes over the roof before
-  contact, each placed with the estimator's attitude and position of its moment, fitted along
-  the vehicle's heading by the companion's own estimator
-  (:mod:`slopelander.controller.slope_estimate`, docs/slope-estimate.md), with the landing spot
-  where the body was at contact.
+  contact, each placed with the estimator's attitude and position of its moment, fitted by the
+  companion's own estimator (:mod:`slopelander.controller.slope_estimate`,
+  docs/slope-estimate.md: a plane, read along the vehicle's heading; a line along the heading when
+  the passes ran one way), at the spot where the body was at contact.
 - **Impact**: the estimator's velocity at its last sample before contact, carried to contact by
   the accelerometer (turned into the earth frame); pitch and pitch rate from the attitude and
   the gyro at contact. Horizontal speed is along the heading (the model's x, downhill).
@@ -26,16 +26,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from slopelander.controller.slope_estimate import EstimateSettings, SlopeEstimate, beam_point, estimate
+from slopelander.controller.slope_estimate import (
+    EstimateSettings,
+    SlopeEstimate,
+    beam_point,
+    estimate,
+    estimate_plane,
+)
 from slopelander.ident.flightlog.landings import (
     DEADBAND_US,
+    FAULT_HELD,
     HOLD,
     NEUTRAL_US,
     LandingEvents,
 )
 from slopelander.ident.flightlog.reader import FlightLog, FlightLogError
 from slopelander.model import ConditionError, LandingConditions
-from slopelander.model.conditions import MAX_REVERSE_DURATION
+from slopelander.model.conditions import MAX_REVERSE_DURATION, MAX_REVERSE_RAMP
 
 TORQUES = re.compile(r"legs commanded to (\d+(?:\.\d+)?)/(\d+(?:\.\d+)?) N\*m")
 """The reason of the companion's move to LEGS_WAIT, which names the friction torques it commanded
@@ -77,10 +84,10 @@ def heading(log: FlightLog, t0: float, t1: float) -> float:
     return float(math.atan2(np.mean(np.sin(yaw)), np.mean(np.cos(yaw))))
 
 
-def surface_points(log: FlightLog, until: float, psi: float) -> list[tuple[float, float, float, float]]:
-    """(t, distance along heading ``psi`` m, height up m, distance across it m) of every range
-    reading in range before ``until``, placed with the estimator's attitude and position
-    interpolated to its time from samples within :data:`POINT_WINDOW_S` of it."""
+def surface_points(log: FlightLog, until: float) -> list[tuple[float, float, float, float]]:
+    """(t, north m, east m, height up m) of every range reading in range before ``until``, placed
+    with the estimator's attitude and position interpolated to its time from samples within
+    :data:`POINT_WINDOW_S` of it."""
     r, e = log.ranges, log.ekf
     if not (len(r) and len(e)):
         return []
@@ -90,7 +97,6 @@ def surface_points(log: FlightLog, until: float, psi: float) -> list[tuple[float
     inside = (i > 0) & (i < len(e.t))
     i = np.clip(i, 1, len(e.t) - 1)
     near = inside & (e.t[i] - t <= POINT_WINDOW_S) & (t - e.t[i - 1] <= POINT_WINDOW_S)
-    c, s = math.cos(psi), math.sin(psi)
     yaw_s, yaw_c = np.interp(t, e.t, np.sin(e.v[:, 8])), np.interp(t, e.t, np.cos(e.v[:, 8]))
     cols = [np.interp(t, e.t, e.v[:, k]) for k in (3, 4, 5, 6, 7)]
     out = []
@@ -100,27 +106,38 @@ def surface_points(log: FlightLog, until: float, psi: float) -> list[tuple[float
             continue
         yaw = math.atan2(yaw_s[j], yaw_c[j])
         pn, pe, pd = beam_point(float(d[j]), roll, pitch, yaw, n, ea, dn)
-        out.append((float(t[j]), pn * c + pe * s, -pd, -pn * s + pe * c))
+        out.append((float(t[j]), pn, pe, -pd))
     return out
 
 
 def measure_slope(
     log: FlightLog, contact: float, psi: float, settings: EstimateSettings | None = None
-) -> SlopeEstimate:
-    """The slope along the heading at the body's position at contact, from the points taken
-    before it while the vehicle moved along its heading (:data:`PASS_SPEED_MPS`): hovering and
-    the vertical descent see one spot of the roof, and the estimator's slow height drift over
-    those seconds would read as slope."""
+) -> tuple[SlopeEstimate, str]:
+    """The slope along the heading at the body's position at contact, and how it was fitted.
+
+    The points are those taken before contact while the vehicle moved (:data:`PASS_SPEED_MPS`):
+    hovering and the vertical descent see one spot of the roof, and the estimator's slow height
+    drift over those seconds would read as slope. They are fitted as the companion fits them, by a
+    plane (:func:`estimate_plane`) read along the heading; a log whose passes ran one way only
+    (an approach, or a companion before the two-leg survey) is fitted by a line along the heading
+    (:func:`estimate`, the points within :data:`LATERAL_M` of it)."""
     e = log.ekf
-    n, ea = float(e.at(contact, 3)), float(e.at(contact, 4))
+    n0, e0 = float(e.at(contact, 3)), float(e.at(contact, 4))
+    moving = [
+        p
+        for p in surface_points(log, contact)
+        if math.hypot(float(e.at(p[0], 0)), float(e.at(p[0], 1))) >= PASS_SPEED_MPS
+    ]
+    plane = estimate_plane(moving, (n0, e0), settings)
+    if plane.ok or not plane.needs_survey:
+        return plane.along(math.degrees(psi)), "plane"
     c, s = math.cos(psi), math.sin(psi)
-    along, across = n * c + ea * s, -n * s + ea * c
-    pts = []
-    for t, x, h, y in surface_points(log, contact, psi):
-        speed = float(e.at(t, 0)) * c + float(e.at(t, 1)) * s
-        if abs(y - across) <= LATERAL_M and abs(speed) >= PASS_SPEED_MPS:
-            pts.append((t, x, h))
-    return estimate(pts, along, settings)
+    across0 = -n0 * s + e0 * c
+    line = [(t, n * c + ea * s, h) for t, n, ea, h in moving if abs(-n * s + ea * c - across0) <= LATERAL_M]
+    est = estimate(line, n0 * c + e0 * s, settings)
+    if not est.ok:
+        est.refusal = f"{plane.refusal}; along the heading alone: {est.refusal}"
+    return est, "line along the heading (the passes ran one way)"
 
 
 def _rotate(roll: float, pitch: float, yaw: float, f: np.ndarray) -> np.ndarray:
@@ -230,9 +247,24 @@ def reverse_as_flown(log: FlightLog, ev: LandingEvents, contact: float) -> tuple
     if ev.reverse_left is None:
         notes.append("the log ends during the reverse thrust: it is held to the model's horizon")
         return fields, how, notes
-    if ev.reverse_left_to != HOLD:
+    if ev.reverse_left_to not in (HOLD, FAULT_HELD):
         # disarmed, the emergency stop, or given back: the outputs stopped at once
         fields["reverse_duration"] = min(MAX_REVERSE_DURATION, max(1e-3, ev.reverse_left - ev.reverse))
+        return fields, how, notes
+    if ev.reverse_left_to == FAULT_HELD:
+        # the script's update failed in RVT: it ramps the thrust down from then (onboard-script.md)
+        ramp = o.between(ev.reverse_left, ev.end)
+        mean = ramp.v.mean(axis=1) if len(ramp) else np.zeros(0)
+        rising = (mean > low + 5.0) & (mean < NEUTRAL_US - DEADBAND_US)
+        length = 0.0
+        if np.count_nonzero(rising) >= 2:
+            b, _ = np.polyfit(ramp.t[rising], mean[rising], 1)
+            length = (NEUTRAL_US - low) / b if b > 0 else 0.0
+        else:
+            notes.append("the faulted script's ramp down was not resolved by the outputs: taken as a step")
+        fields["reverse_duration"] = min(MAX_REVERSE_DURATION, max(1e-3, ev.reverse_left - ev.reverse))
+        fields["reverse_ramp"] = min(MAX_REVERSE_RAMP, length)
+        notes.append(f"the on-board script faulted in its reverse thrust at {ev.reverse_left:.3f} s")
         return fields, how, notes
     # HOLD comes at the end of the ramp; the ramp began where a line through the rising outputs
     # meets the plateau
@@ -267,7 +299,7 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
         slope_deg = given.slope_deg
         sources["slope"] = "given"
     else:
-        slope = measure_slope(log, contact, psi)
+        slope, fitted = measure_slope(log, contact, psi)
         if not slope.ok:
             raise FlightLogError(
                 log.path,
@@ -276,7 +308,7 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
             )
         slope_deg = float(slope.slope_deg)
         sources["slope"] = (
-            f"{log.ranges.source} over the roof: {slope.n_inliers}/{slope.n_points} points, "
+            f"{log.ranges.source} over the roof, {fitted}: {slope.n_inliers}/{slope.n_points} points, "
             f"+-{slope.sigma_deg:.1f} deg"
         )
     v, carried = impact_velocity(log, contact)

@@ -1,7 +1,8 @@
 """Where the landings are in a log, and when the feet met the roof.
 
 A landing is the on-board script's cut (``SL_STATE`` 11, docs/onboard-script.md) followed by its
-reverse thrust (12) or its hold (13); a cut the script gave back (to 0, "false cut") is not one.
+reverse thrust (12), its hold (13) or its faulted hold (31); a cut the script gave back (to 0,
+"false cut") is not one.
 A log without the script's announcements (firmware that does not log NAMED_VALUE_FLOAT) is read
 from the motor outputs alone: all four at the ESCs' neutral 1500 ± 30 µs after flying forward is
 a cut, all four below it is reverse thrust; the outputs' log rate then limits the timing.
@@ -23,7 +24,7 @@ import numpy as np
 
 from slopelander.ident.flightlog.reader import FlightLog, FlightLogError
 
-IDLE, ARMED, CUT, RVT, HOLD = 0, 10, 11, 12, 13
+IDLE, ARMED, CUT, RVT, HOLD, FAULT_HELD = 0, 10, 11, 12, 13, 31
 NEUTRAL_US = 1500
 DEADBAND_US = 30
 """µs either side of 1500 the ESCs read as stopped (docs/onboard-script.md)."""
@@ -84,7 +85,7 @@ def find_landings(log: FlightLog) -> list[LandingEvents]:
         raise FlightLogError(
             log.path,
             f"no landing in this log: the on-board script's states ({log.states.source}) never went "
-            f"from the cut (11) to reverse thrust (12) or a hold (13); states seen: "
+            f"from the cut (11) to reverse thrust (12) or a hold (13, 31); states seen: "
             f"{', '.join(map(str, codes))}{more}{_tail(log)}",
         )
     found = _from_outputs(log)
@@ -130,7 +131,7 @@ def _from_states(log: FlightLog) -> list[LandingEvents]:
     for k, i in enumerate(cuts):
         t_cut = ch[i][0]
         after = ch[i + 1 : cuts[k + 1]] if k + 1 < len(cuts) else ch[i + 1 :]
-        if not after or after[0][1] not in (RVT, HOLD):
+        if not after or after[0][1] not in (RVT, HOLD, FAULT_HELD):
             continue  # a false cut (back to IDLE), or the log ends in CUT
         rvt = after[0][0] if after[0][1] == RVT else None
         left = left_to = hold = None
