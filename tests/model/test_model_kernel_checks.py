@@ -37,7 +37,7 @@ def _kin(Q: np.ndarray, V: np.ndarray | None = None):
     st[k.S_Q : k.S_Q + 5] = Q
     st[k.S_V : k.S_V + 5] = np.zeros(5) if V is None else V
     ws = k.make_workspace()
-    M, f, pts, vel, J = ws[:5]
+    M, f, pts, vel, J = k.kinematics_views(ws)
     k.kinematics(P, st, M, f, pts, vel, J)
     return M.copy(), f.copy(), pts.copy(), vel.copy(), J.copy()
 

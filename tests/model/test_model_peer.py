@@ -98,7 +98,7 @@ def test_the_peer_starts_in_the_model_s_initial_state(matched, peer):
     row = conditions_array([c]).view(np.float64).copy()
     p = matched.params.as_array()
     k.init_landing(p, matched.flags(), row, st, ctx2, ws)
-    M, f, pts, vel, J = ws[:5]
+    M, f, pts, vel, J = k.kinematics_views(ws)
     k.kinematics(p, st, M, f, pts, vel, J)
     m, d = peer.mjmodel, peer.data
     lift = peer.settings.radius / ctx[k.C_COS]

@@ -15,9 +15,9 @@ from numba import njit, types
 from numba.experimental import structref
 
 from slopelander.model import kernel as k
-from slopelander.model.seams import seam_table
+from slopelander.model.seams import _laws_and_slots
 
-_LAWS = numba.typeof(seam_table([])[0])  # the same type for every table: one per seam's signature
+_LAWS = numba.typeof(_laws_and_slots([])[0])  # the same type for every table: one per seam's signature
 
 
 @structref.register
@@ -46,7 +46,8 @@ def _new_box(laws, slots, up):  # pragma: no cover - compiled
 
 
 def box(sx: tuple) -> SeamBox:
-    """The boxed form of a seam table."""
+    """The boxed form of a seam table (of a model with user effects; one without passes None
+    itself, which crosses into compiled code for nothing)."""
     laws, slots, up = sx
     return _new_box(laws, slots, up)
 

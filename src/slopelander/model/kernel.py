@@ -15,14 +15,17 @@ Why this shape (``docs/model.md`` has the full account):
   the joint cannot creep while stuck.
 * Everything is plain float arrays (parameters in ``PARAMETER_NAMES`` order, one flat
   state vector) so the same step serves the whole-landing function, the batch path and the
-  1200 Hz stepper of the simulated vehicle.
+  1200 Hz stepper of the simulated vehicle. The step's scratch space is one record with named
+  fields (``layout.WORKSPACE``), passed as a single pointer: a tuple of arrays cost a
+  reference count per array per stage, a third of a landing's time.
 * A step is a sequence of stages, each a small compiled function (:func:`_substep` lists
   them): forces at the start, the joints' law, the contacts with the feet's friction law, the
   implicit solve, the forces it applied, the integration. Where an effect has a law (the
   joint's torque, the foot's friction, the ground's normal force, extra forces), the stage runs
   the built-in law and then the laws plugged into that seam, passed in as first-class compiled
   functions (the seam table, :mod:`slopelander.model.seams`): one compiled integrator serves
-  the shipped model, a user's effects and every candidate of a diagnosis.
+  every model with user effects and every candidate of a diagnosis, and a model without them
+  runs its own compiled copy, in which no seam is looked at.
 
 Coordinates: x downhill-positive horizontal, z up, angles counter-clockwise positive.
 Q = (x, z, pitch, q_C, q_D); q_C is the left (-x) leg's angle below the body plane, q_D the
@@ -34,7 +37,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from slopelander.model import layout
 from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's names
@@ -146,25 +150,52 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     SEAM_POINT_FORCE,
     SEAM_SLOTS,
     STICK_SPEED,
+    WORKSPACE,
 )
 
 layout.drop_stale_cache(__file__)
 
 
 # --- seams --------------------------------------------------------------------------------
-# The stages and seam helpers below are inlined into the step where numba compiles it
-# (inline="always"): a call would pass the workspace tuple and count references to each of its
-# arrays, which made a landing 2.7 times slower.
-# Every jitted entry point takes the seam table ``sx = (laws, slots, up)`` (see seams.py): per
-# seam the compiled laws of the model's effects, how many are in use, and the slices of the
-# user parameters ``up`` they read. Each stage below runs the built-in law first, then the
-# seam's laws in turn. The laws are first-class functions typed by their signature alone,
-# so this one compiled integrator serves every model and every candidate effect.
+# Every jitted entry point takes the seam table ``sx``: None for a model without user effects,
+# else ``(laws, slots, up)`` (see seams.py): per seam the compiled laws of the model's effects,
+# how many are in use, and the slices of the user parameters ``up`` they read. Each stage runs
+# the built-in law first, then the seam's laws in turn. The laws are first-class functions
+# typed by their signature alone, so one compiled integrator serves every model with user
+# effects and every candidate effect of a diagnosis.
+#
+# numba compiles the integrator once per kind of table. The helpers below are overloaded on
+# it: for None they are constants (no law, the value given back), so the built-in model's
+# step holds no call through a first-class function and reads no table; a model with user
+# effects pays for its own calls.
 
 
-@njit(cache=True, inline="always")
-def _n_laws(sx, seam):
-    return sx[1][seam, 0]
+def _is_none(sx) -> bool:
+    return isinstance(sx, types.NoneType)
+
+
+def seam_laws(sx, seam):
+    """How many laws ``seam`` holds in the table ``sx`` (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(seam_laws, jit_options={"cache": True})
+def _seam_laws(sx, seam):
+    if _is_none(sx):
+        return lambda sx, seam: 0
+    return lambda sx, seam: sx[1][seam, 0]
+
+
+def has_normal_law(sx):
+    """Whether a user's normal-force law replaces the built-in ground (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(has_normal_law, jit_options={"cache": True})
+def _has_normal_law(sx):
+    if _is_none(sx):
+        return lambda sx: False
+    return lambda sx: sx[1][SEAM_NORMAL_FORCE, 0] > 0
 
 
 @njit(cache=True, inline="always")
@@ -175,49 +206,101 @@ def _params(sx, seam, k):
     return sx[2][a : a + row[2 + 2 * k]]
 
 
-@njit(cache=True, inline="always")
+def seam_force(sx, t, st, ctx, out):
+    """Add the force seam's generalised forces to ``out`` (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(seam_force, jit_options={"cache": True})
 def _seam_force(sx, t, st, ctx, out):
-    laws = sx[0][SEAM_FORCE]
-    for k in range(SEAM_SLOTS):
-        if k < _n_laws(sx, SEAM_FORCE):
-            laws[k](t, st, ctx, _params(sx, SEAM_FORCE, k), out)
+    if _is_none(sx):
+        return lambda sx, t, st, ctx, out: None
+
+    def impl(sx, t, st, ctx, out):
+        laws = sx[0][SEAM_FORCE]
+        for k in range(SEAM_SLOTS):
+            if k < sx[1][SEAM_FORCE, 0]:
+                laws[k](t, st[:], ctx[:], _params(sx, SEAM_FORCE, k), out[:])
+
+    return impl
 
 
-@njit(cache=True, inline="always")
+def seam_point_force(sx, t, st, ctx, out):
+    """Add the point-force seam's forces at the named points to ``out`` (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(seam_point_force, jit_options={"cache": True})
 def _seam_point_force(sx, t, st, ctx, out):
-    laws = sx[0][SEAM_POINT_FORCE]
-    for k in range(SEAM_SLOTS):
-        if k < _n_laws(sx, SEAM_POINT_FORCE):
-            laws[k](t, st, ctx, _params(sx, SEAM_POINT_FORCE, k), out)
+    if _is_none(sx):
+        return lambda sx, t, st, ctx, out: None
+
+    def impl(sx, t, st, ctx, out):
+        laws = sx[0][SEAM_POINT_FORCE]
+        for k in range(SEAM_SLOTS):
+            if k < sx[1][SEAM_POINT_FORCE, 0]:
+                laws[k](t, st[:], ctx[:], _params(sx, SEAM_POINT_FORCE, k), out)
+
+    return impl
 
 
-@njit(cache=True, inline="always")
+def seam_joint_torque(sx, t, st, ctx, leg, angle, rate, tau):
+    """The slip torque after the joint-torque seam's laws (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(seam_joint_torque, jit_options={"cache": True})
 def _seam_joint_torque(sx, t, st, ctx, leg, angle, rate, tau):
-    laws = sx[0][SEAM_JOINT_TORQUE]
-    for k in range(SEAM_SLOTS):
-        if k < _n_laws(sx, SEAM_JOINT_TORQUE):
-            tau = laws[k](t, st, ctx, _params(sx, SEAM_JOINT_TORQUE, k), leg, angle, rate, tau)
-    return tau
+    if _is_none(sx):
+        return lambda sx, t, st, ctx, leg, angle, rate, tau: tau
+
+    def impl(sx, t, st, ctx, leg, angle, rate, tau):
+        laws = sx[0][SEAM_JOINT_TORQUE]
+        for k in range(SEAM_SLOTS):
+            if k < sx[1][SEAM_JOINT_TORQUE, 0]:
+                tau = laws[k](t, st[:], ctx[:], _params(sx, SEAM_JOINT_TORQUE, k), leg, angle, rate, tau)
+        return tau
+
+    return impl
 
 
-@njit(cache=True, inline="always")
+def seam_foot_friction(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
+    """The friction coefficient after the foot-friction seam's laws (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(seam_foot_friction, jit_options={"cache": True})
 def _seam_foot_friction(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
-    laws = sx[0][SEAM_FOOT_FRICTION]
-    for k in range(SEAM_SLOTS):
-        if k < _n_laws(sx, SEAM_FOOT_FRICTION):
-            mu = laws[k](t, st, ctx, _params(sx, SEAM_FOOT_FRICTION, k), leg, slip_speed, normal_force, mu)
-    return mu
+    if _is_none(sx):
+        return lambda sx, t, st, ctx, leg, slip_speed, normal_force, mu: mu
+
+    def impl(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
+        laws = sx[0][SEAM_FOOT_FRICTION]
+        for k in range(SEAM_SLOTS):
+            if k < sx[1][SEAM_FOOT_FRICTION, 0]:
+                up = _params(sx, SEAM_FOOT_FRICTION, k)
+                mu = laws[k](t, st[:], ctx[:], up, leg, slip_speed, normal_force, mu)
+        return mu
+
+    return impl
 
 
-@njit(cache=True, inline="always")
+def seam_normal_force(sx, t, st, ctx, point, depth, rate):
+    """(force, stiffness, damping) of the one normal law a model may set (check_user_effects
+    allows one; compiled code only, and only where :func:`has_normal_law`)."""
+    raise NotImplementedError
+
+
+@overload(seam_normal_force, jit_options={"cache": True})
 def _seam_normal_force(sx, t, st, ctx, point, depth, rate):
-    """The one normal law a model may set (check_user_effects allows one)."""
-    return sx[0][SEAM_NORMAL_FORCE][0](t, st, ctx, _params(sx, SEAM_NORMAL_FORCE, 0), point, depth, rate)
+    if _is_none(sx):
+        return lambda sx, t, st, ctx, point, depth, rate: (0.0, 0.0, 0.0)
 
+    def impl(sx, t, st, ctx, point, depth, rate):
+        law = sx[0][SEAM_NORMAL_FORCE][0]
+        return law(t, st[:], ctx[:], _params(sx, SEAM_NORMAL_FORCE, 0), point, depth, rate)
 
-@njit(cache=True, inline="always")
-def has_normal_law(sx):
-    return _n_laws(sx, SEAM_NORMAL_FORCE) > 0
+    return impl
 
 
 @njit(cache=True)
@@ -238,11 +321,27 @@ def _leg_geometry(p, j, q):
     return hx, hz, ux, uz, dux, duz
 
 
+@njit(cache=True, inline="always")
+def _columns(i):
+    """How many generalised coordinates move contact point i: x, z, pitch and a foot's own
+    leg (the other columns of its Jacobian are zero)."""
+    return 4 if i < 2 else 3
+
+
+@njit(cache=True, inline="always")
+def _column(i, b):
+    """The b-th of them (b < _columns(i))."""
+    return b if b < 3 else 3 + i
+
+
 @njit(cache=True)
 def kinematics(p, st, M, f, pts, vel, J):
     """Mass matrix, velocity-product + gravity forces, and the contact points' kinematics.
 
-    pts[i] / vel[i] are world position / velocity of point i, J[i] its 2x5 Jacobian.
+    pts[i] / vel[i] are world position / velocity of point i, J[i] its 2x5 Jacobian; returns
+    the cosine and sine of the pitch (later stages of the step reuse them). J's
+    entries that are always zero (a foot's x row in z, the other leg's column, a point on
+    the body in the legs' columns) are never written: ``J`` starts at zero (make_workspace).
     """
     th = st[S_Q + 2]
     c = math.cos(th)
@@ -261,11 +360,6 @@ def kinematics(p, st, M, f, pts, vel, J):
     M[1, 1] = mb
     M[2, 2] = p[P_IB]
     f[1] = -mb * g
-
-    for i in range(N_POINTS):
-        for a in range(2):
-            for b in range(5):
-                J[i, a, b] = 0.0
 
     # Legs: centre of mass (for M and forces) and foot (contact points 0, 1).
     for j in range(2):
@@ -336,12 +430,13 @@ def kinematics(p, st, M, f, pts, vel, J):
     for i in range(N_POINTS):
         for a in range(2):
             acc = 0.0
-            for b in range(5):
-                acc += J[i, a, b] * st[S_V + b]
+            for b in range(_columns(i)):
+                acc += J[i, a, _column(i, b)] * st[S_V + _column(i, b)]
             vel[i, a] = acc
+    return c, s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _solve5(A, b, x, n):
     """Gaussian elimination with partial pivoting (A, b are overwritten)."""
     for k in range(n):
@@ -363,7 +458,7 @@ def _solve5(A, b, x, n):
         for r in range(k + 1, n):
             fct = A[r, k] / d
             if fct != 0.0:
-                for cc in range(k, n):
+                for cc in range(k + 1, n):  # (column k below the pivot is not read again)
                     A[r, cc] -= fct * A[k, cc]
                 b[r] -= fct * b[k]
     for k in range(n - 1, -1, -1):
@@ -373,12 +468,13 @@ def _solve5(A, b, x, n):
         x[k] = acc / A[k, k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _contact_rates(JNT, i, v):
     """Normal and tangential speed of contact point i for generalised velocities v."""
     ddn = 0.0
     sdn = 0.0
-    for b in range(5):
+    for bb in range(_columns(i)):
+        b = _column(i, bb)
         ddn += JNT[i, 0, b] * v[b]
         sdn += JNT[i, 1, b] * v[b]
     return ddn, sdn
@@ -404,75 +500,91 @@ def _thrust(p, w):
 
 
 def make_workspace():
-    """Scratch arrays for :func:`step` (allocate once per simulated vehicle)."""
-    return (
-        np.zeros((5, 5)),  # M
-        np.zeros(5),  # f
-        np.zeros((N_POINTS, 2)),  # pts
-        np.zeros((N_POINTS, 2)),  # vel
-        np.zeros((N_POINTS, 2, 5)),  # J
-        np.zeros((5, 5)),  # A base
-        np.zeros(5),  # rhs base
-        np.zeros((5, 5)),  # A work
-        np.zeros(5),  # rhs work
-        np.zeros(5),  # v new
-        np.zeros(5),  # extra force
-        np.zeros((N_POINTS, 2, 5)),  # jn/jt rows per point
-        np.zeros(N_STATE),  # state before the step (to redo a touchdown finely)
-        np.zeros((12, N_POINTS)),  # per contact: distance, its rate, tangential position, rate, mu,
-        #                          a user normal law's force, stiffness, damping at the start,
-        #                          the energy in the stiction spring at the start, the built-in
-        #                          normal law's stiffness and damping (the rigid gear's feet differ),
-        #                          and whether the point was in contact at the start
-        np.zeros(N_POINTS, dtype=np.bool_),  # contact active this step
-        np.zeros(5, dtype=np.bool_),  # generalised coordinate locked this step
-        np.zeros((3, 2)),  # per joint: friction torque, in EOT zone, constraint torque
-        np.zeros((N_FORCE_POINTS, 2)),  # user forces at the named points (world x, z)
-    )
+    """The integrator's scratch workspace (:data:`~slopelander.model.layout.WORKSPACE`): a
+    one-record array, allocated once per simulated vehicle or landing."""
+    return np.zeros(1, dtype=WORKSPACE)
 
 
 _make_workspace_jit = njit(cache=True)(make_workspace)
 
 
+def kinematics_views(ws: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The arrays :func:`kinematics` fills, as views of a workspace: M, f, pts, vel, J."""
+    return ws["M"][0], ws["f"][0], ws["pts"][0], ws["vel"][0], ws["J"][0]
+
+
 @njit(cache=True)
 def step(p, fl, ctx, st, h, u0, u1, ws, sx):
-    """Advance the state ``st`` by ``h`` seconds with rotor commands u0, u1 in [-1, 1].
+    """Advance the state ``st`` by ``h`` seconds with rotor commands u0, u1 in [-1, 1]."""
+    advance(p, fl, ctx, st, h, 1, u0, u1, ws, sx)
+
+
+@njit(cache=True)
+def _load(w, p, fl, ctx, st):
+    """Copy the model's arrays into the workspace record, where the step reads them."""
+    for i in range(p.shape[0]):
+        w.p[i] = p[i]
+    for i in range(N_FLAGS):
+        w.fl[i] = fl[i]
+    for i in range(N_CTX):
+        w.ctx[i] = ctx[i]
+    for i in range(N_STATE):
+        w.st[i] = st[i]
+
+
+@njit(cache=True)
+def _unload(w, ctx, st):
+    """Copy the state and context the steps changed back out of the workspace record."""
+    for i in range(N_CTX):
+        ctx[i] = w.ctx[i]
+    for i in range(N_STATE):
+        st[i] = w.st[i]
+
+
+@njit(cache=True)
+def _step(w, h, u0, u1, sx):
+    """:func:`step` on the workspace record ``w``, which holds the model's arrays (``_load``).
 
     A step in which a contact begins is redone as REFINE sub-steps, and so are the next
     REFINE_WINDOW - 1 steps: whether a foot sticks or slides at touchdown is decided within
     fractions of a millisecond, and deciding it on a coarse step biases the whole landing.
     """
+    st = w.st
     if st[S_REFINE] > 0.0:
         st[S_REFINE] -= 1.0
         for _ in range(REFINE):
-            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, sx)
+            _substep(w, h / REFINE, u0, u1, sx)
         return
-    backup = ws[12]
-    backup[:] = st
-    if _substep(p, fl, ctx, st, h, u0, u1, ws, sx) > 0:
-        st[:] = backup
+    backup = w.backup
+    for i in range(N_STATE):
+        backup[i] = st[i]
+    if _substep(w, h, u0, u1, sx) > 0:
+        for i in range(N_STATE):
+            st[i] = backup[i]
         st[S_REFINE] = REFINE_WINDOW - 1
         for _ in range(REFINE):
-            _substep(p, fl, ctx, st, h / REFINE, u0, u1, ws, sx)
+            _substep(w, h / REFINE, u0, u1, sx)
 
 
 @njit(cache=True)
-def _substep(p, fl, ctx, st, h, u0, u1, ws, sx):
+def _substep(w, h, u0, u1, sx):
     """One semi-implicit step; returns how many impacts (contacts beginning fast) it had.
 
-    Stages, in order (each reads what the ones before left in the workspace ``ws``):
+    Stages, in order (each reads what the ones before left in the workspace record ``w``):
     forces at the start of the step, the joints' law, the contacts (with each foot's friction
     law), the implicit solve with its active set of contact modes, the forces that solve
-    applied, and the integration of positions, friction joints and rotors.
+    applied, and the integration of positions, friction joints and rotors. Every array is a
+    field of ``w``: a field is passed on with no reference count (a plain array argument
+    costs two atomic operations for each stage it passes through).
     """
-    M, f, pts, vel, J = ws[0], ws[1], ws[2], ws[3], ws[4]
-    kinematics(p, st, M, f, pts, vel, J)
-    user_forces = _applied_forces(p, fl, ctx, st, ws, sx)
-    _joint_law(p, fl, ctx, st, h, ws, sx)
-    began = _contacts(p, fl, ctx, st, ws, sx)
-    _solve(p, fl, st, h, ws, sx)
-    _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces)
-    _integrate(p, fl, st, h, u0, u1, ws)
+    p, fl, ctx, st = w.p, w.fl, w.ctx, w.st
+    w.pitch_cos, w.pitch_sin = kinematics(p, st, w.M, w.f, w.pts, w.vel, w.J)
+    user_forces = _applied_forces(p, fl, ctx, st, w, sx)
+    _joint_law(p, fl, ctx, st, h, w, sx)
+    began = _contacts(p, fl, ctx, st, w, sx)
+    _solve(p, fl, st, h, w, sx)
+    _contact_forces(p, fl, ctx, st, h, w, sx, user_forces)
+    _integrate(p, fl, st, h, u0, u1, w)
     return began
 
 
@@ -503,25 +615,26 @@ def _joint_constants(p, fl):
 
 
 @njit(cache=True, inline="always")
-def _applied_forces(p, fl, ctx, st, ws, sx):
+def _applied_forces(p, fl, ctx, st, w, sx):
     """Stage 1: the explicit forces at the start of the step into ``f``: the force seams'
     (generalised and at named points), the external force on the body, rotor thrust.
     Returns whether any force seam is in use (its work is booked at the end)."""
-    f, J, fx, pf = ws[1], ws[4], ws[10], ws[17]
+    f, J, fx = w.f, w.J, w.f_user
     t = st[S_T]
-    n_force = _n_laws(sx, SEAM_FORCE)
-    n_point = _n_laws(sx, SEAM_POINT_FORCE)
+    n_force = seam_laws(sx, SEAM_FORCE)
+    n_point = seam_laws(sx, SEAM_POINT_FORCE)
     user_forces = n_force > 0 or n_point > 0
     if user_forces:
         for a in range(5):
             fx[a] = 0.0
         if n_force > 0:
-            _seam_force(sx, t, st, ctx, fx)
+            seam_force(sx, t, st, ctx, fx)
         if n_point > 0:
+            pf = w.f_points[:].reshape((N_FORCE_POINTS, 2))
             for i in range(N_FORCE_POINTS):
                 pf[i, 0] = 0.0
                 pf[i, 1] = 0.0
-            _seam_point_force(sx, t, st, ctx, pf)
+            seam_point_force(sx, t, st, ctx, pf)
             for i in range(N_POINTS):
                 for b in range(5):
                     fx[b] += J[i, 0, b] * pf[i, 0] + J[i, 1, b] * pf[i, 1]
@@ -532,13 +645,14 @@ def _applied_forces(p, fl, ctx, st, ws, sx):
     for a in range(3):
         f[a] += ctx[C_FEXT + a]
     # rotors: thrust along body z at the hubs, from the speed at the start of the step
-    bzx = -math.sin(st[S_Q + 2])
-    bzz = math.cos(st[S_Q + 2])
+    bzx = -w.pitch_sin
+    bzz = w.pitch_cos
     for rr in range(2):
         T = _thrust(p, st[S_W + rr]) if fl[F_ROTORS] != 0 else 0.0
         st[S_THR + rr] = T
-        for b in range(5):
-            f[b] += J[4 + rr, 0, b] * T * bzx + J[4 + rr, 1, b] * T * bzz
+        if T != 0.0:
+            for b in range(3):  # (a hub moves with the body alone)
+                f[b] += J[4 + rr, 0, b] * T * bzx + J[4 + rr, 1, b] * T * bzz
     return user_forces
 
 
@@ -553,37 +667,35 @@ def joint_torque_law(p, fl, st, leg, tau):
 
 
 @njit(cache=True, inline="always")
-def _joint_law(p, fl, ctx, st, h, ws, sx):
+def _joint_law(p, fl, ctx, st, h, w, sx):
     """Stage 2: each friction joint's slip torque (built-in law, then the joint-torque seam),
     and what the joints add to the step: the flex spring-damper or the slipping joint's
     torque into ``f``, their implicit parts into ``A0`` (= M + those); then r0 = M v + h f.
 
     Implicit terms go straight into A0 = M - h D - h^2 K; f keeps only the explicit part."""
-    M, f, A0, r0 = ws[0], ws[1], ws[5], ws[6]
-    js = ws[16]
-    tau, zone, lam = js[0], js[1], js[2]
-    V = st[S_V : S_V + 5]
+    M, f, A0, r0 = w.M, w.f, w.A0, w.r0
+    tau, zone, lam = w.tau, w.zone, w.lam
     t = st[S_T]
     rigid, flex, _, _, q_zone, ke, be, kq, bq, ik = _joint_constants(p, fl)
-    n_torque = _n_laws(sx, SEAM_JOINT_TORQUE)
+    n_torque = seam_laws(sx, SEAM_JOINT_TORQUE)
     for a in range(5):
         for b in range(5):
             A0[a, b] = M[a, b]
     for j in range(2):
         zone[j] = 0.0
         lam[j] = 0.0
+        qi = 3 + j
         tj = joint_torque_law(p, fl, st, j, ctx[C_TAU + j])
         if n_torque > 0:
             # the leg's rate (a smooth state): the joint's own rate from the last step would
             # feed a speed-dependent law back into the joint's stick-slip switching
-            tj = max(0.0, _seam_joint_torque(sx, t, st, ctx, j, st[S_QE + j], V[3 + j], tj))
+            tj = max(0.0, seam_joint_torque(sx, t, st, ctx, j, st[S_QE + j], st[S_V + qi], tj))
         tau[j] = tj
-        qi = 3 + j
         if rigid:
             continue
         qE = st[S_QE + j]
         qc = st[S_Q + qi]
-        vc = V[qi]
+        vc = st[S_V + qi]
         m = st[S_JM + j]
         if flex:
             zj = 1.0 if qE < q_zone else 0.0
@@ -613,27 +725,26 @@ def _joint_law(p, fl, ctx, st, h, ws, sx):
     for a in range(5):
         acc = 0.0
         for b in range(5):
-            acc += M[a, b] * V[b]
+            acc += M[a, b] * st[S_V + b]
         r0[a] = acc + h * f[a]
 
 
 @njit(cache=True, inline="always")
-def _contacts(p, fl, ctx, st, ws, sx):
+def _contacts(p, fl, ctx, st, w, sx):
     """Stage 3: every contact point's distance and speeds, its normal law at the start of the
     step (built-in spring-damper or the normal-force seam), which points are in contact and
     in what mode (a new contact slides if it arrives sliding), and each foot's friction
     coefficient (built-in law, then the foot-friction seam). Returns the impacts: contacts
     that began faster than IMPACT_SPEED."""
-    pts, vel, J, JNT = ws[2], ws[3], ws[4], ws[11]
-    cs_, active = ws[13], ws[14]
-    d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
-    nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
-    kgp, bgp, was_in = cs_[9], cs_[10], cs_[11]
+    pts, vel, J, JNT = w.pts, w.vel, w.J, w.JNT
+    d0, dd0, s0, sd0, mu = w.dist, w.dist_rate, w.tang, w.tang_rate, w.mu
+    nN, nk, nb, pad = w.law_force, w.law_stiffness, w.law_damping, w.pad_energy
+    kgp, bgp, was_in, active = w.kg, w.bg, w.was_in, w.active
     t = st[S_T]
     nx, nz, tx, tz, dsg = _surface(ctx)
     rigid = fl[F_RIGID] != 0
     normal_law = has_normal_law(sx)
-    friction_laws = _n_laws(sx, SEAM_FOOT_FRICTION) > 0
+    friction_laws = seam_laws(sx, SEAM_FOOT_FRICTION) > 0
     began = 0
     # the rigid gear's feet are stiff plastic skids: a contact of their own that rebounds
     for i in range(N_POINTS):
@@ -648,7 +759,7 @@ def _contacts(p, fl, ctx, st, ws, sx):
         s0[i] = tx * pts[i, 0] + tz * pts[i, 1]
         sd0[i] = tx * vel[i, 0] + tz * vel[i, 1]
         pad[i] = 0.0
-        was_in[i] = 1.0 if st[S_CM + i] != 0.0 else 0.0
+        was_in[i] = 1 if st[S_CM + i] != 0.0 else 0
         if stiction and st[S_CM + i] == 1.0:
             pad[i] = 0.5 * kt * (s0[i] - st[S_ANC + i]) ** 2
         if normal_law:
@@ -661,16 +772,17 @@ def _contacts(p, fl, ctx, st, ws, sx):
                 # the model's own ground at this point (a law scaling it reduces to it)
                 ctx[C_KG] = kgp[i]
                 ctx[C_BG] = bgp[i]
-                N0, kk, bb = _seam_normal_force(sx, t, st, ctx, i, -d0[i], -dd0[i])
+                N0, kk, bb = seam_normal_force(sx, t, st, ctx, i, -d0[i], -dd0[i])
                 nN[i] = N0
                 nk[i] = kk
                 nb[i] = bb
         else:
             N0 = -kgp[i] * d0[i] - bgp[i] * dd0[i]
-        active[i] = False
+        active[i] = 0
         if d0[i] < 0.0 and N0 > 0.0:
-            active[i] = True
-            for b in range(5):
+            active[i] = 1
+            for bb in range(_columns(i)):  # (the other columns stay zero)
+                b = _column(i, bb)
                 JNT[i, 0, b] = nx * J[i, 0, b] + nz * J[i, 1, b]
                 JNT[i, 1, b] = tx * J[i, 0, b] + tz * J[i, 1, b]
             if st[S_CM + i] == 0.0:
@@ -686,9 +798,9 @@ def _contacts(p, fl, ctx, st, ws, sx):
                 st[S_ANC + i] = s0[i]
         else:
             st[S_CM + i] = 0.0
-        mu[i] = friction_coefficient(p, fl, tx, tz, vel, i, sd0[i], active[i], mus)
+        mu[i] = friction_coefficient(p, fl, tx, tz, vel, i, sd0[i], active[i] != 0, mus)
         if friction_laws and i < 2 and active[i]:
-            mu[i] = max(0.0, _seam_foot_friction(sx, t, st, ctx, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
+            mu[i] = max(0.0, seam_foot_friction(sx, t, st, ctx, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
     return began
 
 
@@ -708,140 +820,158 @@ def friction_coefficient(p, fl, tx, tz, vel, i, slip, touching, mu_s):
 
 
 @njit(cache=True, inline="always")
-def _solve(p, fl, st, h, ws, sx):
+def _solve(p, fl, st, h, w, sx):
     """Stage 4: the implicit solve for the new velocities ``vn``, with the contacts' normal
     and friction forces linearised in it, repeated while a contact's mode changes (a point
     pulling on the ground lets go, a stuck foot whose force leaves the friction cone slides,
     a sliding foot that reverses sticks). Locked joints (rigid gear, a stuck joint without
-    leg flex) keep their coordinate fixed."""
-    A0, r0, A, r, vn, JNT = ws[5], ws[6], ws[7], ws[8], ws[9], ws[11]
-    cs_, active, locked = ws[13], ws[14], ws[15]
-    d0, dd0, s0, sd0, mu = cs_[0], cs_[1], cs_[2], cs_[3], cs_[4]
-    nN, nk, nb = cs_[5], cs_[6], cs_[7]
-    kgp, bgp = cs_[9], cs_[10]
+    leg flex) keep their coordinate fixed. Returns the solves it took."""
+    _lock_joints(fl, st, w)
+    solves = 0
+    for _ in range(MAX_ACTIVE_SET_ITERATIONS):
+        solves += 1
+        _assemble(p, fl, st, h, w, sx)
+        _solve5(w.A, w.r, w.vn, 5)
+        if not _modes_changed(p, fl, st, h, w, sx):
+            break
+    return solves
+
+
+@njit(cache=True, inline="always")
+def _lock_joints(fl, st, w):
+    """Which generalised coordinates the solve holds fixed: the legs of the rigid gear, and
+    without leg flex a leg whose joint is stuck."""
+    locked = w.locked
     rigid = fl[F_RIGID] != 0
     flex = fl[F_FLEX] != 0 and not rigid
+    for a in range(5):
+        locked[a] = 0
+    for j in range(2):
+        if rigid or (not flex and st[S_JM + j] == 0.0):
+            locked[3 + j] = 1
+
+
+@njit(cache=True, inline="always")
+def _assemble(p, fl, st, h, w, sx):
+    """The system ``A vn = r`` of one active-set iteration: A0 and r0, each active contact's
+    normal force and its friction in their present modes, the locked coordinates."""
+    A, r, A0, r0 = w.A, w.r, w.A0, w.r0
+    d0, dd0, s0, sd0, mu = w.dist, w.dist_rate, w.tang, w.tang_rate, w.mu
+    nN, nk, nb, kgp, bgp = w.law_force, w.law_stiffness, w.law_damping, w.kg, w.bg
     ik = 1.0 if fl[F_IMPLICIT_K] != 0 else 0.0
+    normal_law = has_normal_law(sx)
+    kt = p[P_KT]
+    bt = p[P_BT]
+    stiction = fl[F_STICTION] != 0
+    regular = fl[F_REGULARISED] != 0
+    for a in range(5):
+        r[a] = r0[a]
+        for b in range(5):
+            A[a, b] = A0[a, b]
+    for i in range(N_POINTS):
+        if not w.active[i]:
+            continue
+        if normal_law:
+            # N(v') ~ N0 + b (rate' - rate0) + k h rate' (rate = -normal speed)
+            nc0 = nN[i] + nb[i] * dd0[i]
+            cn = h * h * nk[i] * ik + h * nb[i]
+        else:
+            nc0 = -kgp[i] * d0[i]
+            cn = h * h * kgp[i] * ik + h * bgp[i]
+        _add_rows(w, i, 0, 0, cn, h, nc0)
+        mode = st[S_CM + i]
+        if stiction:
+            if mode == 1.0:  # stuck: the pad's spring-damper along the surface
+                _add_rows(w, i, 1, 1, h * h * kt * ik + h * bt, h, -kt * (s0[i] - st[S_ANC + i]))
+            else:  # sliding: mu times the normal force, against the slip
+                sg = 1.0 if mode == 2.0 else -1.0
+                rhs = -sg * mu[i] * nc0 if normal_law else sg * mu[i] * kgp[i] * d0[i]
+                _add_rows(w, i, 1, 0, -sg * mu[i] * cn, h, rhs)
+        elif regular:
+            N0 = nN[i] if normal_law else -kgp[i] * d0[i] - bgp[i] * dd0[i]
+            th_ = math.tanh(sd0[i] / p[P_VS])
+            gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
+            _add_rows(w, i, 1, 1, h * gg, h, -mu[i] * N0 * th_ + gg * sd0[i])
+    for a in range(5):
+        if w.locked[a]:
+            for b in range(5):
+                A[a, b] = 0.0
+                A[b, a] = 0.0
+            A[a, a] = 1.0
+            r[a] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _add_rows(w, i, row_a, row_b, coeff, h, rhs):
+    """Add contact point i's force along its row ``row_a`` (0 normal, 1 tangent) to the
+    system: ``h * rhs`` to r and ``coeff`` times its coupling to row ``row_b`` to A, over the
+    columns that move the point."""
+    A, r, JNT = w.A, w.r, w.JNT
+    for aa in range(_columns(i)):
+        a = _column(i, aa)
+        ja = JNT[i, row_a, a]
+        if ja != 0.0:
+            r[a] += h * ja * rhs
+            for bb in range(_columns(i)):
+                b = _column(i, bb)
+                A[a, b] += coeff * ja * JNT[i, row_b, b]
+
+
+@njit(cache=True, inline="always")
+def _modes_changed(p, fl, st, h, w, sx):
+    """Settle each active contact's mode against the new velocities: a point pulling on the
+    ground lets go, a stuck foot whose force leaves the friction cone slides, a sliding foot
+    whose slip reverses sticks. Returns whether any changed (the system is solved again)."""
+    d0, dd0, s0 = w.dist, w.dist_rate, w.tang
+    nN, nk, nb, kgp, bgp = w.law_force, w.law_stiffness, w.law_damping, w.kg, w.bg
+    active = w.active
     normal_law = has_normal_law(sx)
     kt = p[P_KT]
     bt = p[P_BT]
     mus = p[P_MUS]
     stiction = fl[F_STICTION] != 0
-    regular = fl[F_REGULARISED] != 0
-    for a in range(5):
-        locked[a] = False
-    for j in range(2):
-        if rigid or (not flex and st[S_JM + j] == 0.0):
-            locked[3 + j] = True
-
-    for _it in range(MAX_ACTIVE_SET_ITERATIONS):
-        for a in range(5):
-            r[a] = r0[a]
-            for b in range(5):
-                A[a, b] = A0[a, b]
-        for i in range(N_POINTS):
-            if not active[i]:
-                continue
-            if normal_law:
-                # N(v') ~ N0 + b (rate' - rate0) + k h rate' (rate = -normal speed)
-                nc0 = nN[i] + nb[i] * dd0[i]
-                cn = h * h * nk[i] * ik + h * nb[i]
-            else:
-                nc0 = -kgp[i] * d0[i]
-                cn = h * h * kgp[i] * ik + h * bgp[i]
-            for a in range(5):
-                jna = JNT[i, 0, a]
-                if jna != 0.0:
-                    r[a] += h * jna * nc0
-                    for b in range(5):
-                        A[a, b] += cn * jna * JNT[i, 0, b]
-            mode = st[S_CM + i]
-            if stiction:
-                if mode == 1.0:
-                    ct = h * h * kt * ik + h * bt
-                    ft = -kt * (s0[i] - st[S_ANC + i])
-                    for a in range(5):
-                        jta = JNT[i, 1, a]
-                        if jta != 0.0:
-                            r[a] += h * jta * ft
-                            for b in range(5):
-                                A[a, b] += ct * jta * JNT[i, 1, b]
-                else:
-                    sg = 1.0 if mode == 2.0 else -1.0
-                    for a in range(5):
-                        jta = JNT[i, 1, a]
-                        if jta != 0.0:
-                            if normal_law:
-                                r[a] += h * jta * (-sg * mu[i] * nc0)
-                            else:
-                                r[a] += h * jta * (sg * mu[i] * kgp[i] * d0[i])
-                            for b in range(5):
-                                A[a, b] += -sg * mu[i] * cn * jta * JNT[i, 0, b]
-            elif regular:
-                N0 = nN[i] if normal_law else -kgp[i] * d0[i] - bgp[i] * dd0[i]
-                xx = sd0[i] / p[P_VS]
-                th_ = math.tanh(xx)
-                gg = mu[i] * N0 * (1.0 - th_ * th_) / p[P_VS]
-                ft = -mu[i] * N0 * th_
-                for a in range(5):
-                    jta = JNT[i, 1, a]
-                    if jta != 0.0:
-                        r[a] += h * jta * (ft + gg * sd0[i])
-                        for b in range(5):
-                            A[a, b] += h * gg * jta * JNT[i, 1, b]
-        # locked joints (rigid gear, or a stuck joint without leg flex)
-        for a in range(5):
-            if locked[a]:
-                for b in range(5):
-                    A[a, b] = 0.0
-                    A[b, a] = 0.0
-                A[a, a] = 1.0
-                r[a] = 0.0
-        _solve5(A, r, vn, 5)
-        changed = False
-        for i in range(N_POINTS):
-            if not active[i]:
-                continue
-            ddn, sdn = _contact_rates(JNT, i, vn)
-            if normal_law:
-                Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
-            else:
-                dn = d0[i] + h * ddn
-                Nn = -kgp[i] * dn - bgp[i] * ddn
-            if Nn < 0.0:
-                active[i] = False
-                st[S_CM + i] = 0.0
+    changed = False
+    for i in range(N_POINTS):
+        if not active[i]:
+            continue
+        ddn, sdn = _contact_rates(w.JNT, i, w.vn)
+        if normal_law:
+            Nn = nN[i] + nb[i] * (dd0[i] - ddn) - h * nk[i] * ddn
+        else:
+            dn = d0[i] + h * ddn
+            Nn = -kgp[i] * dn - bgp[i] * ddn
+        if Nn < 0.0:
+            active[i] = 0
+            st[S_CM + i] = 0.0
+            changed = True
+            continue
+        if not stiction:
+            continue
+        mode = st[S_CM + i]
+        if mode == 1.0:
+            ftn = -kt * (s0[i] + h * sdn - st[S_ANC + i]) - bt * sdn
+            if abs(ftn) > mus * Nn:
+                st[S_CM + i] = 2.0 if ftn < 0.0 else 3.0
                 changed = True
-                continue
-            if not stiction:
-                continue
-            mode = st[S_CM + i]
-            if mode == 1.0:
-                ftn = -kt * (s0[i] + h * sdn - st[S_ANC + i]) - bt * sdn
-                if abs(ftn) > mus * Nn:
-                    st[S_CM + i] = 2.0 if ftn < 0.0 else 3.0
-                    changed = True
-            else:
-                sg = 1.0 if mode == 2.0 else -1.0
-                if sg * sdn < 0.0:
-                    st[S_CM + i] = 1.0
-                    st[S_ANC + i] = s0[i]
-                    changed = True
-        if not changed:
-            break
+        else:
+            sg = 1.0 if mode == 2.0 else -1.0
+            if sg * sdn < 0.0:
+                st[S_CM + i] = 1.0
+                st[S_ANC + i] = s0[i]
+                changed = True
+    return changed
 
 
 @njit(cache=True, inline="always")
-def _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces):
+def _contact_forces(p, fl, ctx, st, h, w, sx, user_forces):
     """Stage 5: the forces the solve applied (outputs, the next step's laws, energy
     bookkeeping), every point's slip speed, the force seams' work, and the locked joints'
     constraint torques (a locked joint slips when its torque exceeds the preset)."""
-    J, A0, r0, vn, fx, JNT = ws[4], ws[5], ws[6], ws[9], ws[10], ws[11]
-    cs_, active, locked, js = ws[13], ws[14], ws[15], ws[16]
-    d0, dd0, s0, mu = cs_[0], cs_[1], cs_[2], cs_[4]
-    nN, nk, nb, pad = cs_[5], cs_[6], cs_[7], cs_[8]
-    kgp, bgp, was_in = cs_[9], cs_[10], cs_[11]
-    lam = js[2]
+    J, A0, r0, vn, fx, JNT = w.J, w.A0, w.r0, w.vn, w.f_user, w.JNT
+    d0, dd0, s0, mu = w.dist, w.dist_rate, w.tang, w.mu
+    nN, nk, nb, pad = w.law_force, w.law_stiffness, w.law_damping, w.pad_energy
+    kgp, bgp, was_in = w.kg, w.bg, w.was_in
+    active, locked, lam = w.active, w.locked, w.lam
     nx, nz, tx, tz, dsg = _surface(ctx)
     rigid = fl[F_RIGID] != 0
     flex = fl[F_FLEX] != 0 and not rigid
@@ -855,11 +985,12 @@ def _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces):
         st[S_FT + i] = 0.0
         if not active[i]:
             st[S_DISS + D_FOOT] += pad[i]  # lifted off stuck: the pad's spring lets go
-            if was_in[i] != 0.0 and not normal_law:
+            if was_in[i] and not normal_law:
                 # let go still pressed in (a rebounding foot's force reaches zero first): the
                 # massless contact's spring relaxes into its damper
                 acc = 0.0
-                for b in range(5):
+                for bb in range(_columns(i)):
+                    b = _column(i, bb)
                     acc += (nx * J[i, 0, b] + nz * J[i, 1, b]) * vn[b]
                 de = d0[i] + h * acc
                 if de < 0.0:
@@ -899,7 +1030,8 @@ def _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces):
     # every point's speed along the surface (downhill-positive), for user laws next step
     for i in range(N_POINTS):
         acc = 0.0
-        for b in range(5):
+        for bb in range(_columns(i)):
+            b = _column(i, bb)
             acc += (tx * J[i, 0, b] + tz * J[i, 1, b]) * vn[b]
         st[S_SLIP + i] = dsg * acc
     if user_forces:
@@ -925,12 +1057,12 @@ def _contact_forces(p, fl, ctx, st, h, ws, sx, user_forces):
 
 
 @njit(cache=True, inline="always")
-def _integrate(p, fl, st, h, u0, u1, ws):
+def _integrate(p, fl, st, h, u0, u1, w):
     """Stage 6: the rotors' work, the new velocities and positions (semi-implicit Euler), the
     friction joints, the rotors' speeds, and the landing's bookkeeping."""
-    vn, active = ws[9], ws[14]
+    vn = w.vn
     t = st[S_T]
-    _rotor_work(st, h, ws)
+    _rotor_work(st, h, w)
     qc_old0 = st[S_Q + 3]
     qc_old1 = st[S_Q + 4]
     for a in range(5):
@@ -938,19 +1070,19 @@ def _integrate(p, fl, st, h, u0, u1, ws):
         st[S_Q + a] += h * vn[a]
     qe_old0 = st[S_QE]
     qe_old1 = st[S_QE + 1]
-    _friction_joints(p, fl, st, h, ws, qc_old0, qc_old1)
+    _friction_joints(p, fl, st, h, w, qc_old0, qc_old1)
     st[S_QED] = (st[S_QE] - qe_old0) / h
     st[S_QED + 1] = (st[S_QE + 1] - qe_old1) / h
     _rotor_speeds(p, fl, st, h, u0, u1)
-    _bookkeeping(st, t, h, active)
+    _bookkeeping(st, t, h, w.active)
 
 
 @njit(cache=True, inline="always")
-def _rotor_work(st, h, ws):
+def _rotor_work(st, h, w):
     """The work the rotors' thrust did over the step (at the new velocities, the start pitch)."""
-    J, vn = ws[4], ws[9]
-    bzx = -math.sin(st[S_Q + 2])
-    bzz = math.cos(st[S_Q + 2])
+    J, vn = w.J, w.vn
+    bzx = -w.pitch_sin  # the pitch at the start of the step, as the thrust was applied
+    bzz = w.pitch_cos
     for rr in range(2):
         vz = bzx * (J[4 + rr, 0, 0] * vn[0] + J[4 + rr, 0, 2] * vn[2])
         vz += bzz * (J[4 + rr, 1, 1] * vn[1] + J[4 + rr, 1, 2] * vn[2])
@@ -958,12 +1090,11 @@ def _rotor_work(st, h, ws):
 
 
 @njit(cache=True, inline="always")
-def _friction_joints(p, fl, st, h, ws, qc_old0, qc_old1):
+def _friction_joints(p, fl, st, h, w, qc_old0, qc_old1):
     """The friction joints' massless frames, updated exactly over the step in their mode
     (stuck, slipping, slipping in the end-of-travel zone), then their mode changes; without
     leg flex the joint is the leg and only its mode and limits change."""
-    vn, js = ws[9], ws[16]
-    tau, zone, lam = js[0], js[1], js[2]
+    vn, tau, zone, lam = w.vn, w.tau, w.zone, w.lam
     rigid, flex, q_end, q_max, q_zone, ke, be, kq, bq, _ = _joint_constants(p, fl)
     for j in range(2):
         qi = 3 + j
@@ -1039,11 +1170,13 @@ def _friction_joints(p, fl, st, h, ws, qc_old0, qc_old1):
 @njit(cache=True, inline="always")
 def _rotor_speeds(p, fl, st, h, u0, u1):
     """Rotors: a direction change waits out the reversal delay, the speed is first order."""
+    if fl[F_ROTORS] == 0:
+        st[S_W] = 0.0
+        st[S_W + 1] = 0.0
+        return
+    e = -1.0  # the speed's decay over the step, once a rotor needs it
     for rr in range(2):
         u = u0 if rr == 0 else u1
-        if fl[F_ROTORS] == 0:
-            st[S_W + rr] = 0.0
-            continue
         want = 1.0 if u > 0.0 else (-1.0 if u < 0.0 else 0.0)
         target = u
         if want != 0.0 and want != st[S_DIR + rr]:
@@ -1060,8 +1193,10 @@ def _rotor_speeds(p, fl, st, h, u0, u1):
                     target = u
         else:
             st[S_WAIT + rr] = 0.0
-        e = math.exp(-h / p[P_TAUM])
-        st[S_W + rr] = target + (st[S_W + rr] - target) * e
+        if st[S_W + rr] != target:  # at its target a rotor stays there
+            if e < 0.0:
+                e = math.exp(-h / p[P_TAUM])
+            st[S_W + rr] = target + (st[S_W + rr] - target) * e
 
 
 @njit(cache=True, inline="always")
@@ -1127,8 +1262,9 @@ def init_landing(p, fl, cond, st, ctx, ws):
     st[S_DIR] = 1.0
     st[S_DIR + 1] = 1.0
     st[S_TIMP] = -1.0
-    M, f, pts, vel, J = ws[0], ws[1], ws[2], ws[3], ws[4]
-    kinematics(p, st, M, f, pts, vel, J)
+    w = ws[0]
+    pts = w.pts
+    kinematics(p, st, w.M, w.f, pts, w.vel, w.J)
     dmin = 1e300
     for i in range(N_POINTS):
         d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
@@ -1247,13 +1383,16 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res):
     rec_every > 0). The outcome is frozen the moment the vehicle settles, so a run that
     stops there and one that goes on to the horizon report the same result.
     """
-    st = np.zeros(N_STATE)
-    ctx = np.zeros(N_CTX)
+    st0 = np.zeros(N_STATE)
+    ctx0 = np.zeros(N_CTX)
     ws = _make_workspace_jit()
-    init_landing(p, fl, cond, st, ctx, ws)
+    init_landing(p, fl, cond, st0, ctx0, ws)
+    w = ws[0]
+    _load(w, p, fl, ctx0, st0)
+    st, ctx = w.st, w.ctx
     n_rec = 0
     if rec_every > 0 and rec.shape[0] > 0:
-        rec[0, :] = st
+        rec[0, :] = st0
         n_rec = 1
     settled = False
     frozen = False
@@ -1268,10 +1407,10 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res):
         u = 0.0
         if st[S_TIMP] >= 0.0:
             u = reverse_command(cond, t - st[S_TIMP])
-        step(p, fl, ctx, st, h, u, u, ws, sx)
+        _step(w, h, u, u, sx)
         k += 1
         if rec_every > 0 and k % rec_every == 0 and n_rec < rec.shape[0]:
-            rec[n_rec, :] = st
+            rec[n_rec, :] = st[:]
             n_rec += 1
         if frozen:
             if st[S_T] - max(st[S_TIMP], 0.0) >= horizon:
@@ -1315,16 +1454,20 @@ def run_batch(p, fl, conds, h, crit, stop_at_settle, sx, out):
 @njit(cache=True)
 def advance(p, fl, ctx, st, h, n, u0, u1, ws, sx):
     """``n`` steps of ``h`` with fixed rotor commands (one call per stepper tick)."""
+    w = ws[0]
+    _load(w, p, fl, ctx, st)
     for _ in range(n):
-        step(p, fl, ctx, st, h, u0, u1, ws, sx)
+        _step(w, h, u0, u1, sx)
+    _unload(w, ctx, st)
 
 
 @njit(cache=True)
 def mechanical_energy(p, fl, ctx, st, ws, sx, out):
     """Kinetic, gravitational, ground-spring, stiction-spring, flex-spring and EOT-spring
     energy of the state (J), in that order."""
-    M, f, pts, vel, J = ws[0], ws[1], ws[2], ws[3], ws[4]
-    kinematics(p, st, M, f, pts, vel, J)
+    w = ws[0]
+    M, pts = w.M, w.pts
+    kinematics(p, st, M, w.f, pts, w.vel, w.J)
     normal_law = has_normal_law(sx)
     ke = 0.0
     for a in range(5):
@@ -1354,8 +1497,8 @@ def mechanical_energy(p, fl, ctx, st, ws, sx, out):
             kgi = p[P_KR] if fl[F_RIGID] != 0 and i < 2 else p[P_KG]
             eg += 0.5 * kgi * d * d
         if st[S_CM + i] == 1.0 and fl[F_STICTION] != 0:
-            sx = ctx[C_COS] * pts[i, 0] - ctx[C_SIN] * pts[i, 1]
-            es += 0.5 * p[P_KT] * (sx - st[S_ANC + i]) ** 2
+            tang = ctx[C_COS] * pts[i, 0] - ctx[C_SIN] * pts[i, 1]
+            es += 0.5 * p[P_KT] * (tang - st[S_ANC + i]) ** 2
     out[2] = eg
     out[3] = es
     ef = 0.0

@@ -141,8 +141,8 @@ class Model:
         )
 
     def kernel(self):
-        """The compiled integrator (one for every model) and this model's seam table: its
-        user effects' compiled laws and parameters (see :mod:`slopelander.model.seams`)."""
+        """The compiled integrator and this model's seam table: its user effects' compiled laws
+        and parameters, or None without user effects (see :mod:`slopelander.model.seams`)."""
         return k, seam_table(self.user_effects)
 
     @property
@@ -262,8 +262,7 @@ class Trajectory:
     def outline(self, i: int) -> dict[str, np.ndarray]:
         """World positions (x, z) of the vehicle's points in sample ``i``: the centre of
         mass, the rotor hubs, the leg joints and the feet (each leg's two points)."""
-        ws = k.make_workspace()
-        M, f, pts, vel, J = ws[:5]
+        M, f, pts, vel, J = k.kinematics_views(k.make_workspace())
         k.kinematics(self.model.params.as_array(), self.raw[i], M, f, pts, vel, J)
         return {
             "centre": self.raw[i, k.S_Q : k.S_Q + 2].copy(),
@@ -396,7 +395,7 @@ def _run_threaded(run_batch, args: tuple, out: np.ndarray) -> None:
             if a is None:
                 return
             b = min(a + BATCH_CHUNK, n)
-            run_batch(*args[:2], conds[a:b], *args[3:], out[a:b])
+            call(run_batch, *args[:2], conds[a:b], *args[3:], out[a:b])
 
     with ThreadPoolExecutor(threads) as pool:
         for f in [pool.submit(work) for _ in range(threads)]:

@@ -115,7 +115,7 @@ class ReferenceLanding:
         p, st, ws = self.p, self.st, self.ws
         st[k.S_Q : k.S_Q + 5] = y[0:5]
         st[k.S_V : k.S_V + 5] = y[5:10]
-        M, f, pts, vel, J = ws[:5]
+        M, f, pts, vel, J = k.kinematics_views(ws)
         k.kinematics(p, st, M, f, pts, vel, J)
         M = M.copy()
         f = f.copy()

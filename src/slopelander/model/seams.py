@@ -7,9 +7,12 @@ one row per seam) says how many are in use and which slice of ``up`` (the user p
 each reads. The integrator calls a seam's laws in turn after the built-in law of that stage.
 
 Because the functions are typed by their signature alone (numba's first-class function
-type), one compiled integrator serves every model: the shipped one, a user's, and every
+type), one compiled integrator serves every model with user effects: a user's, and every
 candidate effect of a diagnosis. Its code is compiled once and cached on disk; a user's law
-is compiled on its own (small, seconds) and handed over as a function pointer.
+is compiled on its own (small, seconds) and handed over as a function pointer. A model without
+user effects passes None instead of a table, and runs the integrator compiled for None, in
+which no seam is looked at and no law is called (calls through first-class functions cost the
+built-in model's step its speed).
 """
 
 from __future__ import annotations
@@ -139,12 +142,15 @@ def _adapted(fn, seam: str):
     return scalar
 
 
-def seam_table(effects: Sequence[UserEffect]) -> tuple:
-    """The integrator's seam argument for these user effects (every slot empty for none).
+def seam_table(effects: Sequence[UserEffect]) -> tuple | None:
+    """The integrator's seam argument for these user effects: None for none (numba compiles
+    the integrator for a model without user effects on its own, with no seam in it).
 
     The laws and slots of a tuple of effects are worked out once (a fit simulates the same
     model's effects thousands of times, and typing their laws is the dearest part); the
     parameters are read afresh on every call, and the arrays are the caller's own."""
+    if not effects:
+        return None
     if isinstance(effects, tuple):
         hit = _TABLES.get(id(effects))
         if hit is None or hit[0] is not effects:

@@ -59,10 +59,14 @@ class Stepper:
         self._p = self.model.params.as_array()
         self._fl = self.model.flags()
         self._k, self._sx = self.model.kernel()
-        from slopelander.model.boxed import advance_boxed, box  # compiles on first use: not at import
+        if self._sx is None:  # no user effects: the integrator compiled without seams
+            self._box = None
+            self._advance = k.advance
+        else:
+            from slopelander.model.boxed import advance_boxed, box  # compiles on first use: not at import
 
-        self._box = box(self._sx)
-        self._advance = advance_boxed
+            self._box = box(self._sx)
+            self._advance = advance_boxed
         self._compiled = False
         self._entry = None  # the compiled step, looked up once (model/dispatch.py)
         self._ws = k.make_workspace()
@@ -270,6 +274,6 @@ class Stepper:
         return dict(zip(DISSIPATION_TERMS, d, strict=True))
 
     def _clearances(self) -> np.ndarray:
-        M, f, pts, vel, J = self._ws[:5]
+        M, f, pts, vel, J = k.kinematics_views(self._ws)
         k.kinematics(self._p, self.st, M, f, pts, vel, J)
         return pts[:, 0] * self.ctx[k.C_SIN] + pts[:, 1] * self.ctx[k.C_COS]
