@@ -1295,7 +1295,7 @@ def init_landing(p, fl, cond, st, ctx, ws):
     st[S_PMAX] = st[S_Q + 2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _at_rest(st, crit):
     if abs(st[S_V]) > crit[R_SPEED] or abs(st[S_V + 1]) > crit[R_SPEED]:
         return False
@@ -1359,7 +1359,7 @@ def classify(p, fl, ctx, st, crit, settled, slid, res):
     res[O_TEND] = st[S_T] - max(st[S_TIMP], 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _slide(ctx, st):
     dsg = 1.0 if ctx[C_SIN] >= 0.0 else -1.0
     if st[S_TIMP] < 0.0:
@@ -1367,7 +1367,7 @@ def _slide(ctx, st):
     return dsg * (ctx[C_COS] * (st[S_Q] - st[S_X0]) - ctx[C_SIN] * (st[S_Q + 1] - st[S_X0 + 1]))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def reverse_command(cond, since):
     """Rotor command ``since`` s after first contact: 0 before the delay, full reverse held for
     the duration, then a linear ramp to zero (or a step), then 0."""
