@@ -168,7 +168,8 @@ layout.drop_stale_cache(__file__)
 # numba compiles the integrator once per kind of table. The helpers below are overloaded on
 # it: for None they are constants (no law, the value given back), so the built-in model's
 # step holds no call through a first-class function and reads no table; a model with user
-# effects pays for its own calls.
+# effects pays for its own calls. A table's slots are copied into the workspace record
+# (``w.seams``, by _load_seams), where the step reads them without reference counts.
 
 
 def _is_none(sx) -> bool:
@@ -540,7 +541,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, sx):
 @njit(cache=True)
 def _load(w, p, fl, ctx, st):
     """Copy the model's arrays into the workspace record, where the step reads them."""
-    for i in range(p.shape[0]):
+    for i in range(w.p.shape[0]):  # (the record's size: PARAMETER_NAMES)
         w.p[i] = p[i]
     for i in range(N_FLAGS):
         w.fl[i] = fl[i]
