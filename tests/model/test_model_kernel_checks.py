@@ -294,3 +294,29 @@ def test_a_landing_leaves_the_jacobians_zero_columns_zero() -> None:
     assert k.kinematics(p, st, *again) == k.kinematics(p, st, *fresh)  # the pitch's cosine and sine
     for a, b in zip(again, fresh, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_no_compiled_function_steps_on_the_record_of_a_workspace_it_allocated():
+    """numba frees an array after its last use in a function, and a record (``ws[0]``) does
+    not keep its array alive: a function that allocates a workspace and then works through its
+    record works on freed memory (landings with garbage results on Dask workers). The
+    workspace must come in as an argument, which lives as long as the caller's reference."""
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(k))
+    offenders = []
+    for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+        allocated = {
+            t.id
+            for node in ast.walk(fn)
+            if isinstance(node, ast.Assign)
+            and isinstance(node.value, ast.Call)
+            and getattr(node.value.func, "id", "") in ("_make_workspace_jit", "make_workspace")
+            for t in node.targets
+            if isinstance(t, ast.Name)
+        }
+        for node in ast.walk(fn):
+            if isinstance(node, ast.Subscript) and getattr(node.value, "id", None) in allocated:
+                offenders.append(f"{fn.name}: {ast.unparse(node)}")
+    assert not offenders, offenders

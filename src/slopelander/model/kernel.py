@@ -1402,9 +1402,19 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res):
     rec_every > 0). The outcome is frozen the moment the vehicle settles, so a run that
     stops there and one that goes on to the horizon report the same result.
     """
+    ws = _make_workspace_jit()
+    return _run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res, ws)
+
+
+@njit(cache=True)
+def _run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res, ws):
+    """:func:`run_landing` in a workspace its caller holds. The step works on the record
+    ``ws[0]``, and a numba record does not keep its array alive: numba frees an array after
+    its last use in a function, so a workspace allocated here and then used only through its
+    record would be freed under the landing (garbage results once the memory was reused, seen
+    on Dask workers). An argument lives as long as the caller's reference."""
     st0 = np.zeros(N_STATE)
     ctx0 = np.zeros(N_CTX)
-    ws = _make_workspace_jit()
     init_landing(p, fl, cond, st0, ctx0, ws)
     w = ws[0]
     _load(w, p, fl, ctx0, st0)
