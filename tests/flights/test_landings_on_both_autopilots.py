@@ -25,7 +25,7 @@ both autopilots.
 - The leg board unplugged in DESCEND: a vehicle of its own (the board is gone afterwards).
 No case takes off again from the roof: ArduCopter refuses a take-off's arming with the pilot's
 throttle stick off the bottom, and the stick is centred for the aborts' LOITER. Measured wall
-times (ArduCopter, a machine at load 10-15): see docs/ardupilot-sitl.md.
+times (ArduCopter, a machine at load 10-15): benchmarks/results/2026-11-27-ardupilot-sitl.md.
 """
 
 from __future__ import annotations
