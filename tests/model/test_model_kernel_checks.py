@@ -175,7 +175,7 @@ def test_state_layout_tiles_the_state_vector() -> None:
         "S_SLIP": k.N_POINTS,
         "S_QED": 2,
         "S_NPEAK": 1,
-        "S_MEM": k.N_MEMORY,
+        "S_MEM": layout.N_MEMORY,
     }
     starts = _constants("S_")
     assert set(starts) == set(widths), set(starts) ^ set(widths)
