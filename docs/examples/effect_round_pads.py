@@ -39,7 +39,7 @@ EFFECTS = [
         parameters={
             "pad_radius": EffectParameter(0.02, "m", 0.0, 0.1, "assumed", "radius of the ball", neutral=0.0),
             "pad_inset": EffectParameter(
-                0.0, "1", 0.0, 1.0, "assumed", "its centre's distance back up the leg, in radii"
+                0.0, "1", 0.0, 1.0, "assumed", "its centre's distance back up the leg, in radii", neutral=0.0
             ),
         },
     )
