@@ -366,6 +366,8 @@ def _seam_joint_torque(sx, w, t, st, ctx, leg, angle, rate, tau):
         return lambda sx, w, t, st, ctx, leg, angle, rate, tau: tau
 
     def impl(sx, w, t, st, ctx, leg, angle, rate, tau):
+        rigid, flex, _, _, q_zone, ke, _, kq, bq, _ = _joint_constants(w.p, w.fl)
+        ctx[C_JLOAD] = _joint_load(st, w, leg, rigid, flex, q_zone, ke, kq, bq)
         laws = sx[0][SEAM_JOINT_TORQUE]
         for k in range(SEAM_SLOTS):
             if k < w.seams[SEAM_JOINT_TORQUE, 0]:
@@ -668,7 +670,12 @@ def _step(w, h, u0, u1, sx):
             _substep(w, h / REFINE, u0, u1, sx)
         return
     backup = w.backup
-    n = saved_state(sx)
+    # without user effects their memory is never touched: the built-in model's part is saved
+    # (numba prunes the branch on the argument's None at compile time)
+    if sx is None:  # noqa: SIM108
+        n = S_MEM
+    else:
+        n = N_STATE
     for i in range(n):
         backup[i] = st[i]
     if _substep(w, h, u0, u1, sx) > 0:
@@ -692,15 +699,17 @@ def _substep(w, h, u0, u1, sx):
     """
     p, fl, ctx, st = w.p, w.fl, w.ctx, w.st
     w.pitch_cos, w.pitch_sin = kinematics(p, st, w.M, w.f, w.pts, w.vel, w.J)
-    if has_contact_geometry(sx, w):
-        contact_points(sx, w, p, st, ctx, h)
+    if sx is not None:  # noqa: SIM102 - (pruned at compile time without user effects)
+        if has_contact_geometry(sx, w):
+            contact_points(sx, w, p, st, ctx, h)
     user_forces = _applied_forces(p, fl, ctx, st, w, sx)
     _joint_law(p, fl, ctx, st, h, w, sx)
     began = _contacts(p, fl, ctx, st, w, sx)
     _solve(p, fl, st, h, w, sx)
     _contact_forces(p, fl, ctx, st, h, w, sx, user_forces)
     _integrate(p, fl, st, h, u0, u1, w)
-    seam_update(sx, w, st[S_T], st, ctx, h)
+    if sx is not None:
+        seam_update(sx, w, st[S_T], st, ctx, h)
     return began
 
 
@@ -812,10 +821,11 @@ def _applied_forces(p, fl, ctx, st, w, sx):
 
 
 @njit(cache=True, inline="always")
-def _grows(fl, ctx, leg):
-    """Whether eqs. 3 and 4 may act on this leg: on either by its physical condition, or with
-    ``paper_downhill_growth`` on the downhill leg alone (level ground: either)."""
-    return fl[F_PAPER_GROWTH] == 0 or leg == ctx[C_DOWN] or ctx[C_SIN] == 0.0
+def _grows(flag, ctx, leg):
+    """Whether eq. 3 or 4, switched on with ``flag`` (its effect's flag value), acts on this
+    leg: 1, on either by its physical condition; 2 (``paper_downhill_growth``, set by
+    Model.flags), on the downhill leg alone (level ground: either)."""
+    return flag == 1 or leg == ctx[C_DOWN] or ctx[C_SIN] == 0.0
 
 
 @njit(cache=True, inline="always")
@@ -824,7 +834,7 @@ def joint_torque_law(p, fl, ctx, st, leg, tau):
     leg whose foot is pushed outward (its friction points inward): on a slope the downhill
     leg, on level ground both; no switch at 0 deg (``paper_downhill_growth``: the downhill
     leg only)."""
-    if fl[F_TAU_GROWTH] != 0 and _grows(fl, ctx, leg):
+    if fl[F_TAU_GROWTH] != 0 and _grows(fl[F_TAU_GROWTH], ctx, leg):
         tau *= 1.0 + p[P_FTAU] * max(0.0, (1.0 if leg == 0 else -1.0) * st[S_FT + leg])
     return tau
 
@@ -845,16 +855,15 @@ def _joint_law(p, fl, ctx, st, h, w, sx):
         for b in range(5):
             A0[a, b] = M[a, b]
     for j in range(2):
-        qi = 3 + j
-        if n_torque > 0:
-            ctx[C_JLOAD] = _joint_load(st, w, j, rigid, flex, q_zone, ke, kq, bq)
         zone[j] = 0.0
-        lam[j] = 0.0
+        qi = 3 + j
         tj = joint_torque_law(p, fl, ctx, st, j, ctx[C_TAU + j])
         if n_torque > 0:
             # the leg's rate (a smooth state): the joint's own rate from the last step would
-            # feed a speed-dependent law back into the joint's stick-slip switching
+            # feed a speed-dependent law back into the joint's stick-slip switching; the law
+            # may read the leg's load on the joint, from the last step's constraint torque
             tj = max(0.0, seam_joint_torque(sx, w, t, st, ctx, j, st[S_QE + j], st[S_V + qi], tj))
+        lam[j] = 0.0
         tau[j] = tj
         if rigid:
             continue
@@ -994,7 +1003,7 @@ def friction_coefficient(p, fl, ctx, tx, tz, vel, i, slip, touching, mu_s):
     leg, as the paper; it only raises friction; ``paper_downhill_growth``: the downhill leg
     only); then velocity weakening (Stribeck) while touching."""
     mu = p[P_MUK]
-    if i < 2 and fl[F_MU_GROWTH] != 0 and _grows(fl, ctx, i):
+    if i < 2 and fl[F_MU_GROWTH] != 0 and _grows(fl[F_MU_GROWTH], ctx, i):
         vj = (-1.0 if i == 0 else 1.0) * (tx * vel[2 + i, 0] + tz * vel[2 + i, 1])
         mu *= max(1.0, 1.0 + p[P_FMU] * vj)
     if fl[F_STRIBECK] != 0 and touching:

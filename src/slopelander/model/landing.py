@@ -130,6 +130,9 @@ class Model:
     def flags(self) -> np.ndarray:
         fl = flags_for(self.effects)
         fl[k.F_IMPLICIT_K] = 1 if self.implicit_springs else 0
+        if fl[k.F_PAPER_GROWTH]:  # eqs. 3 and 4 read the switch from their own flag's value
+            fl[k.F_TAU_GROWTH] *= 2
+            fl[k.F_MU_GROWTH] *= 2
         return fl
 
     def criteria_array(self) -> np.ndarray:

@@ -277,8 +277,12 @@ WORKSPACE = np.dtype(
         ("p", np.float64, len(PARAMETER_NAMES)),  # parameters
         ("fl", np.int64, N_FLAGS),  # effect switches
         ("ctx", np.float64, N_CTX),  # context
+        # (the pads keep st and the step's arrays after the seam table at the offsets within a
+        # cache line they had before the state and the table grew)
+        ("pad_st", np.float64, 5),
         ("st", np.float64, N_STATE),  # state
         ("seams", np.int64, (N_SEAMS + 1, SEAM_ROW)),  # a seam table's slots (seams.py)
+        ("pad_step", np.float64, 5),
         # kinematics at the start of the step
         ("pitch_cos", np.float64),  # cosine of the pitch
         ("pitch_sin", np.float64),  # and its sine
