@@ -3,8 +3,8 @@
 Runs, in a separate process with an empty ``NUMBA_CACHE_DIR`` (and an empty
 ``SLOPELANDER_CACHE_DIR``, where versions before 2026-11-26 wrote their generated kernels): a
 20 deg landing of the shipped model, then the same with ``docs/examples/effect_joint_torque.py``,
-then with ``effect_foot_friction.py``, and prints the seconds each first call took (wall and this process's CPU: under load the
-wall clock stretches, the CPU much less), with the load.
+then with ``effect_foot_friction.py``, and prints the seconds each first call took (wall and
+this process's CPU: under load the wall clock stretches, the CPU much less), with the load.
 It uses the public API only, so it measures an older checkout as well as this one:
 
     python benchmarks/first_compile.py                       # this checkout
