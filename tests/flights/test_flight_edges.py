@@ -4,13 +4,25 @@ ArduCopter SITL (``SLOPELANDER_ARDUCOPTER``), each case a vehicle of its own.
 - The survey pass over a roof's edge: past the gutter the rangefinder has nothing in range, the
   pass's roof guard has nothing to guard with, and the pass is aborted (back over the spot,
   LOITER) instead of flying on blind at constant height.
+- The on-board script dead at the cut (its update returns nothing: ArduPilot stops running it, as
+  after an error it cannot catch) and failed at the cut (an error its pcall catches: FAULT_HELD):
+  the landing ends disarmed on the roof, never in LOITER armed there. The script is the shipped one
+  with a line added at the top of its update, acting while ``SCR_USER1`` (a parameter ArduPilot
+  keeps for scripts) names the state: 1000 + state stops it, 2000 + state raises.
 """
 
 from __future__ import annotations
 
-from sitl.rig import Rig, config
+from pathlib import Path
+
+import pytest
+from pymavlink import mavutil
+
+from sitl.rig import TRACK_MESSAGES, Rig, config
+from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.slope_estimate import SurfaceTrack
 from slopelander.controller.survey import RANGE_LOST_S, measure_slope
+from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range
 
 LOITER = 5
 SPOT_X_M = 5.5  # sitl.rig.OVER_ROOF_X_M, where go_over_roof hovers
@@ -45,3 +57,86 @@ def test_a_survey_pass_over_the_gutter_is_aborted_on_the_rangefinder_dropout(aut
     # turned back: the gutter, RANGE_LOST_S at the pass's speed and the braking, well short of 6.5 m
     assert north < GUTTER_X_M + cfg["slope.survey_speed_mps"] * (RANGE_LOST_S + 0.6) + 0.1, north
     assert abs(x - SPOT_X_M) < 0.4 and over > 1.5, (x, over)  # back over the spot, at the pass's height
+
+
+SCRIPT = Path(__file__).resolve().parents[2] / "firmware_params" / "scripts" / "slopelander.lua"
+#: where each injection goes: the top of the update ArduPilot calls (returning nothing there stops
+#: the script), and the top of the step it runs under pcall (an error there is caught: a fault)
+UPDATE = "local function update()\n"
+STEP = "local function step()\n  local t = now()\n"
+STOPS, RAISES = 1000, 2000
+
+
+def injected_script(folder: Path) -> Path:
+    """The shipped script that stops (its update returns nothing) or raises (in the step its
+    update runs under pcall) while ``SCR_USER1`` is 1000 or 2000 plus its state."""
+    source = SCRIPT.read_text()
+    assert source.count(UPDATE) == 1 and source.count(STEP) == 1, "the injections' places moved"
+    when = '  if param:get("SCR_USER1") == state + '
+    source = source.replace(UPDATE, UPDATE + when + "1000 then return end\n")
+    source = source.replace(STEP, STEP + when + '2000 then error("injected fault") end\n')
+    path = folder / "slopelander.lua"
+    path.write_text(source)
+    return path
+
+
+def set_param(rig: Rig, name: str, value: float) -> None:
+    """PARAM_SET, until the autopilot's PARAM_VALUE says it holds the value."""
+    mav = rig.link.conn.mav
+    seen: list[float] = []
+
+    def listen(msg) -> None:
+        if msg.get_type() == "PARAM_VALUE" and msg.param_id.rstrip("\x00") == name:
+            seen.append(msg.param_value)
+
+    rig.link.add_listener(listen)
+
+    def send() -> None:
+        mav.param_set_send(
+            rig.info.system, rig.info.component, name.encode(), value, mavutil.mavlink.MAV_PARAM_TYPE_REAL32
+        )
+
+    rig.fly_until(lambda: value in seen, 5.0, f"set {name} to {value:g}", send=send)
+
+
+SLOPE_DEG = 20.0
+
+
+@pytest.mark.parametrize("how", ["dead", "fault"])
+def test_a_script_dead_or_failed_at_the_cut_ends_disarmed_on_the_roof(
+    autopilot: str, how: str, tmp_path
+) -> None:
+    """Dead at the cut: its overrides lapse 250 ms later, mid-fall or on the roof, and the mixer
+    has the motors; the companion, a second later, reads it silent (not IDLE: before, that was "a
+    false cut" and LOITER asked of a vehicle on the roof), judges by the range that it is on the
+    roof and disarms it itself (forced once still for a second at or below the cut height).
+    Failed at the cut: FAULT_HELD, the motors held; the companion asks DISARM every 0.5 s until the
+    HEARTBEAT says disarmed. Either way the landing ends LANDED, disarmed, never in LOITER."""
+    cut = round(max(0.3, contact_range(SLOPE_DEG) + FALL_M), 2)
+    cfg = config(reflex={"cut_height_m": cut})
+    mode_seen: list[int] = []
+    script = injected_script(tmp_path)
+    decode = TRACK_MESSAGES | {"PARAM_VALUE"}
+    with Rig(slope_deg=SLOPE_DEG, seed=73, autopilot=autopilot, script=script, decode=decode) as rig:
+        p, _ = rig.plan(cfg)
+        rig.take_off(3.0)
+        rig.go_over_roof(2.5)
+        set_param(rig, "SCR_USER1", (STOPS if how == "dead" else RAISES) + ScriptState.CUT)
+        rig.link.add_listener(lambda m: m.get_type() == "HEARTBEAT" and mode_seen.append(m.custom_mode))
+        flight = rig.land(
+            (p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=2.0, uphill_angle_deg=p.angle_up_deg
+        )
+        armed = rig.armed()
+        texts = list(rig.link.statustext)
+    ctx = " | ".join([f"{autopilot} {how}"] + [f"{h['to']}: {h['reason']}" for h in flight.history])
+    ctx += " || " + " | ".join(str(t) for t in texts[-10:])
+    print(ctx)
+    assert flight.end == "LANDED" and not armed, ctx
+    assert "ABORTED" not in [h["to"] for h in flight.history], ctx
+    assert LOITER not in mode_seen, ctx
+    reasons = " ".join(h["reason"] for h in flight.history)
+    if how == "dead":
+        assert "on-board script silent: the companion's own disarm" in reasons, ctx
+    else:
+        assert "script fault" in reasons, ctx
+        assert any("fault in CUT" in str(t) for t in texts), ctx

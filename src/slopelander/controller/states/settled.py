@@ -192,7 +192,7 @@ class Settled(State):
         if inp.range_valid and inp.range_m > cut + AIR_MARGIN_M:
             high = f"range {inp.range_m:.2f} m"
             return ("ABORTED", f"on-board script {what}, {high}: in the air, the autopilot flies")
-        ctx.marks["disarm_asked"] = f"on-board script {what}: the companion's own disarm"
+        ctx.marks.setdefault("disarm_asked", f"on-board script {what}: the companion's own disarm")
         self._say_once(ctx, "gone", f"SL script {what} on the roof: disarming")
         request_ground_disarm(ctx, inp)
         low = inp.range_valid and inp.range_m <= cut
