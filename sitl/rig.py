@@ -361,7 +361,7 @@ class Rig:
                     lockstep=True,
                     legboard_control=self.board.control,
                     no_script=not script,
-                    script=script if isinstance(script, Path) else None,
+                    **({"script": script} if isinstance(script, Path) else {}),
                     extra_endpoints=extra_endpoints,
                     give_up_s=LOCKSTEP_PATIENCE_S,
                 )

@@ -140,3 +140,55 @@ def test_a_script_dead_or_failed_at_the_cut_ends_disarmed_on_the_roof(
     else:
         assert "script fault" in reasons, ctx
         assert any("fault in CUT" in str(t) for t in texts), ctx
+
+
+# ------------------------------------------------------------------ a false cut low
+#: vehicle time (s) the rangefinder starts reading FALSE_RANGE_M under a vehicle hovering over the
+#: roof: a return off something nearer than the roof (a branch, spray), lasting long enough for the
+#: script to believe it (its chain takes a lasting disagreement after 0.6 s)
+SPIKE_T = 70.0
+SPIKE_S = 2.0
+FALSE_RANGE_M = 0.15
+HOVER_OVER_ROOF_M = 1.5
+
+
+def test_a_false_cut_low_keeps_the_motors_stopped_and_reverses_on_the_impact(autopilot: str) -> None:
+    """A range reading low for a second, 1.8 m over a flat roof, cuts the motors about 1.3 m up.
+    The vehicle falls freely past the script's missed-impact bound (0.35 s: the fall from the cut
+    height it believes). Before, the script then judged the cut by the range: near (the false
+    reading, or the true one low in the fall) it held the motors stopped, "no impact seen", and
+    the vehicle met the roof in HOLD, with no reverse thrust on the impact; far, it gave the motors
+    back to the mixer 0.4 m above the roof falling at 4 m/s, too late to stop. Now a vehicle still
+    falling freely at the bound, too low for the motors to stop it, keeps its cut: the impact gets
+    its reverse thrust within 30 ms, and the landing ends disarmed."""
+    cfg = config(reflex={"arm_height_m": 2.0})
+    scenario = {
+        "faults": [
+            {"kind": "rangefinder_spike", "start": SPIKE_T, "end": SPIKE_T + SPIKE_S, "value": FALSE_RANGE_M}
+        ]
+    }
+    with Rig(slope_deg=0.0, seed=74, autopilot=autopilot, scenario=scenario) as rig:
+        p, _ = rig.plan(cfg)
+        rig.take_off(3.0)
+        rig.go_over_roof(HOVER_OVER_ROOF_M)
+        rig.set_legs(p.tau_up, p.tau_down)
+        if rig.now > SPIKE_T - 1.0:
+            pytest.fail(f"the spike at {SPIKE_T:g} s of vehicle time already passed ({rig.now:.1f} s)")
+        rig.wait(SPIKE_T - 1.0 - rig.now)
+        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=2.0)
+        armed = rig.armed()
+        texts = [str(t) for t in rig.link.statustext]
+    ctx = " | ".join([autopilot] + [f"{h['t']:.2f} {h['to']}: {h['reason']}" for h in flight.history])
+    ctx += " || " + " | ".join(texts[-10:])
+    print(ctx)
+    cut = flight.time_of("CUT")
+    c = flight.contact
+    stops = flight.track.event_times("EV_STOP", flight.t_start)
+    rvt = flight.track.event_times("EV_RVT", flight.t_start)
+    print(f"cut {cut}, motors stopped {stops[:1]}, contact {c}, reverse thrust {rvt[:1]}")
+    assert cut is not None and SPIKE_T < cut < SPIKE_T + SPIKE_S, ctx  # the spike made the cut
+    assert c is not None, ctx
+    assert stops and stops[0] < c["t"] - 0.3, (stops, c, ctx)  # cut well above the roof: a fall
+    assert not any("no impact seen" in t or "false cut" in t for t in texts), ctx
+    assert rvt and 0 <= rvt[0] - c["t"] < 0.03, (rvt, c, ctx)
+    assert flight.end == "LANDED" and not armed, ctx
