@@ -9,6 +9,10 @@ ArduCopter SITL (``SLOPELANDER_ARDUCOPTER``), each case a vehicle of its own.
   the landing ends disarmed on the roof, never in LOITER armed there. The script is the shipped one
   with a line added at the top of its update, acting while ``SCR_USER1`` (a parameter ArduPilot
   keeps for scripts) names the state: 1000 + state stops it, 2000 + state raises.
+- The script failed in the armed descent (FAULT, its own climb): the landing stops in the air,
+  the vehicle armed in LOITER clear of the roof.
+- A false cut about 1 m over the roof (a low range reading that lasts): the motors stay stopped
+  through the fall and the impact is reversed.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from sitl.rig import TRACK_MESSAGES, Rig, config
 from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.slope_estimate import SurfaceTrack
 from slopelander.controller.survey import RANGE_LOST_S, measure_slope
-from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range
+from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range, roof_scenario
 
 LOITER = 5
 SPOT_X_M = 5.5  # sitl.rig.OVER_ROOF_X_M, where go_over_roof hovers
@@ -192,3 +196,33 @@ def test_a_false_cut_low_keeps_the_motors_stopped_and_reverses_on_the_impact(aut
     assert not any("no impact seen" in t or "false cut" in t for t in texts), ctx
     assert rvt and 0 <= rvt[0] - c["t"] < 0.03, (rvt, c, ctx)
     assert flight.end == "LANDED" and not armed, ctx
+
+
+def test_a_script_failed_in_the_armed_descent_stops_the_landing_in_the_air(autopilot: str, tmp_path) -> None:
+    """Raised in ARMED: FAULT, the script climbs the vehicle itself. The companion stops the
+    landing (ABORTED, "script fault"), its climb setpoint and LOITER first, the script's climb
+    kept (no ABORT) until the vehicle climbs or holds: the vehicle ends armed in LOITER, clear of
+    the roof, and the script never cut."""
+    cfg = config(reflex={"arm_height_m": 2.0})
+    script = injected_script(tmp_path)
+    decode = TRACK_MESSAGES | {"PARAM_VALUE"}
+    scenario = roof_scenario(autopilot)  # the pilot's throttle centred in the air: LOITER holds
+    with Rig(
+        slope_deg=SLOPE_DEG, seed=75, autopilot=autopilot, script=script, decode=decode, scenario=scenario
+    ) as rig:
+        p, _ = rig.plan(cfg)
+        rig.take_off(3.0)
+        rig.go_over_roof(2.5)
+        set_param(rig, "SCR_USER1", RAISES + ScriptState.ARMED)
+        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=2.0)
+        rig.wait(2.0, tick=flight.lander.poll)
+        x, z = rig.track.pos[-1][1], rig.track.pos[-1][2]
+        over, mode, armed = z - rig.surface_z(x), rig.mode(), rig.armed()
+        texts = [str(t) for t in rig.link.statustext]
+    ctx = " | ".join([autopilot] + [f"{h['to']}: {h['reason']}" for h in flight.history])
+    ctx += f" || {over:.2f} m over the roof, mode {mode} || " + " | ".join(texts[-8:])
+    print(ctx)
+    assert flight.end == "ABORTED" and "script fault" in flight.history[-1]["reason"], ctx
+    assert "CUT" not in [h["to"] for h in flight.history], ctx
+    assert any("fault in ARMED, climbing" in t for t in texts), ctx
+    assert armed and mode == LOITER and over > 1.0, ctx
