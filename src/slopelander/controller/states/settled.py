@@ -131,7 +131,7 @@ class Settled(State):
             # refuses a take-off release and an abort, so the only end is the disarm, asked every
             # DISARM_RETRY_S (it disarms once the vehicle has been still for a second)
             ctx.marks.setdefault("disarm_asked", "script fault, motors held")
-            self._say_once(ctx, "fault", "SL script fault on the roof: motors held, disarming once still")
+            self._say_once(ctx, "fault", "SL script fault: motors held, disarm once still")
             request_disarm(ctx, inp)
             return None
         if inp.takeoff_request:
