@@ -300,7 +300,7 @@ class Rig:
         range_hz: float = 50.0,
         telemetry: bool = True,
         decode: frozenset[str] | None = TRACK_MESSAGES,
-        script: bool = True,
+        script: bool | Path = True,
         autopilot: str = "sim",
         arducopter: str | None = None,
         extra_endpoints: list[str] | None = None,
@@ -361,6 +361,7 @@ class Rig:
                     lockstep=True,
                     legboard_control=self.board.control,
                     no_script=not script,
+                    **({"script": script} if isinstance(script, Path) else {}),
                     extra_endpoints=extra_endpoints,
                     give_up_s=LOCKSTEP_PATIENCE_S,
                 )

@@ -88,6 +88,14 @@ local RESEED_MS = 600
 -- spin-down (twice the model's 50 ms time constant) and one range sample to judge by
 local THRUST_DECAY_MS = 100
 local RANGE_PERIOD_MS = 50
+-- A cut whose bound passes with the range at or below the cut height but the vehicle still
+-- falling freely (the accelerometer under LEAVE.FALL_SUPPORT: nothing carries it) was made higher
+-- than the range said: a low reading that lasted past RESEED_MS (something under the beam, a stuck
+-- sensor). HOLD there met the roof with the motors held and no reverse thrust on the impact (a
+-- false cut about 1 m up); the motors given back cannot stop a vehicle falling at 4 m/s within the
+-- cut height the range reads either. So the cut stands and the impact is watched for, up to
+-- FALL_WAIT_MS past the bound (a further 3 m of fall); then HOLD as before.
+local FALL_WAIT_MS = 500
 -- left the roof (slid off an edge, or high above it): this many distinct samples in a row, each
 -- with all three of
 --  * the body within LEAVE.TILT_DEG of level, and staying within it should the autopilot stop
@@ -133,7 +141,7 @@ local CLIMB, FAULT, FAULT_HELD = 14, 30, 31
 local state = IDLE
 local valid_until = 0
 local reverse_pct = 0
-local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from, bound_ms}
+local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from, bound_ms, falling}
 local setup = nil -- {ramp_ms, descent_mps}: the landing's settings, sent before ARM
 local armed_cut_m = nil -- the cut height of the last accepted ARM (bounds a commanded reverse)
 local entered_ms = 0
@@ -542,7 +550,16 @@ local function run_reflex(t, fresh, d)
     if near and a > threshold then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
-      if last_d ~= nil and last_d > reflex.cut_m then
+      local far = last_d ~= nil and last_d > reflex.cut_m
+      -- judged once, at the bound: the range near and the vehicle still falling freely means
+      -- the cut came higher than the range said; the impact is then watched for (FALL_WAIT_MS),
+      -- also while the contact lifts the filtered reading through LEAVE.FALL_SUPPORT
+      if reflex.falling == nil then reflex.falling = not far and a < LEAVE.FALL_SUPPORT end
+      if reflex.falling then
+        if t - entered_ms > reflex.bound_ms + FALL_WAIT_MS then
+          enter(HOLD, t, "no impact seen, holding motors stopped")
+        end
+      elseif far then
         release(t, "false cut, motors released")
       else
         enter(HOLD, t, "no impact seen, holding motors stopped")

@@ -37,6 +37,7 @@ VEHICLE_DEFAULTS: dict[str, float] = {
     "FS_CRASH_CHECK": 1,
     "RTL_ALT": 1500,  # cm
     "SCR_ENABLE": 1,
+    "SCR_USER1": 0,  # a parameter ArduPilot keeps for scripts (the tests' fault injection reads it)
     "SIM_OPOS_LAT": 47.3977,  # deg: where home is on the earth (GLOBAL_INT targets), as SITL's --home
     "SIM_OPOS_LNG": 8.5456,  # deg
     "SIM_OPOS_ALT": 400.0,  # m above mean sea level

@@ -319,14 +319,14 @@ def test_false_cut_and_no_impact():
     # decides. High above the roof: aborted to the autopilot, which flies.
     m, _, _ = make()
     t = run_to(m, "CUT")
-    m.step(replace(OK, t=t + 0.5, range_m=1.2, script_state=11))
-    assert m.name == "CUT"  # within the script's own bound (0.35 s) and the margin
-    m.step(replace(OK, t=t + 1.0, range_m=1.2, script_state=11))
+    m.step(replace(OK, t=t + 1.3, range_m=1.2, script_state=11))
+    assert m.name == "CUT"  # within the script's own bound (0.35 s), its wait for a fall and the margin
+    m.step(replace(OK, t=t + 1.4, range_m=1.2, script_state=11))
     assert m.name == "ABORTED" and "not near the roof" in m.history[-1]["reason"]
     # on the roof: the motors stay held and the landing is judged as it lies
     m, act, _ = make()
     t = run_to(m, "CUT")
-    m.step(replace(OK, t=t + 1.0, range_m=0.2, script_state=11))
+    m.step(replace(OK, t=t + 1.4, range_m=0.2, script_state=11))
     assert m.name == "SETTLED" and "on the roof" in m.history[-1]["reason"]
     assert "release" not in act.names() and "reflex_abort" not in act.names()
 

@@ -64,6 +64,10 @@ def test_the_numbers_are_the_scripts() -> None:
         )
     }
     assert lua["STILL_MS"] == script_contract.STILL_S * 1000
+    # the companion's impact detector counts the rise from the script's moment (controller/impact.py)
+    assert lua["RISE_AFTER_MS"] == script_contract.RISE_AFTER_S * 1000
+    # the companion's CUT backstop waits for a cut still falling at the bound (states/cut.py)
+    assert lua["FALL_WAIT_MS"] == script_contract.FALL_WAIT_S * 1000
     assert {a.name: a.value for a in Actuator} == {n[4:]: v for n, v in lua.items() if n.startswith("ACT_")}
     assert {a.name: a.value for a in Reflex} == {n[4:]: v for n, v in lua.items() if n.startswith("RFX_")}
     assert "local IMPACT_MIN = 2 * GRAVITY" in src and lua["GRAVITY"] == script_contract.G

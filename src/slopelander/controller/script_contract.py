@@ -39,6 +39,15 @@ TAKEOFF_RELEASE_TILT_DEG = 25.0
 
 #: the spin-down of the rotors and one 20 Hz range sample, added to the free fall (ms), as the script
 THRUST_DECAY_MS, RANGE_PERIOD_MS = 100, 50
+#: the impact rule's rise (a reading a threshold less 1 g above the lowest since the cut) counts only
+#: this long (s) after the cut, the script's RISE_AFTER_MS: the rotors' time constant, by which their
+#: thrust and vibration are down to 14 %; before it a trough and the next crest of the hover's
+#: vibration read as a rise (issue 40), and only the threshold itself (and the range) can fire
+RISE_AFTER_S = 0.05
+#: how much longer (s) than :func:`missed_impact_s` a cut may last: a vehicle still falling freely
+#: at that bound with the range near (a low reading that lasted) keeps its cut and waits this long
+#: for the impact (the script's FALL_WAIT_MS)
+FALL_WAIT_S = 0.5
 
 
 def missed_impact_s(cut_m: float, descent_mps: float) -> float:

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 from slopelander.controller.script_contract import ScriptState, state_name
+from slopelander.controller.script_rules import REFLEX_HELD
 from slopelander.controller.states.base import Context, Inputs, State
-
-#: the script's states that say it holds the reflex (armed, or already past the cut)
-REFLEX_HELD = (ScriptState.ARMED, ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD)
 
 
 class Armed(State):
