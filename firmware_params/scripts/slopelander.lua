@@ -14,7 +14,7 @@
 
 -- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
 -- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
-local VERSION = 5 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 6 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
 --    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
@@ -29,6 +29,9 @@ local VERSION = 5 -- 2: a refresh during RVT sets its duration (the companion en
 --    still) with the error; an ARMED reflex whose validity lapses stops the descent itself and
 --    climbs (CLIMB, 14); a disarm needs the vehicle still for STILL.MS, not one sample; CUT's
 --    override outlasts a stalled scripting thread as RVT's and HOLD's do.
+-- 6: a cut with no impact by the bound whose vehicle still falls freely (a low reading that
+--    lasted: the cut was made high) keeps the cut for up to FALL_WAIT_MS and reverses on the
+--    impact, instead of HOLD in the air.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }

@@ -159,7 +159,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 4.0}, "v4, v5 needed"),  # contract 5 reports faults, climbs, disarms only still
+        ({"script_version": 5.0}, "v5, v6 needed"),  # contract 6 waits on a cut still falling at its bound
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),

@@ -18,8 +18,10 @@ from slopelander.controller.link import CommandHandle, Link, LinkError
 #: the contract version this companion speaks (the script's SL_VER must be at least this):
 #: 2 ends the reverse thrust on a refresh, 3 ramps it down, 4 numbers every request and adds
 #: SETUP, END_REVERSE, TAKEOFF_RELEASE and DISARM, 5 adds CLIMB, FAULT and FAULT_HELD, a disarm
-#: only after the vehicle has been still for :data:`STILL_S`
-SCRIPT_CONTRACT = 5
+#: only after the vehicle has been still for :data:`STILL_S`, 6 keeps a cut whose vehicle still
+#: falls freely at the missed-impact bound for :data:`FALL_WAIT_S` (the companion's backstop
+#: counts on it)
+SCRIPT_CONTRACT = 6
 
 CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
 CMD_REFLEX = 31011  # MAV_CMD_USER_2
