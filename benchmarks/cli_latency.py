@@ -78,7 +78,7 @@ def legs_status_seconds(runs: int) -> tuple[float, float]:
     with tempfile.TemporaryDirectory() as tmp:
         link = Path(tmp) / "legboard"
         board = subprocess.Popen(
-            [sys.executable, "-m", "sitl.legboard", "--link", str(link)],
+            [sys.executable, "-m", "slopelander_sitl.legboard", "--link", str(link)],
             env=ENV,
             cwd=REPO,
             stdout=subprocess.DEVNULL,

@@ -71,11 +71,11 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from sitl.legboard.control import BoardControl  # noqa: E402
-from sitl.rig import Rig, RigError, config  # noqa: E402
-from sitl.vehicle.wind import MAX_RANDOM_GUSTS as MAX_GUSTS  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
+from slopelander_sitl.legboard.control import BoardControl  # noqa: E402
+from slopelander_sitl.rig import Rig, RigError, config  # noqa: E402
+from slopelander_sitl.vehicle.wind import MAX_RANDOM_GUSTS as MAX_GUSTS  # noqa: E402
 
 LOITER, GUIDED = 5, 4
 MAV_CMD_DO_SET_MODE, MAV_CMD_DO_AUX_FUNCTION, AUX_MOTOR_ESTOP = 176, 218, 31

@@ -2,7 +2,7 @@
 
 A test run starts one vehicle and one leg board for every landing. Started fresh, each process
 imports numba, pymavlink's dialect and lupa and loads the compiled model from numba's cache
-before its first tick; forked from the zygote (``sitl/zygote.py``, which the test suite uses),
+before its first tick; forked from the zygote (``src/slopelander_sitl/zygote.py``, which the test suite uses),
 it starts from a process that did this once. Prints, for ``--starts`` vehicle + leg-board pairs
 each way, the wall time until both said "ready" and their CPU time until then (read from
 /proc while they run), the zygote's own one-off CPU, and the ratio, in one run.
@@ -22,8 +22,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
-from sitl import zygote  # noqa: E402
-from sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
+from slopelander_sitl import zygote  # noqa: E402
+from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 
 TICK = os.sysconf("SC_CLK_TCK")
 

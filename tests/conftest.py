@@ -77,8 +77,8 @@ def pytest_configure(config: pytest.Config) -> None:
     if os.environ.get("SLOPELANDER_ZYGOTE", "1") != "0":
         # the simulated vehicles and leg boards this process starts (one of each a landing) are
         # forked from one warm process: about 2 s of CPU each for imports and the compiled model
-        # otherwise (sitl/zygote.py; SLOPELANDER_ZYGOTE=0 starts each fresh, as a user's does)
-        from sitl import zygote
+        # otherwise (src/slopelander_sitl/zygote.py; SLOPELANDER_ZYGOTE=0 starts each fresh, as a user's does)
+        from slopelander_sitl import zygote
 
         zygote.enable()
 
@@ -217,7 +217,7 @@ _cpu_mark = 0.0
 def pytest_runtest_setup(item: pytest.Item) -> None:
     global _cpu_mark
     if _RECORD:
-        from sitl.proc_cpu import process_tree_cpu
+        from slopelander_sitl.proc_cpu import process_tree_cpu
 
         _cpu_mark = process_tree_cpu()
 
@@ -228,7 +228,7 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
     global _cpu_mark
     outcome = yield
     if _RECORD:
-        from sitl.proc_cpu import process_tree_cpu
+        from slopelander_sitl.proc_cpu import process_tree_cpu
 
         now = process_tree_cpu()
         outcome.get_result().user_properties.append(("cpu_s", now - _cpu_mark))

@@ -26,8 +26,8 @@ WORK = (
     "matplotlib",
     "slopelander.model",
     "slopelander.envelope.reports",
-    "sitl.rig",
-    "sitl.vehicle",
+    "slopelander_sitl.rig",
+    "slopelander_sitl.vehicle",
 )
 PROBE = (
     "import sys; from slopelander.cli import main; rc = main(sys.argv[1:]); "

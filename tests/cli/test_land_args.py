@@ -136,7 +136,7 @@ def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> N
 REAL_BOARD = textwrap.dedent(
     """
     import sys
-    from sitl.legboard.server import BoardServer
+    from slopelander_sitl.legboard.server import BoardServer
     from slopelander.legs.messages import Capability
     server = BoardServer(link=sys.argv[1])
     server.capabilities = Capability.ANGLE_STOP
@@ -207,7 +207,7 @@ def test_a_real_leg_board_with_a_measured_calibration_goes_on_to_the_autopilot(
 def test_state_changes_print_as_they_happen_and_the_landing_leaves_its_folder(tmp_path: Path) -> None:
     import json
 
-    from sitl.vehicle.launch import start_legboard, start_vehicle
+    from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
 
     board = start_legboard(clock="external")
     vehicle = start_vehicle(scenario={"slope_deg": 35.0}, legboard_control=board.control)
@@ -257,7 +257,7 @@ def test_state_changes_print_as_they_happen_and_the_landing_leaves_its_folder(tm
 def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> None:
     import json
 
-    from sitl.vehicle.launch import start_legboard, start_vehicle
+    from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
 
     board = start_legboard(clock="external")
     vehicle = start_vehicle(scenario={"slope_deg": 35.0}, legboard_control=board.control)
@@ -298,11 +298,11 @@ def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> N
 
 def test_a_refused_mode_is_named_once() -> None:
     """CHECKS reads the mode from the vehicle's HEARTBEAT: STABILIZE (0) is a name, not "mode 0"."""
-    from sitl.vehicle.launch import start_vehicle
     from slopelander.controller.config import load_config
     from slopelander.controller.link import Link
     from slopelander.controller.runner import Lander
     from slopelander.controller.states.checks import refusal
+    from slopelander_sitl.vehicle.launch import start_vehicle
 
     vehicle = start_vehicle(scenario={"slope_deg": 35.0})
     try:

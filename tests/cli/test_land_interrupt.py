@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from sitl.rig import Rig
-from sitl.vehicle.launch import free_port
+from slopelander_sitl.rig import Rig
+from slopelander_sitl.vehicle.launch import free_port
 
 ENV = {**os.environ, "MAVLINK20": "1"}
 ABORTING = "aborting the landing: the autopilot holds position in LOITER"

@@ -202,7 +202,8 @@ def test_controller_modules_import_without_scipy_numba_matplotlib_model():
     src = Path(__file__).resolve().parents[2] / "src"
     code = textwrap.dedent(f"""
         import sys
-        BLOCKED = ("scipy", "matplotlib", "numba", "slopelander.model", "slopelander.envelope", "sitl")
+        BLOCKED = ("scipy", "matplotlib", "numba", "slopelander.model", "slopelander.envelope",
+                   "slopelander_sitl")
         class Block:
             def find_spec(self, name, path=None, target=None):
                 if any(name == b or name.startswith(b + ".") for b in BLOCKED):

@@ -17,8 +17,8 @@ import time
 
 import pytest
 
-from sitl.rig import Rig, config
 from slopelander.controller.runner import Lander
+from slopelander_sitl.rig import Rig, config
 
 LOITER, GUIDED = 5, 4
 HOVER_M = 2.8  # above the roof: within the rangefinder's 3 m

@@ -57,8 +57,8 @@ def test_bad_input_is_one_clear_line(args, message):
 
 def test_no_autopilot_is_reported(tmp_path):
     """After the settings' ``link.heartbeat_wait_s`` (10 s by default; 2 here) without a heartbeat."""
-    from sitl.vehicle.launch import start_legboard
     from slopelander.controller.config import load_config
+    from slopelander_sitl.vehicle.launch import start_legboard
 
     assert load_config()["link.heartbeat_wait_s"] == 10.0
     cfg = tmp_path / "wait.yaml"

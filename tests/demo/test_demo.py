@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.scenario import Scenario
-from sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
 from slopelander.controller.config import load_config
 from slopelander.controller.landing import cut_dynamics, expected_impact_speed, leg_geometry
+from slopelander_sitl.vehicle.scenario import Scenario
+from slopelander_sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import pytest
 
-from sitl.ardupilot import arducopter_binary
-from sitl.ardupilot.launch import ArduCopterMissingError
 from slopelander.ident.flightlog.compare import compare_log
 from slopelander.model import Model
+from slopelander_sitl.ardupilot import arducopter_binary
+from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
 from tests.ident.test_flightlog import true_contact
 
 pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)

@@ -31,8 +31,8 @@ PAGE = ROOT / "docs" / "commands.md"
 HEADING = "## Using it"
 #: what a long-running terminal prints once it is up; a block whose command is not here runs to its end
 READY = {
-    "sitl.legboard": "legboard ready",
-    "sitl.vehicle": "vehicle ready",
+    "slopelander_sitl.legboard": "legboard ready",
+    "slopelander_sitl.vehicle": "vehicle ready",
     "mavproxy.py": "Detected vehicle",
 }
 #: a new user (mapped to root in it, so no privilege is needed), network, mount and process namespace
@@ -80,9 +80,9 @@ def test_the_walkthrough_starts_the_board_vehicle_mavproxy_then_lands_on_a_match
     blocks = walkthrough(PAGE.read_text())
     assert [b.kind for b in blocks] == ["sh", "sh", "sh", "text", "sh"]
     board, vehicle, mavproxy, console, land = blocks
-    assert "sitl.legboard" in board.text and "sitl.vehicle" in vehicle.text
+    assert "slopelander_sitl.legboard" in board.text and "slopelander_sitl.vehicle" in vehicle.text
     assert "mavproxy.py" in mavproxy.text and land.text.startswith("slopelander land ")
-    v, b = _argv(vehicle, "sitl.vehicle"), _argv(board, "sitl.legboard")
+    v, b = _argv(vehicle, "slopelander_sitl.vehicle"), _argv(board, "slopelander_sitl.legboard")
     assert v[v.index("--legboard-control") + 1] == b[b.index("--link") + 1] + ".ctl"
     assert "--lockstep" in v and "--lockstep" in _argv(land, "land")  # the companion echoes its time
     scenario = re.search(r"slope_deg: (\d+)", vehicle.text)
@@ -101,7 +101,8 @@ class Sandbox:
     the test closes it, or dies, init ends and the kernel ends every process in the sandbox."""
 
     def __init__(self) -> None:
-        up = f"{shlex.quote(sys.executable)} -c 'from sitl.netns import bring_loopback_up as f; f()'"
+        up_code = "from slopelander_sitl.netns import bring_loopback_up as f; f()"
+        up = f"{shlex.quote(sys.executable)} -c '{up_code}'"
         script = f"mount -t tmpfs walkthrough /tmp && {up} && echo ready && exec cat >/dev/null"
         self.env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT)])}
         self.holder = subprocess.Popen(

@@ -7,10 +7,10 @@ import math
 import pytest
 from script_bench import Bench
 
-from sitl.vehicle.scripting import RangeReading
 from slopelander.controller.script_contract import CMD_ACTUATOR as ACTUATOR
 from slopelander.controller.script_contract import CMD_REFLEX as REFLEX
 from slopelander.controller.script_contract import SCRIPT_CONTRACT, Reflex, ScriptState
+from slopelander_sitl.vehicle.scripting import RangeReading
 
 #: runs while the model compiles (tests/compile_once.py): nothing here needs it
 pytestmark = pytest.mark.model_free

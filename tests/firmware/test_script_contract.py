@@ -13,7 +13,6 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from script_bench import SCRIPT, Bench, decode
 
-from sitl.vehicle.scripting import RangeReading
 from slopelander.controller import config, script_contract
 from slopelander.controller.clock import ManualClock
 from slopelander.controller.link import Link
@@ -26,6 +25,7 @@ from slopelander.controller.script_contract import (
     ScriptClient,
     ScriptState,
 )
+from slopelander_sitl.vehicle.scripting import RangeReading
 
 #: runs while the model compiles (tests/compile_once.py): nothing here needs it
 pytestmark = pytest.mark.model_free

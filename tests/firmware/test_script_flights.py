@@ -17,11 +17,11 @@ from pathlib import Path
 
 import pytest
 
-import sitl.rig
-from sitl.rig import Rig, config
-from sitl.vehicle.launch import start_vehicle
+import slopelander_sitl.rig
 from slopelander.controller.runner import Lander
 from slopelander.controller.script_contract import ScriptState
+from slopelander_sitl.rig import Rig, config
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.firmware.script_bench import SCRIPT
 from tests.flights.conftest import AUTOPILOTS, autopilot_available
 from tests.flights.test_landings_on_both_autopilots import (
@@ -59,7 +59,9 @@ def rig_with(autopilot: str, seed: int, script: Path | None, monkeypatch) -> Rig
     one). The simulated vehicle is given the script the way its command line is
     (``start_vehicle(script=...)``); ArduCopter through its scripts folder."""
     if script is not None and autopilot == "sim":
-        monkeypatch.setattr(sitl.rig, "start_vehicle", functools.partial(start_vehicle, script=script))
+        monkeypatch.setattr(
+            slopelander_sitl.rig, "start_vehicle", functools.partial(start_vehicle, script=script)
+        )
     rig = Rig(
         slope_deg=ROOF_DEG,
         seed=seed,

@@ -10,9 +10,9 @@ import random
 import pytest
 from script_bench import Bench
 
-from sitl.vehicle.scripting import RangeReading
 from slopelander.controller.script_contract import CMD_REFLEX as REFLEX
 from slopelander.controller.script_contract import Reflex, ScriptState
+from slopelander_sitl.vehicle.scripting import RangeReading
 
 #: runs while the model compiles (tests/compile_once.py): nothing here needs it
 pytestmark = pytest.mark.model_free

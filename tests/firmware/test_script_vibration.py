@@ -18,9 +18,9 @@ from script_bench import SCRIPT, Bench
 from test_script_contract import lua_locals
 from test_script_reflex import REFLEX, good, setup
 
-from sitl.vehicle.scripting import RangeReading
 from slopelander.controller.config import load_config
 from slopelander.controller.script_contract import Reflex, ScriptState, missed_impact_s
+from slopelander_sitl.vehicle.scripting import RangeReading
 
 #: runs while the model compiles (tests/compile_once.py): nothing here needs it
 pytestmark = pytest.mark.model_free

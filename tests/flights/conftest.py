@@ -7,8 +7,8 @@ import os
 
 import pytest
 
-from sitl.ardupilot import arducopter_binary
-from sitl.ardupilot.launch import ArduCopterMissingError
+from slopelander_sitl.ardupilot import arducopter_binary
+from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
 
 # A flight on real ArduCopter joins the one "arducopter" work unit (tests/conftest.py): no two
 # ArduCopters at once. The flights on the simulated vehicle stay in their module's unit.

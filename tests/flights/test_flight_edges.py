@@ -22,15 +22,15 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
-from sitl.rig import TRACK_MESSAGES, Rig, config
 from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.slope_estimate import SurfaceTrack
 from slopelander.controller.survey import RANGE_LOST_S, measure_slope
+from slopelander_sitl.rig import TRACK_MESSAGES, Rig, config
 from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range, roof_scenario
 
 LOITER = 5
-SPOT_X_M = 5.5  # sitl.rig.OVER_ROOF_X_M, where go_over_roof hovers
-GUTTER_X_M = 5.7  # the roof's top edge at x = 3 m (sitl.rig.ROOF_X_M) plus a 2.7 m roof
+SPOT_X_M = 5.5  # slopelander_sitl.rig.OVER_ROOF_X_M, where go_over_roof hovers
+GUTTER_X_M = 5.7  # the roof's top edge at x = 3 m (slopelander_sitl.rig.ROOF_X_M) plus a 2.7 m roof
 
 
 def test_a_survey_pass_over_the_gutter_is_aborted_on_the_rangefinder_dropout(autopilot: str) -> None:

@@ -13,9 +13,9 @@ import time
 
 import pytest
 
-from sitl.legboard.control import BoardControl, ControlError
-from sitl.legboard.server import MAX_ADVANCE_S, BoardServer, FaultSpec
 from slopelander.legs import codec, messages
+from slopelander_sitl.legboard.control import BoardControl, ControlError
+from slopelander_sitl.legboard.server import MAX_ADVANCE_S, BoardServer, FaultSpec
 
 #: runs while the model compiles (tests/compile_once.py): nothing here needs it
 pytestmark = pytest.mark.model_free

@@ -18,10 +18,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from sitl.legboard.control import BoardControl
-from sitl.legboard.runtime import HostBoard
 from slopelander.legs import LegBoard, load_calibration, wire
 from slopelander.legs.errors import CalibrationError
+from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.legboard.runtime import HostBoard
 from tests.legs.conftest import ROOT
 
 #: runs while the model compiles (tests/compile_once.py): nothing here needs it
@@ -46,7 +46,15 @@ class Board:
         self.link = directory / "legs"
         self.control = directory / "legs.ctl"
         (directory / "plant.json").write_text(json.dumps(plant))
-        cmd = [sys.executable, "-m", "sitl.legboard", "--link", str(self.link), "--clock", "external"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "slopelander_sitl.legboard",
+            "--link",
+            str(self.link),
+            "--clock",
+            "external",
+        ]
         cmd += ["--plant", str(directory / "plant.json"), *extra]
         self.proc = subprocess.Popen(
             cmd, stdout=subprocess.PIPE, text=True, env=_env(), start_new_session=True

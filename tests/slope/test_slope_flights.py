@@ -1,4 +1,4 @@
-"""The measured slope in whole flights (sitl.rig): the companion flies its survey pass over the
+"""The measured slope in whole flights (slopelander_sitl.rig): the companion flies its survey pass over the
 spot, fits the slope, and either lands on it (``--slope auto``) or checks the pilot's number in
 CHECKS. The estimate, its uncertainty and its points are the record's first line.
 
@@ -17,15 +17,15 @@ import os
 
 import pytest
 
-from sitl.ardupilot import arducopter_binary
-from sitl.ardupilot.launch import ArduCopterMissingError
-from sitl.guided import GUIDED, arm_in_guided
-from sitl.rig import Rig, config
 from slopelander.controller.landing import expected_impact_speed, leg_geometry
 from slopelander.controller.runner import Lander
 from slopelander.controller.slope_estimate import SurfaceTrack, check_bound, slope_to_land
 from slopelander.controller.survey import measure_slope
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+from slopelander_sitl.ardupilot import arducopter_binary
+from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
+from slopelander_sitl.guided import GUIDED, arm_in_guided
+from slopelander_sitl.rig import Rig, config
 from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range
 
 TABLE = LookupTable.load(DEFAULT_TABLE)

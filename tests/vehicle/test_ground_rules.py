@@ -10,7 +10,7 @@ import itertools
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import start_vehicle
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 from tests.vehicle.flying import M, command, set_interval, set_mode, velocity, wait_msg
 

@@ -10,14 +10,14 @@ import time
 
 import pytest
 
-from sitl.vehicle.launch import REPO, child_env
+from slopelander_sitl.vehicle.launch import REPO, child_env
 
 LAUNCHER = """
 import sys, time
-from sitl import zygote
+from slopelander_sitl import zygote
 if sys.argv[1] == "zygote":
     zygote.enable()
-from sitl.vehicle.launch import start_legboard, start_vehicle
+from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
 board = start_legboard(clock="external")
 vehicle = start_vehicle(speed=1.0, legboard_control=board.control)
 z = zygote.active()
@@ -41,7 +41,7 @@ def alive(pid: int) -> bool:
 
 @pytest.mark.parametrize("how", ["fresh", "zygote"])
 def test_simulators_end_when_their_launcher_is_killed(how: str):
-    """Started fresh, or forked from a zygote (sitl/zygote.py): the zygote ends with its
+    """Started fresh, or forked from a zygote (src/slopelander_sitl/zygote.py): the zygote ends with its
     launcher, and its children with it."""
     env = child_env()
     env.pop("SLOPELANDER_PARENT_PID")  # the launcher itself is not watched
@@ -70,7 +70,7 @@ def test_simulators_end_when_their_launcher_is_killed(how: str):
 
 
 def test_a_simulator_started_by_hand_is_not_watched():
-    from sitl.parent_watch import ENV, watch_parent
+    from slopelander_sitl.parent_watch import ENV, watch_parent
 
     saved = os.environ.pop(ENV, None)
     try:

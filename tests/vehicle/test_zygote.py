@@ -11,9 +11,9 @@ import subprocess
 
 import pytest
 
-from sitl import zygote as zygote_module
-from sitl.vehicle.launch import child_env
-from sitl.zygote import Zygote
+from slopelander_sitl import zygote as zygote_module
+from slopelander_sitl.vehicle.launch import child_env
+from slopelander_sitl.zygote import Zygote
 
 PROBE = "tests.vehicle.zygote_probe"
 
@@ -34,7 +34,7 @@ def test_a_forked_module_gets_the_callers_arguments_environment_and_streams(zygo
         assert p.poll() == 7 and p.returncode == 7
         err.seek(0)
         assert err.read() == "to stderr\n"
-    assert said.pop("cmdline")[1:3] == ["-m", "sitl.zygote"]  # forked, not started afresh
+    assert said.pop("cmdline")[1:3] == ["-m", "slopelander_sitl.zygote"]  # forked, not started afresh
     assert said.pop("interfaces") == sorted(name for _, name in socket.if_nameindex())
     assert said == {
         "argv": ["7", "two words"],
@@ -69,7 +69,7 @@ def test_time_outs_and_signals_are_reported_as_popen_reports_them(zygote, tmp_pa
 def test_a_module_that_fails_at_once_reports_its_status_and_stream(zygote, tmp_path):
     with open(tmp_path / "stderr.txt", "w+") as err:
         p = zygote.spawn(
-            "sitl.vehicle",
+            "slopelander_sitl.vehicle",
             ["--speed", "-1"],
             env=child_env(),
             cwd=tmp_path,
@@ -107,7 +107,10 @@ def test_an_isolated_child_has_only_loopback_and_what_it_starts_is_forked_from_i
     child = said["child"]
     assert child["interfaces"] == ["lo"]  # the grandchild shares its parent's namespace
     assert child["ppid"] == said["pid"] and child["argv"] == ["5"] and said["child_status"] == 5
-    assert child["cmdline"][1:3] == ["-m", "sitl.zygote"]  # forked from the warm child, not exec'd
+    assert child["cmdline"][1:3] == [
+        "-m",
+        "slopelander_sitl.zygote",
+    ]  # forked from the warm child, not exec'd
 
 
 def test_without_a_zygote_an_isolated_module_is_started_through_unshare(tmp_path, monkeypatch):
@@ -144,9 +147,9 @@ def test_leg_boards_are_forked_before_the_model_is_loaded_and_a_vehicle_after(tm
             "stdout": subprocess.DEVNULL,
             "stderr": subprocess.DEVNULL,
         }
-        board = z.spawn("sitl.legboard", ["--help"], **quiet)
+        board = z.spawn("slopelander_sitl.legboard", ["--help"], **quiet)
         assert board.wait(30) == 0
-        assert board.warm == ("sitl.legboard.__main__",)
+        assert board.warm == ("slopelander_sitl.legboard.__main__",)
         probe = z.spawn(PROBE, ["0"], **quiet)
         assert probe.wait(60) == 0
         assert sorted(probe.warm) == sorted(zygote_module.PRELOAD)

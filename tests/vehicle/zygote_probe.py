@@ -1,7 +1,7 @@
 """Run by tests/vehicle/test_zygote.py as ``python -m tests.vehicle.zygote_probe``: prints what it
 was given (arguments, working directory, environment, its process ids, its network interfaces,
 the command line of the process it is: a fork of the zygote keeps the zygote's), says one line on
-stderr, then sleeps (argument ``sleep``), or starts the probe again through ``sitl.zygote.start``
+stderr, then sleeps (argument ``sleep``), or starts the probe again through ``slopelander_sitl.zygote.start``
 and prints what that one said and its exit status (argument ``start``), or
 exits with the status its first argument names."""
 
@@ -24,8 +24,8 @@ if __name__ == "__main__":
         "cmdline": Path("/proc/self/cmdline").read_text().split("\0"),
     }
     if sys.argv[1:2] == ["start"]:
-        from sitl import zygote
-        from sitl.vehicle.launch import child_env
+        from slopelander_sitl import zygote
+        from slopelander_sitl.vehicle.launch import child_env
 
         p = zygote.start(
             "tests.vehicle.zygote_probe",

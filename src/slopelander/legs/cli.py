@@ -204,7 +204,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     from slopelander.errors import SlopelanderError
     from slopelander.legs import calibrate as cal
-    from slopelander.legs.bench import PromptBench, SimBench
+    from slopelander.legs.bench import PromptBench, simulated_bench
 
     try:
         proc = cal.Procedure(
@@ -218,13 +218,13 @@ def _calibrate(args: argparse.Namespace) -> int:
     if args.bench == "prompt":
         bench = PromptBench()
     elif args.bench.startswith("sim:"):
-        bench = SimBench(args.bench[4:])
+        bench = simulated_bench(args.bench[4:])
     else:
         raise SlopelanderError(f"--bench must be prompt or sim:CONTROL_SOCKET, not {args.bench!r}")
     board = LegBoard.open(args.port, args.baud, status_period_ms=20, timeout=5.0)
     try:
         board.set_clock(bench.clock)
-        if isinstance(bench, SimBench):
+        if hasattr(bench, "poll"):  # a simulated board's bench steps the driver between its waits
             bench.poll = board.poll
         points = cal.measure(board, bench, proc, board.calibration)
         try:
