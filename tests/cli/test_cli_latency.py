@@ -85,16 +85,16 @@ def test_the_refusals_of_the_flying_commands_import_no_science(argv: list[str]) 
 
 
 def test_the_simulate_defaults_written_out_are_the_models() -> None:
+    from slopelander.commands.simulate import _D
     from slopelander.model import LandingConditions
-    from slopelander.simulate_cli import _D
 
     model = dataclasses.asdict(LandingConditions())
     assert vars(_D) == {k: model[k] for k in vars(_D)}
 
 
 def test_the_map_kinds_written_out_are_the_reports() -> None:
+    from slopelander.commands.map import MAP_KINDS as CLI_KINDS
     from slopelander.envelope.reports import MAP_KINDS
-    from slopelander.envelope_cli import MAP_KINDS as CLI_KINDS
 
     assert CLI_KINDS == MAP_KINDS
 
@@ -114,8 +114,8 @@ except SystemExit as exc:
     done = _fresh(code, "simulate", "--slope", "x")
     assert done.returncode == 2 and "invalid float value: 'x'" in done.stderr, done.stderr
     imported = set(json.loads(done.stdout.strip().splitlines()[-1]))
-    assert "slopelander.simulate_cli" in imported
-    others = {"serial", "slopelander.legs.driver", "slopelander.land_cli", "slopelander.ident.cli"}
+    assert "slopelander.commands.simulate" in imported
+    others = {"serial", "slopelander.legs.driver", "slopelander.commands.land", "slopelander.commands.fit"}
     assert not imported & others, imported & others
 
 

@@ -95,7 +95,7 @@ def test_only_a_pseudo_terminal_may_hold_a_simulated_board() -> None:
     device /dev/null stands for one) the claim is refused before anything flies."""
     import os
 
-    from slopelander.land_cli import pseudo_terminal
+    from slopelander.commands.land import pseudo_terminal
 
     main, sub = os.openpty()
     try:
@@ -118,7 +118,7 @@ def test_the_default_baud_is_the_shipped_parameter_files() -> None:
     code 921 is 921600 baud): a serial --connect without --baud meets the autopilot at its rate."""
     import re
 
-    from slopelander.land_cli import DEFAULT_BAUD, connection_string
+    from slopelander.commands.land import DEFAULT_BAUD, connection_string
 
     parm = (ROOT / "firmware_params" / "f450-fsa.parm").read_text()
     code = int(re.search(r"^SERIAL2_BAUD\s+(\d+)", parm, re.MULTILINE).group(1))

@@ -108,7 +108,7 @@ def test_a_user_effect_parameter_is_fitted_by_name_within_its_declared_bounds(tm
 
     import yaml
 
-    from slopelander.ident.cli import IdentCliError, build_model
+    from slopelander.commands.ident_options import IdentCliError, build_model
 
     doc = yaml.safe_load((tmp_path / "fitted.yaml").read_text())
     saved = doc["user_effects"]["viscous_joint"]["joint_viscous_gain"]
@@ -139,7 +139,8 @@ def test_bare_diagnose_on_the_shipped_model_points_at_candidates(tmp_path):
 def test_diagnose_takes_several_candidate_files_or_a_folder_and_its_budgets(tmp_path):
     import argparse
 
-    from slopelander.ident.cli import IdentCliError, candidate_effects, register
+    from slopelander.commands.diagnose import register
+    from slopelander.commands.ident_options import IdentCliError, candidate_effects
 
     ap = argparse.ArgumentParser()
     register(ap.add_subparsers())
@@ -180,7 +181,7 @@ def test_diagnose_prints_its_evidence_and_the_noise_floor(tmp_path):
         "--json",
         str(tmp_path / "verdict.json"),
     )
-    from slopelander.ident.cli import DIAGNOSE_EXIT
+    from slopelander.commands.diagnose import DIAGNOSE_EXIT
 
     verdict = json.loads((tmp_path / "verdict.json").read_text())
     assert r.returncode == DIAGNOSE_EXIT[verdict["verdict"]], (r.returncode, verdict["verdict"], r.stderr)

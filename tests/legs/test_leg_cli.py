@@ -13,7 +13,7 @@ pytestmark = pytest.mark.model_free
 @pytest.fixture
 def run(monkeypatch, capsys):
     # The worktree may not have every part's subcommands yet; the legs part is enough here.
-    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", {"slopelander.legs.cli": (("legs",), False)})
+    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", {"slopelander.commands.legs": (("legs",), False)})
 
     def run_cli(*argv: str) -> tuple[int, str, str]:
         code = cli.main(list(argv))

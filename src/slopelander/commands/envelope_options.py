@@ -1,4 +1,5 @@
-"""``slopelander map KIND`` and ``slopelander table``: thin layers over envelope.reports/table.
+"""The options ``map`` and ``table`` share (the grid, the model, reverse thrust's end, a Dask
+cluster) and what they do with them before the sweep.
 
 Outside the envelope package, whose ``__init__`` imports scipy and matplotlib: the arguments are
 parsed, and the outputs checked, before any of that is imported.
@@ -7,23 +8,15 @@ parsed, and the outputs checked, before any of that is imported.
 from __future__ import annotations
 
 import argparse
-import json
-import math
-import numbers
-import shlex
 import sys
-import time
 from pathlib import Path
 
-from slopelander.outputs import check_output, check_output_dir, files_changed_since
-
+#: exit code after Ctrl-C (128 + SIGINT), as a shell reports it
 INTERRUPTED = 130
-MAP_KINDS = ("symmetric", "asymmetric", "angle", "rvt", "rigid", "uncertainty", "robustness")
-"""The maps ``envelope.reports.make_map`` draws (a test keeps the two lists equal)."""
-"""Exit code after Ctrl-C (128 + SIGINT), as a shell reports it."""
 
 
-def _common(p: argparse.ArgumentParser) -> None:
+def add_sweep_options(p: argparse.ArgumentParser) -> None:
+    """The grid, model, reverse-thrust and cluster options of a sweep."""
     g = p.add_argument_group("grid")
     g.add_argument("--slope-step", type=float, default=1.0, help="deg (default 1)")
     g.add_argument("--speed-step", type=float, default=0.1, help="m/s (default 0.1)")
@@ -59,48 +52,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "map",
-        help="landing maps of the paper's Sec. V (PNG + NPZ + CSV)",
-        description="Compute a landing map over slope x vertical impact speed.",
-    )
-    p.add_argument("kind", choices=MAP_KINDS)
-    p.add_argument(
-        "--out",
-        required=True,
-        metavar="DIR",
-        help="folder for the files (created if missing; its parent folder must exist)",
-    )
-    p.add_argument(
-        "--config",
-        default="rvt",
-        choices=("symmetric", "asymmetric", "angle", "rvt", "rigid", "rigid_rvt"),
-        help="presets flown by the uncertainty and robustness maps (default rvt)",
-    )
-    p.add_argument("--sets", type=int, default=3, help="parameter sets for 'uncertainty' (default 3)")
-    p.add_argument("--draws", type=int, default=10, help="robustness draws per cell (default 10)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the parameter sets and draws")
-    _common(p)
-    p.set_defaults(handler=run_map)
-
-    t = subparsers.add_parser(
-        "table",
-        help="write the preset lookup table the controller flies with",
-        description="Choose presets per (slope, speed) and write the YAML table.",
-    )
-    t.add_argument("--out", required=True, metavar="FILE", help="table file (.yaml); its folder must exist")
-    t.add_argument(
-        "--strategy",
-        default="rvt",
-        choices=("asymmetric", "angle", "rvt"),
-        help="how the vehicle lands (default rvt: linear uphill angle + 100 %% reverse thrust)",
-    )
-    _common(t)
-    t.set_defaults(handler=run_table)
-
-
-def thrust_end(args) -> dict:
+def thrust_end(args: argparse.Namespace) -> dict:
     """The strategy options for ``--reverse-duration``/``--reverse-ramp``, checked before any work."""
     from slopelander.envelope.presets import StrategyError
     from slopelander.model.conditions import ConditionError, LandingConditions
@@ -118,7 +70,8 @@ def thrust_end(args) -> dict:
     return {"reverse_duration": args.reverse_duration, "reverse_ramp": args.reverse_ramp}
 
 
-def _setup(args):
+def setup(args: argparse.Namespace):
+    """The sweep's axes, model, Dask client (or None) and progress setting."""
     from slopelander.envelope.axes import MapAxes
     from slopelander.model import Model
 
@@ -140,7 +93,7 @@ def _setup(args):
     return axes, model, client, progress
 
 
-def _interrupted(command: str, written: list[Path]) -> int:
+def interrupted(command: str, written: list[Path]) -> int:
     """Ctrl-C: one line on what is on disk, no traceback, exit code 130."""
     if written:
         names = ", ".join(str(p) for p in written)
@@ -148,78 +101,3 @@ def _interrupted(command: str, written: list[Path]) -> int:
     else:
         print(f"slopelander {command}: interrupted; nothing written", file=sys.stderr)
     return INTERRUPTED
-
-
-def run_map(args) -> int:
-    check_output_dir(args.out, "--out")
-    from slopelander.envelope.reports import make_map
-
-    ends = thrust_end(args)
-    axes, model, client, progress = _setup(args)
-    t0 = time.perf_counter()
-    started = time.time() - 1.0  # file times may be rounded to the second
-    try:
-        result = make_map(
-            args.kind,
-            args.out,
-            model=model,
-            axes=axes,
-            refine=args.refine,
-            optimal_angle=args.optimal_angle,
-            thrust_end=ends,
-            config=args.config,
-            sets=args.sets,
-            seed=args.seed,
-            draws=args.draws,
-            client=client,
-            progress=progress,
-        )
-    except KeyboardInterrupt:
-        return _interrupted("map", files_changed_since(Path(args.out), started))
-    finally:
-        if client is not None:
-            client.close()
-    result["seconds"] = round(time.perf_counter() - t0, 1)
-    print(json.dumps(rounded(result), indent=2, default=float))
-    return 0
-
-
-def rounded(value: object, digits: int = 6) -> object:
-    """Numbers as a person reads them: ``digits`` significant digits, so a sum of grid steps
-    prints 57.9, not 57.900000000000006 (the summary file keeps the full values)."""
-    if isinstance(value, dict):
-        return {k: rounded(v, digits) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [rounded(v, digits) for v in value]
-    if isinstance(value, numbers.Real) and not isinstance(value, (bool, numbers.Integral)):
-        v = float(value)
-        return float(f"{v:.{digits}g}") if math.isfinite(v) else v
-    return value
-
-
-def run_table(args) -> int:
-    check_output(args.out, "--out")
-    from slopelander.envelope.presets import STRATEGIES
-    from slopelander.envelope.table import build_table, write_table
-
-    ends = thrust_end(args)
-    axes, model, client, progress = _setup(args)
-    strategy = STRATEGIES[args.strategy].with_options(
-        refine=args.refine, optimal_angle=args.optimal_angle, **ends
-    )
-    command = "slopelander " + shlex.join(sys.argv[1:]) if sys.argv[1:] else None
-    t0 = time.perf_counter()
-    try:
-        doc, presets = build_table(model, axes, strategy, client=client, progress=progress, command=command)
-    except KeyboardInterrupt:
-        return _interrupted("table", [])  # the table is written only once it is complete
-    finally:
-        if client is not None:
-            client.close()
-    path = write_table(doc, args.out)
-    landed = presets.landed()
-    print(
-        f"wrote {path}: {axes.shape[0]} slopes x {axes.shape[1]} speeds, "
-        f"{int(landed.sum())} cells land, {time.perf_counter() - t0:.1f} s"
-    )
-    return 0
