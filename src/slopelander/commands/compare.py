@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 from slopelander.commands.ident_options import IdentCliError, add_model_options, build_model, count, plain
+from slopelander.commands.options import renamed
 from slopelander.outputs import check_output, check_output_dir
 
 
@@ -28,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="folder of drop recordings (docs/recordings.md), or a flight log file",
     )
     p.add_argument(
-        "--report",
+        "--out",
         type=Path,
         metavar="DIR",
         help="folder for report.md and one PNG per drop; for a log, its JSON and PNG per landing "
@@ -43,29 +44,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g = p.add_argument_group("flight log (docs/flight-logs.md)")
     g.add_argument("--landing", type=count(1), metavar="N", help="only the log's N-th landing")
     g.add_argument("--slope", type=float, metavar="DEG", help="the roof's slope, instead of the log's")
-    g.add_argument(
-        "--tau", type=float, nargs=2, metavar=("UP", "DOWN"), help="legs' friction torques, N*m per joint"
-    )
-    g.add_argument(
-        "--angles", type=float, nargs=2, metavar=("UP", "DOWN"), help="leg angles, deg (not in the logs)"
-    )
+    g.add_argument("--tau-up", type=float, metavar="NM", help="uphill legs' friction torque, N*m per joint")
+    g.add_argument("--tau-down", type=float, metavar="NM", help="downhill legs' (with --tau-up)")
+    g.add_argument("--angle-up", type=float, metavar="DEG", help="uphill leg angle, deg (not in the logs)")
+    g.add_argument("--angle-down", type=float, metavar="DEG", help="downhill leg angle (with --angle-up)")
     add_model_options(p, "analysed")
+    renamed(p, "--report", "--out")
+    renamed(p, "--tau", "--tau-up", "--tau-down")
+    renamed(p, "--angles", "--angle-up", "--angle-down")
     p.set_defaults(handler=run)
 
 
-_LOG_OPTIONS = ("landing", "slope", "tau", "angles")
+_LOG_OPTIONS = ("landing", "slope", "tau_up", "tau_down", "angle_up", "angle_down")
 
 
 def run(args: argparse.Namespace) -> int:
     path = args.dataset
     if path.is_file() or (not path.exists() and path.suffix.lower() in (".bin", ".tlog")):
         return run_log(args)  # a file is read as a log whatever its name; a missing log says so
-    given = [f"--{n}" for n in _LOG_OPTIONS if getattr(args, n) is not None]
+    given = [f"--{n.replace('_', '-')}" for n in _LOG_OPTIONS if getattr(args, n) is not None]
     if given:
         raise IdentCliError(
             f"{', '.join(given)}: only for a flight log, and {args.dataset} is a dataset folder"
         )
-    check_output_dir(args.report, "--report")
+    check_output_dir(args.out, "--out")
     check_output(args.json, "--json")
     from slopelander.ident.compare import compare
     from slopelander.ident.recording import STATES, load_dataset
@@ -84,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
     )
     for w in c.worst_windows(3):
         print(f"  worst: {w.drop} {w.start:.2f}-{w.end:.2f} s ({w.phase}, {w.state}): {100 * w.share:.1f} %")
-    if args.report:
-        out = write_report(c, args.report, model_note=f"Model: effects {', '.join(model.effects)}.")
+    if args.out:
+        out = write_report(c, args.out, model_note=f"Model: effects {', '.join(model.effects)}.")
         print(f"report: {out}")
     if args.json:
         figures = {
@@ -113,24 +115,28 @@ def run_log(args: argparse.Namespace) -> int:
     from slopelander.ident.flightlog.compare import compare_log, write_results
     from slopelander.ident.flightlog.conditions import Given
 
-    report = args.report if args.report is not None else Path(f"{args.dataset.stem}-compare")
-    check_output_dir(report, "--report")
+    report = args.out if args.out is not None else Path(f"{args.dataset.stem}-compare")
+    check_output_dir(report, "--out")
     check_output(args.json, "--json")
-    for name in ("tau", "angles"):
-        values = getattr(args, name)
-        if values is not None and not all(map(math.isfinite, values)):
-            raise IdentCliError(f"--{name} {' '.join(map(str, values))}: not numbers")
-    if args.slope is not None and not math.isfinite(args.slope):
-        raise IdentCliError(f"--slope {args.slope}: not a number")
+    for name in ("slope", *_LOG_OPTIONS[2:]):
+        value = getattr(args, name)
+        if value is not None and not math.isfinite(value):
+            raise IdentCliError(f"--{name.replace('_', '-')} {value}: not a number")
     model = build_model(args)
-    given = Given(
-        args.slope,
-        tuple(args.tau) if args.tau is not None else None,
-        tuple(args.angles) if args.angles is not None else None,
-    )
+    given = Given(args.slope, _pair(args, "tau"), _pair(args, "angle"))
     results = compare_log(model, args.dataset, given, args.landing)
     for r in results:
         print("\n".join(r.lines()))
     written = write_results(results, report, args.json)
     print("report: " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _pair(args: argparse.Namespace, name: str) -> tuple[float, float] | None:
+    """``--NAME-up`` and ``--NAME-down`` as one pair, or None when neither is given."""
+    up, down = getattr(args, f"{name}_up"), getattr(args, f"{name}_down")
+    if (up is None) != (down is None):
+        raise IdentCliError(
+            f"--{name}-up and --{name}-down go together: give both, or neither to read the log's"
+        )
+    return None if up is None else (up, down)

@@ -64,8 +64,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--json", type=Path, metavar="FILE", help="also write the verdict and its evidence as JSON"
     )
     add_model_options(p, "analysed")
-    add_search_options(p)
-    p.set_defaults(handler=run, repeats=1)
+    add_search_options(
+        p,
+        repeats=1,
+        repeats_help="times the drops are split into --folds groups "
+        "(each split refits every candidate --folds times)",
+    )
+    p.set_defaults(handler=run)
 
 
 #: ``diagnose``'s exit codes by verdict (1: an error, 2: a usage error, as every command)

@@ -42,7 +42,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="where the search begins: the analysed model's values (default) or the centre of the bounds",
     )
     add_model_options(p, "analysed")
-    add_search_options(p)
+    add_search_options(
+        p,
+        repeats=3,
+        repeats_help="fits, each on its own training subset (60 %% train / 40 %% validation): "
+        "their spread is the printed sigma, so 2 or more",
+    )
     p.set_defaults(handler=run)
 
 

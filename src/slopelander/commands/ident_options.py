@@ -122,7 +122,9 @@ def add_dataset_argument(p: argparse.ArgumentParser) -> None:
     )
 
 
-def add_search_options(p: argparse.ArgumentParser) -> None:
+def add_search_options(p: argparse.ArgumentParser, repeats: int, repeats_help: str) -> None:
+    """The search's options; ``--repeats`` counts a different repetition in each command (its
+    ``repeats_help``), hence its own default (docs/commands.md)."""
     g = p.add_argument_group("search")
     g.add_argument(
         "--fit",
@@ -132,9 +134,7 @@ def add_search_options(p: argparse.ArgumentParser) -> None:
         help="parameters to identify, with bounds where the defaults do not suit "
         "(default: the paper's seven the model has)",
     )
-    g.add_argument(
-        "--repeats", type=int, default=3, help="training subsets (each 60 %% train / 40 %% validation)"
-    )
+    g.add_argument("--repeats", type=count(1), default=repeats, help=repeats_help)
     g.add_argument("--seed", type=int, default=0)
     g.add_argument(
         "--cma-evals", type=count(0), default=600, help="model evaluations of the global search per fit"

@@ -70,7 +70,8 @@ class CommandParser(argparse.ArgumentParser):
 
 def notice(prog: str, old: str, new: tuple[str, ...]) -> str:
     """The one line an old spelling prints."""
-    return f"{prog}: {old} is now {' '.join(new)} (the old name still works, for now)"
+    now = new[0] if len(new) == 1 else " and ".join(new) + ", one value each"
+    return f"{prog}: {old} is now {now} (the old name still works, for now)"
 
 
 def renamed(parser: argparse.ArgumentParser, old: str, *new: str) -> None:

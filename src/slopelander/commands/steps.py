@@ -43,8 +43,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--plot", type=Path, metavar="PNG", help="write the error-fall plot here")
     add_model_options(p, "base")
-    add_search_options(p)
-    p.set_defaults(handler=run, repeats=1)
+    add_search_options(
+        p,
+        repeats=1,
+        repeats_help="fits per step, each on its own training subset (60 %% train / 40 %% validation)",
+    )
+    p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from slopelander.commands.ident_options import IdentCliError, add_model_options, build_model
+from slopelander.commands.options import renamed
 from slopelander.outputs import check_output_dir
 
 
@@ -24,14 +25,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--angle-noise", type=float, default=0.3, help="deg (standard deviation)")
     p.add_argument("--latency", type=float, default=0.002, help="s (default 2 ms, as NoiseModel)")
     p.add_argument("--rate", type=float, default=200.0, help="sample rate, Hz")
-    p.add_argument(
-        "--slopes", type=float, nargs=2, default=[0.0, 45.0], metavar=("LO", "HI"), help="deg, within 0..45"
-    )
-    p.add_argument(
-        "--speeds", type=float, nargs=2, default=[1.0, 3.0], metavar=("LO", "HI"), help="m/s, within 1..3"
-    )
+    p.add_argument("--slope-min", type=float, default=0.0, help="deg, within 0..45")
+    p.add_argument("--slope-max", type=float, default=45.0, help="deg, within 0..45")
+    p.add_argument("--speed-min", type=float, default=1.0, help="m/s, within 1..3")
+    p.add_argument("--speed-max", type=float, default=3.0, help="m/s, within 1..3")
     p.add_argument("--no-flips", action="store_true", help="leave out the drops the truth flips on")
     add_model_options(p, "truth")
+    renamed(p, "--slopes", "--slope-min", "--slope-max")
+    renamed(p, "--speeds", "--speed-min", "--speed-max")
     p.set_defaults(handler=run)
 
 
@@ -51,14 +52,22 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise IdentCliError(str(exc)) from None
     try:
-        conds = paper_drops(args.drops, args.seed, slopes=tuple(args.slopes), speeds=tuple(args.speeds))
+        conds = paper_drops(
+            args.drops,
+            args.seed,
+            slopes=(args.slope_min, args.slope_max),
+            speeds=(args.speed_min, args.speed_max),
+        )
     except ValueError as exc:
-        raise IdentCliError(f"--slopes/--speeds: {exc}") from None
+        raise IdentCliError(f"--slope-min/max, --speed-min/max: {exc}") from None
     model = build_model(args)
     if args.no_flips:
         kept = survived(model, conds)
         if not kept:
-            raise IdentCliError("--no-flips: the truth flips on every drop; choose gentler --slopes/--speeds")
+            raise IdentCliError(
+                "--no-flips: the truth flips on every drop; choose gentler slopes or speeds "
+                "(--slope-max, --speed-max)"
+            )
         if len(kept) < len(conds):
             print(f"left out {len(conds) - len(kept)} of {len(conds)} drops: the truth flips on them")
         conds = kept
