@@ -20,7 +20,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "matches and where the residual concentrates; write a Markdown report with a plot "
         "per drop. Given a flight log instead (an ArduPilot DataFlash log or a MAVLink tlog, told by "
         "its content), compare each of its landings with the model at that landing's conditions on "
-        "what the log can see, and write a JSON and a plot per landing (docs/flight-logs.md).",
+        "what the log can see, and write a JSON and a plot per landing (docs/flight-logs.md). "
+        "Exit codes: 0 done, 1 an error, 2 a usage error, 130 interrupted.",
     )
     p.add_argument(
         "dataset",

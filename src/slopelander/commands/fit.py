@@ -25,7 +25,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="identify model parameters from recorded drops (CMA-ES + least squares)",
         description="Identify named parameters from recorded drops as the paper did: repeated fits on "
         "training subsets, validated on the other drops; prints a Table-II-style mean +- sigma, "
-        "confidence intervals and identifiability warnings.",
+        "confidence intervals and identifiability warnings. "
+        "Exit codes: 0 done, 1 an error, 2 a usage error, 130 interrupted.",
     )
     add_dataset_argument(p)
     p.add_argument("--out", type=Path, metavar="FILE", help="write the identified parameter set (YAML)")

@@ -13,7 +13,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="turn raw motion-capture takes (C3D, Vicon/Motive CSV, Qualisys TSV) into a dataset",
         description="Read each take, fit the body's marker cluster, find the roof's plane and fall line, "
         "first contact and the impact state, compute the rates (Savitzky-Golay) and the noise, and "
-        "write one drop per take (docs/import.md). Nothing is written unless every take imports.",
+        "write one drop per take (docs/import.md). Nothing is written unless every take imports. "
+        "Exit codes: 0 done, 1 an error, 2 a usage error, 130 interrupted.",
     )
     p.add_argument("takes", type=Path, nargs="+", metavar="TAKE", help="take files, or folders of them")
     p.add_argument(

@@ -24,7 +24,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "steps",
         help="add effects one by one, re-identify, and show the error fall",
         description="Base model, then + each effect in turn, re-identifying at every step: the "
-        "error-fall table (training and validation NRMSE, per state) and its plot.",
+        "error-fall table (training and validation NRMSE, per state) and its plot. "
+        "Exit codes: 0 done, 1 an error, 2 a usage error, 130 interrupted.",
     )
     add_dataset_argument(p)
     p.add_argument(
