@@ -54,6 +54,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "status",
         help="print the board and each leg's state, current, torque and angle; with "
         "--calibration, check board, calibration and lookup table before a flight",
+        description="Print the board and each leg's state, current, torque and angle. With "
+        "--calibration, also check that the board, the calibration and the lookup table agree "
+        "before a flight (exit code 1 when they do not).",
     )
     common(p)
     p.add_argument(
@@ -86,7 +89,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.set_defaults(handler=_calibrate)
 
-    p = sub.add_parser("set", help="set friction torques (N·m per joint) and wait")
+    p = sub.add_parser(
+        "set",
+        help="set friction torques (N·m per joint) and wait",
+        description="Set the friction torques of the uphill and downhill pairs (or of single legs, "
+        "or from the lookup table) and wait until each leg holds its torque.",
+    )
     common(p)
     pairs(p)
     p.add_argument("--tau-up", type=float, help="uphill pair torque, N·m")
@@ -113,11 +121,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     renamed(p, "--downhill", "--tau-down")
     p.set_defaults(handler=_set, up="tau_up", down="tau_down")
 
-    p = sub.add_parser("loosen", help="loosen all legs so the springs reset them")
+    p = sub.add_parser(
+        "loosen",
+        help="loosen all legs so the springs reset them",
+        description="Loosen every leg's friction so that the springs bring the legs back to rest.",
+    )
     common(p)
     p.set_defaults(handler=_loosen)
 
-    p = sub.add_parser("angle", help="set leg rest angles (degrees, 0..37.5)")
+    p = sub.add_parser(
+        "angle",
+        help="set leg rest angles (degrees, 0..37.5)",
+        description="Set the legs' rest angles (boards with angle stops), per pair or per leg.",
+    )
     common(p)
     pairs(p)
     p.add_argument("--angle-up", type=_angle_deg, help="uphill pair angle, degrees")
