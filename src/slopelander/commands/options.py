@@ -76,7 +76,8 @@ def notice(prog: str, old: str, new: tuple[str, ...]) -> str:
 
 def renamed(parser: argparse.ArgumentParser, old: str, *new: str) -> None:
     """Read ``old`` as ``new`` in this parser, with a notice. Several ``new`` options take one
-    value each of the old option's values, in order."""
+    value each of the old option's values, in order. Only a :class:`CommandParser` reads old
+    spellings (``slopelander``'s own); another parser refuses them as unknown options."""
     known = {s for a in parser._actions for s in a.option_strings}
     missing = [n for n in new if n not in known]
     if missing or old in known:
