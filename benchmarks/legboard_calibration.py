@@ -90,7 +90,7 @@ def calibrate(seed: int, directory: Path) -> tuple[Path, str, float]:
                 "slopelander.cli",
                 "legs",
                 "calibrate",
-                "--port",
+                "--legs-port",
                 str(link),
                 "--masses",
                 MASSES,

@@ -26,7 +26,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Start the simulated ArduCopter (with the on-board script) and the simulated leg "
         "board as processes, take off, fly over a roof, land with the lookup table's preset and "
         "reverse thrust, take off again and reset the legs. Writes a telemetry log, the state "
-        "transitions and a picture of the flight.",
+        "transitions and a picture of the flight. Exit codes: 0 landed and reset, 1 an error, 2 a "
+        "usage error, 3 the flight did not end landed and reset, 130 interrupted.",
     )
     p.add_argument("--slope", type=float, default=35.0, help="roof slope, deg (0..60)")
     p.add_argument(

@@ -51,7 +51,7 @@ def run_fresh(argv: list[str]) -> tuple[int, str, list[str]]:
         ["simulate", "--csv", "/proc/x.csv"],
         ["map", "rvt", "--out", "/proc/maps", *TINY],
         ["table", "--out", "/proc/t.yaml", *TINY],
-        ["params", "--dump", "/proc/p.yaml"],
+        ["params", "--out", "/proc/p.yaml"],
         ["synth", "--out", "/proc/drops", "--drops", "1"],
         ["demo", "--out", "/proc/demo"],
     ],

@@ -16,7 +16,7 @@ pytestmark = pytest.mark.model_free
 CHECK = """
 import importlib.util, sys
 import slopelander.controller.runner, slopelander.controller.link, slopelander.controller.table
-import slopelander.legs.driver, slopelander.land_cli
+import slopelander.legs.driver, slopelander.commands.land
 heavy = [m for m in ("numba", "scipy", "matplotlib", "lupa", "cma") if importlib.util.find_spec(m)]
 assert not heavy, f"the core installed {heavy}"
 assert not any(m.split(".")[0] in ("numba", "scipy", "matplotlib") for m in sys.modules)

@@ -328,7 +328,8 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
             raise FlightLogError(
                 log.path,
                 f"landing {ev.number}: the log does not say the legs' friction torques (no companion "
-                "'SL LEGS_WAIT' message in it, no transitions.jsonl beside it): give --tau UP DOWN",
+                "'SL LEGS_WAIT' message in it, no transitions.jsonl beside it): "
+                "give --tau-up UP --tau-down DOWN",
             )
         tau, sources["legs"] = found
     if given.angles is not None:
@@ -339,7 +340,8 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
             angles = table_angles(slope_deg, speed)
         except ValueError as exc:
             raise FlightLogError(
-                log.path, f"landing {ev.number}: no leg angles for it ({exc}): give --angles UP DOWN"
+                log.path,
+                f"landing {ev.number}: no leg angles for it ({exc}): give --angle-up UP --angle-down DOWN",
             ) from None
         sources["leg angles"] = "not in the log: the shipped lookup table's for this slope"
     thrust, sources["reverse thrust"], more = reverse_as_flown(log, ev, contact)

@@ -23,6 +23,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import IO
 
+from slopelander.commands.options import renamed
 from slopelander.errors import SlopelanderError
 from slopelander.outputs import check_output_dir
 
@@ -60,8 +61,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--connect",
         required=True,
-        help="MAVLink connection: tcp:HOST:PORT, tcpin:HOST:PORT, udpin:HOST:PORT, udpout:HOST:PORT "
-        "or a serial device (/dev/ttyAMA0, with --baud)",
+        metavar="CONNECTION",
+        help="the autopilot's MAVLink connection: tcp:HOST:PORT, tcpin:HOST:PORT, udpin:HOST:PORT, "
+        "udpout:HOST:PORT or a serial device (/dev/ttyAMA0, with --baud)",
     )
     p.add_argument(
         "--baud",
@@ -69,7 +71,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help=f"baud rate of a serial --connect device (default {DEFAULT_BAUD}: SERIAL2_BAUD 921 "
         "in the shipped f450-fsa.parm)",
     )
-    p.add_argument("--legs", required=True, help="leg board serial port, e.g. /dev/ttyACM1")
+    p.add_argument(
+        "--legs-port",
+        required=True,
+        metavar="DEVICE",
+        help="the leg board's serial device, e.g. /dev/ttyACM1",
+    )
     p.add_argument(
         "--slope",
         type=slope_arg,
@@ -92,6 +99,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="folder for this landing's evidence (default: landing-YYYYMMDD-HHMMSS in the current folder)",
     )
     p.add_argument("--record", action=_Renamed, help=argparse.SUPPRESS)
+    renamed(p, "--legs", "--legs-port")
     p.add_argument(
         "--lockstep",
         action="store_true",
@@ -207,16 +215,16 @@ def run(args: argparse.Namespace) -> int:
             f"--slope {args.slope:g} is outside the lookup table's slopes {lo:g}..{hi:g} deg "
             f"({args.table or 'the shipped table'})"
         )
-    if "://" not in args.legs and not Path(args.legs).exists():  # pyserial also takes URLs
-        raise SlopelanderError(f"--legs {args.legs}: no such device (is the leg board plugged in?)")
+    if "://" not in args.legs_port and not Path(args.legs_port).exists():  # pyserial also takes URLs
+        raise SlopelanderError(f"--legs-port {args.legs_port}: no such device (is the leg board plugged in?)")
     calibration = load_calibration(args.calibration)
-    with LegBoard.open(args.legs, calibration=calibration) as probe:  # what board is it?
+    with LegBoard.open(args.legs_port, calibration=calibration) as probe:  # what board is it?
         simulated = probe.info is not None and probe.info.simulated
         board = probe.info
-    if simulated and not pseudo_terminal(args.legs):
+    if simulated and not pseudo_terminal(args.legs_port):
         raise SlopelanderError(
-            f"--legs {args.legs}: a board on a real serial device reports itself SIMULATED; a simulated "
-            "board runs on a pseudo-terminal. Refusing to trust it (wrong firmware flashed?)"
+            f"--legs-port {args.legs_port}: a board on a real serial device reports itself SIMULATED; a "
+            "simulated board runs on a pseudo-terminal. Refusing to trust it (wrong firmware flashed?)"
         )
     if not simulated and (args.calibration is None or calibration.assumed):
         why = "no --calibration given" if args.calibration is None else f"{args.calibration} is assumed"
@@ -259,7 +267,7 @@ def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) ->
     print(f"table: {args.table or 'shipped'}: slopes {lo:g}..{hi:g} deg, ok")
     print(f"calibration: {calibration.source} ({'assumed' if calibration.assumed else 'measured'}): ok")
     print(
-        f"leg board {args.legs}: protocol {board.version}, {board.legs} legs"
+        f"leg board {args.legs_port}: protocol {board.version}, {board.legs} legs"
         + (", simulated" if board.simulated else "")
         + (", sets leg angles" if board.angle_stop else ", leg angles set by hand")
     )
@@ -285,7 +293,7 @@ def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) ->
             problems.append("the on-board script is silent (no SL_VER): load it (firmware_params/README.md)")
         elif int(version) != SCRIPT_CONTRACT:
             problems.append(f"on-board script v{version:g}, this companion needs v{SCRIPT_CONTRACT}")
-        status = session.open_legs(args.legs).query()
+        status = session.open_legs(args.legs_port).query()
         print("legs: angles " + ", ".join(f"{lg.angle_deg:.1f}" for lg in status.legs) + " deg")
         problems += [f"leg board fault: leg {lg.leg}: {lg.fault.name}" for lg in status.faults]
     except (SessionError, LegBoardError) as exc:
@@ -358,7 +366,7 @@ def _land(
         f"expected impact {speed:.2f} m/s on {slope.slope_deg:.1f} deg; "
         f"legs {up:.2f}/{down:.2f} N*m{angle} ({preset.source})"
     )
-    legs = session.open_legs(args.legs)
+    legs = session.open_legs(args.legs_port)
     interrupts.check()
     todo = angle_instruction(preset.angle_up_deg, legs.info.angle_stop)
     if todo is not None:

@@ -9,6 +9,7 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING
 
+from slopelander.commands.options import renamed
 from slopelander.errors import SlopelanderError
 from slopelander.outputs import check_output
 
@@ -34,7 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "simulate",
         help="simulate one landing with the planar model",
-        description="Simulate one landing with the planar model and print its outcome.",
+        description="Simulate one landing with the planar model and print its outcome. Exit codes: "
+        "0 simulated (whatever the outcome), 1 an error, 2 a usage error.",
     )
     p.add_argument("--slope", type=float, default=_D.slope_deg, help="surface slope, deg")
     p.add_argument("--speed", type=float, default=_D.speed, help="vertical impact speed, m/s")
@@ -50,23 +52,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--tau-down", type=float, default=_D.tau_down, help="downhill joint friction, N*m")
     p.add_argument("--angle-up", type=float, default=_D.angle_up_deg, help="uphill leg angle, deg")
     p.add_argument("--angle-down", type=float, default=_D.angle_down_deg, help="downhill leg angle, deg")
-    p.add_argument("--rvt", action="store_true", help="100 %% reverse thrust commanded at impact")
+    p.add_argument("--reverse", action="store_true", help="100 %% reverse thrust commanded at impact")
     p.add_argument(
-        "--rvt-percent",
+        "--reverse-percent",
         type=float,
         default=None,
-        help="reverse rotor command, percent of full: a speed, thrust goes with its square (implies --rvt)",
+        help="reverse rotor command, percent of full: a speed, thrust goes with its square "
+        "(implies --reverse)",
     )
-    p.add_argument("--rvt-delay", type=float, default=0.0, help="seconds from impact to the command")
+    p.add_argument("--reverse-delay", type=float, default=0.0, help="seconds from impact to the command")
     p.add_argument(
-        "--rvt-duration",
+        "--reverse-duration",
         type=float,
         default=math.inf,
         help="seconds the reverse thrust is held from its command, then ended (default: held to the "
         "end; the landing is judged after the thrust)",
     )
     p.add_argument(
-        "--rvt-ramp",
+        "--reverse-ramp",
         type=float,
         default=0.0,
         help="seconds over which it then ramps to zero (default 0: a step)",
@@ -78,6 +81,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dt", type=float, default=None, help="integration step, s")
     p.add_argument("--plot", type=Path, help="write a PNG of the landing here")
     p.add_argument("--csv", type=Path, help="write the 200 Hz trajectory here")
+    for old in ("", "-percent", "-delay", "-duration", "-ramp"):
+        renamed(p, f"--rvt{old}", f"--reverse{old}")
     # its files are closed when run returns: the process may end without the interpreter's teardown
     p.set_defaults(handler=run, exit_without_teardown=True)
 
@@ -101,10 +106,10 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.csv, "--csv")
     from slopelander.model import LandingConditions, simulate
 
-    pct = args.rvt_percent if args.rvt_percent is not None else (100.0 if args.rvt else 0.0)
+    pct = args.reverse_percent if args.reverse_percent is not None else (100.0 if args.reverse else 0.0)
     if pct > 0 and "rotors" in args.without:
         raise SlopelanderError(
-            "reverse thrust needs the rotors: drop --rvt/--rvt-percent or 'rotors' from --without"
+            "reverse thrust needs the rotors: drop --reverse/--reverse-percent or 'rotors' from --without"
         )
     cond = LandingConditions(
         slope_deg=args.slope,
@@ -117,9 +122,9 @@ def run(args: argparse.Namespace) -> int:
         angle_up_deg=args.angle_up,
         angle_down_deg=args.angle_down,
         reverse_percent=pct,
-        reverse_delay=args.rvt_delay,
-        reverse_duration=args.rvt_duration,
-        reverse_ramp=args.rvt_ramp,
+        reverse_delay=args.reverse_delay,
+        reverse_duration=args.reverse_duration,
+        reverse_ramp=args.reverse_ramp,
     )
     model = build_model(args)
     tr = simulate(cond, model, dt=args.dt)

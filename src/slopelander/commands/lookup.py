@@ -12,7 +12,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="print the legs' preset the lookup table gives for a slope and an impact speed",
         description="Print the friction torques and leg angles the lookup table gives for a landing "
         "at SLOPE deg and a vertical impact speed of SPEED m/s, with the outcome the model predicts. "
-        "A request outside the table is refused, never extrapolated.",
+        "A request outside the table is refused, never extrapolated. "
+        "Exit codes: 0 done, 1 an error, 2 a usage error, 130 interrupted.",
     )
     p.add_argument("--slope", type=float, required=True, help="landing slope, deg")
     p.add_argument("--speed", type=float, required=True, help="vertical impact speed, m/s")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from slopelander.commands.options import renamed
 from slopelander.legs.driver import BoardStatus, LegBoard, LegResult, PairMap
 from slopelander.legs.messages import N_LEGS
 
@@ -11,12 +12,33 @@ ANGLE_MAX_DEG = 37.5  # fully extended leg (paper Sec. III)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("legs", help="talk to the leg board (status, set, loosen)")
+    parser = subparsers.add_parser(
+        "legs",
+        help="talk to the leg board (status, calibrate, set, loosen, angle)",
+        description="Talk to the leg board over its serial device. Exit codes: 0 done, 1 an error "
+        "(or, for status --calibration, not ready to fly), 2 a usage error or nothing to set, "
+        "130 interrupted.",
+    )
     sub = parser.add_subparsers(dest="legs_command", metavar="ACTION", required=True)
 
+    def port(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "--legs-port",
+            required=True,
+            metavar="DEVICE",
+            help="the leg board's serial device, e.g. /dev/ttyACM0",
+        )
+        p.add_argument(
+            "--legs-baud",
+            type=int,
+            default=115200,
+            help="its baud rate (default 115200; USB serial ignores it)",
+        )
+        renamed(p, "--port", "--legs-port")
+        renamed(p, "--baud", "--legs-baud")
+
     def common(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--port", required=True, help="serial port path, e.g. /dev/ttyACM0")
-        p.add_argument("--baud", type=int, default=115200, help="baud rate (default 115200)")
+        port(p)
         p.add_argument("--calibration", help="calibration file (default: shipped, assumed)")
         p.add_argument("--timeout", type=float, default=20.0, help="seconds (default 20)")
 
@@ -32,6 +54,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "status",
         help="print the board and each leg's state, current, torque and angle; with "
         "--calibration, check board, calibration and lookup table before a flight",
+        description="Print the board and each leg's state, current, torque and angle. With "
+        "--calibration, also check that the board, the calibration and the lookup table agree "
+        "before a flight (exit code 1 when they do not).",
     )
     common(p)
     p.add_argument(
@@ -46,8 +71,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="measure each leg's current-to-torque curve on the bench and write a calibration file",
         description="Bench procedure: docs/legs-build.md, section Calibration.",
     )
-    p.add_argument("--port", required=True, help="serial port path, e.g. /dev/ttyACM0")
-    p.add_argument("--baud", type=int, default=115200, help="baud rate (USB serial ignores it)")
+    port(p)
     p.add_argument(
         "--masses", required=True, type=_masses, help="masses on the levers, kg, e.g. 0.2,0.45,0.7"
     )
@@ -65,11 +89,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.set_defaults(handler=_calibrate)
 
-    p = sub.add_parser("set", help="set friction torques (N·m per joint) and wait")
+    p = sub.add_parser(
+        "set",
+        help="set friction torques (N·m per joint) and wait",
+        description="Set the friction torques of the uphill and downhill pairs (or of single legs, "
+        "or from the lookup table) and wait until each leg holds its torque.",
+    )
     common(p)
     pairs(p)
-    p.add_argument("--uphill", type=float, help="uphill pair torque, N·m")
-    p.add_argument("--downhill", type=float, help="downhill pair torque, N·m")
+    p.add_argument("--tau-up", type=float, help="uphill pair torque, N·m")
+    p.add_argument("--tau-down", type=float, help="downhill pair torque, N·m")
     p.add_argument(
         "--leg",
         type=_leg_value,
@@ -88,19 +117,38 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--slope", type=float, help="landing slope for --table, deg")
     p.add_argument("--speed", type=float, help="vertical impact speed for --table, m/s")
-    p.set_defaults(handler=_set)
+    renamed(p, "--uphill", "--tau-up")
+    renamed(p, "--downhill", "--tau-down")
+    p.set_defaults(handler=_set, up="tau_up", down="tau_down")
 
-    p = sub.add_parser("loosen", help="loosen all legs so the springs reset them")
+    p = sub.add_parser(
+        "loosen",
+        help="loosen all legs so the springs reset them",
+        description="Loosen every leg's friction so that the springs bring the legs back to rest.",
+    )
     common(p)
     p.set_defaults(handler=_loosen)
 
-    p = sub.add_parser("angle", help="set leg rest angles (degrees, 0..37.5)")
+    p = sub.add_parser(
+        "angle",
+        help="set leg rest angles (degrees, 0..37.5)",
+        description="Set the legs' rest angles (boards with angle stops), per pair or per leg.",
+    )
     common(p)
     pairs(p)
-    p.add_argument("--uphill", type=_angle_deg, help="uphill pair angle, degrees")
-    p.add_argument("--downhill", type=_angle_deg, help="downhill pair angle, degrees")
-    p.add_argument("--leg", type=_leg_value, action="append", default=[], metavar="I=DEG")
-    p.set_defaults(handler=_angle)
+    p.add_argument("--angle-up", type=_angle_deg, help="uphill pair angle, degrees")
+    p.add_argument("--angle-down", type=_angle_deg, help="downhill pair angle, degrees")
+    p.add_argument(
+        "--leg",
+        type=_leg_value,
+        action="append",
+        default=[],
+        metavar="I=DEG",
+        help="one leg's angle (repeatable)",
+    )
+    renamed(p, "--uphill", "--angle-up")
+    renamed(p, "--downhill", "--angle-down")
+    p.set_defaults(handler=_angle, up="angle_up", down="angle_down")
 
 
 def _leg_list(text: str) -> tuple[int, ...]:
@@ -127,15 +175,19 @@ def _leg_value(text: str) -> tuple[int, float]:
 def _open(args: argparse.Namespace) -> LegBoard:
     pairs = PairMap(getattr(args, "uphill_legs", (0, 1)), getattr(args, "downhill_legs", (2, 3)))
     return LegBoard.open(
-        args.port, args.baud, calibration=args.calibration, pairs=pairs, timeout=min(args.timeout, 5.0)
+        args.legs_port,
+        args.legs_baud,
+        calibration=args.calibration,
+        pairs=pairs,
+        timeout=min(args.timeout, 5.0),
     )
 
 
 def _per_leg(args: argparse.Namespace, board: LegBoard) -> dict[int, float]:
     values: dict[int, float] = {}
-    for pair in ("uphill", "downhill"):
-        if getattr(args, pair) is not None:
-            values.update(dict.fromkeys(board.pairs.legs(pair), getattr(args, pair)))
+    for pair, dest in (("uphill", args.up), ("downhill", args.down)):
+        if getattr(args, dest) is not None:
+            values.update(dict.fromkeys(board.pairs.legs(pair), getattr(args, dest)))
     values.update(dict(args.leg))
     return values
 
@@ -221,7 +273,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         bench = simulated_bench(args.bench[4:])
     else:
         raise SlopelanderError(f"--bench must be prompt or sim:CONTROL_SOCKET, not {args.bench!r}")
-    board = LegBoard.open(args.port, args.baud, status_period_ms=20, timeout=5.0)
+    board = LegBoard.open(args.legs_port, args.legs_baud, status_period_ms=20, timeout=5.0)
     try:
         board.set_clock(bench.clock)
         if hasattr(bench, "poll"):  # a simulated board's bench steps the driver between its waits
@@ -259,17 +311,17 @@ def _calibrate(args: argparse.Namespace) -> int:
 
 
 def _from_table(args: argparse.Namespace) -> None:
-    """Fill --uphill/--downhill from the lookup table, before the board is opened."""
+    """Fill --tau-up/--tau-down from the lookup table, before the board is opened."""
     from slopelander.controller.table import DEFAULT_TABLE, LookupTable
     from slopelander.errors import SlopelanderError
 
     if args.slope is None or args.speed is None:
         raise SlopelanderError("--table needs --slope and --speed")
-    if args.uphill is not None or args.downhill is not None or args.leg:
-        raise SlopelanderError("give either --table or torques (--uphill/--downhill/--leg), not both")
+    if args.tau_up is not None or args.tau_down is not None or args.leg:
+        raise SlopelanderError("give either --table or torques (--tau-up/--tau-down/--leg), not both")
     path = DEFAULT_TABLE if args.table == "default" else args.table
     p = LookupTable.load(path).lookup(args.slope, args.speed)
-    args.uphill, args.downhill = p.tau_up, p.tau_down
+    args.tau_up, args.tau_down = p.tau_up, p.tau_down
     print(
         f"table {path}: {args.slope:g} deg, {args.speed:g} m/s -> uphill {p.tau_up:.2f} N·m, "
         f"downhill {p.tau_down:.2f} N·m; set the uphill legs to {p.angle_up_deg:.1f}° "
@@ -285,7 +337,7 @@ def _set(args: argparse.Namespace) -> int:
             print(f"(torques through an ASSUMED calibration: {board.calibration.source})")
         torques = _per_leg(args, board)
         if not torques:
-            print("nothing to set: give --uphill, --downhill or --leg")
+            print("nothing to set: give --tau-up, --tau-down or --leg")
             return 2
         results = board.wait(board.start_torques(torques, timeout=args.timeout, tolerance_nm=args.tolerance))
         print(format_results(results, "N·m"))
@@ -313,7 +365,7 @@ def _angle(args: argparse.Namespace) -> int:
     with _open(args) as board:
         angles = _per_leg(args, board)
         if not angles:
-            print("nothing to set: give --uphill, --downhill or --leg")
+            print("nothing to set: give --angle-up, --angle-down or --leg")
             return 2
         print(format_results(board.set_leg_angles(angles, timeout=args.timeout), "°"))
     return 0
