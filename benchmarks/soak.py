@@ -50,7 +50,8 @@ Faults, one drawn per landing (weights in ``FAULTS``):
   lists it in the table under ``sensor faults seen``.
 
 Checks per landing ("unsafe" = any of these):
-- ``hang``: no ending (LANDED→READY, ABORTED, ESTOP, READY) within 150 s of vehicle time or 300 s
+- ``hang``: no ending (LANDED→READY, ABORTED, ESTOP, READY; or HELD: :data:`sitl.rig.HELD_S` of
+  a hold in SETTLED after a slide, which waits for the pilot) within 150 s of vehicle time or 300 s
   of wall time;
 - ``stop_high``: the outputs stopped (vehicle event EV_STOP) before the landing's first contact
   while the body's range height was more than the cut height + 0.25 m, except after the pilot's
@@ -67,7 +68,8 @@ Checks per landing ("unsafe" = any of these):
 - ``legs_loose_on_ground``: LANDED with a leg LOOSE, or the legs loosened (RESET entered) with the
   body's range height under ``takeoff.clear_height_m`` − 0.1 m.
 Heights over the roof are the vehicle's (LOCAL_POSITION_NED, counted from home, 0.15 m above its
-pad) less the roof's height below it. The checks against a range threshold (the cut, the clear height)
+pad) less the roof's height below it; on ArduCopter, whose LOCAL_POSITION_NED is its EKF's
+estimate, the physics' true height (``TR_H``) counted the same way. The checks against a range threshold (the cut, the clear height)
 add the height of home over the pad (``Rig.home_range_m``, 0.15 m): the *range height*,
 the rangefinder's reading were the body level. An earlier version did not, and flagged legs
 loosened at a range height of 0.76-0.84 m as loosened at 0.61-0.69 m.
@@ -102,7 +104,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from sitl.legboard.control import BoardControl  # noqa: E402
-from sitl.rig import RIG_RATES, TRACK_MESSAGES, Rig, RigError, add_autopilot_args, config  # noqa: E402
+from sitl.rig import HELD_S, RIG_RATES, TRACK_MESSAGES, Rig, RigError, add_autopilot_args, config  # noqa: E402
 from sitl.vehicle.wind import MAX_RANDOM_GUSTS as MAX_GUSTS  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.link import mavlink  # noqa: E402
@@ -325,6 +327,7 @@ class Soak:
         self.restarts: Counter = Counter()
         self.row: dict = {}
         self._pos_sorted: tuple | None = None  # (key, the rig's positions in time order)
+        self._truth: tuple | None = None  # (key, the physics' TR_H samples in time order)
 
     # ---------------------------------------------------------------- vehicle life cycle
     def new_rig(self, i: int) -> None:
@@ -494,10 +497,20 @@ class Soak:
         seen = set()
         end = None
         took_off = False
+        held_since = None
         wall0 = time.monotonic()
         try:
             while True:
                 name = lander.poll()
+                # held armed on the roof after a slide, the motors held, the pilot told: the
+                # controller waits for the pilot and has no end of its own (as Rig.land ends it)
+                if name == "SETTLED" and "slide" in lander.ctx.marks.get("said", set()):
+                    held_since = rig.now if held_since is None else held_since
+                    if rig.now - held_since >= HELD_S and self.forever_until is None:
+                        end = "HELD"
+                        break
+                else:
+                    held_since = None
                 if self.real:  # the pilot's stick down while disarmed: ArduCopter's arming rule
                     rig.pilot_stick_down_while_disarmed()
                 seen.update(h["to"] for h in lander.machine.history)
@@ -570,15 +583,19 @@ class Soak:
         row["after"] = {
             "armed": rig.armed(),
             "clearance": round(self.clearance(rig.now), 2),
+            "clearance_reported": round(self.reported_clearance(rig.now), 2),
             "mode": rig.mode(),
             "servo": list(rig.track.servo[-1][1]) if rig.track.servo else None,
         }
         row["vehicle_said"] = [t for t in rig.track.statustext[said0:] if not t.startswith("SL ")][:12]
         row["script"] = [code for t, code in rig.track.script if t >= t0]
         row["unsafe"] = self.check(row, t0, cfg, history)
-        row["sensor_faults"] = sorted(
-            {f["kind"] for f in self.scenario_faults if f["start"] < rig.now and f["end"] > t0}
-        )
+        seen = [f for f in self.scenario_faults if f["start"] < rig.now and f["end"] > t0]
+        row["sensor_faults"] = sorted({f["kind"] for f in seen})
+        row["sensor_fault_times"] = seen  # vehicle times: what overlapped what
+        contact = rig.track.contact(t0)
+        row["contact"] = None if contact is None else {k: round(v, 3) for k, v in contact.items()}
+        row["stops"] = [round(t, 3) for t in rig.track.event_times("EV_STOP", t0)][:5]
 
     def fly_killed(self, row: dict, p, cfg, target: str) -> dict:
         """The landing flown by a companion process of its own, killed (SIGKILL) in ``target``;
@@ -687,6 +704,33 @@ class Soak:
 
     # --------------------------------------------------------------------------- checks
     def clearance(self, t: float) -> float:
+        """Height (m) of the body above the roof below it at vehicle time ``t``, counted as the
+        vehicle's LOCAL_POSITION_NED counts it (from home, :attr:`Rig.home_range_m` over the pad).
+        On ArduCopter from the physics' true height (its ``TR_H`` events, every 50 ms): the
+        autopilot reports its EKF's estimate, which put a cut 0.27 m too high and legs loosened
+        0.40 m too low on a 23 deg roof in the first soak. Where no true height is near, as
+        :meth:`reported_clearance`."""
+        h = self.true_height(t) if self.real else None
+        if h is not None:
+            return h - self.rig.home_range_m
+        return self.reported_clearance(t)
+
+    def true_height(self, t: float) -> float | None:
+        """The physics' height (m) of the body over the surface at ``t``, interpolated between its
+        TR_H samples; None without one within 0.2 s."""
+        ev = self.rig.track.events
+        if self._truth is None or self._truth[0] != (id(ev), len(ev)):
+            self._truth = ((id(ev), len(ev)), sorted((tt, v) for n, tt, v in ev if n == "TR_H"))
+        h = self._truth[1]
+        i = bisect.bisect_left(h, (t,))
+        if 0 < i < len(h):
+            (t0, h0), (t1, h1) = h[i - 1], h[i]
+            if t1 - t0 <= 0.2:
+                return h0 + (h1 - h0) * (t - t0) / (t1 - t0) if t1 > t0 else h1
+        near = [s for s in h[max(0, i - 1) : i + 1] if abs(s[0] - t) <= 0.2]
+        return near[0][1] if near else None
+
+    def reported_clearance(self, t: float) -> float:
         """Height (m) of the body above the roof below it at vehicle time ``t``, interpolated
         between the position samples around it. The samples are put in time order first: the
         recorder keeps them in arrival order, which a link that reorders frames shuffles (a

@@ -31,7 +31,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=None,
         metavar="JSONL",
         help="append the measurement events (contact, outputs stopped, outputs reversed; "
-        "sitl/vehicle/events.py) to this file, one JSON object a line, in ArduPilot's boot time",
+        "sitl/vehicle/events.py) and the body's true height over the surface every 50 ms (TR_H) "
+        "to this file, one JSON object a line, in ArduPilot's boot time",
     )
     ap.add_argument(
         "--rc-port",
