@@ -69,10 +69,11 @@ Checks per landing ("unsafe" = any of these):
   body's range height under ``takeoff.clear_height_m`` − 0.1 m.
 Heights over the roof are the vehicle's (LOCAL_POSITION_NED, counted from home, 0.15 m above its
 pad) less the roof's height below it; on ArduCopter, whose LOCAL_POSITION_NED is its EKF's
-estimate, the physics' true height (``TR_H``) counted the same way. The checks against a range threshold (the cut, the clear height)
-add the height of home over the pad (``Rig.home_range_m``, 0.15 m): the *range height*,
-the rangefinder's reading were the body level. An earlier version did not, and flagged legs
-loosened at a range height of 0.76-0.84 m as loosened at 0.61-0.69 m.
+estimate, the physics' true height (``TR_H``) counted the same way. The checks against a range
+threshold (the cut, the clear height) add the height of home over the pad
+(``Rig.home_range_m``, 0.15 m): the *range height*, the rangefinder's reading were the body level.
+An earlier version did not, and flagged legs loosened at a range height of 0.76-0.84 m as
+loosened at 0.61-0.69 m.
 Telemetry lost in a cut is not seen; the end state after the link is back is.
 """
 
@@ -966,7 +967,8 @@ def main() -> None:
     print(out.getvalue(), end="")
     if a.log is not None and str(a.results) != "-":
         a.results.mkdir(parents=True, exist_ok=True)
-        dest = a.results / f"{date.today().isoformat()}-soak-{a.autopilot}.txt"
+        name = "arducopter" if real else "sim"
+        dest = a.results / f"{date.today().isoformat()}-soak-{name}.txt"
         cmd = "python3 benchmarks/soak.py " + " ".join(sys.argv[1:])
         load = os.getloadavg()[0]
         dest.write_text(
