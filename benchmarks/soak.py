@@ -95,6 +95,7 @@ import threading
 import time
 from collections import Counter
 from datetime import date
+from itertools import pairwise
 from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -1023,7 +1024,8 @@ def report(runs: list[tuple[str, list[dict]]], out=None) -> None:
         say("no landings")
         return
     wall = sum(max((r.get("wall_t", 0.0) for r in rs), default=0.0) for _, rs in runs)
-    rigs = sum(len({r.get("rig") for r in rs}) for _, rs in runs)
+    # a vehicle's landings are in a row; a resumed run numbers its vehicles from 1 again
+    rigs = sum(1 + sum(1 for a, b in pairwise(rs) if a.get("rig") != b.get("rig")) for _, rs in runs if rs)
     say(
         f"\n{n} landings on {rigs} vehicles in {len(runs)} run(s), {wall:.0f} s wall in all "
         f"({wall / n:.1f} s per landing)"
