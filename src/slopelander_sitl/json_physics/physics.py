@@ -64,6 +64,9 @@ SLICE_STEP_DEG = 0.05
 #: rest moves by 1e-14 m a frame, and ArduPilot reads the range in centimetres at 20 Hz, while
 #: the trace is a third of a frame's work at 800 frames a second (ArduCopter's boot on its pad)
 BEAM_REUSE = 1e-6
+#: physics seconds between two ``TR_H`` events: the body's true height over the surface under it
+#: (m), for a soak's checks on real ArduCopter, whose LOCAL_POSITION_NED is its EKF's estimate
+TRUTH_PERIOD_S = 0.05
 
 
 class JsonPhysics:
@@ -92,6 +95,7 @@ class JsonPhysics:
         self._beam: tuple | None = None
         self._outputs: tuple | None = None  # the last frame's motor outputs and their commands
         self.events = Events(self._send_event) if self._send_event is not None else None
+        self._truth_next = 0.0
         self.home_ne = self.world.ne(self.home[0])
         self.roll = Roll(self.stepper.model.params)
         self.yaw = Yaw(self.stepper.model.params, self.roll)
@@ -146,6 +150,9 @@ class JsonPhysics:
             self.legs.update(self)
         if self.events is not None:
             self.events.after_physics_step(st, t, lambda: self._world_body(BodyState(*m)))
+            if t >= self._truth_next:
+                self._truth_next = t + TRUTH_PERIOD_S
+                self._send_event("TR_H", t, self.height_m())
 
     def script_may_time(self) -> bool:
         """:func:`~slopelander_sitl.json_physics.companion_gate.script_may_time` for this frame's body and
