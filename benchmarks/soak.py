@@ -407,7 +407,8 @@ class Soak:
         """Turn ArduCopter to face north, down the roof's fall line (the planar model's +x), where
         it hovers. Its GUIDED yaws toward where it flies: brought back south over the roof after an
         abort it faced uphill, and the physics hands a section falling toward the vehicle's back
-        over level (src/slopelander_sitl/vehicle/world.py): 9 of the first 52 contacts on 41-46 deg roofs were on
+        over level (src/slopelander_sitl/vehicle/world.py): 9 of the first 52 contacts on 41-46 deg roofs
+        were on
         a level section. The soak's landing does not turn it: its descent is vertical."""
         rig = self.rig
         _, x, z, _, _ = rig.track.pos[-1]

@@ -31,8 +31,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=None,
         metavar="JSONL",
         help="append the measurement events (contact, outputs stopped, outputs reversed; "
-        "src/slopelander_sitl/vehicle/events.py) and the body's true height over the surface every 50 ms (TR_H) "
-        "to this file, one JSON object a line, in ArduPilot's boot time",
+        "slopelander_sitl.vehicle.events) and the body's true height over the surface every "
+        "50 ms (TR_H) to this file, one JSON object a line, in ArduPilot's boot time",
     )
     ap.add_argument(
         "--rc-port",
@@ -63,7 +63,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def warm() -> None:
     """What every physics loads before its first frame, loaded once in a process that physics
-    servers are forked from (:mod:`slopelander_sitl.zygote`; the compiled model is the simulated vehicle's)."""
+    servers are forked from (:mod:`slopelander_sitl.zygote`; the compiled model is the simulated
+    vehicle's)."""
     import slopelander_sitl.json_physics.companion_gate
     import slopelander_sitl.json_physics.physics
     import slopelander_sitl.json_physics.pilot_rc
