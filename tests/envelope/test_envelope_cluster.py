@@ -1,0 +1,126 @@
+"""Maps and the lookup table on a real Dask cluster (a scheduler and two worker processes on
+127.0.0.1): the same landings as one machine, bit for bit; a worker killed mid-sweep loses and
+repeats nothing; a worker with another slopelander is refused."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+
+distributed = pytest.importorskip("distributed")
+
+from slopelander.envelope.cluster import ClusterVersionError, fingerprint  # noqa: E402
+from slopelander.envelope.sweep import run_sweep, simulate_chunk, task_size  # noqa: E402
+from slopelander.envelope.table import build_table  # noqa: E402
+from slopelander.model import simulate_batch  # noqa: E402
+from tests.envelope.loopback_cluster import LoopbackCluster, other_slopelander  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with LoopbackCluster(workers=2) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def grid(tiny_axes):
+    """20 cells x 4 torque pairs: 80 landings."""
+    pairs = ((0.56, 1.1), (1.1, 2.3), (1.7, 1.7), (2.3, 0.56))
+    return np.concatenate([tiny_axes.conditions(tau_up=u, tau_down=d) for u, d in pairs])
+
+
+@pytest.fixture(scope="module")
+def reference(grid, model):
+    return simulate_batch(grid, model)
+
+
+def same(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.dtype == b.dtype and a.tobytes() == b.tobytes()  # NaN-aware, bit for bit
+
+
+def test_a_sweep_on_two_worker_processes_is_the_one_machine_sweep(cluster, grid, model, reference):
+    with distributed.get_task_stream(cluster.client) as ts:
+        out = run_sweep(grid, model, chunk=10, client=cluster.client, progress=False)
+    assert same(out, reference)
+    ran = [t for t in ts.data if t["key"].startswith("simulate_chunk")]
+    assert len(ran) == 8
+    assert len({t["worker"] for t in ran}) == 2, "both worker processes took chunks"
+    # by address too, the client made and closed on the way
+    assert same(run_sweep(grid[:7], model, client=cluster.address, progress=False), reference[:7])
+
+
+def test_the_lookup_table_on_the_cluster_is_the_one_machine_table(cluster, model, tiny_axes):
+    here_doc, here = build_table(model, tiny_axes, "rvt", progress=False)
+    there_doc, there = build_table(model, tiny_axes, "rvt", client=cluster.client, progress=False)
+    assert here.fields.keys() == there.fields.keys()
+    for name, values in here.fields.items():
+        assert values.tobytes() == there.fields[name].tobytes(), name
+    assert here_doc["cells"] == there_doc["cells"]
+
+
+def test_cluster_tasks_are_cut_to_amortise_their_overhead():
+    assert task_size(100_000, 2) == 1024  # at most a chunk's worth
+    assert task_size(8000, 2) == 1000  # four tasks a worker thread
+    assert task_size(40, 2) == 32  # never smaller than the overhead allows
+
+
+def test_a_task_refuses_a_worker_with_another_slopelander(grid, model):
+    with pytest.raises(ClusterVersionError, match=r"this process runs slopelander .* other sources"):
+        simulate_chunk(grid[:1], model, fingerprint().split("+")[0] + "+000000000000")
+    with pytest.raises(ClusterVersionError, match=r"runs slopelander \d.*, the client 9\.9"):
+        simulate_chunk(grid[:1], model, "9.9+000000000000")
+
+
+def test_a_cluster_of_another_slopelander_is_refused_with_its_versions(tmp_path, grid, model):
+    path = other_slopelander(tmp_path, "0.0.0-other")
+    with LoopbackCluster(workers=1, nanny=False, pythonpath=path) as other:
+        (address,) = other.client.scheduler_info()["workers"]
+        with pytest.raises(ClusterVersionError) as err:
+            run_sweep(grid[:4], model, client=other.client, progress=False)
+        text = str(err.value)
+        assert address in text and "0.0.0-other" in text and fingerprint().split("+")[0] in text
+        assert "install the same slopelander on every worker" in text
+        # a worker that joins after the check is refused by each task it is given
+        task = other.client.submit(simulate_chunk, grid[:1], model, fingerprint(), pure=False)
+        with pytest.raises(ClusterVersionError, match=r"0\.0\.0-other"):
+            task.result()
+
+
+def test_a_worker_killed_mid_sweep_loses_and_repeats_nothing(cluster, grid, model, reference, capsys):
+    """One worker process is killed (SIGKILL) while it runs a chunk: the scheduler runs its
+    chunks again on the other worker (and on the one its nanny starts in its place); every
+    landing is there, once, bit for bit."""
+    client = cluster.client
+    pids = cluster.worker_pids()
+    big = np.concatenate([grid, grid])  # 160 landings in 20 chunks
+    done: dict[str, np.ndarray] = {}
+    sweep = threading.Thread(
+        target=lambda: done.update(
+            out=run_sweep(big, model, chunk=8, client=client, progress=True, desc="killed")
+        )
+    )
+    sweep.start()
+    victim, end = None, time.monotonic() + 120
+    while victim is None and sweep.is_alive() and time.monotonic() < end:
+        busy = [a for a, keys in client.processing().items() if any("simulate_chunk" in k for k in keys)]
+        if busy:
+            victim = busy[0]
+            os.kill(pids[victim], signal.SIGKILL)
+        else:
+            time.sleep(0.02)
+    assert victim is not None, "no worker was ever running a chunk"
+    was_running = sweep.is_alive()
+    sweep.join(timeout=300)
+    assert not sweep.is_alive()
+    assert was_running, "the sweep ended before the kill"
+    assert same(done["out"], np.concatenate([reference, reference]))
+    counts = [int(n) for n in re.findall(r"(\d+)/160\b", capsys.readouterr().err)]
+    assert max(counts) == 160 and counts == sorted(counts), "each landing counted once"
+    assert victim not in client.scheduler_info()["workers"]
+    client.wait_for_workers(2, timeout=120)  # its nanny started another in its place
