@@ -72,7 +72,8 @@ class LoopbackCluster:
             self.add_worker(f"w{i}")
         self.client = Client(self.address, timeout="60s")
         try:
-            self.client.wait_for_workers(workers, timeout=START_TIMEOUT)
+            if workers:
+                self.client.wait_for_workers(workers, timeout=START_TIMEOUT)
         except TimeoutError:
             logs = "\n".join(self.log(f"w{i}") for i in range(workers))
             raise RuntimeError(f"the workers did not join:\n{logs}") from None

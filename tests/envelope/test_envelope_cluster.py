@@ -15,7 +15,7 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from slopelander.envelope.cluster import ClusterVersionError, fingerprint  # noqa: E402
+from slopelander.envelope.cluster import ClusterError, ClusterVersionError, fingerprint, prepare  # noqa: E402
 from slopelander.envelope.sweep import run_sweep, simulate_chunk, task_size  # noqa: E402
 from slopelander.envelope.table import build_table  # noqa: E402
 from slopelander.model import simulate_batch  # noqa: E402
@@ -90,6 +90,14 @@ def test_a_cluster_of_another_slopelander_is_refused_with_its_versions(tmp_path,
         task = other.client.submit(simulate_chunk, grid[:1], model, fingerprint(), pure=False)
         with pytest.raises(ClusterVersionError, match=r"0\.0\.0-other"):
             task.result()
+
+
+def test_a_scheduler_without_workers_is_an_error_not_a_wait_for_ever():
+    with (
+        LoopbackCluster(workers=0) as empty,
+        pytest.raises(ClusterError, match=r"has no workers \(waited 1 s\): start them with 'dask worker tcp"),
+    ):
+        prepare(empty.client, ("batch",), wait=1.0)
 
 
 def test_a_worker_killed_mid_sweep_loses_and_repeats_nothing(cluster, grid, model, reference, capsys):

@@ -125,12 +125,21 @@ def connect(address: str, timeout: str = "10s"):
         raise ClusterError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
 
 
-def prepare(client, warm: Sequence[str]) -> None:
+def prepare(client, warm: Sequence[str], wait: float = 60.0) -> None:
     """Check every worker's slopelander and warm it up for ``warm`` (see :data:`WARM_UPS`);
-    waits until that is done on every worker, once per client and kind of work."""
+    waits until that is done on every worker, once per client and kind of work. A cluster
+    without workers is given ``wait`` seconds to get one, then refused (not waited on for ever)."""
     done = _PREPARED.setdefault(client, set())
     if set(warm) <= done:
         return
+    if not client.nthreads():
+        try:
+            client.wait_for_workers(1, timeout=wait)
+        except TimeoutError:
+            raise ClusterError(
+                f"the Dask scheduler at {client.scheduler.address} has no workers (waited {wait:g} s): "
+                f"start them with 'dask worker {client.scheduler.address}' (docs/cluster.md)"
+            ) from None
     plugin = SlopelanderWorker(fingerprint(), sorted(done | set(warm)))
     try:
         client.register_plugin(plugin, name="slopelander")

@@ -317,7 +317,11 @@ def _search_args(p: argparse.ArgumentParser) -> None:
         default=None,
         help="processes (default: SLOPELANDER_WORKERS, else one per core)",
     )
-    g.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
+    g.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="run the evaluations on a Dask cluster, e.g. tcp://host:8786 (docs/cluster.md)",
+    )
     g.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -369,9 +373,19 @@ def _search_settings(args: argparse.Namespace) -> dict:
 def _client(args: argparse.Namespace):
     if not args.dask:
         return None
-    from slopelander.envelope.sweep import connect
+    if args.workers is not None:
+        raise IdentCliError(
+            "--workers counts processes on this machine; with --dask the cluster's worker threads "
+            "do the work (start the workers with as many threads as you want used)"
+        )
+    from slopelander.envelope.cluster import connect
 
     return connect(args.dask)
+
+
+def _close(settings: dict) -> None:
+    if settings.get("client") is not None:
+        settings["client"].close()
 
 
 def register_fit(subparsers: argparse._SubParsersAction) -> None:
@@ -428,6 +442,7 @@ def run_fit(args: argparse.Namespace) -> int:
         raise IdentCliError(str(exc)) from None
     finally:
         bar.close()
+        _close(settings)
     print(sf.table())
     for w in sf.warnings():
         print(f"warning: {w}")
@@ -531,6 +546,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     model = build_model(args)
     names, bounds = _fit_spec(args.fit)
     users = candidate_effects(args.candidates)
+    settings = _search_settings(args)
     bar = _Bar(args.quiet, "diagnose")
     try:
         d = diagnose(
@@ -543,13 +559,14 @@ def run_diagnose(args: argparse.Namespace) -> int:
             refit_evals=args.refit_evals,
             folds=args.folds,
             refit_from_centre=args.refit_from_centre,
-            **_search_settings(args),
+            **settings,
             progress=bar,
         )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:
         bar.close()
+        _close(settings)
     print(d.table())
     print(d.verdict())
     weighing = d.weighing()
@@ -623,6 +640,7 @@ def run_steps_cmd(args: argparse.Namespace) -> int:
         if c.user is None and c.name in model.effects:
             raise IdentCliError(f"--add {c.name!r}: the base model already has it (remove it with --without)")
     names, bounds = _fit_spec(args.fit)
+    settings = _search_settings(args)
     bar = _Bar(args.quiet, "steps")
     try:
         st = run_steps(
@@ -631,13 +649,14 @@ def run_steps_cmd(args: argparse.Namespace) -> int:
             effects,
             names=names,
             bounds=bounds,
-            **_search_settings(args),
+            **settings,
             progress=bar,
         )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:
         bar.close()
+        _close(settings)
     print(st.table())
     if args.plot:
         print(f"plot: {st.plot(args.plot)}")

@@ -207,8 +207,20 @@ def _worker_part(task: tuple[np.ndarray, list[int]]) -> np.ndarray:
     return _WORKER_PROBLEM.residuals(task[0], task[1])
 
 
-def _dask_residuals(problem: Problem, u: np.ndarray) -> np.ndarray:
-    return problem.residuals(u)
+def _dask_keep(problem: Problem, expected: str) -> Problem:
+    """The fit's drops and model, held on the cluster once per fit (run again from its task
+    should every copy be lost with its worker)."""
+    from slopelander.envelope.cluster import check_worker
+
+    check_worker(expected)
+    return problem
+
+
+def _dask_part(problem: Problem, u: np.ndarray, which: list[int], expected: str) -> np.ndarray:
+    from slopelander.envelope.cluster import check_worker
+
+    check_worker(expected)
+    return problem.residuals(u, which)
 
 
 WORKERS_ENV = "SLOPELANDER_WORKERS"
@@ -242,13 +254,20 @@ class Evaluator:
         problem.model.kernel()
         if client is None and self.workers > 1 and "fork" in mp.get_all_start_methods():
             self._pool = mp.get_context("fork").Pool(self.workers, _init_worker, (problem,))
+        self._held = None
+        if client is not None:
+            from slopelander.envelope.cluster import fingerprint, prepare, threads
+
+            prepare(client, ("landing",))
+            self._expected, self._slots = fingerprint(), threads(client)
+            # sent once: each task then carries a point and the drops it simulates, not the drops
+            self._held = client.submit(_dask_keep, problem, self._expected, pure=False)
         self.nfev = 0
 
     def residuals(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
         self.nfev += len(points)
         if self.client is not None:
-            futs = self.client.map(_dask_residuals, [self.problem] * len(points), list(points), pure=False)
-            return self.client.gather(futs)
+            return self._on_cluster(points)
         if self._pool is not None:
             # each point's drops shared out between the processes, one part a task: a single
             # point (a least-squares step) uses them all, and a population's slow points (long
@@ -261,7 +280,27 @@ class Evaluator:
             return [np.concatenate(parts[i * k : (i + 1) * k]) for i in range(len(points))]
         return [self.problem.residuals(u) for u in points]
 
+    def _on_cluster(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """As the pool, on the cluster's worker threads: a point's drops in parts when there are
+        fewer points than threads (a least-squares step), joined in the same order."""
+        from slopelander.envelope.cluster import gather
+
+        n = len(self.problem.drops)
+        parts = min(n, max(1, -(-self._slots // max(1, len(points)))))
+        chunks = [c.tolist() for c in np.array_split(np.arange(n), parts)]
+        futures = [
+            self.client.submit(_dask_part, self._held, u, c, self._expected, pure=False)
+            for u in points
+            for c in chunks
+        ]
+        got: list = [None] * len(futures)
+        gather(futures, got.__setitem__)
+        return [np.concatenate(got[i * parts : (i + 1) * parts]) for i in range(len(points))]
+
     def close(self) -> None:
+        if self._held is not None:
+            self._held.release()
+            self._held = None
         if self._pool is not None:
             self._pool.terminate()
             self._pool.join()
