@@ -216,11 +216,13 @@ def _dask_keep(problem: Problem, expected: str) -> Problem:
     return problem
 
 
-def _dask_part(problem: Problem, u: np.ndarray, which: list[int], expected: str) -> np.ndarray:
+def _dask_part(
+    problem: Problem, points: list[np.ndarray], which: list[int] | None, expected: str
+) -> list[np.ndarray]:
     from slopelander.envelope.cluster import check_worker
 
     check_worker(expected)
-    return problem.residuals(u, which)
+    return [problem.residuals(u, which) for u in points]
 
 
 WORKERS_ENV = "SLOPELANDER_WORKERS"
@@ -281,21 +283,29 @@ class Evaluator:
         return [self.problem.residuals(u) for u in points]
 
     def _on_cluster(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
-        """As the pool, on the cluster's worker threads: a point's drops in parts when there are
-        fewer points than threads (a least-squares step), joined in the same order."""
+        """As the pool, on the cluster's worker threads, one task a thread: a block of points,
+        or, with fewer points than threads (a least-squares step), a part of each point's
+        drops, joined in the same order. A point takes milliseconds to tenths of a second, a
+        task's round trip milliseconds: one task per point would spend as long on the trips."""
         from slopelander.envelope.cluster import gather
 
-        n = len(self.problem.drops)
-        parts = min(n, max(1, -(-self._slots // max(1, len(points)))))
-        chunks = [c.tolist() for c in np.array_split(np.arange(n), parts)]
+        n, m = len(self.problem.drops), len(points)
+        if m >= self._slots:
+            tasks = [([points[i] for i in b], None) for b in np.array_split(np.arange(m), self._slots)]
+            parts = 1
+        else:
+            parts = min(n, -(-self._slots // max(1, m)))
+            chunks = [c.tolist() for c in np.array_split(np.arange(n), parts)]
+            tasks = [([u], c) for u in points for c in chunks]
         futures = [
-            self.client.submit(_dask_part, self._held, u, c, self._expected, pure=False)
-            for u in points
-            for c in chunks
+            self.client.submit(_dask_part, self._held, us, which, self._expected, pure=False)
+            for us, which in tasks
         ]
         got: list = [None] * len(futures)
         gather(futures, got.__setitem__)
-        return [np.concatenate(got[i * parts : (i + 1) * parts]) for i in range(len(points))]
+        if parts == 1:
+            return [r for block in got for r in block]
+        return [np.concatenate([got[i * parts + j][0] for j in range(parts)]) for i in range(m)]
 
     def close(self) -> None:
         if self._held is not None:
