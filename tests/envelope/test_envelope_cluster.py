@@ -12,12 +12,13 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 
 distributed = pytest.importorskip("distributed")
 
+from slopelander.cli import main  # noqa: E402
 from slopelander.envelope.cluster import ClusterError, ClusterVersionError, fingerprint, prepare  # noqa: E402
 from slopelander.envelope.sweep import run_sweep, simulate_chunk, task_size  # noqa: E402
-from slopelander.envelope.table import build_table  # noqa: E402
 from slopelander.model import simulate_batch  # noqa: E402
 from tests.envelope.loopback_cluster import LoopbackCluster, other_slopelander  # noqa: E402
 
@@ -55,13 +56,15 @@ def test_a_sweep_on_two_worker_processes_is_the_one_machine_sweep(cluster, grid,
     assert same(run_sweep(grid[:7], model, client=cluster.address, progress=False), reference[:7])
 
 
-def test_the_lookup_table_on_the_cluster_is_the_one_machine_table(cluster, model, tiny_axes):
-    here_doc, here = build_table(model, tiny_axes, "rvt", progress=False)
-    there_doc, there = build_table(model, tiny_axes, "rvt", client=cluster.client, progress=False)
-    assert here.fields.keys() == there.fields.keys()
-    for name, values in here.fields.items():
-        assert values.tobytes() == there.fields[name].tobytes(), name
-    assert here_doc["cells"] == there_doc["cells"]
+def test_the_table_command_on_the_cluster_writes_the_one_machine_table(cluster, tmp_path, capsys):
+    grid = ["--slope-step", "15", "--speed-step", "0.8", "--speed-min", "0.6", "--quiet"]
+    here, there = tmp_path / "here.yaml", tmp_path / "there.yaml"
+    assert main(["table", "--out", str(here), *grid]) == 0
+    assert main(["table", "--out", str(there), *grid, "--dask", cluster.address]) == 0
+    a, b = yaml.safe_load(here.read_text()), yaml.safe_load(there.read_text())
+    assert a["cells"]["outcome"] and a["cells"] == b["cells"] and a["axes"] == b["axes"]
+    assert main(["table", "--out", str(there), *grid, "--dask", "tcp://127.0.0.1:9"]) == 1
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in capsys.readouterr().err
 
 
 def test_cluster_tasks_are_cut_to_amortise_their_overhead():
