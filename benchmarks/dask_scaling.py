@@ -1,15 +1,16 @@
 """Dask on this machine: the speed-up from 1 to 2 workers, a task's overhead, and the break-even.
 
-    python3 benchmarks/dask_scaling.py                 # about 2-4 minutes on 2 busy cores
-    python3 benchmarks/dask_scaling.py --sizes 64 256   # fewer grid sizes
+    python3 benchmarks/dask_scaling.py                 # about 3-5 minutes on 2 busy cores
+    python3 benchmarks/dask_scaling.py --sizes 64 256 --rounds 3   # shorter
 
 Starts a real ``dask scheduler`` and ``dask worker`` processes on 127.0.0.1 (one thread each,
 as docs/cluster.md advises) and measures, in the same run and on the same landings (a map's
 mix: slopes 0-60 deg, speeds 0.5-3 m/s, the 16 torque-level pairs):
 
 - the single-process baseline: ``simulate_batch`` on one thread and on every core;
-- ``run_sweep`` on the cluster with 1 worker, then with 2, for each grid size (its tasks cut
-  as ``--dask`` cuts them); each configuration in turn, repeated, the best time kept;
+- ``run_sweep`` on a cluster of 1 worker and on one of 2, for each grid size (its tasks cut
+  as ``--dask`` cuts them); every configuration in turn within a round, the median of the
+  rounds (and of the ratios within each round) printed;
 - a task's overhead: many tasks of no landing through the same path (submit, the version
   check, the result back), and the same figure from the sweeps (cluster time less the
   single-thread time, over the tasks);
@@ -24,12 +25,14 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
+import statistics
 import sys
 import time
 from pathlib import Path
 
 import numba
 import numpy as np
+import psutil
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -39,6 +42,8 @@ from slopelander.model import Model, condition_grid, simulate_batch
 from tests.envelope.loopback_cluster import LoopbackCluster
 
 LEVELS = (0.56, 1.1, 1.7, 2.3)
+IDLE_S = 4.0
+"""Seconds the idle clusters are watched for the CPU they burn doing nothing."""
 
 
 def map_mix(n: int, seed: int = 0) -> np.ndarray:
@@ -51,13 +56,29 @@ def map_mix(n: int, seed: int = 0) -> np.ndarray:
     return full[np.random.default_rng(seed).choice(len(full), n, replace=False)]
 
 
-def best_of(repeats: int, fn) -> float:
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return min(times)
+def cpu_seconds(pids: list[int]) -> float:
+    """User + system CPU time of these processes so far (this one's every thread included)."""
+    total = 0.0
+    for pid in pids:
+        try:
+            t = psutil.Process(pid).cpu_times()
+        except psutil.NoSuchProcess:
+            continue
+        total += t.user + t.system
+    return total
+
+
+def cluster_pids(cluster: LoopbackCluster) -> list[int]:
+    """This process, the scheduler, the nannies and the workers: every process a task uses."""
+    return [os.getpid(), *(p.pid for p in cluster.procs), *cluster.worker_pids().values()]
+
+
+def timed(fn, pids: list[int]) -> tuple[float, float]:
+    """(wall seconds, CPU seconds of ``pids``) of ``fn()``: on a machine shared with other work
+    the CPU seconds hold still while the wall time moves with the load."""
+    c, t = cpu_seconds(pids), time.perf_counter()
+    fn()
+    return time.perf_counter() - t, cpu_seconds(pids) - c
 
 
 def local(grid: np.ndarray, model: Model, threads: int) -> None:
@@ -73,41 +94,39 @@ def sweep(grid: np.ndarray, model: Model, client) -> None:
     run_sweep(grid, model, client=client, progress=False)
 
 
-def empty_task_overhead(client, model: Model, tasks: int) -> float:
-    """Seconds per task of no landing, one worker thread busy with them back to back."""
+def empty_tasks(client, model: Model, tasks: int) -> None:
+    """``tasks`` tasks of no landing through a sweep's path, back to back."""
     empty = condition_grid(slope_deg=0.0, speed=1.0)[:0]
     expected = fingerprint()
-    t = time.perf_counter()
-    futures = [client.submit(simulate_chunk, empty, model, expected, pure=False) for _ in range(tasks)]
-    client.gather(futures)
-    return (time.perf_counter() - t) / tasks
+    client.gather([client.submit(simulate_chunk, empty, model, expected, pure=False) for _ in range(tasks)])
 
 
-def fit_points(client, model: Model, points: int) -> float:
+def fit_problem(model: Model):
+    """Residuals over 4 drops of 0.5 s, the paper's seven parameters: a fit's unit of work."""
     from slopelander.ident.compare import state_ranges
-    from slopelander.ident.fit import Evaluator, Problem, resolve_params
+    from slopelander.ident.fit import Problem, resolve_params
     from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
 
     drops = synthesize(model, paper_drops(4, seed=1), NoiseModel(), duration=0.5)
-    prob = Problem(model, drops, resolve_params(model), state_ranges(drops))
+    return Problem(model, drops, resolve_params(model), state_ranges(drops))
+
+
+def fit_points(client, prob, points: int, pids: list[int]) -> tuple[float, float]:
+    """(wall, CPU) seconds to evaluate ``points`` parameter points (a CMA-ES generation)."""
+    from slopelander.ident.fit import Evaluator
+
     us = [np.random.default_rng(k).uniform(0.3, 0.7, len(prob.params)) for k in range(points)]
     with Evaluator(prob, workers=1, client=client) as ev:
         ev.residuals(us[:1])  # the drops sent, the workers warm
-        t = time.perf_counter()
-        ev.residuals(us)
-        return time.perf_counter() - t
+        return timed(lambda: ev.residuals(us), pids)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument(
-        "--sizes", type=int, nargs="+", default=[32, 64, 128, 256, 512], help="grid sizes (landings)"
-    )
-    ap.add_argument("--repeats", type=int, default=2, help="runs of each configuration; the best is kept")
-    ap.add_argument("--empty-tasks", type=int, default=200, help="tasks of no landing for the overhead")
-    ap.add_argument(
-        "--fit-points", type=int, default=16, help="parameter points of the fit section (0: skip)"
-    )
+    ap.add_argument("--sizes", type=int, nargs="+", default=[32, 128, 512], help="landings")
+    ap.add_argument("--rounds", type=int, default=5, help="rounds of every configuration in turn")
+    ap.add_argument("--empty-tasks", type=int, default=200, help="tasks of no landing (overhead)")
+    ap.add_argument("--fit-points", type=int, default=16, help="points of the fit section (0: skip)")
     args = ap.parse_args()
 
     model = Model.default()
@@ -117,74 +136,99 @@ def main() -> None:
         f"load average {os.getloadavg()[0]:.2f} before the run"
     )
     grids = {n: map_mix(n, seed=n) for n in args.sizes}
-    rows = {n: {} for n in args.sizes}
-    t_fit = {}
-    with LoopbackCluster(workers=1) as cluster:
-        client = cluster.client
-        run_sweep(grids[args.sizes[0]][:2], model, client=client, progress=False)  # checked and warm
-        over_1w = empty_task_overhead(client, model, args.empty_tasks)
-        for n, g in grids.items():
-            rows[n]["here_1"] = best_of(args.repeats, lambda g=g: local(g, model, 1))
-            rows[n]["here_all"] = best_of(args.repeats, lambda g=g: local(g, model, os.cpu_count() or 1))
-            rows[n]["1w"] = best_of(
-                args.repeats, lambda g=g: run_sweep(g, model, client=client, progress=False)
-            )
-        if args.fit_points:
-            t_fit["1w"] = fit_points(client, model, args.fit_points)
-        cluster.add_worker("w1")
-        client.wait_for_workers(2, timeout=300)
-        client.run(warm_up, ("batch", "landing"))  # the new worker's model loaded before the clock
-        over_2w = empty_task_overhead(client, model, args.empty_tasks)
-        for n, g in grids.items():
-            rows[n]["2w"] = best_of(
-                args.repeats, lambda g=g: run_sweep(g, model, client=client, progress=False)
-            )
-            rows[n]["here_1b"] = best_of(args.repeats, lambda g=g: local(g, model, 1))
-        if args.fit_points:
-            t_fit["2w"] = fit_points(client, model, args.fit_points)
-            t_fit["here"] = fit_points(None, model, args.fit_points)
+    cores = os.cpu_count() or 1
+    here = [os.getpid()]
+    # both clusters up at once, used in turn: an idle worker costs nothing, and each round
+    # measures every configuration within seconds of the others (this machine's speed moves)
+    with LoopbackCluster(workers=1) as one, LoopbackCluster(workers=2) as two:
+        for c in (one, two):
+            c.client.run(warm_up, ("batch", "landing"))
+            sweep(grids[args.sizes[0]][:2], model, c.client)  # checked and warm
+        pids = {"1": cluster_pids(one), "2": cluster_pids(two)}
+        # what an idle cluster burns (heartbeats, memory monitors): not a task's cost
+        idle = {k: timed(lambda: time.sleep(IDLE_S), ps) for k, ps in pids.items()}
+        idle_rate = {k: u / w for k, (w, u) in idle.items()}
+        configs = {
+            "here, 1 thread": (lambda g: local(g, model, 1), here),
+            "here, all cores": (lambda g: local(g, model, cores), here),
+            "1 worker": (lambda g: sweep(g, model, one.client), pids["1"]),
+            "2 workers": (lambda g: sweep(g, model, two.client), pids["2"]),
+        }
+        runs = {(n, c): [] for n in args.sizes for c in configs}
+        for _ in range(args.rounds):
+            for n, g in grids.items():
+                for c, (fn, ps) in configs.items():
+                    runs[n, c].append(timed(lambda fn=fn, g=g: fn(g), ps))
+        empty = {
+            k: timed(lambda c=c: empty_tasks(c.client, model, args.empty_tasks), pids[k])
+            for k, c in (("1", one), ("2", two))
+        }
+        fits: dict[str, list[tuple[float, float]]] = {"here": [], "1 worker": [], "2 workers": []}
+        prob = fit_problem(model) if args.fit_points else None
+        for _ in range(args.rounds if args.fit_points else 0):
+            fits["here"].append(fit_points(None, prob, args.fit_points, here))
+            fits["1 worker"].append(fit_points(one.client, prob, args.fit_points, pids["1"]))
+            fits["2 workers"].append(fit_points(two.client, prob, args.fit_points, pids["2"]))
 
+    med = statistics.median
     print(
-        "\n| landings | tasks (1 w / 2 w) | here, 1 thread | here, all cores | 1 worker | 2 workers "
-        "| speed-up 1 -> 2 workers | overhead per task (1 worker) |"
+        f"\nmedian of {args.rounds} rounds, each running every configuration in turn: wall seconds "
+        "(CPU seconds of every process involved: this one, the scheduler, the nannies, the workers)"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
-    per_task = []
+    print(
+        "| landings | tasks (1 w / 2 w) | here, 1 thread | here, all cores | 1 worker | 2 workers "
+        "| speed-up 1 -> 2 workers |"
+    )
+    print("|---:|---:|---:|---:|---:|---:|---:|")
+    speedups, per_task = {}, []
     for n in args.sizes:
-        r = rows[n]
-        one = min(r["here_1"], r["here_1b"])  # the single-thread baseline, before and after
-        t1, t2 = task_size(n, 1), task_size(n, 2)
-        k1, k2 = -(-n // t1), -(-n // t2)
-        over = (r["1w"] - one) / k1
-        per_task.append(over)
-        print(
-            f"| {n} | {k1} / {k2} | {one:.3f} s | {r['here_all']:.3f} s | {r['1w']:.3f} s | {r['2w']:.3f} s "
-            f"| {r['1w'] / r['2w']:.2f}x | {1000 * over:.1f} ms |"
-        )
+        wall = {c: [w for w, _ in runs[n, c]] for c in configs}
+        cpu = {c: [u for _, u in runs[n, c]] for c in configs}
+        k1, k2 = -(-n // task_size(n, 1)), -(-n // task_size(n, 2))
+        speedups[n] = med([a / b for a, b in zip(wall["1 worker"], wall["2 workers"], strict=True)])
+        beyond = [
+            (w - idle_rate["1"] * t - h) / k1
+            for h, w, t in zip(cpu["here, 1 thread"], cpu["1 worker"], wall["1 worker"], strict=True)
+        ]
+        per_task.append(med(beyond))
+        cells = " | ".join(f"{med(wall[c]):.3f} ({med(cpu[c]):.3f})" for c in configs)
+        print(f"| {n} | {k1} / {k2} | {cells} | {speedups[n]:.2f}x |")
     n_max = args.sizes[-1]
-    rate = n_max / min(rows[n_max]["here_1"], rows[n_max]["here_1b"])
-    print(f"\none core here: {rate:.0f} landings/s (the {n_max}-landing grid on one thread)")
-    print(
-        f"a task of no landing, back to back: {1000 * over_1w:.1f} ms with 1 worker, "
-        f"{1000 * over_2w:.1f} ms with 2 (submit, version check, result back)"
-    )
-    overhead = max(over_1w, float(np.median(per_task)))
-    print(
-        f"overhead per task taken as {1000 * overhead:.1f} ms (the larger of the empty tasks' and the "
-        f"sweeps' median): a task of {max(1, round(19 * overhead * rate))} landings or more keeps it "
-        f"under 5 % (tasks here: at least {task_size(1, 1)} landings)"
-    )
-    wins = [n for n in args.sizes if rows[n]["2w"] < rows[n]["1w"] * 0.95]
-    if wins:
-        print(f"2 workers beat 1 by more than 5 % from {wins[0]} landings on (the sizes measured)")
-    else:
-        print("2 workers never beat 1 by more than 5 % at the sizes measured")
-    if t_fit:
-        p = args.fit_points
+    rate = n_max / med([u for _, u in runs[n_max, "here, 1 thread"]])
+    print(f"\none core here: {rate:.0f} landings per CPU second (the {n_max}-landing grid on one thread)")
+    m = args.empty_tasks
+    for k, r in idle_rate.items():
+        print(f"an idle cluster of {k} worker(s) burns {1000 * r:.0f} ms CPU a second (heartbeats, monitors)")
+    for k, (w, u) in empty.items():
         print(
-            f"\nfit evaluations, {p} points x 4 drops of 0.5 s: here, one process {t_fit['here']:.2f} s; "
-            f"1 worker {t_fit['1w']:.2f} s; 2 workers {t_fit['2w']:.2f} s "
-            f"(speed-up 1 -> 2 workers {t_fit['1w'] / t_fit['2w']:.2f}x)"
+            f"a task of no landing, {m} back to back on {k} worker(s): {1000 * w / m:.1f} ms wall, "
+            f"{1000 * (u - idle_rate[k] * w) / m:.1f} ms CPU each beyond idling (submit, schedule, "
+            "version check, result back)"
+        )
+    print(
+        "a sweep's CPU per task beyond its landings and idling (1 worker less one thread here): "
+        + ", ".join(f"{1000 * o:.0f} ms ({n} landings)" for n, o in zip(args.sizes, per_task, strict=True))
+    )
+    overhead = max((empty["1"][1] - idle_rate["1"] * empty["1"][0]) / m, med(per_task))
+    print(
+        f"taking {1000 * overhead:.0f} ms CPU a task (the larger of the two), a task of "
+        f"{max(1, round(19 * overhead * rate))} landings or more keeps the overhead under 5 %; "
+        f"--dask cuts at least {task_size(1, 1)}, at most {task_size(10**9, 1)} a task"
+    )
+    wins = [n for n in args.sizes if speedups[n] > 1.05]
+    print(
+        f"2 workers beat 1 (median wall speed-up over 1.05) from {wins[0]} landings on"
+        if wins
+        else "2 workers never beat 1 by more than 5 % at the sizes measured"
+    )
+    if fits["here"]:
+        p = args.fit_points
+        f = {c: (med([w for w, _ in v]), med([u for _, u in v])) for c, v in fits.items()}
+        up = med([a[0] / b[0] for a, b in zip(fits["1 worker"], fits["2 workers"], strict=True)])
+        print(
+            f"\nfit evaluations, {p} points x 4 drops of 0.5 s, wall (CPU) seconds, median of {args.rounds}: "
+            + "; ".join(f"{c} {w:.3f} ({u:.3f})" for c, (w, u) in f.items())
+            + f"; speed-up 1 -> 2 workers {up:.2f}x"
         )
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 

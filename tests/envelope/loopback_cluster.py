@@ -24,13 +24,22 @@ take 2-5 s there, and a first warm-up loads the compiled model)."""
 class LoopbackCluster:
     """``workers`` worker processes (with a nanny, as ``dask worker`` starts them, unless
     ``nanny`` is False) and one scheduler; ``pythonpath``: where the workers import slopelander
-    from (default: where this process does)."""
+    from (default: where this process does); ``scheduler_env``: Dask settings of the scheduler
+    (``DASK_DISTRIBUTED__...`` variables)."""
 
-    def __init__(self, workers: int = 2, *, nanny: bool = True, pythonpath: Path | None = None) -> None:
+    def __init__(
+        self,
+        workers: int = 2,
+        *,
+        nanny: bool = True,
+        pythonpath: Path | None = None,
+        scheduler_env: dict[str, str] | None = None,
+    ) -> None:
         self.dir = Path(tempfile.mkdtemp(prefix="sl-dask-"))
         self.file = self.dir / "scheduler.json"
         self.nanny = nanny
         self.pythonpath = pythonpath or SRC
+        self.scheduler_env = scheduler_env or {}
         self.procs: list[subprocess.Popen] = []
         self.client = None
         self.address = ""
@@ -61,7 +70,8 @@ class LoopbackCluster:
         from distributed import Client
 
         args = ["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard"]
-        self._spawn("scheduler", [*args, "--scheduler-file", str(self.file)], self._env(SRC))
+        env = {**self._env(SRC), **self.scheduler_env}
+        self._spawn("scheduler", [*args, "--scheduler-file", str(self.file)], env)
         end = time.monotonic() + START_TIMEOUT
         while not self.file.exists() or not self.file.read_text().strip():
             if self.procs[0].poll() is not None or time.monotonic() > end:

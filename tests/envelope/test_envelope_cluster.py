@@ -17,7 +17,7 @@ import yaml
 distributed = pytest.importorskip("distributed")
 
 from slopelander.cli import main  # noqa: E402
-from slopelander.envelope.cluster import ClusterError, ClusterVersionError, fingerprint, prepare  # noqa: E402
+from slopelander.envelope.cluster import ClusterError, ClusterVersionError, fingerprint, gather, prepare  # noqa: E402
 from slopelander.envelope.sweep import run_sweep, simulate_chunk, task_size  # noqa: E402
 from slopelander.model import simulate_batch  # noqa: E402
 from tests.envelope.loopback_cluster import LoopbackCluster, other_slopelander  # noqa: E402
@@ -101,6 +101,34 @@ def test_a_scheduler_without_workers_is_an_error_not_a_wait_for_ever():
         pytest.raises(ClusterError, match=r"has no workers \(waited 1 s\): start them with 'dask worker tcp"),
     ):
         prepare(empty.client, ("batch",), wait=1.0)
+
+
+def test_a_task_that_kills_its_workers_and_a_lost_scheduler_are_one_clear_error(grid, model):
+    """Dask gives a task up after it killed ``allowed-failures`` workers (3 by default; 0 here,
+    so one death is enough), and cancels the work when the scheduler goes."""
+    env = {"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"}
+    with LoopbackCluster(workers=1, nanny=False, scheduler_env=env) as c:
+        assert same(
+            run_sweep(grid[:2], model, client=c.client, progress=False), simulate_batch(grid[:2], model)
+        )
+        with pytest.raises(ClusterError, match="a task killed every worker it ran on"):
+            gather([c.client.submit(os._exit, 3, pure=False)], lambda i, r: None)
+        failed: dict[str, BaseException] = {}
+
+        def sweep() -> None:  # no worker left: its tasks wait
+            try:
+                run_sweep(grid, model, client=c.client, progress=False)
+            except ClusterError as exc:
+                failed["error"] = exc
+
+        waiting = threading.Thread(target=sweep)
+        waiting.start()
+        time.sleep(0.5)
+        c.procs[0].kill()  # the scheduler (started by this test)
+        waiting.join(timeout=60)
+        assert not waiting.is_alive()
+    assert "the Dask scheduler dropped the work" in str(failed["error"])
+    assert "\n" not in str(failed["error"])
 
 
 def test_a_worker_killed_mid_sweep_loses_and_repeats_nothing(cluster, grid, model, reference, capsys):

@@ -178,8 +178,9 @@ def gather(futures: Sequence, on_done: Callable[[int, object], None]) -> None:
                     "worker has, or the workers are being stopped; see docs/cluster.md"
                 ) from None
             except FutureCancelledError as exc:
+                why = " ".join(str(exc).split())
                 raise ClusterError(
-                    f"the Dask scheduler dropped the work ({exc}): is it still running?"
+                    f"the Dask scheduler dropped the work ({why}): is it still running?"
                 ) from None
             on_done(index[f.key], result)  # each future is yielded once: never counted twice
         finished = True
