@@ -221,6 +221,32 @@ def main() -> None:
         if wins
         else "2 workers never beat 1 by more than 5 % at the sizes measured"
     )
+    # break-even: from what grid size a cluster of W worker threads finishes a sweep sooner than
+    # this machine on all its cores, from the measured wall figures
+    n0 = args.sizes[0]
+    h0, w0 = ([t for t, _ in runs[n0, c]] for c in ("here, 1 thread", "1 worker"))
+    fixed = med([w - h for h, w in zip(h0, w0, strict=True)])
+    per_landing = med([t for t, _ in runs[n_max, "here, 1 thread"]]) / n_max
+    here_all = med([t for t, _ in runs[n_max, "here, all cores"]]) / n_max
+    task_wall = empty["1"][0] / m
+    print(
+        f"\nbreak-even (wall, this run's figures): a sweep's fixed cost {1000 * fixed:.0f} ms (1 task of "
+        f"{n0} landings on 1 worker, less one thread here), a task {1000 * task_wall:.1f} ms, a landing "
+        f"{1000 * per_landing:.2f} ms on one thread, {1000 * here_all:.2f} ms on all {cores} cores here"
+    )
+    sizes = np.unique(np.geomspace(8, 10**7, 400).astype(int))
+    for threads_ in (cores, 2 * cores, 4 * cores):
+
+        def on_cluster(n: int, w: int = threads_) -> float:
+            k = -(-n // task_size(n, w))
+            return fixed + (n * per_landing + k * task_wall) / w
+
+        beats = [int(n) for n in sizes if on_cluster(int(n)) < n * here_all]
+        print(
+            f"  a cluster of {threads_} worker threads beats this machine from about {beats[0]} landings"
+            if beats
+            else f"  a cluster of {threads_} worker threads never beats this machine's {cores} cores"
+        )
     if fits["here"]:
         p = args.fit_points
         f = {c: (med([w for w, _ in v]), med([u for _, u in v])) for c, v in fits.items()}

@@ -169,7 +169,10 @@ def gather(futures: Sequence, on_done: Callable[[int, object], None]) -> None:
     index = {f.key: i for i, f in enumerate(futures)}
     finished = False
     try:
-        for f in as_completed(futures):
+        # the futures' own client's loop: as_completed would take the default client's, another
+        # one's when a program holds two clients
+        loop = futures[0].client.loop if futures else None
+        for f in as_completed(futures, loop=loop):
             try:
                 result = f.result()
             except KilledWorker as exc:

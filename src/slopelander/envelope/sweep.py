@@ -42,8 +42,8 @@ TASKS_PER_THREAD = 4
 """On a cluster, a sweep is cut into at least this many tasks per worker thread, when it is
 large enough: a worker that dies or lags holds back a fraction of its share, not all of it."""
 MIN_TASK = 32
-"""Fewest landings in a cluster task: 0.1-0.3 s of work on one core, against a task's
-overhead of 3-10 ms measured on loopback (benchmarks/results/)."""
+"""Fewest landings in a cluster task: about 70 ms of one core's work, against a task's
+overhead of 4-20 ms of CPU on loopback (benchmarks/dask_scaling.py; benchmarks/results/)."""
 
 
 class SweepError(SlopelanderError):
