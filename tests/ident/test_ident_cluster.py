@@ -13,6 +13,7 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
+from slopelander.ident.cli import DIAGNOSE_EXIT  # noqa: E402
 from slopelander.ident.compare import state_ranges  # noqa: E402
 from slopelander.ident.fit import Evaluator, Identifier, Problem, resolve_params  # noqa: E402
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize  # noqa: E402
@@ -77,7 +78,5 @@ def test_diagnose_with_a_user_effect_on_the_cluster_prints_what_one_process_prin
     args += ["--cma-evals", "12", "--refit-evals", "8", "--ls-evals", "2", "--quiet"]
     here = run(*args, "--workers", "1")
     there = run(*args, "--dask", cluster.address)
-    assert here.returncode == 0, here.stderr
-    assert there.returncode == 0, there.stderr
-    assert "| rank | candidate |" in here.stdout
-    assert there.stdout == here.stdout
+    assert here.returncode in DIAGNOSE_EXIT.values() and "| rank | candidate |" in here.stdout, here.stderr
+    assert (there.returncode, there.stdout) == (here.returncode, here.stdout)
