@@ -1,7 +1,7 @@
 """Dask on this machine: the speed-up from 1 to 2 workers, a task's overhead, and the break-even.
 
     python3 benchmarks/dask_scaling.py                 # about 3-5 minutes on 2 busy cores
-    python3 benchmarks/dask_scaling.py --sizes 64 256 --rounds 3   # shorter
+    python3 benchmarks/dask_scaling.py --sizes 256 1024 --rounds 3   # shorter
 
 Starts a real ``dask scheduler`` and ``dask worker`` processes on 127.0.0.1 (one thread each,
 as docs/cluster.md advises) and measures, in the same run and on the same landings (a map's
@@ -14,7 +14,8 @@ mix: slopes 0-60 deg, speeds 0.5-3 m/s, the 16 torque-level pairs):
 - a task's overhead: many tasks of no landing through the same path (submit, the version
   check, the result back), and the same figure from the sweeps (cluster time less the
   single-thread time, over the tasks);
-- fit evaluations (the residuals of parameter points over drops), one process vs the cluster.
+- fit evaluations (the residuals of parameter points over 8 drops of 2 s), one process vs the
+  cluster.
 
 From these it prints the smallest task worth sending (overhead under 5 %) and the grid size
 from which 2 workers beat 1.
@@ -43,6 +44,9 @@ from tests.envelope.loopback_cluster import LoopbackCluster
 
 LEVELS = (0.56, 1.1, 1.7, 2.3)
 IDLE_S = 4.0
+NO_TRIM = '{"MALLOC_TRIM_THRESHOLD_": None}'
+"""The nanny's MALLOC_TRIM_THRESHOLD_=65536 fixes glibc's mmap threshold at 128 KiB: every
+residual vector of a fit is then mapped and unmapped, 30 % slower fit evaluations (measured)."""
 """Seconds the idle clusters are watched for the CPU they burn doing nothing."""
 
 
@@ -101,13 +105,16 @@ def empty_tasks(client, model: Model, tasks: int) -> None:
     client.gather([client.submit(simulate_chunk, empty, model, expected, pure=False) for _ in range(tasks)])
 
 
+FIT_DROPS, FIT_SECONDS = 8, 2.0
+
+
 def fit_problem(model: Model):
-    """Residuals over 4 drops of 0.5 s, the paper's seven parameters: a fit's unit of work."""
+    """Residuals over 8 drops of 2 s, the paper's seven parameters: a fit's unit of work."""
     from slopelander.ident.compare import state_ranges
     from slopelander.ident.fit import Problem, resolve_params
     from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
 
-    drops = synthesize(model, paper_drops(4, seed=1), NoiseModel(), duration=0.5)
+    drops = synthesize(model, paper_drops(FIT_DROPS, seed=1), NoiseModel(), duration=FIT_SECONDS)
     return Problem(model, drops, resolve_params(model), state_ranges(drops))
 
 
@@ -123,7 +130,7 @@ def fit_points(client, prob, points: int, pids: list[int]) -> tuple[float, float
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[32, 128, 512], help="landings")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[256, 1024, 4096], help="landings")
     ap.add_argument("--rounds", type=int, default=5, help="rounds of every configuration in turn")
     ap.add_argument("--empty-tasks", type=int, default=200, help="tasks of no landing (overhead)")
     ap.add_argument("--fit-points", type=int, default=16, help="points of the fit section (0: skip)")
@@ -140,7 +147,12 @@ def main() -> None:
     here = [os.getpid()]
     # both clusters up at once, used in turn: an idle worker costs nothing, and each round
     # measures every configuration within seconds of the others (this machine's speed moves)
-    with LoopbackCluster(workers=1) as one, LoopbackCluster(workers=2) as two:
+    # the workers as docs/cluster.md starts them: glibc's own memory trimming, not the nanny's
+    spawn = "DASK_DISTRIBUTED__NANNY__PRE_SPAWN_ENVIRON"
+    os.environ.setdefault(spawn, NO_TRIM)
+    print(f"workers started with {spawn}={os.environ[spawn]}")
+    # each process in its own session, as `dask worker` started from its own terminal or service
+    with LoopbackCluster(workers=1, sessions=True) as one, LoopbackCluster(workers=2, sessions=True) as two:
         for c in (one, two):
             c.client.run(warm_up, ("batch", "landing"))
             sweep(grids[args.sizes[0]][:2], model, c.client)  # checked and warm
@@ -252,7 +264,8 @@ def main() -> None:
         f = {c: (med([w for w, _ in v]), med([u for _, u in v])) for c, v in fits.items()}
         up = med([a[0] / b[0] for a, b in zip(fits["1 worker"], fits["2 workers"], strict=True)])
         print(
-            f"\nfit evaluations, {p} points x 4 drops of 0.5 s, wall (CPU) seconds, median of {args.rounds}: "
+            f"\nfit evaluations, {p} points x {FIT_DROPS} drops of {FIT_SECONDS:g} s, wall (CPU) seconds, "
+            f"median of {args.rounds}: "
             + "; ".join(f"{c} {w:.3f} ({u:.3f})" for c, (w, u) in f.items())
             + f"; speed-up 1 -> 2 workers {up:.2f}x"
         )

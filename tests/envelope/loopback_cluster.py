@@ -25,7 +25,9 @@ class LoopbackCluster:
     """``workers`` worker processes (with a nanny, as ``dask worker`` starts them, unless
     ``nanny`` is False) and one scheduler; ``pythonpath``: where the workers import slopelander
     from (default: where this process does); ``scheduler_env``: Dask settings of the scheduler
-    (``DASK_DISTRIBUTED__...`` variables)."""
+    (``DASK_DISTRIBUTED__...`` variables); ``sessions``: each process in a session of its own,
+    as when started from its own terminal or service (Linux then shares the CPU between
+    sessions, not between processes, when other work keeps every core busy)."""
 
     def __init__(
         self,
@@ -34,12 +36,14 @@ class LoopbackCluster:
         nanny: bool = True,
         pythonpath: Path | None = None,
         scheduler_env: dict[str, str] | None = None,
+        sessions: bool = False,
     ) -> None:
         self.dir = Path(tempfile.mkdtemp(prefix="sl-dask-"))
         self.file = self.dir / "scheduler.json"
         self.nanny = nanny
         self.pythonpath = pythonpath or SRC
         self.scheduler_env = scheduler_env or {}
+        self.sessions = sessions
         self.procs: list[subprocess.Popen] = []
         self.client = None
         self.address = ""
@@ -58,7 +62,11 @@ class LoopbackCluster:
     def _spawn(self, name: str, args: list[str], env: dict[str, str]) -> subprocess.Popen:
         log = open(self.dir / f"{name}.log", "wb")  # noqa: SIM115 - kept open for the process's life
         p = subprocess.Popen(
-            [sys.executable, "-m", "dask", *args], stdout=log, stderr=subprocess.STDOUT, env=env
+            [sys.executable, "-m", "dask", *args],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=env,
+            start_new_session=self.sessions,
         )
         log.close()
         self.procs.append(p)
@@ -69,7 +77,9 @@ class LoopbackCluster:
 
         from distributed import Client
 
-        args = ["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard"]
+        # gone by itself 10 minutes after its last work, should this process die without closing it
+        # (its workers follow a minute later: --death-timeout)
+        args = ["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--idle-timeout", "600"]
         env = {**self._env(SRC), **self.scheduler_env}
         self._spawn("scheduler", [*args, "--scheduler-file", str(self.file)], env)
         end = time.monotonic() + START_TIMEOUT

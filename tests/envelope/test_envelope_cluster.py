@@ -69,8 +69,8 @@ def test_the_table_command_on_the_cluster_writes_the_one_machine_table(cluster, 
 
 def test_cluster_tasks_are_cut_to_amortise_their_overhead():
     assert task_size(100_000, 2) == 1024  # at most a chunk's worth
-    assert task_size(8000, 2) == 1000  # four tasks a worker thread
-    assert task_size(40, 2) == 32  # never smaller than the overhead allows
+    assert task_size(4000, 2) == 500  # four tasks a worker thread
+    assert task_size(300, 2) == 256  # never smaller than the overhead allows
 
 
 def test_a_task_refuses_a_worker_with_another_slopelander(grid, model):

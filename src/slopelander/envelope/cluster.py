@@ -158,6 +158,13 @@ def threads(client) -> int:
     return max(1, sum(client.nthreads().values()))
 
 
+def slots(client) -> list[str]:
+    """The workers' addresses, each as many times as it has threads: where to send a batch's
+    tasks, one a thread, when they all need the same data (the scheduler would otherwise keep
+    them on the worker that holds it)."""
+    return [a for a, n in sorted(client.nthreads().items()) for _ in range(n)]
+
+
 def gather(futures: Sequence, on_done: Callable[[int, object], None]) -> None:
     """Call ``on_done(index, result)`` for every future, in the order they finish; on any
     failure the remaining futures are cancelled (Ctrl-C included) and a task's error is raised

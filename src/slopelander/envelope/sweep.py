@@ -41,9 +41,10 @@ cluster, the most a task takes."""
 TASKS_PER_THREAD = 4
 """On a cluster, a sweep is cut into at least this many tasks per worker thread, when it is
 large enough: a worker that dies or lags holds back a fraction of its share, not all of it."""
-MIN_TASK = 32
-"""Fewest landings in a cluster task: about 70 ms of one core's work, against a task's
-overhead of 4-20 ms of CPU on loopback (benchmarks/dask_scaling.py; benchmarks/results/)."""
+MIN_TASK = 256
+"""Fewest landings in a cluster task: about 0.2 s of one core's work (1,300 landings a CPU second),
+against a task's overhead of 4-17 ms of CPU on loopback: under 5 % (benchmarks/dask_scaling.py,
+benchmarks/results/2026-12-06-dask-scaling.txt)."""
 
 
 class SweepError(SlopelanderError):

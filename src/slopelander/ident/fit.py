@@ -258,10 +258,10 @@ class Evaluator:
             self._pool = mp.get_context("fork").Pool(self.workers, _init_worker, (problem,))
         self._held = None
         if client is not None:
-            from slopelander.envelope.cluster import fingerprint, prepare, threads
+            from slopelander.envelope.cluster import fingerprint, prepare
 
             prepare(client, ("landing",))
-            self._expected, self._slots = fingerprint(), threads(client)
+            self._expected = fingerprint()
             # sent once: each task then carries a point and the drops it simulates, not the drops
             self._held = client.submit(_dask_keep, problem, self._expected, pure=False)
         self.nfev = 0
@@ -286,20 +286,28 @@ class Evaluator:
         """As the pool, on the cluster's worker threads, one task a thread: a block of points,
         or, with fewer points than threads (a least-squares step), a part of each point's
         drops, joined in the same order. A point takes milliseconds to tenths of a second, a
-        task's round trip milliseconds: one task per point would spend as long on the trips."""
-        from slopelander.envelope.cluster import gather
+        task's round trip milliseconds: one task per point would spend as long on the trips.
+        Each task is asked of one thread's worker (another takes it if that one is gone): left
+        to itself, the scheduler keeps them all where the drops are held."""
+        from slopelander.envelope.cluster import gather, slots
 
+        where = slots(self.client)
+        k = max(1, len(where))
         n, m = len(self.problem.drops), len(points)
-        if m >= self._slots:
-            tasks = [([points[i] for i in b], None) for b in np.array_split(np.arange(m), self._slots)]
+        if m >= k:
+            tasks = [([points[i] for i in b], None) for b in np.array_split(np.arange(m), k)]
             parts = 1
         else:
-            parts = min(n, -(-self._slots // max(1, m)))
+            parts = min(n, -(-k // max(1, m)))
             chunks = [c.tolist() for c in np.array_split(np.arange(n), parts)]
             tasks = [([u], c) for u in points for c in chunks]
+        placed = [
+            {"workers": [where[i % k]], "allow_other_workers": True} if where else {}
+            for i in range(len(tasks))
+        ]
         futures = [
-            self.client.submit(_dask_part, self._held, us, which, self._expected, pure=False)
-            for us, which in tasks
+            self.client.submit(_dask_part, self._held, us, which, self._expected, pure=False, **place)
+            for (us, which), place in zip(tasks, placed, strict=True)
         ]
         got: list = [None] * len(futures)
         gather(futures, got.__setitem__)
