@@ -234,30 +234,34 @@ def main() -> None:
         else "2 workers never beat 1 by more than 5 % at the sizes measured"
     )
     # break-even: from what grid size a cluster of W worker threads finishes a sweep sooner than
-    # this machine on all its cores, from the measured wall figures
+    # this machine, from this run's wall figures; this machine's cores counted as all free
+    # (on a shared machine they are not: then the cluster wins sooner)
     n0 = args.sizes[0]
     h0, w0 = ([t for t, _ in runs[n0, c]] for c in ("here, 1 thread", "1 worker"))
-    fixed = med([w - h for h, w in zip(h0, w0, strict=True)])
+    fixed = max(0.0, med([w - h for h, w in zip(h0, w0, strict=True)]))
     per_landing = med([t for t, _ in runs[n_max, "here, 1 thread"]]) / n_max
-    here_all = med([t for t, _ in runs[n_max, "here, all cores"]]) / n_max
+    all_cores = med([t for t, _ in runs[n_max, "here, all cores"]]) / n_max
     task_wall = empty["1"][0] / m
     print(
-        f"\nbreak-even (wall, this run's figures): a sweep's fixed cost {1000 * fixed:.0f} ms (1 task of "
+        f"\nbreak-even, from this run's wall figures: a sweep's fixed cost {1000 * fixed:.0f} ms (1 task of "
         f"{n0} landings on 1 worker, less one thread here), a task {1000 * task_wall:.1f} ms, a landing "
-        f"{1000 * per_landing:.2f} ms on one thread, {1000 * here_all:.2f} ms on all {cores} cores here"
+        f"{1000 * per_landing:.2f} ms on one thread (all {cores} cores here took "
+        f"{all_cores / per_landing:.2f} of that: "
+        f"{'other work held the other cores' if all_cores > 0.75 * per_landing else 'free cores'})"
     )
     sizes = np.unique(np.geomspace(8, 10**7, 400).astype(int))
-    for threads_ in (cores, 2 * cores, 4 * cores):
+    for threads_ in (2 * cores, 4 * cores, 8 * cores):
 
         def on_cluster(n: int, w: int = threads_) -> float:
             k = -(-n // task_size(n, w))
             return fixed + (n * per_landing + k * task_wall) / w
 
-        beats = [int(n) for n in sizes if on_cluster(int(n)) < n * here_all]
+        beats = [int(n) for n in sizes if on_cluster(int(n)) < n * per_landing / cores]
         print(
-            f"  a cluster of {threads_} worker threads beats this machine from about {beats[0]} landings"
+            f"  {threads_} worker threads elsewhere beat this machine's {cores} free cores from about "
+            f"{beats[0]} landings"
             if beats
-            else f"  a cluster of {threads_} worker threads never beats this machine's {cores} cores"
+            else f"  {threads_} worker threads never beat this machine's {cores} free cores"
         )
     if fits["here"]:
         p = args.fit_points
