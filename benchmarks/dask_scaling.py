@@ -1,6 +1,6 @@
 """Dask on this machine: the speed-up from 1 to 2 workers, a task's overhead, and the break-even.
 
-    python3 benchmarks/dask_scaling.py                 # about 3-5 minutes on 2 busy cores
+    python3 benchmarks/dask_scaling.py                 # about 2-4 minutes on 2 cores
     python3 benchmarks/dask_scaling.py --sizes 256 1024 --rounds 3   # shorter
 
 Starts a real ``dask scheduler`` and ``dask worker`` processes on 127.0.0.1 (one thread each,
@@ -15,7 +15,7 @@ mix: slopes 0-60 deg, speeds 0.5-3 m/s, the 16 torque-level pairs):
   check, the result back), and the same figure from the sweeps (cluster time less the
   single-thread time, over the tasks);
 - fit evaluations (the residuals of parameter points over 8 drops of 2 s), one process vs the
-  cluster.
+  cluster, and on a worker left with the nanny's memory trimming (docs/cluster.md says why not).
 
 From these it prints the smallest task worth sending (overhead under 5 %) and the grid size
 from which 2 workers beat 1.
@@ -44,9 +44,11 @@ from tests.envelope.loopback_cluster import LoopbackCluster
 
 LEVELS = (0.56, 1.1, 1.7, 2.3)
 IDLE_S = 4.0
+LATENCY_RUNS = 20
+"""Sweeps of one landing that time a sweep's fixed cost."""
 NO_TRIM = '{"MALLOC_TRIM_THRESHOLD_": None}'
-"""The nanny's MALLOC_TRIM_THRESHOLD_=65536 fixes glibc's mmap threshold at 128 KiB: every
-residual vector of a fit is then mapped and unmapped, 30 % slower fit evaluations (measured)."""
+"""The nanny's MALLOC_TRIM_THRESHOLD_=65536 also fixes glibc's mmap threshold at 128 KiB: every
+residual vector of a fit is then mapped and unmapped (the fit section measures what it costs)."""
 """Seconds the idle clusters are watched for the CPU they burn doing nothing."""
 
 
@@ -149,11 +151,14 @@ def main() -> None:
     # measures every configuration within seconds of the others (this machine's speed moves)
     # the workers as docs/cluster.md starts them: glibc's own memory trimming, not the nanny's
     spawn = "DASK_DISTRIBUTED__NANNY__PRE_SPAWN_ENVIRON"
-    os.environ.setdefault(spawn, NO_TRIM)
-    print(f"workers started with {spawn}={os.environ[spawn]}")
+    print(f"workers started with {spawn}={NO_TRIM} (docs/cluster.md), but the one marked 'Dask's default'")
     # each process in its own session, as `dask worker` started from its own terminal or service
-    with LoopbackCluster(workers=1, sessions=True) as one, LoopbackCluster(workers=2, sessions=True) as two:
-        for c in (one, two):
+    with (
+        LoopbackCluster(workers=1, sessions=True, worker_env={spawn: NO_TRIM}) as one,
+        LoopbackCluster(workers=2, sessions=True, worker_env={spawn: NO_TRIM}) as two,
+        LoopbackCluster(workers=1, sessions=True, worker_env={spawn: "{}"}) as default,
+    ):
+        for c in (one, two, default):
             c.client.run(warm_up, ("batch", "landing"))
             sweep(grids[args.sizes[0]][:2], model, c.client)  # checked and warm
         pids = {"1": cluster_pids(one), "2": cluster_pids(two)}
@@ -171,16 +176,30 @@ def main() -> None:
             for n, g in grids.items():
                 for c, (fn, ps) in configs.items():
                     runs[n, c].append(timed(lambda fn=fn, g=g: fn(g), ps))
+        one_landing = grids[args.sizes[0]][:1]
+        latency = [
+            timed(lambda: sweep(one_landing, model, one.client), here)[0]
+            - timed(lambda: local(one_landing, model, 1), here)[0]
+            for _ in range(LATENCY_RUNS)
+        ]
         empty = {
             k: timed(lambda c=c: empty_tasks(c.client, model, args.empty_tasks), pids[k])
             for k, c in (("1", one), ("2", two))
         }
-        fits: dict[str, list[tuple[float, float]]] = {"here": [], "1 worker": [], "2 workers": []}
+        fits: dict[str, list[tuple[float, float]]] = {
+            "here": [],
+            "1 worker": [],
+            "2 workers": [],
+            "1 worker, Dask's default trim": [],
+        }
         prob = fit_problem(model) if args.fit_points else None
         for _ in range(args.rounds if args.fit_points else 0):
             fits["here"].append(fit_points(None, prob, args.fit_points, here))
             fits["1 worker"].append(fit_points(one.client, prob, args.fit_points, pids["1"]))
             fits["2 workers"].append(fit_points(two.client, prob, args.fit_points, pids["2"]))
+            fits["1 worker, Dask's default trim"].append(
+                fit_points(default.client, prob, args.fit_points, cluster_pids(default))
+            )
 
     med = statistics.median
     print(
@@ -236,15 +255,14 @@ def main() -> None:
     # break-even: from what grid size a cluster of W worker threads finishes a sweep sooner than
     # this machine, from this run's wall figures; this machine's cores counted as all free
     # (on a shared machine they are not: then the cluster wins sooner)
-    n0 = args.sizes[0]
-    h0, w0 = ([t for t, _ in runs[n0, c]] for c in ("here, 1 thread", "1 worker"))
-    fixed = max(0.0, med([w - h for h, w in zip(h0, w0, strict=True)]))
+    fixed = med(latency)
     per_landing = med([t for t, _ in runs[n_max, "here, 1 thread"]]) / n_max
     all_cores = med([t for t, _ in runs[n_max, "here, all cores"]]) / n_max
     task_wall = empty["1"][0] / m
     print(
-        f"\nbreak-even, from this run's wall figures: a sweep's fixed cost {1000 * fixed:.0f} ms (1 task of "
-        f"{n0} landings on 1 worker, less one thread here), a task {1000 * task_wall:.1f} ms, a landing "
+        f"\nbreak-even, from this run's wall figures: a sweep's fixed cost {1000 * fixed:.1f} ms (a sweep of "
+        f"one landing on 1 worker less the same here, median of {LATENCY_RUNS}), a task "
+        f"{1000 * task_wall:.1f} ms, a landing "
         f"{1000 * per_landing:.2f} ms on one thread (all {cores} cores here took "
         f"{all_cores / per_landing:.2f} of that: "
         f"{'other work held the other cores' if all_cores > 0.75 * per_landing else 'free cores'})"
@@ -267,11 +285,21 @@ def main() -> None:
         p = args.fit_points
         f = {c: (med([w for w, _ in v]), med([u for _, u in v])) for c, v in fits.items()}
         up = med([a[0] / b[0] for a, b in zip(fits["1 worker"], fits["2 workers"], strict=True)])
+        trim = med(
+            [
+                a[1] / b[1]
+                for a, b in zip(fits["1 worker, Dask's default trim"], fits["1 worker"], strict=True)
+            ]
+        )
         print(
             f"\nfit evaluations, {p} points x {FIT_DROPS} drops of {FIT_SECONDS:g} s, wall (CPU) seconds, "
             f"median of {args.rounds}: "
             + "; ".join(f"{c} {w:.3f} ({u:.3f})" for c, (w, u) in f.items())
             + f"; speed-up 1 -> 2 workers {up:.2f}x"
+        )
+        print(
+            f"a worker with Dask's default MALLOC_TRIM_THRESHOLD_=65536 spent {trim:.2f}x the CPU on them "
+            "(median of the rounds' ratios)"
         )
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 

@@ -27,7 +27,8 @@ class LoopbackCluster:
     from (default: where this process does); ``scheduler_env``: Dask settings of the scheduler
     (``DASK_DISTRIBUTED__...`` variables); ``sessions``: each process in a session of its own,
     as when started from its own terminal or service (Linux then shares the CPU between
-    sessions, not between processes, when other work keeps every core busy)."""
+    sessions, not between processes, when other work keeps every core busy); ``worker_env``:
+    more environment variables for the workers."""
 
     def __init__(
         self,
@@ -37,6 +38,7 @@ class LoopbackCluster:
         pythonpath: Path | None = None,
         scheduler_env: dict[str, str] | None = None,
         sessions: bool = False,
+        worker_env: dict[str, str] | None = None,
     ) -> None:
         self.dir = Path(tempfile.mkdtemp(prefix="sl-dask-"))
         self.file = self.dir / "scheduler.json"
@@ -44,6 +46,7 @@ class LoopbackCluster:
         self.pythonpath = pythonpath or SRC
         self.scheduler_env = scheduler_env or {}
         self.sessions = sessions
+        self.worker_env = worker_env or {}
         self.procs: list[subprocess.Popen] = []
         self.client = None
         self.address = ""
@@ -101,7 +104,7 @@ class LoopbackCluster:
     def add_worker(self, name: str, pythonpath: Path | None = None) -> subprocess.Popen:
         args = ["worker", self.address, "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard"]
         args += ["--name", name, "--death-timeout", "60", "--nanny" if self.nanny else "--no-nanny"]
-        return self._spawn(name, args, self._env(pythonpath or self.pythonpath))
+        return self._spawn(name, args, {**self._env(pythonpath or self.pythonpath), **self.worker_env})
 
     def worker_pids(self) -> dict[str, int]:
         """The worker processes' ids by address (not their nannies')."""
