@@ -104,6 +104,7 @@ class LoopbackCluster:
     def add_worker(self, name: str, pythonpath: Path | None = None) -> subprocess.Popen:
         args = ["worker", self.address, "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard"]
         args += ["--name", name, "--death-timeout", "60", "--nanny" if self.nanny else "--no-nanny"]
+        args += ["--local-directory", str(self.dir)]
         return self._spawn(name, args, {**self._env(pythonpath or self.pythonpath), **self.worker_env})
 
     def worker_pids(self) -> dict[str, int]:
@@ -117,16 +118,19 @@ class LoopbackCluster:
     def close(self) -> None:
         if self.client is not None:
             self.client.close()
-        for p in reversed(self.procs):  # workers first, then the scheduler
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-        for p in reversed(self.procs):
-            try:
-                # a worker started in a killed one's place may still be loading the model
-                p.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+        # the workers first, while the scheduler still answers their goodbyes (stopped together,
+        # a worker sometimes waited 8 s on it), then the scheduler
+        for group in (self.procs[1:], self.procs[:1]):
+            for p in group:
+                if p.poll() is None:
+                    p.send_signal(signal.SIGTERM)
+            for p in group:
+                try:
+                    # a worker started in a killed one's place may still be loading the model
+                    p.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
         shutil.rmtree(self.dir, ignore_errors=True)
 
     def __enter__(self) -> LoopbackCluster:
