@@ -186,6 +186,7 @@ def main() -> None:
             k: timed(lambda c=c: empty_tasks(c.client, model, args.empty_tasks), pids[k])
             for k, c in (("1", one), ("2", two))
         }
+        rss = [psutil.Process(pid).memory_info().rss for pid in two.worker_pids().values()]
         fits: dict[str, list[tuple[float, float]]] = {
             "here": [],
             "1 worker": [],
@@ -301,6 +302,7 @@ def main() -> None:
             f"a worker with Dask's default MALLOC_TRIM_THRESHOLD_=65536 spent {trim:.2f}x the CPU on them "
             "(median of the rounds' ratios)"
         )
+    print(f"a worker process's memory after the sweeps: {', '.join(f'{r / 1e6:.0f} MB' for r in rss)}")
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
