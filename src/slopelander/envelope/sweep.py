@@ -43,7 +43,7 @@ TASKS_PER_THREAD = 4
 large enough: a worker that dies or lags holds back a fraction of its share, not all of it."""
 MIN_TASK = 256
 """Fewest landings in a cluster task: about 0.2 s of one core's work (0.8 ms a landing), against
-a task's overhead of 3-30 ms of CPU on loopback, 2-13 % (benchmarks/dask_scaling.py,
+a task's overhead of 3-30 ms of CPU on loopback, 2-15 % (benchmarks/dask_scaling.py,
 benchmarks/results/2026-12-06-dask-scaling.txt)."""
 
 
