@@ -96,6 +96,22 @@ def local(grid: np.ndarray, model: Model, threads: int) -> None:
         numba.set_num_threads(before)
 
 
+def wire(model: Model) -> None:
+    """Print what a task carries, pickled as Dask pickles it."""
+    import cloudpickle
+
+    from slopelander.model import CONDITION_DTYPE, RESULT_DTYPE
+
+    prob = fit_problem(model)
+    residual = prob.residuals(np.full(len(prob.params), 0.5))
+    print(
+        f"over the wire: the model {len(cloudpickle.dumps(model)) / 1e3:.1f} kB, a landing's conditions "
+        f"{CONDITION_DTYPE.itemsize} B, its result {RESULT_DTYPE.itemsize} B; a fit's drops and model "
+        f"({FIT_DROPS} drops of {FIT_SECONDS:g} s) {len(cloudpickle.dumps(prob)) / 1e3:.0f} kB, "
+        f"a point's residual vector {residual.nbytes / 1e3:.0f} kB"
+    )
+
+
 def sweep(grid: np.ndarray, model: Model, client) -> None:
     run_sweep(grid, model, client=client, progress=False)
 
@@ -145,6 +161,7 @@ def main() -> None:
         f"load average {os.getloadavg()[0]:.2f} before the run"
     )
     grids = {n: map_mix(n, seed=n) for n in args.sizes}
+    wire(model)
     cores = os.cpu_count() or 1
     here = [os.getpid()]
     # both clusters up at once, used in turn: an idle worker costs nothing, and each round
