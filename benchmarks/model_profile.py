@@ -47,6 +47,7 @@ def prefix(n: int):
     def run(p, fl, ctx, states, h, ws, sx, solves):  # pragma: no cover - compiled
         w = ws[0]
         k._load(w, p, fl, ctx, states[0])
+        k._load_seams(w, sx)
         p, fl, ctx, st = w.p, w.fl, w.ctx, w.st
         for r in range(states.shape[0]):
             for i in range(states.shape[1]):

@@ -9,6 +9,10 @@ impact speeds 0.5-3 m/s, the paper's torque levels, with and without reverse thr
   with how well the two agree;
 * the stepper's speed at ArduPilot's 1200 Hz physics rate, as a multiple of real time.
 
+The rates printed are this machine's at this hour (they move 3-4x with its load); to see a
+regression, compare with a reference in the same run: ``benchmarks/model_ratio.py`` (against a
+past commit's integrator and the MuJoCo peer) or ``benchmarks/model_history.py`` (commit by commit).
+
 Usage: python benchmarks/model_speed.py [--landings 4000] [--reference 24] [--effects-file FILE]
 """
 

@@ -7,7 +7,8 @@ vehicle with (:class:`slopelander.controller.session.Session`): the same streams
 leg board and landing controller. The demo adds only what a pilot would do by hand: take off from a
 level pad, fly over the roof, and after the landing take off again. Everything it saw is written
 out: the MAVLink telemetry log (``flight.tlog``), the state transitions (``transitions.jsonl``),
-the slope estimate, the outcome (``result.json``) and a picture of the flight (``flight.png``).
+the slope estimate, the outcome (``result.json``) and a picture of the flight (``flight.png``); on
+real ArduCopter also its own DataFlash log (``flight.bin``: ``slopelander compare`` reads it).
 """
 
 from __future__ import annotations
@@ -119,7 +120,7 @@ def run_demo(
             raise DemoError(str(exc)) from None
     check_out_dir(out)
     out.mkdir(exist_ok=True)
-    for name in ("transitions.jsonl", "slope_estimate.json", "result.json"):
+    for name in ("transitions.jsonl", "slope_estimate.json", "result.json", "flight.bin"):
         (out / name).unlink(missing_ok=True)  # a folder flown before holds only this flight's files
     files = {"telemetry log": str(out / "flight.tlog"), "transitions": str(out / "transitions.jsonl")}
     wall0 = time.monotonic()
@@ -190,6 +191,8 @@ def run_demo(
     finally:
         rig.close()
 
+    if (out / "flight.bin").is_file():  # ArduCopter's DataFlash log, copied as it stopped
+        files["DataFlash log"] = str(out / "flight.bin")
     impact, slide, min_pitch = landing_figures(tele, history, cfg["reflex.impact_threshold_mps2"])
     angle_measured = uphill_angle_before_cut(tele, history, uphill)
     if plot:

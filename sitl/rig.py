@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -351,6 +352,7 @@ class Rig:
                     binary=arducopter,
                     script=script,
                     speedup=arducopter_speedup,
+                    keep_log=None if out is None else Path(out) / "flight.bin",
                 )
             else:
                 self.vehicle = start_vehicle(

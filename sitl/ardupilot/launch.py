@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -53,10 +54,19 @@ def arducopter_binary(path: str | Path | None = None) -> Path:
 class ArduCopterProcess:
     """A running ArduCopter and its physics. ``mavlink_url`` is its SERIAL1 (the companion's
     port), ``gcs_url`` its SERIAL2; ``folder`` is its working folder, removed by :meth:`stop`
-    unless ``keep`` was asked for."""
+    unless ``keep`` was asked for. With ``keep_log``, :meth:`stop` copies ArduCopter's DataFlash
+    log there once it has ended (:meth:`copy_log`)."""
 
-    def __init__(self, proc, ready: str, tmp: tempfile.TemporaryDirectory, keep: bool) -> None:
+    def __init__(
+        self,
+        proc,
+        ready: str,
+        tmp: tempfile.TemporaryDirectory,
+        keep: bool,
+        keep_log: Path | None = None,
+    ) -> None:
         self.proc, self.ready_line, self._tmp, self.keep = proc, ready, tmp, keep
+        self.keep_log = keep_log
         self.folder = Path(tmp.name) / "ap"
         self._bridges: list[Bridge] = []
         b1, p1 = tcp_to_unix(str(self.folder / "serial1.sock"), "serial1")
@@ -79,6 +89,23 @@ class ArduCopterProcess:
         p = self.folder / "arducopter.log"
         return p.read_text(errors="replace") if p.exists() else ""
 
+    def dataflash_logs(self) -> list[Path]:
+        """ArduCopter's DataFlash logs so far (``logs/*.BIN`` in its folder), oldest first."""
+        return sorted((self.folder / "logs").glob("*.BIN"))
+
+    def copy_log(self, dest: Path) -> list[Path]:
+        """Copy ArduCopter's DataFlash log to ``dest`` (one log per boot with the parameter file's
+        ``LOG_FILE_DSRMROT 0``; more, if other parameters made more, as ``dest``'s stem -1, -2, ...);
+        the copies made."""
+        logs = self.dataflash_logs()
+        if len(logs) == 1:
+            targets = [dest]
+        else:
+            targets = [dest.with_name(f"{dest.stem}-{n}{dest.suffix}") for n in range(1, len(logs) + 1)]
+        for src, dst in zip(logs, targets, strict=True):
+            shutil.copyfile(src, dst)
+        return targets
+
     def stop(self, timeout: float = 15.0) -> int:
         for b in self._bridges:
             b.close()
@@ -92,6 +119,11 @@ class ArduCopterProcess:
             except Exception:  # a stuck pod is killed, whatever went wrong
                 self.proc.kill()
                 self.proc.wait()
+        if self.keep_log is not None:
+            try:
+                self.copy_log(self.keep_log)
+            except OSError as exc:  # the vehicle's stop must not fail for want of its log
+                print(f"sitl.ardupilot: its DataFlash log was not kept: {exc}", flush=True)
         if self.keep:
             self._tmp._finalizer.detach()  # the folder stays for the user to read
             return self.proc.returncode
@@ -115,6 +147,7 @@ def start_arducopter(
     keep: bool = False,
     timeout: float = 120.0,
     companion_lockstep: bool = True,
+    keep_log: Path | None = None,
 ) -> ArduCopterProcess:
     """Start ArduCopter SITL (:func:`arducopter_binary`) with the project's JSON parameter file
     (plus ``params``: more .parm files, or a dict of name → value), the on-board script unless
@@ -125,7 +158,8 @@ def start_arducopter(
     about 40 s of vehicle time) and returns at ``speedup``, ready to arm; with None it returns at
     its first HEARTBEAT, booting at ``speedup``. With ``companion_lockstep`` the physics holds
     ArduCopter while the companion on SERIAL1 is behind, once it echoes
-    (``sitl.json_physics.companion_gate``)."""
+    (``sitl.json_physics.companion_gate``). With ``keep_log`` its DataFlash log is copied there
+    when it stops (the parameter file has it log while armed, one file per boot)."""
     exe = arducopter_binary(binary)
     tmp = tempfile.TemporaryDirectory(prefix="sl-arducopter-")
     folder = Path(tmp.name) / "ap"
@@ -155,7 +189,7 @@ def start_arducopter(
     proc, line = start_ready_process(
         "sitl.ardupilot", cmd, "arducopter ready", tmp, "ArduCopter SITL", timeout, isolate=True
     )
-    return ArduCopterProcess(proc, line, tmp, keep)
+    return ArduCopterProcess(proc, line, tmp, keep, keep_log)
 
 
 def read_events(path: Path, start: int = 0) -> tuple[list[dict], int]:

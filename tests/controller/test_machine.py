@@ -707,7 +707,7 @@ def test_checks_refuse_downhill_legs_that_did_not_spring_back():
     from slopelander.controller.states.checks import Checks
 
     m, _, _ = make()
-    ok = replace(OK, downhill_angles_deg=(37.3, 37.6), script_version=4.0)
+    ok = replace(OK, downhill_angles_deg=(37.3, 37.6))
     assert Checks().step(m.ctx, ok) == ("DESCEND", "checks passed")
     bent = replace(ok, downhill_angles_deg=(37.4, 22.0))
     move = Checks().step(m.ctx, bent)

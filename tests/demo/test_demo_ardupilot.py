@@ -1,12 +1,14 @@
 """``slopelander demo --autopilot ardupilot``: the whole demo (take-off from the pad, over the
 roof, landing, disarm, take-off, legs loosened) on real ArduCopter SITL, with the same printout,
-tlog, transitions and picture as on the simulated vehicle. Skipped, saying why, without
-``SLOPELANDER_ARDUCOPTER``; about 1.5 minutes of wall time."""
+tlog, transitions and picture as on the simulated vehicle, and ArduCopter's own DataFlash log
+(``flight.bin``), which ``compare`` reads. Skipped, saying why, without ``SLOPELANDER_ARDUCOPTER``;
+about 1.5 minutes of wall time."""
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -15,8 +17,18 @@ import pytest
 
 from sitl.ardupilot import arducopter_binary
 from sitl.ardupilot.launch import ArduCopterMissingError
+from slopelander.ident.flightlog.compare import compare_log
+from slopelander.model import Model
+from tests.ident.test_flightlog import true_contact
 
 pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)
+
+
+def landed_legs(printed: str) -> tuple[float, float]:
+    """The torques the demo says it landed with ("demo: 35 deg roof, legs 1.10/1.10 N*m ...")."""
+    m = re.search(r"legs (\d+\.\d+)/(\d+\.\d+) N\*m", printed)
+    assert m, printed[:400]
+    return float(m.group(1)), float(m.group(2))
 
 
 def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path: Path) -> None:
@@ -43,6 +55,19 @@ def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path
     assert "seen in the HEARTBEAT" in landed["reason"]  # a disarm made, not a disarm sent
     assert (out / "flight.tlog").stat().st_size > 10_000
     assert (out / "flight.png").stat().st_size > 10_000
+    # ArduCopter's own DataFlash log is kept, and compare reads the landing from it and from the
+    # tlog: the same first contact, within a sample of SITL's own state logged beside it
+    assert f"DataFlash log: {out / 'flight.bin'}" in r.stdout
+    model = Model.default()
+    [from_bin] = compare_log(model, out / "flight.bin")
+    [from_tlog] = compare_log(model, out / "flight.tlog")
+    lo, hi = true_contact(out / "flight.bin", near=from_bin.contact)
+    assert abs(from_bin.contact - 0.5 * (lo + hi)) <= 0.003, (from_bin.contact, lo, hi)  # 400 Hz IMU
+    assert abs(from_tlog.contact - 0.5 * (lo + hi)) <= 0.005, (from_tlog.contact, lo, hi)  # 200 Hz
+    for r_ in (from_bin, from_tlog):
+        c = r_.cond.conditions
+        assert abs(c.slope_deg - 35.0) <= max(1.5, 2 * r_.cond.slope.sigma_deg), r_.cond.slope.describe()
+        assert (c.tau_up, c.tau_down) == landed_legs(r.stdout)
 
 
 def test_the_demo_without_a_binary_says_how_to_get_one(tmp_path: Path) -> None:

@@ -28,6 +28,7 @@ from tests.flights.test_landings_on_both_autopilots import (
     CUT,
     PRESET,
     ROOF_DEG,
+    contact_range,
     ready_over_roof,
     roof_scenario,
     run_until,
@@ -103,7 +104,10 @@ def test_a_companion_silent_in_armed_stops_the_descent_clear_of_the_roof(autopil
         assert S.CLIMB in states and states[-1] == S.IDLE, (states, ctx)
         assert any("reflex validity lapsed, climbing" in t for t in rig.link.statustext), ctx
         heights = [h for _, h in over_roof(rig, t_silent)]
-        assert min(heights) > 0.35, (min(heights), ctx)  # the feet meet this roof near 0.25 m
+        # above where the feet meet this roof (0.22 m), by more than the position's noise
+        assert min(heights) > contact_range(ROOF_DEG) + 0.05, (min(heights), ctx)
+        low, end = min(heights), heights[-1]
+        print(f"{autopilot}: silent at {h_silent:.2f} m over the roof, lowest {low:.2f} m, end {end:.2f} m")
         assert heights[-1] > h_silent, (heights[-1], ctx)
         assert rig.armed() and rig.mode() == 4, ctx
 

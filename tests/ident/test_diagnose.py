@@ -6,7 +6,7 @@ factors. factor_tau is hidden at 5e-3 1/N (at the paper's value it is below the 
 at the paper's 0.57 s/m on the steep drops where feet slide. Noise is motion-capture-like.
 In the default suite: leg flexibility found and nothing found in the control, one seed each; the
 other proofs and seeds take minutes each and are marked ``proof`` (``python3 -m pytest -m proof``;
-docs/ident.md has the last such run).
+benchmarks/results/2026-11-28-ident.md has the last such run).
 """
 
 import pytest
@@ -17,7 +17,7 @@ from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesiz
 BUDGET = {"cma_evals": 300, "refit_evals": 150}
 #: the default suite's budget for the two proofs it runs (leg flexibility and the control, one seed
 #: each): a fifth less CPU than ``BUDGET`` on their seeds, and each still passes every assertion
-#: (docs/ident.md, "What the tests prove"); the proof tier keeps ``BUDGET``
+#: (benchmarks/results/2026-11-28-ident.md, "What the tests prove"); the proof tier keeps ``BUDGET``
 SUITE_BUDGET = {"cma_evals": 200, "refit_evals": 100}
 #: s recorded after first contact, as the steps test and the user-effect proofs record: on seed 1
 #: leg flexibility comes back the same from 0.6 s as from 1 s (held-out NRMSE cut 0.644 both,

@@ -15,7 +15,7 @@ import pytest
 
 from slopelander.model import kernel as k
 from slopelander.model import layout
-from slopelander.model.conditions import CONDITION_FIELDS
+from slopelander.model.conditions import CONDITION_FIELDS, LandingConditions, conditions_array
 from slopelander.model.effects import BUILTIN_EFFECTS
 from slopelander.model.landing import Model
 from slopelander.model.outcome import RESULT_FIELDS, OutcomeCriteria
@@ -267,3 +267,56 @@ def test_result_indices_follow_the_result_fields() -> None:
     assert set(_constants("O_")) == set(expected)
     assert {n: RESULT_FIELDS[getattr(k, n)] for n in expected} == expected
     assert len(RESULT_FIELDS) == k.N_RESULT
+
+
+def test_a_landing_leaves_the_jacobians_zero_columns_zero() -> None:
+    """The kinematics writes only the Jacobian columns that move each point (x, z, pitch, a foot's
+    own leg) and leaves the rest at the workspace's zeros: after half a second of a landing
+    (touchdown, sliding, both feet on the ground) those entries, and the contact rows made from
+    them, are still zero, and the workspace's kinematics of the last state equals a fresh one's."""
+    model = Model.default()
+    p, fl = model.params.as_array(), model.flags()
+    c = LandingConditions(slope_deg=40.0, speed=3.0, horizontal_speed=0.5, pitch_deg=-10.0, tau_up=0.56)
+    row = conditions_array([c]).view(np.float64).copy()
+    st, ctx, ws = np.zeros(k.N_STATE), np.zeros(k.N_CTX), k.make_workspace()
+    k.init_landing(p, fl, row, st, ctx, ws)
+    touched = set()
+    for _ in range(1200):
+        k.step(p, fl, ctx, st, model.dt, 0.0, 0.0, ws, None)
+        touched |= {i for i in range(k.N_POINTS) if st[k.S_NF + i] > 0.0}
+    assert {0, 1} <= touched  # both feet bore load
+    J, JNT = ws["J"][0], ws["JNT"][0]
+    for i in range(k.N_POINTS):
+        moving = {0, 1, 2} | ({3 + i} if i < 2 else set())
+        for b in sorted(set(range(5)) - moving):
+            assert not J[i, :, b].any() and not JNT[i, :, b].any(), (i, b)
+    again, fresh = k.kinematics_views(ws), k.kinematics_views(k.make_workspace())
+    assert k.kinematics(p, st, *again) == k.kinematics(p, st, *fresh)  # the pitch's cosine and sine
+    for a, b in zip(again, fresh, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_no_compiled_function_steps_on_the_record_of_a_workspace_it_allocated():
+    """numba frees an array after its last use in a function, and a record (``ws[0]``) does
+    not keep its array alive: a function that allocates a workspace and then works through its
+    record works on freed memory (landings with garbage results on Dask workers). The
+    workspace must come in as an argument, which lives as long as the caller's reference."""
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(k))
+    offenders = []
+    for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+        allocated = {
+            t.id
+            for node in ast.walk(fn)
+            if isinstance(node, ast.Assign)
+            and isinstance(node.value, ast.Call)
+            and getattr(node.value.func, "id", "") in ("_make_workspace_jit", "make_workspace")
+            for t in node.targets
+            if isinstance(t, ast.Name)
+        }
+        for node in ast.walk(fn):
+            if isinstance(node, ast.Subscript) and getattr(node.value, "id", None) in allocated:
+                offenders.append(f"{fn.name}: {ast.unparse(node)}")
+    assert not offenders, offenders

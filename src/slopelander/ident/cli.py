@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -237,19 +238,57 @@ def _dataset_arg(p: argparse.ArgumentParser) -> None:
 def register_compare(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "compare",
-        help="compare the model with recorded drops: NRMSE, phases, outcomes, report",
+        help="compare the model with recorded drops, or with the landings of a flight log",
         description="Simulate every recorded drop, report NRMSE per state, drop and phase, outcome "
         "matches and where the residual concentrates; write a Markdown report with a plot "
-        "per drop.",
+        "per drop. Given a flight log instead (an ArduPilot DataFlash log or a MAVLink tlog, told by "
+        "its content), compare each of its landings with the model at that landing's conditions on "
+        "what the log can see, and write a JSON and a plot per landing (docs/flight-logs.md).",
     )
-    _dataset_arg(p)
-    p.add_argument("--report", type=Path, metavar="DIR", help="folder for report.md and one PNG per drop")
-    p.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON")
+    p.add_argument(
+        "dataset",
+        type=Path,
+        metavar="DATASET|LOG",
+        help="folder of drop recordings (docs/recordings.md), or a flight log file",
+    )
+    p.add_argument(
+        "--report",
+        type=Path,
+        metavar="DIR",
+        help="folder for report.md and one PNG per drop; for a log, its JSON and PNG per landing "
+        "(default for a log: <log name>-compare in the current folder)",
+    )
+    p.add_argument(
+        "--json",
+        type=Path,
+        metavar="FILE",
+        help="also write the figures as JSON (for a log: every landing's)",
+    )
+    g = p.add_argument_group("flight log (docs/flight-logs.md)")
+    g.add_argument("--landing", type=_count(1), metavar="N", help="only the log's N-th landing")
+    g.add_argument("--slope", type=float, metavar="DEG", help="the roof's slope, instead of the log's")
+    g.add_argument(
+        "--tau", type=float, nargs=2, metavar=("UP", "DOWN"), help="legs' friction torques, N*m per joint"
+    )
+    g.add_argument(
+        "--angles", type=float, nargs=2, metavar=("UP", "DOWN"), help="leg angles, deg (not in the logs)"
+    )
     _model_args(p, "analysed")
     p.set_defaults(handler=run_compare)
 
 
+_LOG_OPTIONS = ("landing", "slope", "tau", "angles")
+
+
 def run_compare(args: argparse.Namespace) -> int:
+    path = args.dataset
+    if path.is_file() or (not path.exists() and path.suffix.lower() in (".bin", ".tlog")):
+        return run_compare_log(args)  # a file is read as a log whatever its name; a missing log says so
+    given = [f"--{n}" for n in _LOG_OPTIONS if getattr(args, n) is not None]
+    if given:
+        raise IdentCliError(
+            f"{', '.join(given)}: only for a flight log, and {args.dataset} is a dataset folder"
+        )
     check_output_dir(args.report, "--report")
     check_output(args.json, "--json")
     from slopelander.ident.compare import compare
@@ -290,6 +329,34 @@ def run_compare(args: argparse.Namespace) -> int:
         }  # fmt: skip
         args.json.write_text(json.dumps(figures, indent=1, default=_plain) + "\n")
         print(f"json: {args.json}")
+    return 0
+
+
+def run_compare_log(args: argparse.Namespace) -> int:
+    """``compare LOG``: each landing of a flight log against the model (docs/flight-logs.md)."""
+    from slopelander.ident.flightlog.compare import compare_log, write_results
+    from slopelander.ident.flightlog.conditions import Given
+
+    report = args.report if args.report is not None else Path(f"{args.dataset.stem}-compare")
+    check_output_dir(report, "--report")
+    check_output(args.json, "--json")
+    for name in ("tau", "angles"):
+        values = getattr(args, name)
+        if values is not None and not all(map(math.isfinite, values)):
+            raise IdentCliError(f"--{name} {' '.join(map(str, values))}: not numbers")
+    if args.slope is not None and not math.isfinite(args.slope):
+        raise IdentCliError(f"--slope {args.slope}: not a number")
+    model = build_model(args)
+    given = Given(
+        args.slope,
+        tuple(args.tau) if args.tau is not None else None,
+        tuple(args.angles) if args.angles is not None else None,
+    )
+    results = compare_log(model, args.dataset, given, args.landing)
+    for r in results:
+        print("\n".join(r.lines()))
+    written = write_results(results, report, args.json)
+    print("report: " + ", ".join(str(p) for p in written))
     return 0
 
 

@@ -74,6 +74,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     N_FLAGS,
     N_FORCE_POINTS,
     N_POINTS,
+    N_SEAMS,
     N_STATE,
     P_BE,
     P_BG,
@@ -167,138 +168,156 @@ layout.drop_stale_cache(__file__)
 # numba compiles the integrator once per kind of table. The helpers below are overloaded on
 # it: for None they are constants (no law, the value given back), so the built-in model's
 # step holds no call through a first-class function and reads no table; a model with user
-# effects pays for its own calls.
+# effects pays for its own calls. A table's slots are copied into the workspace record
+# (``w.seams``, by _load_seams), where the step reads them without reference counts.
 
 
 def _is_none(sx) -> bool:
     return isinstance(sx, types.NoneType)
 
 
-def seam_laws(sx, seam):
+def _load_seams(w, sx):
+    """Copy the table's slots into the workspace record (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(_load_seams, jit_options={"cache": True})
+def _load_seams_impl(w, sx):
+    if _is_none(sx):
+        return lambda w, sx: None
+
+    def impl(w, sx):
+        for i in range(N_SEAMS):
+            for j in range(1 + 2 * SEAM_SLOTS):
+                w.seams[i, j] = sx[1][i, j]
+
+    return impl
+
+
+def seam_laws(sx, w, seam):
     """How many laws ``seam`` holds in the table ``sx`` (compiled code only)."""
     raise NotImplementedError
 
 
 @overload(seam_laws, jit_options={"cache": True})
-def _seam_laws(sx, seam):
+def _seam_laws(sx, w, seam):
     if _is_none(sx):
-        return lambda sx, seam: 0
-    return lambda sx, seam: sx[1][seam, 0]
+        return lambda sx, w, seam: 0
+    return lambda sx, w, seam: w.seams[seam, 0]
 
 
-def has_normal_law(sx):
+def has_normal_law(sx, w):
     """Whether a user's normal-force law replaces the built-in ground (compiled code only)."""
     raise NotImplementedError
 
 
 @overload(has_normal_law, jit_options={"cache": True})
-def _has_normal_law(sx):
+def _has_normal_law(sx, w):
     if _is_none(sx):
-        return lambda sx: False
-    return lambda sx: sx[1][SEAM_NORMAL_FORCE, 0] > 0
+        return lambda sx, w: False
+    return lambda sx, w: w.seams[SEAM_NORMAL_FORCE, 0] > 0
 
 
 @njit(cache=True, inline="always")
-def _params(sx, seam, k):
+def _params(sx, w, seam, k):
     """The user parameters the k-th law of a seam reads."""
-    row = sx[1][seam]
-    a = row[1 + 2 * k]
-    return sx[2][a : a + row[2 + 2 * k]]
+    a = w.seams[seam, 1 + 2 * k]
+    return sx[2][a : a + w.seams[seam, 2 + 2 * k]]
 
 
-def seam_force(sx, t, st, ctx, out):
+def seam_force(sx, w, t, st, ctx, out):
     """Add the force seam's generalised forces to ``out`` (compiled code only)."""
     raise NotImplementedError
 
 
 @overload(seam_force, jit_options={"cache": True})
-def _seam_force(sx, t, st, ctx, out):
+def _seam_force(sx, w, t, st, ctx, out):
     if _is_none(sx):
-        return lambda sx, t, st, ctx, out: None
+        return lambda sx, w, t, st, ctx, out: None
 
-    def impl(sx, t, st, ctx, out):
+    def impl(sx, w, t, st, ctx, out):
         laws = sx[0][SEAM_FORCE]
         for k in range(SEAM_SLOTS):
-            if k < sx[1][SEAM_FORCE, 0]:
-                laws[k](t, st[:], ctx[:], _params(sx, SEAM_FORCE, k), out[:])
+            if k < w.seams[SEAM_FORCE, 0]:
+                laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_FORCE, k), out[:])
 
     return impl
 
 
-def seam_point_force(sx, t, st, ctx, out):
+def seam_point_force(sx, w, t, st, ctx, out):
     """Add the point-force seam's forces at the named points to ``out`` (compiled code only)."""
     raise NotImplementedError
 
 
 @overload(seam_point_force, jit_options={"cache": True})
-def _seam_point_force(sx, t, st, ctx, out):
+def _seam_point_force(sx, w, t, st, ctx, out):
     if _is_none(sx):
-        return lambda sx, t, st, ctx, out: None
+        return lambda sx, w, t, st, ctx, out: None
 
-    def impl(sx, t, st, ctx, out):
+    def impl(sx, w, t, st, ctx, out):
         laws = sx[0][SEAM_POINT_FORCE]
         for k in range(SEAM_SLOTS):
-            if k < sx[1][SEAM_POINT_FORCE, 0]:
-                laws[k](t, st[:], ctx[:], _params(sx, SEAM_POINT_FORCE, k), out)
+            if k < w.seams[SEAM_POINT_FORCE, 0]:
+                laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_POINT_FORCE, k), out)
 
     return impl
 
 
-def seam_joint_torque(sx, t, st, ctx, leg, angle, rate, tau):
+def seam_joint_torque(sx, w, t, st, ctx, leg, angle, rate, tau):
     """The slip torque after the joint-torque seam's laws (compiled code only)."""
     raise NotImplementedError
 
 
 @overload(seam_joint_torque, jit_options={"cache": True})
-def _seam_joint_torque(sx, t, st, ctx, leg, angle, rate, tau):
+def _seam_joint_torque(sx, w, t, st, ctx, leg, angle, rate, tau):
     if _is_none(sx):
-        return lambda sx, t, st, ctx, leg, angle, rate, tau: tau
+        return lambda sx, w, t, st, ctx, leg, angle, rate, tau: tau
 
-    def impl(sx, t, st, ctx, leg, angle, rate, tau):
+    def impl(sx, w, t, st, ctx, leg, angle, rate, tau):
         laws = sx[0][SEAM_JOINT_TORQUE]
         for k in range(SEAM_SLOTS):
-            if k < sx[1][SEAM_JOINT_TORQUE, 0]:
-                tau = laws[k](t, st[:], ctx[:], _params(sx, SEAM_JOINT_TORQUE, k), leg, angle, rate, tau)
+            if k < w.seams[SEAM_JOINT_TORQUE, 0]:
+                tau = laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_JOINT_TORQUE, k), leg, angle, rate, tau)
         return tau
 
     return impl
 
 
-def seam_foot_friction(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
+def seam_foot_friction(sx, w, t, st, ctx, leg, slip_speed, normal_force, mu):
     """The friction coefficient after the foot-friction seam's laws (compiled code only)."""
     raise NotImplementedError
 
 
 @overload(seam_foot_friction, jit_options={"cache": True})
-def _seam_foot_friction(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
+def _seam_foot_friction(sx, w, t, st, ctx, leg, slip_speed, normal_force, mu):
     if _is_none(sx):
-        return lambda sx, t, st, ctx, leg, slip_speed, normal_force, mu: mu
+        return lambda sx, w, t, st, ctx, leg, slip_speed, normal_force, mu: mu
 
-    def impl(sx, t, st, ctx, leg, slip_speed, normal_force, mu):
+    def impl(sx, w, t, st, ctx, leg, slip_speed, normal_force, mu):
         laws = sx[0][SEAM_FOOT_FRICTION]
         for k in range(SEAM_SLOTS):
-            if k < sx[1][SEAM_FOOT_FRICTION, 0]:
-                up = _params(sx, SEAM_FOOT_FRICTION, k)
+            if k < w.seams[SEAM_FOOT_FRICTION, 0]:
+                up = _params(sx, w, SEAM_FOOT_FRICTION, k)
                 mu = laws[k](t, st[:], ctx[:], up, leg, slip_speed, normal_force, mu)
         return mu
 
     return impl
 
 
-def seam_normal_force(sx, t, st, ctx, point, depth, rate):
+def seam_normal_force(sx, w, t, st, ctx, point, depth, rate):
     """(force, stiffness, damping) of the one normal law a model may set (check_user_effects
     allows one; compiled code only, and only where :func:`has_normal_law`)."""
     raise NotImplementedError
 
 
 @overload(seam_normal_force, jit_options={"cache": True})
-def _seam_normal_force(sx, t, st, ctx, point, depth, rate):
+def _seam_normal_force(sx, w, t, st, ctx, point, depth, rate):
     if _is_none(sx):
-        return lambda sx, t, st, ctx, point, depth, rate: (0.0, 0.0, 0.0)
+        return lambda sx, w, t, st, ctx, point, depth, rate: (0.0, 0.0, 0.0)
 
-    def impl(sx, t, st, ctx, point, depth, rate):
+    def impl(sx, w, t, st, ctx, point, depth, rate):
         law = sx[0][SEAM_NORMAL_FORCE][0]
-        return law(t, st[:], ctx[:], _params(sx, SEAM_NORMAL_FORCE, 0), point, depth, rate)
+        return law(t, st[:], ctx[:], _params(sx, w, SEAM_NORMAL_FORCE, 0), point, depth, rate)
 
     return impl
 
@@ -522,7 +541,7 @@ def step(p, fl, ctx, st, h, u0, u1, ws, sx):
 @njit(cache=True)
 def _load(w, p, fl, ctx, st):
     """Copy the model's arrays into the workspace record, where the step reads them."""
-    for i in range(p.shape[0]):
+    for i in range(w.p.shape[0]):  # (the record's size: PARAMETER_NAMES)
         w.p[i] = p[i]
     for i in range(N_FLAGS):
         w.fl[i] = fl[i]
@@ -621,20 +640,20 @@ def _applied_forces(p, fl, ctx, st, w, sx):
     Returns whether any force seam is in use (its work is booked at the end)."""
     f, J, fx = w.f, w.J, w.f_user
     t = st[S_T]
-    n_force = seam_laws(sx, SEAM_FORCE)
-    n_point = seam_laws(sx, SEAM_POINT_FORCE)
+    n_force = seam_laws(sx, w, SEAM_FORCE)
+    n_point = seam_laws(sx, w, SEAM_POINT_FORCE)
     user_forces = n_force > 0 or n_point > 0
     if user_forces:
         for a in range(5):
             fx[a] = 0.0
         if n_force > 0:
-            seam_force(sx, t, st, ctx, fx)
+            seam_force(sx, w, t, st, ctx, fx)
         if n_point > 0:
             pf = w.f_points[:].reshape((N_FORCE_POINTS, 2))
             for i in range(N_FORCE_POINTS):
                 pf[i, 0] = 0.0
                 pf[i, 1] = 0.0
-            seam_point_force(sx, t, st, ctx, pf)
+            seam_point_force(sx, w, t, st, ctx, pf)
             for i in range(N_POINTS):
                 for b in range(5):
                     fx[b] += J[i, 0, b] * pf[i, 0] + J[i, 1, b] * pf[i, 1]
@@ -677,7 +696,7 @@ def _joint_law(p, fl, ctx, st, h, w, sx):
     tau, zone, lam = w.tau, w.zone, w.lam
     t = st[S_T]
     rigid, flex, _, _, q_zone, ke, be, kq, bq, ik = _joint_constants(p, fl)
-    n_torque = seam_laws(sx, SEAM_JOINT_TORQUE)
+    n_torque = seam_laws(sx, w, SEAM_JOINT_TORQUE)
     for a in range(5):
         for b in range(5):
             A0[a, b] = M[a, b]
@@ -689,7 +708,7 @@ def _joint_law(p, fl, ctx, st, h, w, sx):
         if n_torque > 0:
             # the leg's rate (a smooth state): the joint's own rate from the last step would
             # feed a speed-dependent law back into the joint's stick-slip switching
-            tj = max(0.0, seam_joint_torque(sx, t, st, ctx, j, st[S_QE + j], st[S_V + qi], tj))
+            tj = max(0.0, seam_joint_torque(sx, w, t, st, ctx, j, st[S_QE + j], st[S_V + qi], tj))
         tau[j] = tj
         if rigid:
             continue
@@ -743,8 +762,8 @@ def _contacts(p, fl, ctx, st, w, sx):
     t = st[S_T]
     nx, nz, tx, tz, dsg = _surface(ctx)
     rigid = fl[F_RIGID] != 0
-    normal_law = has_normal_law(sx)
-    friction_laws = seam_laws(sx, SEAM_FOOT_FRICTION) > 0
+    normal_law = has_normal_law(sx, w)
+    friction_laws = seam_laws(sx, w, SEAM_FOOT_FRICTION) > 0
     began = 0
     # the rigid gear's feet are stiff plastic skids: a contact of their own that rebounds
     for i in range(N_POINTS):
@@ -772,7 +791,7 @@ def _contacts(p, fl, ctx, st, w, sx):
                 # the model's own ground at this point (a law scaling it reduces to it)
                 ctx[C_KG] = kgp[i]
                 ctx[C_BG] = bgp[i]
-                N0, kk, bb = seam_normal_force(sx, t, st, ctx, i, -d0[i], -dd0[i])
+                N0, kk, bb = seam_normal_force(sx, w, t, st, ctx, i, -d0[i], -dd0[i])
                 nN[i] = N0
                 nk[i] = kk
                 nb[i] = bb
@@ -800,7 +819,7 @@ def _contacts(p, fl, ctx, st, w, sx):
             st[S_CM + i] = 0.0
         mu[i] = friction_coefficient(p, fl, tx, tz, vel, i, sd0[i], active[i] != 0, mus)
         if friction_laws and i < 2 and active[i]:
-            mu[i] = max(0.0, seam_foot_friction(sx, t, st, ctx, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
+            mu[i] = max(0.0, seam_foot_friction(sx, w, t, st, ctx, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
     return began
 
 
@@ -859,7 +878,7 @@ def _assemble(p, fl, st, h, w, sx):
     d0, dd0, s0, sd0, mu = w.dist, w.dist_rate, w.tang, w.tang_rate, w.mu
     nN, nk, nb, kgp, bgp = w.law_force, w.law_stiffness, w.law_damping, w.kg, w.bg
     ik = 1.0 if fl[F_IMPLICIT_K] != 0 else 0.0
-    normal_law = has_normal_law(sx)
+    normal_law = has_normal_law(sx, w)
     kt = p[P_KT]
     bt = p[P_BT]
     stiction = fl[F_STICTION] != 0
@@ -925,7 +944,7 @@ def _modes_changed(p, fl, st, h, w, sx):
     d0, dd0, s0 = w.dist, w.dist_rate, w.tang
     nN, nk, nb, kgp, bgp = w.law_force, w.law_stiffness, w.law_damping, w.kg, w.bg
     active = w.active
-    normal_law = has_normal_law(sx)
+    normal_law = has_normal_law(sx, w)
     kt = p[P_KT]
     bt = p[P_BT]
     mus = p[P_MUS]
@@ -975,7 +994,7 @@ def _contact_forces(p, fl, ctx, st, h, w, sx, user_forces):
     nx, nz, tx, tz, dsg = _surface(ctx)
     rigid = fl[F_RIGID] != 0
     flex = fl[F_FLEX] != 0 and not rigid
-    normal_law = has_normal_law(sx)
+    normal_law = has_normal_law(sx, w)
     kt = p[P_KT]
     bt = p[P_BT]
     stiction = fl[F_STICTION] != 0
@@ -1277,7 +1296,7 @@ def init_landing(p, fl, cond, st, ctx, ws):
     st[S_PMAX] = st[S_Q + 2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _at_rest(st, crit):
     if abs(st[S_V]) > crit[R_SPEED] or abs(st[S_V + 1]) > crit[R_SPEED]:
         return False
@@ -1341,7 +1360,7 @@ def classify(p, fl, ctx, st, crit, settled, slid, res):
     res[O_TEND] = st[S_T] - max(st[S_TIMP], 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _slide(ctx, st):
     dsg = 1.0 if ctx[C_SIN] >= 0.0 else -1.0
     if st[S_TIMP] < 0.0:
@@ -1349,7 +1368,7 @@ def _slide(ctx, st):
     return dsg * (ctx[C_COS] * (st[S_Q] - st[S_X0]) - ctx[C_SIN] * (st[S_Q + 1] - st[S_X0 + 1]))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def reverse_command(cond, since):
     """Rotor command ``since`` s after first contact: 0 before the delay, full reverse held for
     the duration, then a linear ramp to zero (or a step), then 0."""
@@ -1383,12 +1402,23 @@ def run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res):
     rec_every > 0). The outcome is frozen the moment the vehicle settles, so a run that
     stops there and one that goes on to the horizon report the same result.
     """
+    ws = _make_workspace_jit()
+    return _run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res, ws)
+
+
+@njit(cache=True)
+def _run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res, ws):
+    """:func:`run_landing` in a workspace its caller holds. The step works on the record
+    ``ws[0]``, and a numba record does not keep its array alive: numba frees an array after
+    its last use in a function, so a workspace allocated here and then used only through its
+    record would be freed under the landing (garbage results once the memory was reused, seen
+    on Dask workers). An argument lives as long as the caller's reference."""
     st0 = np.zeros(N_STATE)
     ctx0 = np.zeros(N_CTX)
-    ws = _make_workspace_jit()
     init_landing(p, fl, cond, st0, ctx0, ws)
     w = ws[0]
     _load(w, p, fl, ctx0, st0)
+    _load_seams(w, sx)
     st, ctx = w.st, w.ctx
     n_rec = 0
     if rec_every > 0 and rec.shape[0] > 0:
@@ -1456,6 +1486,7 @@ def advance(p, fl, ctx, st, h, n, u0, u1, ws, sx):
     """``n`` steps of ``h`` with fixed rotor commands (one call per stepper tick)."""
     w = ws[0]
     _load(w, p, fl, ctx, st)
+    _load_seams(w, sx)
     for _ in range(n):
         _step(w, h, u0, u1, sx)
     _unload(w, ctx, st)
@@ -1466,9 +1497,10 @@ def mechanical_energy(p, fl, ctx, st, ws, sx, out):
     """Kinetic, gravitational, ground-spring, stiction-spring, flex-spring and EOT-spring
     energy of the state (J), in that order."""
     w = ws[0]
+    _load_seams(w, sx)
     M, pts = w.M, w.pts
     kinematics(p, st, M, w.f, pts, w.vel, w.J)
-    normal_law = has_normal_law(sx)
+    normal_law = has_normal_law(sx, w)
     ke = 0.0
     for a in range(5):
         for b in range(5):

@@ -138,58 +138,6 @@ STICK_SPEED = 1e-3  # m/s: a contact arriving slower than this along the surface
 
 DEG = math.pi / 180.0
 
-# --- the integrator's scratch workspace ---------------------------------------------------
-# One record (numpy structured dtype): compiled code reads its fields by name (``w.M[a, b]``)
-# and passes the record on as a single pointer; its fields are arrays without reference counts,
-# which a step would otherwise update twice per array per stage (a third of a landing's time).
-WORKSPACE = np.dtype(
-    [
-        # the model's arrays, copied in for the steps (see kernel._load)
-        ("p", np.float64, len(PARAMETER_NAMES)),  # parameters
-        ("fl", np.int64, N_FLAGS),  # effect switches
-        ("ctx", np.float64, N_CTX),  # context
-        ("st", np.float64, N_STATE),  # state
-        # kinematics at the start of the step
-        ("pitch_cos", np.float64),  # cosine of the pitch
-        ("pitch_sin", np.float64),  # and its sine
-        ("M", np.float64, (5, 5)),  # mass matrix
-        ("f", np.float64, 5),  # explicit generalised forces: velocity products, gravity, applied
-        ("pts", np.float64, (N_POINTS, 2)),  # world position of each contact point
-        ("vel", np.float64, (N_POINTS, 2)),  # its world velocity
-        ("J", np.float64, (N_POINTS, 2, 5)),  # its 2x5 Jacobian (world x, z rows)
-        # the implicit solve: (M - h D - h^2 K) v' = M v + h f
-        ("A0", np.float64, (5, 5)),  # matrix before the contacts: M and the joints' implicit parts
-        ("r0", np.float64, 5),  # right-hand side before the contacts: M v + h f
-        ("A", np.float64, (5, 5)),  # the matrix of one active-set iteration (overwritten by the solve)
-        ("r", np.float64, 5),  # its right-hand side
-        ("vn", np.float64, 5),  # the new generalised velocities
-        ("JNT", np.float64, (N_POINTS, 2, 5)),  # per point: its Jacobian along the normal and tangent
-        ("f_user", np.float64, 5),  # generalised force of the force seams this step
-        ("f_points", np.float64, N_FORCE_POINTS * 2),  # the point-force seam's (x, z) per named point
-        ("backup", np.float64, N_STATE),  # the state before the step (to redo a touchdown finely)
-        # per contact point, at the start of the step
-        ("dist", np.float64, N_POINTS),  # distance from the surface (+ out of it)
-        ("dist_rate", np.float64, N_POINTS),  # its rate
-        ("tang", np.float64, N_POINTS),  # position along the surface tangent
-        ("tang_rate", np.float64, N_POINTS),  # its rate
-        ("mu", np.float64, N_POINTS),  # sliding friction coefficient
-        ("law_force", np.float64, N_POINTS),  # a normal-force seam's force,
-        ("law_stiffness", np.float64, N_POINTS),  # its stiffness
-        ("law_damping", np.float64, N_POINTS),  # and its damping
-        ("pad_energy", np.float64, N_POINTS),  # energy in a stuck foot's stiction spring
-        ("kg", np.float64, N_POINTS),  # the built-in ground's stiffness (the rigid gear's feet differ)
-        ("bg", np.float64, N_POINTS),  # and damping
-        ("was_in", np.uint8, N_POINTS),  # in contact at the start of the step
-        ("active", np.uint8, N_POINTS),  # in contact this step (the active set)
-        ("locked", np.uint8, 5),  # generalised coordinate held fixed this step
-        # per friction joint
-        ("tau", np.float64, 2),  # slip torque (planar, N*m)
-        ("zone", np.float64, 2),  # 1 inside the end-of-travel zone
-        ("lam", np.float64, 2),  # constraint torque of a locked joint
-    ],
-    align=True,
-)
-
 
 # --- built-in effects -----------------------------------------------------------------------
 @dataclass(frozen=True)
@@ -285,6 +233,61 @@ SEAMS: dict[str, str] = {
 SEAM_INDEX: dict[str, int] = {name: i for i, name in enumerate(SEAMS)}
 SEAM_SLOTS = 4  # laws one seam can take in one model
 SEAM_FORCE, SEAM_POINT_FORCE, SEAM_JOINT_TORQUE, SEAM_FOOT_FRICTION, SEAM_NORMAL_FORCE = range(5)
+N_SEAMS = len(SEAMS)
+
+
+# --- the integrator's scratch workspace ---------------------------------------------------
+# One record (numpy structured dtype): compiled code reads its fields by name (``w.M[a, b]``)
+# and passes the record on as a single pointer; its fields are arrays without reference counts,
+# which a step would otherwise update twice per array per stage (a third of a landing's time).
+WORKSPACE = np.dtype(
+    [
+        # the model's arrays, copied in for the steps (see kernel._load)
+        ("p", np.float64, len(PARAMETER_NAMES)),  # parameters
+        ("fl", np.int64, N_FLAGS),  # effect switches
+        ("ctx", np.float64, N_CTX),  # context
+        ("st", np.float64, N_STATE),  # state
+        ("seams", np.int64, (N_SEAMS, 1 + 2 * SEAM_SLOTS)),  # a seam table's slots (seams.py)
+        # kinematics at the start of the step
+        ("pitch_cos", np.float64),  # cosine of the pitch
+        ("pitch_sin", np.float64),  # and its sine
+        ("M", np.float64, (5, 5)),  # mass matrix
+        ("f", np.float64, 5),  # explicit generalised forces: velocity products, gravity, applied
+        ("pts", np.float64, (N_POINTS, 2)),  # world position of each contact point
+        ("vel", np.float64, (N_POINTS, 2)),  # its world velocity
+        ("J", np.float64, (N_POINTS, 2, 5)),  # its 2x5 Jacobian (world x, z rows)
+        # the implicit solve: (M - h D - h^2 K) v' = M v + h f
+        ("A0", np.float64, (5, 5)),  # matrix before the contacts: M and the joints' implicit parts
+        ("r0", np.float64, 5),  # right-hand side before the contacts: M v + h f
+        ("A", np.float64, (5, 5)),  # the matrix of one active-set iteration (overwritten by the solve)
+        ("r", np.float64, 5),  # its right-hand side
+        ("vn", np.float64, 5),  # the new generalised velocities
+        ("JNT", np.float64, (N_POINTS, 2, 5)),  # per point: its Jacobian along the normal and tangent
+        ("f_user", np.float64, 5),  # generalised force of the force seams this step
+        ("f_points", np.float64, N_FORCE_POINTS * 2),  # the point-force seam's (x, z) per named point
+        ("backup", np.float64, N_STATE),  # the state before the step (to redo a touchdown finely)
+        # per contact point, at the start of the step
+        ("dist", np.float64, N_POINTS),  # distance from the surface (+ out of it)
+        ("dist_rate", np.float64, N_POINTS),  # its rate
+        ("tang", np.float64, N_POINTS),  # position along the surface tangent
+        ("tang_rate", np.float64, N_POINTS),  # its rate
+        ("mu", np.float64, N_POINTS),  # sliding friction coefficient
+        ("law_force", np.float64, N_POINTS),  # a normal-force seam's force,
+        ("law_stiffness", np.float64, N_POINTS),  # its stiffness
+        ("law_damping", np.float64, N_POINTS),  # and its damping
+        ("pad_energy", np.float64, N_POINTS),  # energy in a stuck foot's stiction spring
+        ("kg", np.float64, N_POINTS),  # the built-in ground's stiffness (the rigid gear's feet differ)
+        ("bg", np.float64, N_POINTS),  # and damping
+        ("was_in", np.uint8, N_POINTS),  # in contact at the start of the step
+        ("active", np.uint8, N_POINTS),  # in contact this step (the active set)
+        ("locked", np.uint8, 5),  # generalised coordinate held fixed this step
+        # per friction joint
+        ("tau", np.float64, 2),  # slip torque (planar, N*m)
+        ("zone", np.float64, 2),  # 1 inside the end-of-travel zone
+        ("lam", np.float64, 2),  # constraint torque of a locked joint
+    ],
+    align=True,
+)
 
 
 def layout_digest() -> str:
