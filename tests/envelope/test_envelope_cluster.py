@@ -56,6 +56,14 @@ def test_a_sweep_on_two_worker_processes_is_the_one_machine_sweep(cluster, grid,
     assert same(run_sweep(grid[:7], model, client=cluster.address, progress=False), reference[:7])
 
 
+def test_sweeps_in_a_row_on_one_client_each_give_the_one_machine_sweep(cluster, grid, model, reference):
+    """The same model in sweep after sweep on one client (nothing a sweep leaves on the cluster,
+    or takes off it when done, is needed by the next)."""
+    for chunk in (20, 20, None):
+        assert same(run_sweep(grid, model, chunk=chunk, client=cluster.client, progress=False), reference)
+    assert same(run_sweep(grid[::3], model, client=cluster.client, progress=False), reference[::3])
+
+
 def test_the_table_command_on_the_cluster_writes_the_one_machine_table(cluster, tmp_path, capsys):
     grid = ["--slope-step", "15", "--speed-step", "0.8", "--speed-min", "0.6", "--quiet"]
     here, there = tmp_path / "here.yaml", tmp_path / "there.yaml"
