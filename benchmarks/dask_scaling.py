@@ -44,12 +44,12 @@ from tests.envelope.loopback_cluster import LoopbackCluster
 
 LEVELS = (0.56, 1.1, 1.7, 2.3)
 IDLE_S = 4.0
+"""Seconds the idle clusters are watched for the CPU they burn doing nothing."""
 LATENCY_RUNS = 20
 """Sweeps of one landing that time a sweep's fixed cost."""
 NO_TRIM = '{"MALLOC_TRIM_THRESHOLD_": None}'
 """The nanny's MALLOC_TRIM_THRESHOLD_=65536 also fixes glibc's mmap threshold at 128 KiB: every
 residual vector of a fit is then mapped and unmapped (the fit section measures what it costs)."""
-"""Seconds the idle clusters are watched for the CPU they burn doing nothing."""
 
 
 def map_mix(n: int, seed: int = 0) -> np.ndarray:
