@@ -21,6 +21,14 @@ START_TIMEOUT = 180.0
 take 2-5 s there, and a first warm-up loads the compiled model)."""
 
 
+def _die_with_parent() -> None:
+    """In the child before it runs: SIGTERM when this process ends (Linux's PR_SET_PDEATHSIG),
+    so no scheduler or worker outlives a test run that was killed."""
+    import ctypes
+
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1: PR_SET_PDEATHSIG
+
+
 class LoopbackCluster:
     """``workers`` worker processes (with a nanny, as ``dask worker`` starts them, unless
     ``nanny`` is False) and one scheduler; ``pythonpath``: where the workers import slopelander
@@ -70,6 +78,7 @@ class LoopbackCluster:
             stderr=subprocess.STDOUT,
             env=env,
             start_new_session=self.sessions,
+            preexec_fn=_die_with_parent if sys.platform == "linux" else None,
         )
         log.close()
         self.procs.append(p)
@@ -80,9 +89,10 @@ class LoopbackCluster:
 
         from distributed import Client
 
-        # gone by itself 10 minutes after its last work, should this process die without closing it
-        # (its workers follow a minute later: --death-timeout)
-        args = ["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--idle-timeout", "600"]
+        # stopped with this process should it die without closing it (_die_with_parent); else gone
+        # by itself an hour after its last task (not sooner: a scheduler idle for 10 minutes while
+        # this process worked alone under load closed under a test), its workers a minute later
+        args = ["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--idle-timeout", "3600"]
         env = {**self._env(SRC), **self.scheduler_env}
         self._spawn("scheduler", [*args, "--scheduler-file", str(self.file)], env)
         end = time.monotonic() + START_TIMEOUT
