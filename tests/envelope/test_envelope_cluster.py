@@ -75,6 +75,28 @@ def test_the_table_command_on_the_cluster_writes_the_one_machine_table(cluster, 
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("kind", ["asymmetric", "uncertainty"])
+def test_the_map_command_on_the_cluster_writes_the_one_machine_map(cluster, tmp_path, kind):
+    """The map as a user runs it, here and with --dask: every array of its .npz and its CSV the
+    same (uncertainty: parameter sets drawn here, sent with the landings)."""
+    grid = ["--slope-step", "15", "--speed-step", "0.8", "--speed-min", "0.6", "--quiet", "--sets", "2"]
+    here, there = tmp_path / "here", tmp_path / "there"
+    assert main(["map", kind, "--out", str(here), *grid]) == 0
+    assert main(["map", kind, "--out", str(there), *grid, "--dask", cluster.address]) == 0
+    data = sorted(p.name for p in here.iterdir() if p.suffix in (".npz", ".csv"))
+    assert any(n.endswith(".npz") for n in data) and data == sorted(
+        p.name for p in there.iterdir() if p.suffix in (".npz", ".csv")
+    )
+    for name in data:
+        if name.endswith(".csv"):
+            assert (here / name).read_text() == (there / name).read_text(), name
+            continue
+        with np.load(here / name) as a, np.load(there / name) as b:
+            assert a.files and sorted(a.files) == sorted(b.files), name
+            for key in a.files:
+                assert same(a[key], b[key]), f"{name}: {key}"
+
+
 def test_cluster_tasks_are_cut_to_amortise_their_overhead():
     assert task_size(100_000, 2) == 1024  # at most a chunk's worth
     assert task_size(4000, 2) == 500  # four tasks a worker thread
