@@ -14,6 +14,7 @@ from slopelander.commands.ident_options import (
     add_search_options,
     build_model,
     candidate_effects,
+    close_client,
     fit_spec,
     plain,
     search_settings,
@@ -88,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
     model = build_model(args)
     names, bounds = fit_spec(args.fit)
     users = candidate_effects(args.candidates)
+    settings = search_settings(args)
     bar = ProgressBar(args.quiet, "diagnose")
     try:
         d = diagnose(
@@ -100,13 +102,14 @@ def run(args: argparse.Namespace) -> int:
             refit_evals=args.refit_evals,
             folds=args.folds,
             refit_from_centre=args.refit_from_centre,
-            **search_settings(args),
+            **settings,
             progress=bar,
         )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:
         bar.close()
+        close_client(settings)
     print(d.table())
     print(d.verdict())
     weighing = d.weighing()

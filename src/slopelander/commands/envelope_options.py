@@ -48,7 +48,11 @@ def add_sweep_options(p: argparse.ArgumentParser) -> None:
         metavar="S",
         help="then ramp it to zero over this long (default 0: a step; the script's reflex.reverse_ramp_ms)",
     )
-    p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="run the landings on a Dask cluster, e.g. tcp://host:8786 (docs/cluster.md)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -86,7 +90,7 @@ def setup(args: argparse.Namespace):
     model = Model.from_file(args.params) if args.params else Model.default()
     client = None
     if args.dask:
-        from slopelander.envelope.sweep import connect
+        from slopelander.envelope.cluster import connect
 
         client = connect(args.dask)
     progress = None if not args.quiet else False

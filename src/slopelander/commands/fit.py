@@ -12,6 +12,7 @@ from slopelander.commands.ident_options import (
     add_model_options,
     add_search_options,
     build_model,
+    close_client,
     fit_spec,
     save_params,
     search_settings,
@@ -79,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
         raise IdentCliError(str(exc)) from None
     finally:
         bar.close()
+        close_client(settings)
     print(sf.table())
     for w in sf.warnings():
         print(f"warning: {w}")

@@ -146,7 +146,11 @@ def add_search_options(p: argparse.ArgumentParser, repeats: int, repeats_help: s
         default=None,
         help="processes (default: SLOPELANDER_WORKERS, else one per core)",
     )
-    g.add_argument("--dask", metavar="ADDRESS", help="run on a Dask scheduler, e.g. tcp://host:8786")
+    g.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="run the evaluations on a Dask cluster, e.g. tcp://host:8786 (docs/cluster.md)",
+    )
     g.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -196,11 +200,23 @@ def search_settings(args: argparse.Namespace) -> dict:
 
 
 def client(args: argparse.Namespace):
+    """A Dask client for ``--dask`` (None without it)."""
     if not args.dask:
         return None
-    from slopelander.envelope.sweep import connect
+    if args.workers is not None:
+        raise IdentCliError(
+            "--workers counts processes on this machine; with --dask the cluster's worker threads "
+            "do the work (start the workers with as many threads as you want used)"
+        )
+    from slopelander.envelope.cluster import connect
 
     return connect(args.dask)
+
+
+def close_client(settings: dict) -> None:
+    """Close the Dask client a command opened (the search settings' ``client``)."""
+    if settings.get("client") is not None:
+        settings["client"].close()
 
 
 def candidate_effects(paths: list[Path] | None) -> list | None:

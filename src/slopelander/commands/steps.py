@@ -13,6 +13,7 @@ from slopelander.commands.ident_options import (
     add_search_options,
     build_model,
     candidate_effects,
+    close_client,
     fit_spec,
     search_settings,
 )
@@ -77,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
         if c.user is None and c.name in model.effects:
             raise IdentCliError(f"--add {c.name!r}: the base model already has it (remove it with --without)")
     names, bounds = fit_spec(args.fit)
+    settings = search_settings(args)
     bar = ProgressBar(args.quiet, "steps")
     try:
         st = run_steps(
@@ -85,13 +87,14 @@ def run(args: argparse.Namespace) -> int:
             effects,
             names=names,
             bounds=bounds,
-            **search_settings(args),
+            **settings,
             progress=bar,
         )
     except FitError as exc:
         raise IdentCliError(str(exc)) from None
     finally:
         bar.close()
+        close_client(settings)
     print(st.table())
     if args.plot:
         print(f"plot: {st.plot(args.plot)}")

@@ -207,8 +207,22 @@ def _worker_part(task: tuple[np.ndarray, list[int]]) -> np.ndarray:
     return _WORKER_PROBLEM.residuals(task[0], task[1])
 
 
-def _dask_residuals(problem: Problem, u: np.ndarray) -> np.ndarray:
-    return problem.residuals(u)
+def _dask_keep(problem: Problem, expected: str) -> Problem:
+    """The fit's drops and model, held on the cluster once per fit (run again from its task
+    should every copy be lost with its worker)."""
+    from slopelander.envelope.cluster import check_worker
+
+    check_worker(expected)
+    return problem
+
+
+def _dask_part(
+    problem: Problem, points: list[np.ndarray], which: list[int] | None, expected: str
+) -> list[np.ndarray]:
+    from slopelander.envelope.cluster import check_worker
+
+    check_worker(expected)
+    return [problem.residuals(u, which) for u in points]
 
 
 WORKERS_ENV = "SLOPELANDER_WORKERS"
@@ -242,13 +256,20 @@ class Evaluator:
         problem.model.kernel()
         if client is None and self.workers > 1 and "fork" in mp.get_all_start_methods():
             self._pool = mp.get_context("fork").Pool(self.workers, _init_worker, (problem,))
+        self._held = None
+        if client is not None:
+            from slopelander.envelope.cluster import fingerprint, prepare
+
+            prepare(client, ("landing",))
+            self._expected = fingerprint()
+            # sent once: each task then carries a point and the drops it simulates, not the drops
+            self._held = client.submit(_dask_keep, problem, self._expected, pure=False)
         self.nfev = 0
 
     def residuals(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
         self.nfev += len(points)
         if self.client is not None:
-            futs = self.client.map(_dask_residuals, [self.problem] * len(points), list(points), pure=False)
-            return self.client.gather(futs)
+            return self._on_cluster(points)
         if self._pool is not None:
             # each point's drops shared out between the processes, one part a task: a single
             # point (a least-squares step) uses them all, and a population's slow points (long
@@ -261,7 +282,43 @@ class Evaluator:
             return [np.concatenate(parts[i * k : (i + 1) * k]) for i in range(len(points))]
         return [self.problem.residuals(u) for u in points]
 
+    def _on_cluster(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """As the pool, on the cluster's worker threads, one task a thread: a block of points,
+        or, with fewer points than threads (a least-squares step), a part of each point's
+        drops, joined in the same order. A point takes milliseconds to tenths of a second, a
+        task's round trip milliseconds: one task per point would spend as long on the trips.
+        Each task is asked of one thread's worker (another takes it if that one is gone): left
+        to itself, the scheduler keeps them all where the drops are held."""
+        from slopelander.envelope.cluster import gather, slots
+
+        where = slots(self.client)
+        k = max(1, len(where))
+        n, m = len(self.problem.drops), len(points)
+        if m >= k:
+            tasks = [([points[i] for i in b], None) for b in np.array_split(np.arange(m), k)]
+            parts = 1
+        else:
+            parts = min(n, -(-k // max(1, m)))
+            chunks = [c.tolist() for c in np.array_split(np.arange(n), parts)]
+            tasks = [([u], c) for u in points for c in chunks]
+        placed = [
+            {"workers": [where[i % k]], "allow_other_workers": True} if where else {}
+            for i in range(len(tasks))
+        ]
+        futures = [
+            self.client.submit(_dask_part, self._held, us, which, self._expected, pure=False, **place)
+            for (us, which), place in zip(tasks, placed, strict=True)
+        ]
+        got: list = [None] * len(futures)
+        gather(futures, got.__setitem__)
+        if parts == 1:
+            return [r for block in got for r in block]
+        return [np.concatenate([got[i * parts + j][0] for j in range(parts)]) for i in range(m)]
+
     def close(self) -> None:
+        if self._held is not None:
+            self._held.release()
+            self._held = None
         if self._pool is not None:
             self._pool.terminate()
             self._pool.join()
