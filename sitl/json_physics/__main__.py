@@ -62,7 +62,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def warm() -> None:
     """What every physics loads before its first frame, loaded once in a process that physics
-    servers are forked from (:mod:`sitl.zygote`; the compiled model is the simulated vehicle's)."""
+    servers are forked from (:mod:`sitl.warm`; the compiled model is the simulated vehicle's)."""
     import sitl.json_physics.companion_gate
     import sitl.json_physics.physics
     import sitl.json_physics.pilot_rc

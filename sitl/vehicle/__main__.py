@@ -59,7 +59,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def warm() -> None:
     """What every vehicle loads before its first tick (the imports, the compiled model from
-    numba's cache), loaded once in a process that vehicles are forked from (:mod:`sitl.zygote`)."""
+    numba's cache), loaded once in the process vehicles are forked from (:mod:`sitl.warm`)."""
     import sitl.vehicle.legs_link
     import sitl.vehicle.mavlink_endpoints
     import sitl.vehicle.params

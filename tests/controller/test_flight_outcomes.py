@@ -31,6 +31,9 @@ from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.model.landing import simulate
 from slopelander.model.outcome import Outcome
 
+#: its tests share a vehicle flown by several tests (rig): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("controller/flight_outcomes")
+
 SEQUENCE = ["PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED", "CUT", "REVERSE", "SETTLED", "LANDED"]
 
 

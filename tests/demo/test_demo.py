@@ -16,6 +16,9 @@ from sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
 from slopelander.controller.config import load_config
 from slopelander.controller.landing import cut_dynamics, expected_impact_speed, leg_geometry
 
+#: its tests share one demo run (demo): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("demo/demo")
+
 REPO = Path(__file__).resolve().parents[2]
 
 

@@ -39,9 +39,6 @@ READY = {
 UNSHARE = ["unshare", "--user", "--map-root-user", "--net", "--mount", "--pid", "--fork", "--kill-child"]
 PROMPT = re.compile(r"^[A-Z_]+> ")
 
-# the walkthrough's flight and processes; it shares nothing with other tests in this module
-pytestmark = pytest.mark.spread
-
 
 @dataclass
 class Block:
