@@ -118,9 +118,11 @@ class Sandbox:
         up = f"{shlex.quote(sys.executable)} -c 'from sitl.netns import bring_loopback_up as f; f()'"
         # what lives under the machine's /tmp and the commands need (a checkout or a venv cloned
         # there) is bound back into the private one, reached through a descriptor of the old /tmp
-        # opened before it was covered
+        # opened before it was covered (not canonicalized: that path would resolve into the new one)
         names = [shlex.quote(name) for name in kept_under_tmp()]
-        keep = " && ".join(f"mkdir /tmp/{n} && mount --bind /proc/self/fd/3/{n} /tmp/{n}" for n in names)
+        keep = " && ".join(
+            f"mkdir /tmp/{n} && mount --no-canonicalize --bind /proc/self/fd/3/{n} /tmp/{n}" for n in names
+        )
         script = (
             f"exec 3</tmp && mount -t tmpfs walkthrough /tmp && {keep or 'true'} && exec 3<&- && {up} "
             "&& echo ready && exec cat >/dev/null"
