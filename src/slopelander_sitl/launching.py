@@ -13,7 +13,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from slopelander_sitl import zygote
+from slopelander_sitl import processes
 from slopelander_sitl.vehicle.launch import REPO, child_env
 
 
@@ -30,15 +30,15 @@ def start_ready_process(
     timeout: float,
     cwd: Path = REPO,
     isolate: bool = False,
-) -> tuple[subprocess.Popen | zygote.ZygoteProcess | zygote.ForkedProcess, str]:
-    """Run ``python -m module *argv`` (:func:`slopelander_sitl.zygote.start`: forked from a warm process where
-    there is one; ``isolate``: in a loopback-only network namespace of its own), stderr to
+) -> tuple[subprocess.Popen | processes.ForkedProcess, str]:
+    """Run ``python -m module *argv`` (:func:`slopelander_sitl.processes.start`: forked from a warm forkserver
+    where this process uses one; ``isolate``: in a loopback-only network namespace of its own), stderr to
     ``<tmp>/stderr.txt``, until it prints a line starting with ``ready``; returns the process and
     that line. On failure the process is killed, ``tmp`` is removed and :class:`LaunchError`
     carries the end of its stderr."""
     err_path = Path(tmp.name) / "stderr.txt"
     with open(err_path, "w") as err:
-        proc = zygote.start(
+        proc = processes.start(
             module, argv, env=child_env(), cwd=cwd, stdout=subprocess.PIPE, stderr=err, isolate=isolate
         )
     deadline = time.monotonic() + timeout

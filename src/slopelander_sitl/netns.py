@@ -44,7 +44,8 @@ def enter_isolated() -> None:
     """Move this process into a new user and network namespace, as ``unshare --user
     --map-root-user --net`` moves the command it runs (this user mapped to root in the new user
     namespace, ``setgroups`` denied first, as the kernel requires of an unprivileged map: see
-    user_namespaces(7)). For a process forked from a warm one (:mod:`slopelander_sitl.zygote`), which has no
+    user_namespaces(7)). For a process forked from a warm one (:mod:`slopelander_sitl.processes`), which
+    has no
     ``unshare`` to exec: the kernel refuses a new user namespace to a process with more than one
     thread, so call it before any thread starts. Raises :class:`NamespaceError` if it cannot."""
     uid, gid = os.geteuid(), os.getegid()

@@ -32,6 +32,9 @@ from slopelander.model.outcome import Outcome
 from slopelander_sitl.rig import Flight, Rig, config
 from slopelander_sitl.vehicle.vehicle import CONTROL_HZ, PHYSICS_HZ
 
+#: its tests share a vehicle flown by several tests (rig): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("controller/flight_outcomes")
+
 SEQUENCE = ["PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED", "CUT", "REVERSE", "SETTLED", "LANDED"]
 
 

@@ -16,6 +16,9 @@ from slopelander.controller.landing import cut_dynamics, expected_impact_speed, 
 from slopelander_sitl.vehicle.scenario import Scenario
 from slopelander_sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
 
+#: its tests share one demo run (demo): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("demo/demo")
+
 REPO = Path(__file__).resolve().parents[2]
 
 

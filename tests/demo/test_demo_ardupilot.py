@@ -21,7 +21,8 @@ from slopelander_sitl.ardupilot import arducopter_binary
 from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
 from tests.ident.test_flightlog import true_contact
 
-pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)
+# one ArduCopter at a time; a long flight (tests/conftest.py)
+pytestmark = [pytest.mark.xdist_group("arducopter"), pytest.mark.timeout(1200)]
 
 
 def landed_legs(printed: str) -> tuple[float, float]:

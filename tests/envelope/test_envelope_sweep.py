@@ -10,6 +10,9 @@ from slopelander.envelope.cluster import ClusterError
 from slopelander.envelope.sweep import SweepError, connect, run_sweep
 from slopelander.model import simulate_batch
 
+#: its tests share one grid and its reference (grid, reference): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("envelope/envelope_sweep")
+
 
 @pytest.fixture(scope="module")
 def grid(tiny_axes):

@@ -7,9 +7,6 @@ from pathlib import Path
 
 import pytest
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware_params"
 

@@ -5,12 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import pytest
-
 from slopelander_sitl.vehicle.scripting import binding_calls
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
 
 SCRIPT = Path(__file__).resolve().parents[2] / "firmware_params" / "scripts" / "slopelander.lua"
 

@@ -12,9 +12,6 @@ from slopelander.controller.script_contract import CMD_REFLEX as REFLEX
 from slopelander.controller.script_contract import SCRIPT_CONTRACT, Reflex, ScriptState
 from slopelander_sitl.vehicle.scripting import RangeReading
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 ACCEPTED, TEMP_REJECTED, DENIED = 0, 1, 2
 ARM = (Reflex.ARM, 0.3, 30, 100, 300, 2000)
 

@@ -27,9 +27,6 @@ from slopelander.controller.script_contract import (
 )
 from slopelander_sitl.vehicle.scripting import RangeReading
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 M = mavutil.mavlink
 DENIED = 2
 

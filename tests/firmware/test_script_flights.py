@@ -144,7 +144,8 @@ def test_an_error_in_the_script_after_the_cut_keeps_the_motors_stopped_on_the_ro
         assert any(t.startswith("SL: error ") and t.endswith(": injected fault") for t in texts), ctx
 
 
-@pytest.mark.arducopter
+@pytest.mark.xdist_group("arducopter")
+@pytest.mark.timeout(1200)  # a long flight
 def test_a_stalled_scripting_thread_in_cut_keeps_the_motors_stopped(tmp_path: Path, monkeypatch) -> None:
     """ArduCopter only: its scripting thread stalled (injected: the script's own update busy for
     40-100 ms of vehicle time at the cut). CUT's override lasted 30 ms and the mixer, demanding

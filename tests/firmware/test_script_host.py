@@ -11,9 +11,6 @@ from script_bench import SCRIPT, Bench, TestVehicle
 
 from slopelander_sitl.vehicle.scripting import ScriptError, ScriptHost
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 
 def script(tmp_path: Path, text: str) -> Path:
     path = tmp_path / "probe.lua"

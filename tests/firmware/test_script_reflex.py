@@ -14,9 +14,6 @@ from slopelander.controller.script_contract import CMD_REFLEX as REFLEX
 from slopelander.controller.script_contract import Reflex, ScriptState
 from slopelander_sitl.vehicle.scripting import RangeReading
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 ACCEPTED, TEMP_REJECTED = 0, 1
 CUT_M, IMPACT, PCT, DUR_MS = 0.30, 30.0, 80.0, 300.0
 DESCENT = 0.5

@@ -22,9 +22,6 @@ from slopelander.controller.config import load_config
 from slopelander.controller.script_contract import Reflex, ScriptState, missed_impact_s
 from slopelander_sitl.vehicle.scripting import RangeReading
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 CFG = load_config()
 IMPACT = CFG["reflex.impact_threshold_mps2"]  # the shipped 20 m/s², not a test's own
 CUT_M = CFG["reflex.cut_height_m"]

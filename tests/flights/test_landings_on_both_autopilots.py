@@ -415,7 +415,12 @@ def test_the_leg_board_unplugged_in_the_descent_aborts_to_loiter_before_the_cut(
         assert_hovering_safe(rig, lander, "leg failure")
 
 
-@pytest.fixture(scope="class", params=AUTOPILOTS)
+#: the link cuts on the simulated vehicle in a group of their own (the two flights share it, in
+#: order); on ArduCopter in the "arducopter" group, as every ArduCopter flight
+CUT_AUTOPILOTS = [pytest.param("sim", marks=pytest.mark.xdist_group("flights/link_cuts")), AUTOPILOTS[1]]
+
+
+@pytest.fixture(scope="class", params=CUT_AUTOPILOTS)
 def cut_roof(request):
     """One vehicle for the link-cut tests, in their order. Scoped to their class: pytest stops a
     module-scoped vehicle only when the module ends, and this one flew on, idle, through the

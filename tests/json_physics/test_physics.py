@@ -16,6 +16,9 @@ from slopelander_sitl.vehicle.launch import start_legboard
 from tests.json_physics.conftest import QUIET, alt, climb, fly, hover_pwm, run
 from tests.legs.fed_clock import board_time, feed_until_done
 
+#: its tests share one physics server (pad_server): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("json_physics/physics")
+
 G = 9.81
 
 

@@ -15,7 +15,8 @@ import pytest
 from slopelander_sitl.ardupilot import arducopter_binary, start_arducopter
 from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
 
-pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)
+# one ArduCopter at a time; long flights (tests/conftest.py)
+pytestmark = [pytest.mark.xdist_group("arducopter"), pytest.mark.timeout(1200)]
 
 os.environ.setdefault("MAVLINK20", "1")
 

@@ -17,10 +17,6 @@ from slopelander.legs import codec, messages
 from slopelander_sitl.legboard.control import BoardControl, ControlError
 from slopelander_sitl.legboard.server import MAX_ADVANCE_S, BoardServer, FaultSpec
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
-
 TICK_S = 0.004  # the firmware's tick
 
 

@@ -24,8 +24,8 @@ from slopelander_sitl.legboard.control import BoardControl
 from slopelander_sitl.legboard.runtime import HostBoard
 from tests.legs.conftest import ROOT
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+#: its tests share one calibration run (calibrated): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("legs/leg_calibrate")
 
 HIDDEN = {"mu": [0.25, 0.29, 0.27, 0.30], "i_no_load": 0.047, "screw_efficiency": 0.22, "mu_slope": -0.05}
 MASSES = "0.2,0.5,0.9,1.5"

@@ -6,9 +6,6 @@ import pytest
 
 from slopelander import cli
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 
 @pytest.fixture
 def run(monkeypatch, capsys):

@@ -15,9 +15,6 @@ from slopelander.legs import wire
 from slopelander.legs.messages import FaultCode, LegState
 from slopelander_sitl.legboard.runtime import HostBoard
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 STEP_S = 0.02
 
 

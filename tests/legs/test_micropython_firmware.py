@@ -11,7 +11,8 @@ import pytest
 from slopelander_sitl.legboard.runtime import FIRMWARE_DIR, HostBoard
 from tests.legs.micropython_runner import needs_micropython, run
 
-pytestmark = [pytest.mark.model_free, needs_micropython]
+#: its tests share one run on both runtimes (both): one worker, file order (tests/conftest.py)
+pytestmark = [needs_micropython, pytest.mark.xdist_group("legs/micropython_firmware")]
 
 # the same source runs below on MicroPython (as a string) and here on CPython (exec)
 SCENARIO = """

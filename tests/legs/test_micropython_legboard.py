@@ -15,8 +15,6 @@ from slopelander.legs.messages import FaultCode, LegState
 from tests.legs.conftest import ROOT
 from tests.legs.micropython_runner import needs_micropython
 
-pytestmark = pytest.mark.model_free
-
 MP = ("--runtime", "micropython")
 
 

@@ -10,6 +10,9 @@ import kernel_reference as ref
 import numpy as np
 import pytest
 
+#: its tests share recorded and current landings (now, recorded): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("model/kernel_reference")
+
 RTOL = 1e-12
 ATOL = 1e-12
 

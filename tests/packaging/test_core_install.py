@@ -10,9 +10,6 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 
-#: runs while the model compiles (tests/compile_once.py): no test here needs it
-pytestmark = pytest.mark.model_free
-
 CHECK = """
 import importlib.util, sys
 import slopelander.controller.runner, slopelander.controller.link, slopelander.controller.table

@@ -20,6 +20,9 @@ from slopelander.controller.runner import Lander
 from slopelander_sitl.legboard.control import BoardControl
 from slopelander_sitl.rig import Rig, RigError, config
 
+#: its tests share a vehicle flown by several tests (rig): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("reliability/flight_faults")
+
 LOITER, GUIDED = 5, 4
 PRESET = (1.7, 2.3)
 CUT = {"cut_height_m": 0.45}

@@ -20,6 +20,9 @@ from slopelander_sitl.linkfault import LinkFaults, RelayControl
 from slopelander_sitl.linkfault.faults import FaultConfigError, decide
 from slopelander_sitl.vehicle.launch import REPO, child_env, free_port, start_vehicle
 
+#: its tests share one link under faults (link): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("reliability/linkfault")
+
 ROUTE_A = {"FRAME_CLASS": 1, "MOT_PWM_TYPE": 0, "MOT_PWM_MIN": 1525, "MOT_PWM_MAX": 2000}
 #: frames on their way between the relay's count and the client when a count is taken
 IN_FLIGHT = 10

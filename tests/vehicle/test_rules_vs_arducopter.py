@@ -19,7 +19,7 @@ pytestmark = [
     pytest.mark.skipif(
         not BINARY, reason="SLOPELANDER_ARDUCOPTER is not set: no ArduCopter SITL binary to compare with"
     ),
-    pytest.mark.arducopter,  # one ArduCopter at a time (tests/conftest.py)
+    pytest.mark.xdist_group("arducopter"),  # one ArduCopter at a time (tests/conftest.py)
 ]
 
 

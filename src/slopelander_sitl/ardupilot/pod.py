@@ -172,8 +172,8 @@ class Console:
 
 
 def warm() -> None:
-    """What a pod loads before ArduCopter boots, loaded once in a process that pods are forked
-    from (:mod:`slopelander_sitl.zygote`); the pod then forks its physics from itself."""
+    """What a pod loads before ArduCopter boots, loaded once in the process pods are forked from
+    (:mod:`slopelander_sitl.warm`)."""
     import pymavlink.mavutil  # noqa: F401
 
     import slopelander_sitl.ardupilot.echo_tap

@@ -63,8 +63,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def warm() -> None:
     """What every physics loads before its first frame, loaded once in a process that physics
-    servers are forked from (:mod:`slopelander_sitl.zygote`; the compiled model is the simulated
-    vehicle's)."""
+    servers are forked from (:mod:`slopelander_sitl.warm`; the compiled model is the simulated vehicle's)."""
     import slopelander_sitl.json_physics.companion_gate
     import slopelander_sitl.json_physics.physics
     import slopelander_sitl.json_physics.pilot_rc

@@ -70,7 +70,7 @@ def start_json_physics(
     real_time_below_m: float | None = None,
 ) -> PhysicsProcess:
     """Start ``python -m slopelander_sitl.json_physics`` (forked from a warm process where there is one:
-    :func:`slopelander_sitl.zygote.start`); returns once it is ready. Raises RuntimeError with
+    :func:`slopelander_sitl.processes.start`); returns once it is ready. Raises RuntimeError with
             its stderr if it fails. ``rc_port``: ArduPilot SITL's UDP RC input, where the scenario's
             ``rc`` schedule is sent; ``lockstep_port``: where the companion's echoes arrive (the physics then
         holds ArduPilot while the companion is behind,

@@ -59,8 +59,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def warm() -> None:
     """What every vehicle loads before its first tick (the imports, the compiled model from
-    numba's cache), loaded once in a process that vehicles are forked from
-    (:mod:`slopelander_sitl.zygote`)."""
+    numba's cache), loaded once in the process vehicles are forked from (:mod:`slopelander_sitl.warm`)."""
     import slopelander_sitl.vehicle.legs_link
     import slopelander_sitl.vehicle.mavlink_endpoints
     import slopelander_sitl.vehicle.params

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import yaml
 
-from slopelander_sitl import zygote
+from slopelander_sitl import processes
 from slopelander_sitl.parent_watch import ENV
 
 REPO = Path(__file__).resolve().parents[3]
@@ -39,7 +39,7 @@ def child_env() -> dict[str, str]:
 
 
 def stop_process(
-    proc: subprocess.Popen | zygote.ZygoteProcess, tmp: tempfile.TemporaryDirectory, timeout: float = 5.0
+    proc: subprocess.Popen | processes.ForkedProcess, tmp: tempfile.TemporaryDirectory, timeout: float = 5.0
 ) -> int:
     """Terminate a child (killed if it does not end within ``timeout``), remove its temporary
     directory, and return its exit status."""
@@ -57,7 +57,7 @@ def stop_process(
 class VehicleProcess:
     def __init__(
         self,
-        proc: subprocess.Popen | zygote.ZygoteProcess,
+        proc: subprocess.Popen | processes.ForkedProcess,
         port: int,
         ready: str,
         tmp: tempfile.TemporaryDirectory,
@@ -123,7 +123,7 @@ def start_vehicle(
     if legboard_period_ms is not None:
         cmd += ["--legboard-period-ms", str(legboard_period_ms)]
     err = open(Path(tmp.name) / "stderr.txt", "w+")  # noqa: SIM115 - read back on failure
-    proc = zygote.start(
+    proc = processes.start(
         "slopelander_sitl.vehicle", cmd, env=child_env(), cwd=REPO, stdout=subprocess.PIPE, stderr=err
     )
     deadline = time.monotonic() + timeout
@@ -147,7 +147,7 @@ def start_vehicle(
 class LegboardProcess:
     def __init__(
         self,
-        proc: subprocess.Popen | zygote.ZygoteProcess,
+        proc: subprocess.Popen | processes.ForkedProcess,
         pty: str,
         control: Path,
         tmp: tempfile.TemporaryDirectory,
@@ -176,7 +176,7 @@ def start_legboard(speed: float = 1.0, clock: str = "wall", timeout: float = 30.
         "--clock",
         clock,
     ]
-    proc = zygote.start(
+    proc = processes.start(
         "slopelander_sitl.legboard",
         cmd,
         env=child_env(),

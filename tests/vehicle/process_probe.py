@@ -1,9 +1,10 @@
-"""Run by tests/vehicle/test_zygote.py as ``python -m tests.vehicle.zygote_probe``: prints what it
-was given (arguments, working directory, environment, its process ids, its network interfaces,
-the command line of the process it is: a fork of the zygote keeps the zygote's), says one line on
-stderr, then sleeps (argument ``sleep``), or starts the probe again through ``slopelander_sitl.zygote.start``
-and prints what that one said and its exit status (argument ``start``), or
-exits with the status its first argument names."""
+"""Run by tests/vehicle/test_processes.py as ``python -m tests.vehicle.process_probe``: prints what
+it was given (arguments, working directory, environment, its process ids, its network interfaces,
+the command line of the process it is: a fork of the forkserver keeps the forkserver's, and
+whether the simulators' modules were loaded before it ran), says one line on stderr, then sleeps
+(argument ``sleep``), or starts the probe again through ``slopelander_sitl.processes.start`` and prints what
+that one said and its exit status (argument ``start``), or exits with the status its first
+argument names."""
 
 import json
 import os
@@ -22,13 +23,14 @@ if __name__ == "__main__":
         "ppid": os.getppid(),
         "interfaces": sorted(name for _, name in socket.if_nameindex()),
         "cmdline": Path("/proc/self/cmdline").read_text().split("\0"),
+        "warm": "slopelander_sitl.warm" in sys.modules and "slopelander_sitl.vehicle.vehicle" in sys.modules,
     }
     if sys.argv[1:2] == ["start"]:
-        from slopelander_sitl import zygote
+        from slopelander_sitl import processes
         from slopelander_sitl.vehicle.launch import child_env
 
-        p = zygote.start(
-            "tests.vehicle.zygote_probe",
+        p = processes.start(
+            "tests.vehicle.process_probe",
             ["5"],
             env=child_env(),
             cwd=os.getcwd(),
