@@ -13,8 +13,6 @@ import pytest
 from slopelander.cli import build_parser, main
 from slopelander.commands.options import CommandParser
 
-pytestmark = pytest.mark.model_free
-
 ROOT = Path(__file__).resolve().parents[2]
 
 #: every command as a user types it (the ``legs`` actions one by one)

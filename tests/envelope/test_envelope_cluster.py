@@ -15,6 +15,8 @@ import pytest
 import yaml
 
 distributed = pytest.importorskip("distributed")
+#: its tests share one loopback cluster (module fixtures): one worker runs them all
+pytestmark = pytest.mark.xdist_group("envelope/test_envelope_cluster")
 
 from slopelander.cli import main  # noqa: E402
 from slopelander.envelope.cluster import ClusterError, ClusterVersionError, fingerprint, gather, prepare  # noqa: E402

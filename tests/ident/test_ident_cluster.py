@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 
 distributed = pytest.importorskip("distributed")
+#: its tests share one loopback cluster (module fixtures): one worker runs them all
+pytestmark = pytest.mark.xdist_group("ident/test_ident_cluster")
 
 from slopelander.commands.diagnose import DIAGNOSE_EXIT  # noqa: E402
 from slopelander.ident.compare import state_ranges  # noqa: E402

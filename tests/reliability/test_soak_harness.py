@@ -16,8 +16,6 @@ from slopelander.controller.script_contract import ScriptState
 from tests.firmware.script_bench import Bench
 
 REPO = Path(__file__).resolve().parents[2]
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
 
 
 def soak(*args: str) -> subprocess.CompletedProcess:
