@@ -68,7 +68,9 @@ def case_one_parameter() -> dict:
     """One parameter: the line scan in place of CMA-ES, then the polish."""
     model = Model.default()
     drops = _drops(model.with_params(friction_kinetic=0.7), 3, 2, 0.3)
-    return _fit_record(Identifier(model, ["friction_kinetic"], cma_evals=12, ls_evals=4, workers=1).fit(drops).result_)
+    return _fit_record(
+        Identifier(model, ["friction_kinetic"], cma_evals=12, ls_evals=4, workers=1).fit(drops).result_
+    )
 
 
 def case_diagnose() -> dict:
@@ -93,7 +95,11 @@ def case_diagnose() -> dict:
     return out
 
 
-CASES = {"two_parameters": case_two_parameters, "one_parameter": case_one_parameter, "diagnose": case_diagnose}
+CASES = {
+    "two_parameters": case_two_parameters,
+    "one_parameter": case_one_parameter,
+    "diagnose": case_diagnose,
+}
 
 
 def _plain(x):
