@@ -379,6 +379,13 @@ def _search_args(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--ls-evals", type=_count(0), default=30, help="local least-squares iterations per fit")
     g.add_argument(
+        "--optimizer",
+        choices=("cma", "de"),
+        default="cma",
+        help="the global search: cma (CMA-ES, default) or de (scipy's differential evolution); "
+        "--cma-evals is its budget either way",
+    )
+    g.add_argument(
         "--workers",
         type=_count(1),
         default=None,
@@ -428,9 +435,16 @@ def _search_settings(args: argparse.Namespace) -> dict:
         "seed": args.seed,
         "cma_evals": args.cma_evals,
         "ls_evals": args.ls_evals,
+        "optimizer": _optimizer(args),
         "workers": args.workers,
         "client": _client(args),
     }
+
+
+def _optimizer(args: argparse.Namespace):
+    from slopelander.ident.optimizers import optimizer_named
+
+    return optimizer_named(args.optimizer)
 
 
 def _client(args: argparse.Namespace):

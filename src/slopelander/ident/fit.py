@@ -316,6 +316,81 @@ def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> 
     return np.column_stack([(c - r0) / s for c, s in zip(cols, steps, strict=True)])
 
 
+FLAT = 1e-3
+"""A direction whose singular value is below this share of the largest is flat: the data
+barely constrain it."""
+
+
+def _flat(params: list[FitParam], J: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Which parameters load on a flat direction of ``J`` (the pseudo-inverse drops such a
+    direction and would read them as perfectly known), and a warning per flat direction."""
+    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    unknown = np.zeros(len(params), dtype=bool)
+    if not (sv.size and sv[0] > 0):
+        for k in range(len(sv)):  # no direction is constrained at all
+            unknown |= np.abs(Vt[k]) > 0.1
+        return unknown, []
+    warnings = []
+    for k in np.flatnonzero(sv / sv[0] < FLAT):
+        lead = [params[i].name for i in np.argsort(-np.abs(Vt[k]))[:2]]
+        warnings.append(
+            f"flat direction: the data barely constrain a combination of "
+            f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})"
+        )
+    for k in np.flatnonzero(sv <= sv[0] * FLAT):
+        unknown |= np.abs(Vt[k]) > 0.1
+    return unknown, warnings
+
+
+def covariance(J: np.ndarray, r: np.ndarray, groups: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """The unit-cube parameters' covariance and the 95 % quantile its intervals use.
+
+    With ``groups`` (the drop of each residual, more than one drop) the sandwich over drops:
+    each drop's summed score J_i^T r_i one observation, Student's t with drops - 1 degrees of
+    freedom. Without, the Gauss-Newton covariance, every sample independent (optimistic)."""
+    JtJ = J.T @ J
+    ids = np.unique(groups) if groups is not None else np.zeros(1)
+    if len(ids) < 2:
+        s2 = float(r @ r) / max(len(r) - J.shape[1], 1)
+        return np.linalg.pinv(JtJ) * s2, 1.96
+    from scipy.stats import t as student
+
+    scores = np.array([J[groups == g].T @ r[groups == g] for g in ids])
+    inv = np.linalg.pinv(JtJ)
+    cov = inv @ (scores.T @ scores) @ inv * len(ids) / (len(ids) - 1)
+    return cov, float(student.ppf(0.975, len(ids) - 1))
+
+
+def _value_warnings(p: FitParam, v: float, half: float, u: float, unknown: bool) -> list[str]:
+    """What a user should know of one fitted value: not identified, poorly, or at its bound."""
+    out = []
+    if unknown:
+        out.append(
+            f"{p.name} is not identified: the drops do not change with it near {v:.3g} "
+            "(no interval can be given)"
+        )
+    elif half > 0.5 * abs(v) and abs(v) > 0:
+        out.append(f"{p.name} is poorly identified: 95 % interval +-{half:.3g} on a value of {v:.3g}")
+    if u < 0.01 or u > 0.99:
+        out.append(
+            f"{p.name} = {v:.3g} sits at its bound ({p.low:g}..{p.high:g}): widen the bounds "
+            "or the data do not need it"
+        )
+    return out
+
+
+def _correlated(params: list[FitParam], cov: np.ndarray, unknown: np.ndarray) -> list[str]:
+    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    corr = cov / np.outer(d, d)
+    return [
+        f"{params[i].name} and {params[j].name} are correlated "
+        f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each"
+        for i in range(len(params))
+        for j in range(i + 1, len(params))
+        if abs(corr[i, j]) > 0.95 and not (unknown[i] or unknown[j])
+    ]
+
+
 def identifiability(
     params: list[FitParam],
     J: np.ndarray,
@@ -332,65 +407,14 @@ def identifiability(
     several samples, a model error is one smooth curve), so each drop's summed score J_i^T r_i
     is one observation; the half-width uses Student's t with (drops - 1) degrees of freedom.
     Without, the Gauss-Newton covariance treats every sample as independent (optimistic)."""
-    n = len(params)
-    dof = max(len(r) - n, 1)
-    s2 = float(r @ r) / dof
-    JtJ = J.T @ J
-    quantile = 1.96
-    warnings = []
-    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
-    if sv.size and sv[0] > 0:
-        for k in np.flatnonzero(sv / sv[0] < 1e-3):
-            lead = [params[i].name for i in np.argsort(-np.abs(Vt[k]))[:2]]
-            warnings.append(
-                f"flat direction: the data barely constrain a combination of "
-                f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})"
-            )
-    cov = np.linalg.pinv(JtJ) * s2
-    if groups is not None:
-        from scipy.stats import t as student
-
-        ids = np.unique(groups)
-        if len(ids) > 1:
-            scores = np.array([J[groups == g].T @ r[groups == g] for g in ids])
-            inv = np.linalg.pinv(JtJ)
-            cov = inv @ (scores.T @ scores) @ inv * len(ids) / (len(ids) - 1)
-            quantile = float(student.ppf(0.975, len(ids) - 1))
+    unknown, warnings = _flat(params, J)
+    cov, quantile = covariance(J, r, groups)
     sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
-    # a parameter that loads on a flat direction is not known: the pseudo-inverse drops that
-    # direction and would read it as perfectly known (+-0)
-    unknown = np.zeros(n, dtype=bool)
-    flat = sv <= (sv[0] * 1e-3 if sv.size and sv[0] > 0 else np.inf)
-    for kk in np.flatnonzero(flat):
-        unknown |= np.abs(Vt[kk]) > 0.1
     ci = {}
     for i, p in enumerate(params):
         ci[p.name] = math.inf if unknown[i] else quantile * sd_u[i] * p.slope(float(u[i]))
-        v = values[p.name]
-        if unknown[i]:
-            warnings.append(
-                f"{p.name} is not identified: the drops do not change with it near {v:.3g} "
-                "(no interval can be given)"
-            )
-        elif ci[p.name] > 0.5 * abs(v) and abs(v) > 0:
-            warnings.append(
-                f"{p.name} is poorly identified: 95 % interval +-{ci[p.name]:.3g} on a value of {v:.3g}"
-            )
-        if u[i] < 0.01 or u[i] > 0.99:
-            warnings.append(
-                f"{p.name} = {v:.3g} sits at its bound ({p.low:g}..{p.high:g}): widen the bounds "
-                "or the data do not need it"
-            )
-    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
-    corr = cov / np.outer(d, d)
-    for i in range(n):
-        for j in range(i + 1, n):
-            if abs(corr[i, j]) > 0.95 and not (unknown[i] or unknown[j]):
-                warnings.append(
-                    f"{params[i].name} and {params[j].name} are correlated "
-                    f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each"
-                )
-    return ci, warnings
+        warnings += _value_warnings(p, values[p.name], ci[p.name], float(u[i]), bool(unknown[i]))
+    return ci, warnings + _correlated(params, cov, unknown)
 
 
 @dataclass
@@ -461,6 +485,11 @@ class Identifier:
                 raise FitError(f"{name} must be a whole number, 0 or more, not {v!r}")
         if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
             raise FitError(f"workers must be a whole number, 1 or more, not {self.workers!r}")
+        if self.optimizer is not None and not isinstance(self.optimizer, Optimizer):
+            raise FitError(
+                f"optimizer must be an object with a name and a search(task) method, e.g. CMA() or "
+                f"DifferentialEvolution() from slopelander.ident.optimizers, not {self.optimizer!r}"
+            )
         self.result_ = _search(self, list(drops), validation)
         return self
 
