@@ -86,3 +86,36 @@ def test_the_command_takes_the_optimizer_by_name(tmp_path):
     assert "| friction_kinetic |" in r.stdout
     bad = run(*common, "--optimizer", "nelder")
     assert bad.returncode == 2 and "invalid choice: 'nelder'" in bad.stderr
+
+
+def _bowl(centre: float):
+    def evaluate(points):
+        return [float(np.sum((np.asarray(p) - centre) ** 2)) for p in points]
+
+    return evaluate
+
+
+def _task(evaluate, x0: np.ndarray, budget: int) -> SearchTask:
+    return SearchTask(evaluate, [x0], budget, seed=0, sigma=0.25, best_u=x0, best_cost=evaluate([x0])[0])
+
+
+def test_a_stalled_cma_search_stops_and_one_that_improves_runs_on():
+    """Started at the optimum, no generation finds a lower cost: with ``stall`` 8 the run ends
+    after 8 generations instead of spending its budget; started away from it, every generation
+    improves and the search runs on to the optimum."""
+    evals = []
+
+    def counted(points):
+        evals.append(len(points))
+        return _bowl(0.3)(points)
+
+    at = np.full(6, 0.3)
+    CMA(stall=8).search(_task(counted, at, 400))
+    assert sum(evals) == 8 * CMA().population(6)
+    evals.clear()
+    CMA().search(_task(counted, at, 400))
+    assert sum(evals) >= 390  # without stall: the budget, less a part generation
+    evals.clear()
+    away = _task(counted, np.full(6, 0.8), 400)
+    CMA(stall=8).search(away)
+    assert away.best_cost < 0.01 and sum(evals) >= 390

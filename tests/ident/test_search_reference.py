@@ -87,6 +87,7 @@ def case_diagnose() -> dict:
         refit_evals=16,
         ls_evals=2,
         workers=1,
+        stall=None,  # every search to its budget, as the reference's code did
     )
     out = d.to_dict()
     out["base_fits"] = [_fit_record(f) for f in d.base]

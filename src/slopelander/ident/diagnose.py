@@ -16,7 +16,7 @@ of it to tell with these drops.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -39,6 +39,7 @@ from slopelander.ident.fit import (
     make_param,
     resolve_params,
 )
+from slopelander.ident.optimizers import CMA
 from slopelander.ident.recording import STATES, Drop
 from slopelander.model import Model, UserEffect
 
@@ -63,6 +64,11 @@ ABOVE_FLOOR = 1.2
 """A held-out residual above this multiple of the noise floor is more than noise: an effect
 adding more than sqrt(1.2^2 - 1) = 0.66 floors (in quadrature) lifts it above. (On control
 sets the base's held-out NRMSE, fitted on half the drops, read 0.95-1.12 floors.)"""
+STALL = 8
+"""Generations without a lower cost after which a diagnosis's CMA-ES search stops
+(:class:`~slopelander.ident.optimizers.CMA` ``stall``): the base's refits and the candidates'
+start at an optimum, and where nothing is missing their searches spent the whole budget
+confirming it (benchmarks/results/2026-12-06-diagnose-speed.md)."""
 NOT_AMONG = 1.5
 """An excess beyond the floor of more than this many floors that no candidate explains reads
 "missing, but not among these candidates"; a smaller one "too small to tell"."""
@@ -732,6 +738,7 @@ def diagnose(
     refit_evals: int = 200,
     refit_from_centre: bool = False,
     alpha: float = ALPHA,
+    stall: int | None = STALL,
     **search: object,
 ) -> Diagnosis:
     """Find the effect ``model`` is missing to explain ``drops``.
@@ -743,7 +750,10 @@ def diagnose(
     budget of each refit (the control's, a candidate's); ``refit_from_centre``: each refit's
     budget is shared between a run from the base optimum and one from the centre of the bounds
     (the base optimum can sit far from the answer when the base model bent its parameters to
-    mimic the missing effect); ``alpha``: the test's level. ``search``: the base fit's settings,
+    mimic the missing effect); ``alpha``: the test's level; ``stall``: a CMA-ES search (the
+    default optimizer, or a :class:`~slopelander.ident.optimizers.CMA` given without its own
+    ``stall``) stops after this many generations without a lower cost (None: every search runs
+    its whole budget, as before 2026-12-06). ``search``: the base fit's settings,
     those of an :class:`~slopelander.ident.fit.Identifier` (``seed``, ``cma_evals`` 400,
     ``ls_evals`` 20, ``optimizer``, ``workers``, ``client``, ``progress``); ``seed`` also seeds
     the splits, the test and the noise floor.
@@ -757,6 +767,9 @@ def diagnose(
             "give effects to try with --candidates FILE|FOLDER ... (docs/effects.md)"
         )
     ranges = state_ranges(drops)
+    opt = search.get("optimizer") or CMA()
+    if isinstance(opt, CMA) and opt.stall is None and stall is not None:
+        search = {**search, "optimizer": replace(opt, stall=stall)}
     ident = Identifier(model, base_params, ranges=ranges, **{"ls_evals": 20, **search})  # type: ignore[arg-type]
     seed = ident.seed
     cf = CrossFit(

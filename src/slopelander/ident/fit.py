@@ -18,6 +18,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from slopelander.errors import SlopelanderError
 from slopelander.ident.compare import WEIGHTS, compare, predict, state_ranges
@@ -611,7 +612,10 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
     prob = Problem(ident.model, drops, params, ranges)
     here = {} if ident.from_centre else {p.name: ident.model.parameter(p.name) for p in params}
     x0 = _start(params, ident.start or {}, here)
-    with Evaluator(prob, ident.workers, ident.client) as ev:
+    # the search's own linear algebra (tall, narrow matrices) on one thread: threaded BLAS gains
+    # nothing on them and, beside the processes that simulate, its threads wait for the cores
+    # (an SVD of the polish 10-100x slower on a busy 2-core machine); the results are the same
+    with threadpool_limits(1), Evaluator(prob, ident.workers, ident.client) as ev:
         task, start_cost = _global_search(ident, ev, params, x0)
         polish = _Polish(ev, ident.progress or (lambda k: None))
         u = polish.run(task.best_u, task.best_cost, ident.ls_evals)

@@ -70,10 +70,16 @@ class CMA:
 
     ``popsize``: points per generation (default 4 + 3 ln n, at least 8, made even so that a
     seed searches alike on any number of processes); ``tolfun``: stop when the generation's
-    costs differ by less."""
+    costs differ by less. ``stall``: stop a run once that many generations in a row have not
+    lowered the best cost seen by more than ``stall_rtol`` of it (None: run to the budget). A
+    search that starts at an optimum (a refit from the base model's, a candidate that explains
+    nothing) then ends after a few generations instead of spending its budget to confirm it,
+    while one that keeps finding lower costs runs on."""
 
     popsize: int | None = None
     tolfun: float = 1e-10
+    stall: int | None = None
+    stall_rtol: float = 1e-6
     name: str = "cma"
 
     def population(self, dim: int) -> int:
@@ -104,9 +110,16 @@ class CMA:
                     "tolfun": self.tolfun,
                 },
             )
+            still, best = 0, task.best_cost
             while not es.stop():
                 X = es.ask()
                 es.tell(X, task.costs(X))
+                if self.stall is None:
+                    continue
+                still = still + 1 if task.best_cost >= best * (1.0 - self.stall_rtol) else 0
+                best = min(best, task.best_cost)
+                if still >= self.stall:
+                    break
 
 
 @dataclass(frozen=True)
