@@ -74,6 +74,7 @@ CONCEPTS: dict[str, tuple[str, set[str]]] = {
     "files of candidate effects": ("--candidates", {"diagnose", "steps"}),
     "the global search's budget": ("--cma-evals", SEARCH),
     "the local search's budget": ("--ls-evals", SEARCH),
+    "the global search method": ("--optimizer", SEARCH),
     "the grid's slope step": ("--slope-step", SWEEP),
     "the grid's speed step": ("--speed-step", SWEEP),
     "continuous torques": ("--refine", SWEEP),

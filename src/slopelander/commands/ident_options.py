@@ -141,6 +141,13 @@ def add_search_options(p: argparse.ArgumentParser, repeats: int, repeats_help: s
     )
     g.add_argument("--ls-evals", type=count(0), default=30, help="local least-squares iterations per fit")
     g.add_argument(
+        "--optimizer",
+        choices=("cma", "de"),
+        default="cma",
+        help="the global search: cma (CMA-ES, default) or de (scipy's differential evolution); "
+        "--cma-evals is its budget either way",
+    )
+    g.add_argument(
         "--workers",
         type=count(1),
         default=None,
@@ -194,9 +201,17 @@ def search_settings(args: argparse.Namespace) -> dict:
         "seed": args.seed,
         "cma_evals": args.cma_evals,
         "ls_evals": args.ls_evals,
+        "optimizer": optimizer(args),
         "workers": args.workers,
         "client": client(args),
     }
+
+
+def optimizer(args: argparse.Namespace):
+    """The global search named by ``--optimizer``."""
+    from slopelander.ident.optimizers import optimizer_named
+
+    return optimizer_named(args.optimizer)
 
 
 def client(args: argparse.Namespace):
