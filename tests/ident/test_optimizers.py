@@ -13,6 +13,9 @@ from slopelander.ident.fit import FitError, Identifier
 from slopelander.ident.optimizers import CMA, DifferentialEvolution, SearchTask, optimizer_named
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
 
+#: its tests share the drops (a module fixture): one worker runs them
+pytestmark = pytest.mark.xdist_group("ident/test_optimizers")
+
 ROOT = Path(__file__).resolve().parents[2]
 NAMES = ["ground_stiffness", "friction_kinetic"]
 
