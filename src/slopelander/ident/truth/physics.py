@@ -118,9 +118,18 @@ class Departure:
     smoothing_speed: float = 0.0
     """m/s: > 0 replaces the feet's stick/slip (a tangential spring-damper until mu_s N) by
     Coulomb friction regularised as tanh(v / v_s); the velocity weakening is kept."""
-    joint_breakaway: float = 1.0
-    """A stuck joint starts to slip when its torque exceeds this multiple of the slip torque
-    (static above kinetic joint friction); it then slides at the slip torque."""
+    joint_static: float = 0.0
+    """> 0: the joints' friction is velocity-weakening like the feet's, tau (1 + s
+    exp(-(w / w_s)^2)) at the leg's rate w: a stuck joint breaks away at (1 + s) tau and slides
+    at tau, where the model's joint has one torque."""
+    joint_stribeck_rate: float = 1.0
+    """rad/s: w_s, the leg's rate at which the excess has fallen to 1/e."""
+
+    def joint_torque(self, rate: float, tau: float) -> float:
+        """The joint's slip torque at the leg's rate (rad/s) given the model's."""
+        if self.joint_static <= 0.0:
+            return tau
+        return tau * (1.0 + self.joint_static * math.exp(-((rate / self.joint_stribeck_rate) ** 2)))
 
     def truth_model(self, model: Model) -> Model:
         """The model the truth integrates: ``model`` with the friction law swapped, if any."""
@@ -128,7 +137,7 @@ class Departure:
             return model
         out = model.without("foot_stiction") if "foot_stiction" in model.effects else model
         return out.with_effects("regularised_friction").with_params(
-            "truth departure", friction_smoothing_speed=self.smoothing_speed
+            "assumed", friction_smoothing_speed=self.smoothing_speed
         )
 
 
@@ -143,10 +152,11 @@ DEPARTURES: dict[str, Departure] = {
             smoothing_speed=0.005,
         ),
         Departure(
-            "joint_breakaway",
-            "another joint model: a stuck joint breaks away at 1.15 times its slip torque "
-            "(static above kinetic friction), where the model's joint has one torque",
-            joint_breakaway=1.15,
+            "joint_stribeck",
+            "another joint model: the joints' friction weakens with speed, tau (1 + 0.3 "
+            "exp(-(w / 1 rad/s)^2)) (breaking away at 1.3 tau), where the model's joint has one "
+            "torque",
+            joint_static=0.3,
         ),
     )
 }
@@ -175,18 +185,6 @@ class TruthLanding(ReferenceLanding):
         super().__init__(self.departure.truth_model(model), cond, rtol, atol)
         self.hidden = hidden or HiddenEffect("none", "none")
 
-    def _signal(self, kind: str, i: int, sign: float = 1.0):
-        """As the reference's, with a stuck joint breaking away at the departure's torque."""
-        b = self.departure.joint_breakaway
-        if kind != "jslip" or b == 1.0:
-            return super()._signal(kind, i, sign)
-
-        def fn(t, y):
-            e = self._eval(t, y)
-            return sign * e["net"][i] - b * e["tau"][i]
-
-        return fn
-
     def _normal(self, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
         """Each point's normal force before clipping (the ground's or the hidden law's). A law
         of its own is applied at every point, zero depth above the ground: a switch to the
@@ -208,8 +206,14 @@ class TruthLanding(ReferenceLanding):
         return mu
 
     def _joint_torque(self, t: float, V: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """The joints' torque law, given the leg's rate."""
-        return np.array([max(0.0, self.hidden.joint_torque(t, j, V[3 + j], tau[j])) for j in range(2)])
+        """The joints' torque law, given the leg's rate (the departure's, then the hidden one's)."""
+        dep = self.departure
+        return np.array(
+            [
+                max(0.0, self.hidden.joint_torque(t, j, V[3 + j], dep.joint_torque(V[3 + j], tau[j])))
+                for j in range(2)
+            ]
+        )
 
 
 STATE_COLUMNS = (0, 1, 2, 5, 6, 7)
