@@ -29,7 +29,7 @@ import numpy as np
 from slopelander.ident.compare import WEIGHTS, combine, masked_rms, predict
 from slopelander.ident.mocap.rates import savgol_rates
 from slopelander.ident.recording import Drop
-from slopelander.ident.synth import differentiate
+from slopelander.ident.synth import centred_rates, extend
 from slopelander.model import Model
 
 MIN_GAIN = 0.02
@@ -124,20 +124,24 @@ def noise_floor(
     for d, nz in zip(drops, noises, strict=True):
         assert nz is not None
         clean, _ = predict(model, d, outcome=False)
-        shifted, _ = predict(model, replace(d, t=d.t - nz["latency_s"], meta={}), outcome=False)
+        w = d.rate_window
+        h = (w or 0) // 2
+        te = extend(d.t, h)  # the recording's rates are centred on its first and last samples
+        frames = replace(d, t=te - nz["latency_s"], states=np.zeros((len(te), 6)), meta={})
+        shifted, _ = predict(model, frames, outcome=False)
         contact = d.t >= 0
         vals = []
         for _ in range(draws):
-            pos = shifted[:, :3].copy()
-            pos[:, :2] += rng.normal(0.0, nz["position_sd_m"], (len(d.t), 2))
-            pos[:, 2] += rng.normal(0.0, math.radians(nz["angle_sd_deg"]), len(d.t))
-            w = d.rate_window
+            pos_e = shifted[:, :3].copy()
+            pos_e[:, :2] += rng.normal(0.0, nz["position_sd_m"], (len(te), 2))
+            pos_e[:, 2] += rng.normal(0.0, math.radians(nz["angle_sd_deg"]), len(te))
+            pos = pos_e[h : len(te) - h]
             if w:
-                rates = differentiate(pos, d.t, w)
+                rates = centred_rates(pos_e, te, w)
             elif d.savgol:
                 rates = savgol_rates(pos, d.savgol[2], *d.savgol[:2])
             else:
-                rates = shifted[:, 3:]
+                rates = shifted[h : len(te) - h, 3:]
             rec = np.column_stack([pos, rates])
             err = (rec - clean)[contact] / ranges
             err[~np.isfinite(d.states[contact])] = np.nan  # the recording's gaps are not scored
