@@ -468,8 +468,7 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
         f"{drop.name}: slope {cond.slope_deg:.1f} deg, impact {cond.speed:.2f} m/s (horizontal "
         f"{signed(cond.horizontal_speed, 2)} m/s, pitch {signed(cond.pitch_deg, 1)} deg, "
         f"{signed(cond.pitch_rate_dps, 0)} deg/s), "
-        f"contact at {tc:.4f} s +- {1000 * ct.sd:.1f} ms"
-        + (f" ({contact_from})" if c.feet_idx else "")
+        f"contact at {tc:.4f} s +- {1000 * ct.sd:.1f} ms" + (f" ({contact_from})" if c.feet_idx else "")
     )
     line2 = (
         f"  data: {rate:g} Hz, {int(keep.sum())} frames ({-tk[0]:.2f} s before contact, "
