@@ -9,6 +9,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+LOG = ROOT / "docs" / "examples" / "flightlog" / "landing-20deg.bin"
+"""A flight log: compared, not identified."""
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
@@ -63,6 +65,8 @@ def test_bad_requests_are_one_line_errors(tmp_path):
         (("fit", str(ds), "--fit", "friction_kinetic=a:b"), "NAME=LOW:HIGH"),
         (("fit", str(ds), "--without", "leg_flex", "--fit", "flex_stiffness"), "leg_flex"),
         (("compare", str(tmp_path / "none")), "no such dataset folder"),
+        (("fit", str(LOG)), "a flight log's landings are compared"),
+        (("diagnose", str(LOG)), "a flight log's landings are compared"),
         (("synth", "--out", str(tmp_path / "x"), "--set", "body_mass=-1"), "body_mass"),
     ]:
         r = run(*args)

@@ -23,6 +23,7 @@ import numpy as np
 from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.evidence import (
     SignFlipTest,
+    names_missing,
     noise_floor,
     sign_flip_test,
     weighted_mse,
@@ -54,10 +55,6 @@ NEUTRAL: dict[str, float] = {"factor_tau": 0.0, "factor_mu": 0.0}
 so it begins at the base model's optimum."""
 ALPHA = 0.05
 """Level of the sign-flip test over drops."""
-MIN_GAIN = 0.02
-"""A candidate must also lower the held-out NRMSE by this fraction: on control sets the test
-alone passed candidates that gained 0.03-0.6 %, the same for several at once (a refit's extra
-search improving the base parameters, shared by all drops of a group), never a real effect."""
 FOLDS = 2
 """Cross-fitting groups: each drop is predicted by fits on the other groups' drops."""
 ABOVE_FLOOR = 1.2
@@ -180,8 +177,10 @@ class Diagnosis:
 
     @property
     def missing(self) -> CandidateResult | None:
-        passed = [r for r in self.fitted if r.p <= self.alpha and self.gain(r) >= MIN_GAIN]
-        return max(passed, key=self.gain) if passed else None
+        fitted = {r.candidate.name: r for r in self.fitted}
+        heldout = {n: (r.validation_nrmse, r.p) for n, r in fitted.items()}
+        name = names_missing(heldout, self.base_validation, self.floor, self.alpha)
+        return None if name is None else fitted[name]
 
     def evidence(self, r: CandidateResult) -> str:
         t = self.test
