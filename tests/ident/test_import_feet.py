@@ -14,6 +14,9 @@ from slopelander.ident.truth.lab import EXAMPLE, foot_offsets, frame_times, obse
 from slopelander.ident.truth.physics import truth_states
 from slopelander.model import LandingConditions, Model
 
+#: its tests share the imported takes (a module fixture): one worker runs them
+pytestmark = pytest.mark.xdist_group("ident/test_import_feet")
+
 MARKERS = """\
 schema: slopelander.markers/1
 units: mm
