@@ -30,7 +30,7 @@ local VERSION = 6 -- 2: a refresh during RVT sets its duration (the companion en
 --    climbs (CLIMB, 14); a disarm needs the vehicle still for STILL.MS, not one sample; CUT's
 --    override outlasts a stalled scripting thread as RVT's and HOLD's do.
 -- 6: a cut with no impact by the bound whose vehicle still falls freely (a low reading that
---    lasted: the cut was made high) keeps the cut for up to FALL_WAIT_MS and reverses on the
+--    lasted: the cut was made high) keeps the cut for up to MS.FALL_WAIT and reverses on the
 --    impact, instead of HOLD in the air.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
@@ -57,7 +57,7 @@ local OVERRIDE_MS = 30 -- each override lapses this soon unless refreshed
 local HELD_OVERRIDE_MS = 250
 -- update periods: while anything is active, otherwise (command latency); SL_STATE at 5 Hz, SL_VER
 -- at 1 Hz, a fault's STATUSTEXT every 5 s
-local MS = { FAST = 2, IDLE = 10, ANNOUNCE = 200, VERSION = 1000, FAULT_SAY = 5000 }
+local MS = { FAST = 2, IDLE = 10, ANNOUNCE = 200, VERSION = 1000, FAULT_SAY = 5000, FALL_WAIT = 500 }
 local GRAVITY = 9.80665
 -- The filtered accelerometer reads the thrust over the mass, ~1 g, in the steady descent at the
 -- cut, and falls toward 0 g as the thrust decays: an impact threshold must lie well above 1 g.
@@ -97,8 +97,7 @@ local RANGE_PERIOD_MS = 50
 -- sensor). HOLD there met the roof with the motors held and no reverse thrust on the impact (a
 -- false cut about 1 m up); the motors given back cannot stop a vehicle falling at 4 m/s within the
 -- cut height the range reads either. So the cut stands and the impact is watched for, up to
--- FALL_WAIT_MS past the bound (a further 3 m of fall); then HOLD as before.
-local FALL_WAIT_MS = 500
+-- MS.FALL_WAIT past the bound (a further 3 m of fall); then HOLD as before.
 -- left the roof (slid off an edge, or high above it): this many distinct samples in a row, each
 -- with all three of
 --  * the body within LEAVE.TILT_DEG of level, and staying within it should the autopilot stop
@@ -555,11 +554,11 @@ local function run_reflex(t, fresh, d)
     elseif t - entered_ms > reflex.bound_ms then
       local far = last_d ~= nil and last_d > reflex.cut_m
       -- judged once, at the bound: the range near and the vehicle still falling freely means
-      -- the cut came higher than the range said; the impact is then watched for (FALL_WAIT_MS),
+      -- the cut came higher than the range said; the impact is then watched for (MS.FALL_WAIT),
       -- also while the contact lifts the filtered reading through LEAVE.FALL_SUPPORT
       if reflex.falling == nil then reflex.falling = not far and a < LEAVE.FALL_SUPPORT end
       if reflex.falling then
-        if t - entered_ms > reflex.bound_ms + FALL_WAIT_MS then
+        if t - entered_ms > reflex.bound_ms + MS.FALL_WAIT then
           enter(HOLD, t, "no impact seen, holding motors stopped")
         end
       elseif far then

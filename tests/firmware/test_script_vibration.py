@@ -28,8 +28,8 @@ CUT_M = CFG["reflex.cut_height_m"]
 DESCENT = CFG["descent.rate_mps"]
 BOUND_MS = round(missed_impact_s(CUT_M, DESCENT) * 1000)
 #: past the bound a vehicle still falling freely with the range near waits this long more for the
-#: impact (the script's FALL_WAIT_MS): these cuts meet no roof, so all of it is in the air
-FALL_WAIT_MS = round(lua_locals(SCRIPT.read_text())["FALL_WAIT_MS"])
+#: impact (the script's MS.FALL_WAIT): these cuts meet no roof, so all of it is in the air
+FALL_WAIT_MS = round(lua_locals(SCRIPT.read_text())["MS_FALL_WAIT"])
 START_M = CUT_M + 0.25
 S = ScriptState
 

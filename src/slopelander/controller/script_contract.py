@@ -48,7 +48,7 @@ THRUST_DECAY_MS, RANGE_PERIOD_MS = 100, 50
 RISE_AFTER_S = 0.05
 #: how much longer (s) than :func:`missed_impact_s` a cut may last: a vehicle still falling freely
 #: at that bound with the range near (a low reading that lasted) keeps its cut and waits this long
-#: for the impact (the script's FALL_WAIT_MS)
+#: for the impact (the script's MS.FALL_WAIT)
 FALL_WAIT_S = 0.5
 
 
