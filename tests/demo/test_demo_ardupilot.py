@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from slopelander.controller.script_contract import SCRIPT_CONTRACT
 from slopelander.ident.flightlog.compare import compare_log
 from slopelander.model import Model
 from slopelander_sitl.ardupilot import arducopter_binary
@@ -47,7 +48,7 @@ def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path
         timeout=900,
     )
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
-    assert "firmware 4." in r.stdout and "on-board script v5" in r.stdout, r.stdout[:800]
+    assert "firmware 4." in r.stdout and f"on-board script v{SCRIPT_CONTRACT}" in r.stdout, r.stdout[:800]
     assert "outcome: LANDED_AND_RESET" in r.stdout
     lines = [json.loads(ln) for ln in (out / "transitions.jsonl").read_text().splitlines()]
     states = [ln["to"] for ln in lines]
