@@ -153,6 +153,8 @@ class State:
     airborne_descent = False
     #: True once the on-board reflex owns the motors (the companion must not interfere).
     reflex_owns = False
+    #: where a refused ``enter`` goes
+    refused_to = "ABORTED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         return None
