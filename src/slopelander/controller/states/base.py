@@ -50,6 +50,8 @@ class Inputs:
     estop: bool = False
     range_m: float | None = None
     range_ok: bool = False
+    #: the range reading's own vehicle time (s, DISTANCE_SENSOR time_boot_ms); None: the step's
+    range_t: float | None = None
     script_present: bool = True
     script_state: int = ScriptState.IDLE
     #: the contract version the on-board script reports (SL_VER); None until it has
