@@ -699,8 +699,10 @@ class Rig:
         return (0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
 
     def take_off_again(self, flight: Flight, timeout_s: float = 60.0) -> str:
-        """The controller's own take-off and leg reset after a landing; returns its end state."""
+        """The controller's own take-off and leg reset after a landing; returns its end state
+        (LANDED when the companion refuses the take-off: ``ctx.marks["takeoff_refused"]`` says why)."""
         flight.lander.takeoff_request = True
-        end = flight.lander.run(timeout_s, until=("READY", "ABORTED", "ESTOP"))
+        refused = lambda: "takeoff_refused" in flight.lander.ctx.marks  # noqa: E731
+        end = flight.lander.run(timeout_s, until=("READY", "ABORTED", "ESTOP"), stop=refused)
         flight.history[:] = list(flight.lander.machine.history)
         return end

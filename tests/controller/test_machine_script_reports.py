@@ -179,3 +179,46 @@ def test_landed_armed_with_a_faulted_hold_asks_the_script():
     before = len(act.calls)
     m.step(replace(OK, t=t + 0.02, range_m=0.2, armed=True, script_state=S.FAULT_HELD))
     assert [c[0] for c in sent(act, before)] == ["disarm"]
+
+
+@pytest.mark.parametrize("script", [S.FAULT, S.FAULT_HELD])
+def test_checks_refuse_a_faulted_script_and_say_reboot(script):
+    """A script in FAULT or FAULT_HELD refuses everything but DISARM and ABORT until the autopilot
+    restarts it: CHECKS names that (the soak on ArduCopter started a descent with a faulted script,
+    aborted 1 s later on "reflex not armed")."""
+    from slopelander.controller.states.checks import refusal
+
+    assert refusal(replace(OK, script_state=script)) == "on-board script fault: reboot the autopilot"
+    m, _, _ = make(start="CHECKS")
+    m.step(replace(OK, t=0.02, script_state=script, armed=script == S.FAULT_HELD))
+    assert m.name in ("ABORTED", "SETTLED") and "DESCEND" not in [h["to"] for h in m.history]
+
+
+@pytest.mark.parametrize("script", [S.FAULT, S.FAULT_HELD])
+def test_no_take_off_is_asked_of_a_faulted_script(script):
+    """LANDED, disarmed, the script in a fault: a take-off request is refused, the vehicle is not
+    armed or released, and the landing stays LANDED with the reason (the soak: TAKEOFF re-armed a
+    faulted vehicle, then RESET loosened the legs on a range spike and it ended armed in LOITER at
+    the roof). Once the script reports IDLE again (a reboot), the take-off goes ahead."""
+    m, act, _ = make()
+    t = run_to(m, "LANDED")
+    before = len(act.calls)
+    inp = replace(OK, t=t + 0.02, range_m=0.2, armed=False, script_state=script, takeoff_request=True)
+    last = steps(m, inp, 3.0)
+    assert m.name == "LANDED", m.history[-2:]
+    names = [c[0] for c in act.calls[before:]]
+    assert "takeoff" not in names and "release_for_takeoff" not in names and "release" not in names
+    assert m.ctx.marks["takeoff_refused"] == "take-off refused: on-board script fault: reboot the autopilot"
+    assert act.calls[before:].count(("statustext", "SL take-off refused: script fault, reboot")) == 1
+    # a script the autopilot restarted reports IDLE: the pilot's take-off goes ahead
+    m.step(replace(last, t=last.t + 0.02, script_state=S.IDLE))
+    assert m.name == "TAKEOFF" and "takeoff" in act.names()
+
+
+def test_a_take_off_entered_with_a_faulted_script_is_refused():
+    """However TAKEOFF is reached, it asks no arming of a faulted script."""
+    m, act, _ = make(start="LANDED")
+    m.step(replace(OK, t=0.02, armed=False, script_state=S.FAULT))
+    m.transition("TAKEOFF", "take-off commanded", replace(OK, t=0.04, armed=False, script_state=S.FAULT))
+    assert "takeoff" not in act.names() and "release_for_takeoff" not in act.names()
+    assert m.name == "LANDED" and "script fault" in m.history[-1]["reason"]

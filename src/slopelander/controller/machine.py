@@ -148,7 +148,7 @@ class Machine:
             self.ctx.act.statustext(f"SL {new}: {reason}"[:50])
         refused = self.state.enter(self.ctx, inp)
         if refused is not None and new != "ABORTED":
-            self.transition("ABORTED", f"{new} refused: {refused}", inp)
+            self.transition(self.state.refused_to, f"{new} refused: {refused}", inp)
 
     def step(self, inp: Inputs) -> str:
         """One control step; returns the state name after it."""

@@ -181,6 +181,7 @@ class Lander:
             estop=state == SCRIPT_ESTOP,
             range_m=range_m,
             range_ok=range_ok,
+            range_t=ds.time_boot_ms / 1000.0 if ds is not None else None,
             script_present=ln.script_present,
             script_state=state if state is not None else ScriptState.IDLE,
             script_version=ln.info.script_version if ln.info is not None else None,

@@ -10,7 +10,7 @@ the failure policy that moves the machine on the script's word alone.
 
 from __future__ import annotations
 
-from slopelander.controller.script_contract import LANDING, ScriptState, state_name
+from slopelander.controller.script_contract import FAULTS, LANDING, ScriptState, state_name
 
 S = ScriptState
 
@@ -31,6 +31,10 @@ DISARMS = frozenset({S.HOLD, S.STOP, S.FAULT_HELD})
 STOPS_DESCENT = frozenset({S.CLIMB, S.FAULT})
 #: readings with no reflex and no held motors: a dead or failed script
 GONE = frozenset({SILENT, "FAULT"})
+
+#: why nothing is flown with a faulted script: it refuses everything but DISARM and ABORT until the
+#: autopilot restarts it (a reboot), so it would neither cut nor release for a take-off
+FAULT_REFUSAL = "on-board script fault: reboot the autopilot"
 
 #: the companion's states by phase of the landing
 BEFORE_DESCENT = ("PRESET", "LEGS_WAIT", "CHECKS")
@@ -72,6 +76,11 @@ def reading(state: int, present: bool) -> str:
         return SILENT
     name = state_name(state)
     return UNKNOWN if name == str(state) else name
+
+
+def faulted(state: int, present: bool) -> bool:
+    """The script reports a fault (FAULT or FAULT_HELD): kept until the autopilot restarts it."""
+    return present and state in FAULTS
 
 
 def script_move(companion_state: str, state: int, present: bool, armed: bool) -> tuple[str, str] | None:

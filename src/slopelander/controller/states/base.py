@@ -50,6 +50,8 @@ class Inputs:
     estop: bool = False
     range_m: float | None = None
     range_ok: bool = False
+    #: the range reading's own vehicle time (s, DISTANCE_SENSOR time_boot_ms); None: the step's
+    range_t: float | None = None
     script_present: bool = True
     script_state: int = ScriptState.IDLE
     #: the contract version the on-board script reports (SL_VER); None until it has
@@ -153,6 +155,8 @@ class State:
     airborne_descent = False
     #: True once the on-board reflex owns the motors (the companion must not interfere).
     reflex_owns = False
+    #: where a refused ``enter`` goes
+    refused_to = "ABORTED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         return None

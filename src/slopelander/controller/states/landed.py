@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from slopelander.controller.script_rules import DISARMS
+from slopelander.controller.script_rules import DISARMS, FAULT_REFUSAL, faulted
 from slopelander.controller.states.base import Context, Inputs, State
 from slopelander.controller.states.settled import request_disarm, request_ground_disarm
 
@@ -14,13 +14,23 @@ class Landed(State):
     doing. The on-board script went idle by itself when the vehicle disarmed, and an idle script
     refuses a disarm; so the script is asked only while it holds the motors (HOLD, STOP, FAULT_HELD), and
     otherwise the companion sends its own unforced disarm, which ArduCopter accepts only with
-    its land detector saying landed."""
+    its land detector saying landed.
+
+    A take-off is never asked of a script in a fault (FAULT, FAULT_HELD): it would not release the
+    motors for it, nor cut or reverse on the next roof, and the soak on ArduCopter re-armed and
+    flew such a vehicle, which then ended armed in LOITER at the roof. The request is refused with
+    the reason (``marks["takeoff_refused"]``, one STATUSTEXT) and LANDED stays, disarmed."""
 
     name = "LANDED"
 
     def step(self, ctx: Context, inp: Inputs):
         if inp.takeoff_request:
-            return ("TAKEOFF", "take-off commanded")
+            if not faulted(inp.script_state, inp.script_present):
+                ctx.marks.pop("takeoff_refused", None)
+                return ("TAKEOFF", "take-off commanded")
+            if ctx.marks.get("takeoff_refused") is None:
+                ctx.marks["takeoff_refused"] = f"take-off refused: {FAULT_REFUSAL}"
+                ctx.act.statustext("SL take-off refused: script fault, reboot")
         if inp.armed and inp.link_ok:  # a lost link's armed flag is stale, and a command lost
             if inp.script_present and inp.script_state in DISARMS:
                 request_disarm(ctx, inp)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from slopelander.controller.script_rules import FAULT_REFUSAL, faulted
 from slopelander.controller.states.base import Context, Inputs, State, hand_to_loiter
 
 #: a reading is believed only when it follows the last believed one within this jump plus what the
@@ -55,8 +56,12 @@ class Takeoff(State):
     over the slope (:func:`height_over_slope`) before it is compared with the clear height."""
 
     name = "TAKEOFF"
+    #: a refused take-off leaves the vehicle where it was: disarmed on the roof
+    refused_to = "LANDED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        if faulted(inp.script_state, inp.script_present):
+            return FAULT_REFUSAL  # nothing armed or released: see Landed
         ctx.act.release_for_takeoff()  # a held, armed vehicle is given back only level enough
         ctx.marks.pop("impact", None)  # the landing is over: the next one meets its roof anew
         ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
