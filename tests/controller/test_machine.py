@@ -46,6 +46,7 @@ def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
     t = t0
     rng = base.range_m
     script = 0
+    climbed = 0.0
     for _ in range(2000):
         t += 0.02
         if m.name in ("DESCEND", "ARMED"):
@@ -65,7 +66,8 @@ def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
             inp = replace(inp, armed=False, takeoff_request=True)
         if m.name in ("TAKEOFF",):
             rng += 0.02
-            inp = replace(inp, range_m=rng)
+            climbed += 0.02  # the vehicle's own height (LOCAL_POSITION_NED) rises with the range
+            inp = replace(inp, range_m=rng, position_m=(0.0, 0.0, -climbed))
         if m.step(inp) == state:
             return t
     raise AssertionError(f"never reached {state}; at {m.name}")
@@ -406,7 +408,7 @@ def test_a_number_in_an_invalid_range_never_loosens_the_legs(bad):
     assert m.name == "TAKEOFF" and "loosen_legs" not in [c[0] for c in act.calls]
     for i in range(30):  # a believed range above the clear height, held for 0.5 s
         if (
-            m.step(replace(OK, t=t + 0.3 + 0.02 * i, range_m=1.0, range_ok=True, takeoff_request=True))
+            m.step(replace(OK, t=t + 0.3 + 0.02 * i, range_m=1.0, takeoff_request=True, position_m=up(0.9)))
             != "TAKEOFF"
         ):
             break
@@ -600,6 +602,11 @@ def test_a_vehicle_re_armed_after_it_disarmed_in_the_descent_gets_only_the_unfor
     assert [c[0] for c in act.calls] == ["disarm_on_ground"], act.calls
 
 
+def up(m: float) -> tuple[float, float, float]:
+    """LOCAL_POSITION_NED ``m`` metres above where the take-off began (NED: up is -z)."""
+    return (0.0, 0.0, -m)
+
+
 def _to_takeoff():
     m, _, _ = make()
     t = run_to(m, "LANDED")
@@ -621,6 +628,37 @@ def test_a_rangefinder_spike_on_the_ground_does_not_loosen_the_legs(spike_s):
     assert m.name == "TAKEOFF", m.history[-1]
 
 
+@pytest.mark.parametrize("spike_s", [0.3, 1.5])
+def test_a_spike_that_is_the_first_valid_reading_does_not_loosen_the_legs(spike_s):
+    """Found by the soak on ArduCopter: on the roof the body sat 0.07 m up, under the sensor's
+    minimum (no valid reading), and a 0.25 s spike of 2.42 m was the first valid one: it seeded
+    the chain and loosened the legs. LOCAL_POSITION_NED shows no climb: the legs stay clamped,
+    until the vehicle has climbed the clear height (less the height estimate's tolerance)."""
+    m, act, _ = make()
+    t = run_to(m, "LANDED") + 0.02
+    ground = replace(OK, range_m=0.07, range_ok=False, position_m=up(0.0))
+    m.step(replace(ground, t=t, armed=False, takeoff_request=True))
+    assert m.name == "TAKEOFF"
+    for _ in range(10):
+        t += 0.02
+        m.step(replace(ground, t=t))
+    for _ in range(int(spike_s / 0.02)):
+        t += 0.02
+        m.step(replace(ground, t=t, range_m=2.42, range_ok=True))
+    for _ in range(25):
+        t += 0.02
+        m.step(replace(ground, t=t))
+    assert m.name == "TAKEOFF", m.history[-1]
+    assert "loosen_legs" not in act.names()
+    assert any(c[:1] == ("statustext",) and "not climbed" in c[1] for c in act.calls)
+    rise = 0.0  # now the vehicle climbs at 1 m/s, the range with it
+    while m.name == "TAKEOFF" and rise < 2.0:
+        t += 0.02
+        rise += 0.02
+        m.step(replace(ground, t=t, range_m=0.07 + rise, range_ok=0.07 + rise >= 0.2, position_m=up(rise)))
+    assert m.name in ("RESET", "READY") and rise >= 0.8 - 0.15, (rise, m.history[-2:])
+
+
 def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_dropout():
     m, t = _to_takeoff()
     rng = 0.1
@@ -629,7 +667,7 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
             break
         t += 0.02
         rng += 0.02  # 1 m/s
-        m.step(replace(OK, t=t, range_m=rng))
+        m.step(replace(OK, t=t, range_m=rng, position_m=up(rng - 0.1)))
     assert [h["to"] for h in m.history][-2:] in (["TAKEOFF", "RESET"], ["RESET", "READY"]), m.history[-2:]
     assert rng >= 0.8 + HOLD_S * 1.0 - 0.03  # held clear for HOLD_S
     m, t = _to_takeoff()
@@ -637,7 +675,7 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
     seen_at = None
     for i in range(200):
         t += 0.02
-        m.step(replace(OK, t=t, range_m=2.1 + 0.02 * i))
+        m.step(replace(OK, t=t, range_m=2.1 + 0.02 * i, position_m=up(2.0 + 0.02 * i)))
         if m.name != "TAKEOFF":
             seen_at = i * 0.02
             break
@@ -654,12 +692,12 @@ def test_a_range_read_with_the_body_tilted_does_not_loosen_the_legs(tilt):
     for _ in range(100):  # climbing at 1 m/s through and past the clear height, tilted
         t += 0.02
         rng += 0.02
-        m.step(replace(OK, t=t, range_m=rng, tilt_deg=tilt))
+        m.step(replace(OK, t=t, range_m=rng, tilt_deg=tilt, position_m=up(rng - 0.1)))
     assert m.name == "TAKEOFF", m.history[-1]
     level_at = t
     for _ in range(100):  # the body levels at 2.1 m: clear after the hold
         t += 0.02
-        if m.step(replace(OK, t=t, range_m=rng, tilt_deg=4.0)) != "TAKEOFF":
+        if m.step(replace(OK, t=t, range_m=rng, tilt_deg=4.0, position_m=up(rng - 0.1))) != "TAKEOFF":
             break
     assert (
         m.history[-1]["to"] in ("RESET", "READY")
