@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from dataclasses import replace
 
 import pytest
@@ -737,6 +738,90 @@ def test_a_take_off_that_never_climbs_is_disarmed_on_the_roof():
     assert m.name == "TAKEOFF" and 2 <= act.names().count("disarm_on_ground") <= 4, act.names()
     m.step(replace(on_roof, t=t + 0.02, armed=False))
     assert m.name == "LANDED" and "no climb within" in m.history[-1]["reason"]
+
+
+class RefusesToDisarm(Recorder):
+    """An autopilot whose land detector says the vehicle flies: every unforced disarm refused."""
+
+    def refused(self, key: str) -> bool:
+        return key == "disarm_on_ground"
+
+
+def _drift_off_the_roof(m, t, estimate, heading=None):
+    """Found on ArduCopter: leaving a 35 deg roof (falling north, the way the vehicle faces) the
+    tilted body was pushed 3.4 m downhill and ended 0.85 m lower than it began, 1.5 m over the
+    roof; the range read that, level. Steps until the machine leaves TAKEOFF (or 30 s)."""
+    slope = math.tan(math.radians(35.0))
+    for k in range(1500):
+        t += 0.02
+        north = min(3.4, 0.02 * k)  # 1 m/s downhill
+        height = min(1.5, 0.1 + 0.02 * k * 0.5)
+        down = north * slope - height + 0.1  # NED z: the roof falls faster than the body rises
+        inp = replace(
+            OK,
+            t=t,
+            range_m=height,
+            tilt_deg=2.0,
+            position_m=(north, 0.0, down),
+            slope_measured=estimate,
+            heading_deg=heading,
+        )
+        if m.step(inp) != "TAKEOFF":
+            break
+    return t
+
+
+def test_a_take_off_that_drifts_downhill_off_a_slope_loosens_the_legs_by_its_rise_over_the_roof():
+    """The climb that must bear out a clear range is the rise over the roof plane the survey
+    measured, not over the take-off spot's height: the demo on ArduCopter otherwise hovered 1.6 m
+    over the roof with the legs clamped, asking the autopilot to disarm it, until its 60 s ran out."""
+    from slopelander.controller.slope_estimate import SlopeEstimate
+
+    roof = SlopeEstimate(
+        slope_deg=35.1, sigma_deg=0.6, refusal=None, spot_x_m=0.0, heading_deg=0.0, cross_deg=-1.4
+    )
+    for estimate, heading, slope in ((roof, None, None), (None, 0.0, 35.0)):  # the survey's, or the landing's
+        m, t = _to_takeoff()
+        m.ctx.slope_deg = slope
+        _drift_off_the_roof(m, t, estimate, heading)
+        assert (
+            m.history[-1]["to"] in ("RESET", "READY")
+            and "clear of the ground" in (m.history[-2 if m.name == "READY" else -1]["reason"])
+        ), m.history[-2:]
+        assert "disarm_on_ground" not in m.ctx.act.names()
+
+
+def test_without_a_measured_roof_a_downhill_drift_is_no_climb_and_a_refused_disarm_ends_in_loiter():
+    """Without a slope or a heading only the height counts (a drift uphill must not be credited): the legs
+    stay clamped; the autopilot refuses the disarm (it flies), and after DISARM_REFUSED_S the
+    vehicle is handed to LOITER, not asked to disarm for ever."""
+    from slopelander.controller.states.takeoff import DISARM_REFUSED_S, GIVE_UP_S
+
+    m, t0 = _to_takeoff()
+    m.ctx.act.__class__ = RefusesToDisarm
+    m.ctx.slope_deg = 35.0  # the slope, but no heading
+    t = _drift_off_the_roof(m, t0, None)
+    assert m.name == "READY" and "refuses to disarm" in m.history[-1]["reason"], m.history[-1]
+    assert "loosen_legs" not in m.ctx.act.names() and ("set_mode", "LOITER") in m.ctx.act.calls
+    assert GIVE_UP_S + DISARM_REFUSED_S <= t - t0 < GIVE_UP_S + DISARM_REFUSED_S + 0.1
+
+
+@pytest.mark.parametrize(
+    ("heading", "move", "expect"),
+    [
+        (0.0, (1.0, 0.0, 0.0), 1.0),  # 1 m north, the way a 45 deg roof falls: 1 m over it
+        (90.0, (0.0, 1.0, 0.2), 0.8),  # facing east, 1 m east and 0.2 m lower
+        (0.0, (-1.0, 0.0, -0.5), -0.5),  # uphill 1 m while rising 0.5: closer to the roof
+        (0.0, (0.0, 1.0, 0.0), math.tan(math.radians(10.0))),  # to the right, where it falls 10 deg
+    ],
+)
+def test_rise_over_roof_follows_the_plane(heading, move, expect):
+    from slopelander.controller.states.takeoff import rise_over_roof
+
+    start = (5.0, 5.0, 1.0)
+    now = tuple(a + b for a, b in zip(start, move, strict=True))
+    assert rise_over_roof(start, now, 45.0, heading, 10.0) == pytest.approx(expect)
+    assert rise_over_roof((0.0, 0.0, 0.0), (3.0, 0.0, -0.2), 45.0, None) == pytest.approx(0.2)
 
 
 def test_checks_refuse_downhill_legs_that_did_not_spring_back():

@@ -72,6 +72,8 @@ class Inputs:
     #: the body's largest tilt from level (deg) by the ATTITUDEs stamped near the range reading's
     #: own moment; None when none was (and outside TAKEOFF, the one state that reads it)
     tilt_deg: float | None = 0.0
+    #: the vehicle's heading (deg from north, clockwise; the newest ATTITUDE yaw); None: unknown
+    heading_deg: float | None = None
     impact: bool = False
     takeoff_request: bool = False
     #: the slope measured before the landing (controller/slope_estimate.py) and how far the

@@ -19,7 +19,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from dataclasses import dataclass, field
@@ -197,12 +196,10 @@ def preset_torques(log: FlightLog, before: float) -> tuple[tuple[float, float], 
         return found
     beside = log.path.parent / "transitions.jsonl"
     if beside.is_file():
+        from slopelander.controller.session import read_transitions
+
         last = None
-        for line in beside.read_text().splitlines():
-            try:
-                entry = json.loads(line)
-            except json.JSONDecodeError:
-                continue
+        for entry in read_transitions(beside):
             m = TORQUES.search(str(entry.get("reason", ""))) if entry.get("to") == "LEGS_WAIT" else None
             t = entry.get("t")
             if m and isinstance(t, (int, float)) and t <= before:
