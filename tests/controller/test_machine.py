@@ -936,6 +936,27 @@ def test_the_timeout_while_the_link_is_out_after_the_script_landed_keeps_the_mot
     assert not {"release", "reflex_abort", "set_mode"} & {c[0] for c in act.calls[n:]}
 
 
+@pytest.mark.parametrize("then", ["link back", "timeout"])
+def test_a_script_gone_silent_after_it_met_the_roof_is_judged_on_the_roof_not_handed_to_loiter(then):
+    """Found by the property test: the link lost in ARMED, the script reported RVT (the vehicle
+    met the roof meanwhile), then fell silent; the link came back (or the landing timed out) and
+    the silent script read as "not holding": ABORTED, LOITER asked of a vehicle armed on the roof.
+    A silent script after contact is judged in SETTLED (the forced disarm once still)."""
+    m, act, _ = make()
+    t = run_to(m, "ARMED")
+    m.step(replace(OK, t=t + 0.02, range_m=1.0, script_state=10, link_ok=False))
+    m.step(replace(OK, t=t + 0.5, range_m=0.2, script_state=12, link_ok=False))  # RVT, link out
+    assert m.name == "LINK_LOST"
+    n = len(act.calls)
+    silent = replace(OK, t=t + 2.0, range_m=0.2, script_state=12, script_present=False, speed_mps=0.0)
+    if then == "link back":
+        m.step(silent)
+    else:
+        m.transition("ABORTED", "landing not finished within 120 s", replace(silent, link_ok=False))
+    assert m.name == "SETTLED", m.history[-1]
+    assert not {"release", "reflex_abort", "set_mode"} & {c[0] for c in act.calls[n:]}
+
+
 def test_a_script_that_disarmed_as_asked_is_not_taken_for_one_that_let_go():
     """The script says IDLE as it disarms; the HEARTBEAT saying disarmed comes up to a second
     later (found flying: SETTLED aborted "the script gave the motors back" 1 s before LANDED)."""

@@ -102,14 +102,16 @@ class Machine:
 
     def held_on_the_roof(self, inp: Inputs) -> bool:
         """Whether this landing has met the roof (an impact, or the script's landing sequence
-        reported after the cut) and the script still holds the motors of an armed vehicle. The
+        reported after the cut) and the script still holds the motors of an armed vehicle, or has
+        gone silent there (it may hold them still; SETTLED judges a silent script as one, with the
+        forced disarm at rest: ``Settled.without_script``, not LOITER on the roof). The
         script's own RVT or HOLD is that evidence too: a vehicle that came down while the link was
         out is on the roof before any state of this machine marked an impact. It is asked outside
         a step too (the runner's interrupt and time-out), so it notes the contact in ``inp``
         itself."""
         self._note_contact(inp)
         met = self.ctx.marks.get("impact") is not None
-        held = inp.script_present and inp.script_state in MOTORS_HELD
+        held = not inp.script_present or inp.script_state in MOTORS_HELD
         return self._started and met and inp.armed and held
 
     def _note_contact(self, inp: Inputs) -> None:
