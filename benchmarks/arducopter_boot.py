@@ -1,9 +1,9 @@
 """How long real ArduCopter SITL takes from launch until it arms in GUIDED, and what CPU that
-costs, booted at the flight's speed-up or with the fast boot (sitl/ardupilot/fast_boot.py).
+costs, booted at the flight's speed-up or with the fast boot (src/slopelander_sitl/ardupilot/fast_boot.py).
 
 Each start launches ArduCopter on the JSON physics (pad, 35 deg roof) through
 ``start_arducopter``, connects the companion's link as the rig does, and arms in GUIDED as every
-flight does (``sitl.guided.arm_in_guided``); it prints the wall time to "ready" and to armed, the
+flight does (``slopelander_sitl.guided.arm_in_guided``); it prints the wall time to "ready" and to armed, the
 vehicle time at arming, and the CPU of ArduCopter, its physics and its pod (/proc, before they
 stop), alternating the two ways ``--runs`` times each, with the ratio in one run. Needs
 SLOPELANDER_ARDUCOPTER (or --arducopter).
@@ -23,10 +23,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
-from sitl.ardupilot.launch import BOOT_SPEEDUP, start_arducopter  # noqa: E402
-from sitl.guided import arm_in_guided  # noqa: E402
-from sitl.proc_cpu import process_tree_cpu  # noqa: E402
 from slopelander.controller.link import Link  # noqa: E402
+from slopelander_sitl.ardupilot.launch import BOOT_SPEEDUP, start_arducopter  # noqa: E402
+from slopelander_sitl.guided import arm_in_guided  # noqa: E402
+from slopelander_sitl.proc_cpu import process_tree_cpu  # noqa: E402
 
 
 def one(binary: str | None, fast: bool) -> tuple[float, float, float, float]:

@@ -1,6 +1,6 @@
 """How long one landing on real ArduCopter SITL takes, and what CPU it costs, at real time and at
 the rig's speed-up now that the physics holds ArduCopter for the companion
-(sitl/json_physics/companion_gate.py).
+(src/slopelander_sitl/json_physics/companion_gate.py).
 
 Each flight is the tests' pad-to-roof landing at 35 deg (tests/flights/
 test_landings_on_both_autopilots.py: take-off, transit, the landing as `slopelander land` plans
@@ -25,8 +25,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
-from sitl.proc_cpu import process_tree_cpu  # noqa: E402
-from sitl.rig import Rig, config  # noqa: E402
+from slopelander_sitl.proc_cpu import process_tree_cpu  # noqa: E402
+from slopelander_sitl.rig import Rig, config  # noqa: E402
 from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range  # noqa: E402
 
 SLOPE_DEG = 35.0

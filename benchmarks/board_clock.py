@@ -33,10 +33,10 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from sitl.legboard.control import BoardControl  # noqa: E402
-from sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 from slopelander.controller.link import Link  # noqa: E402
 from slopelander.legs import LegBoard  # noqa: E402
+from slopelander_sitl.legboard.control import BoardControl  # noqa: E402
+from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 
 PRESETS = ((1.2, 1.2), (2.0, 2.0))  # N*m, uphill and downhill pair; alternated
 TOLERANCE_NM = 0.15

@@ -40,16 +40,19 @@ CASES: list[tuple[str, list[str]]] = [
     ("map --help", ["map", "--help"]),
     ("fit --help", ["fit", "--help"]),
     ("demo --slope x", ["demo", "--slope", "x"]),
-    ("land (no --connect)", ["land", "--legs", "/dev/null", "--slope", "35"]),
-    ("land --slope 70", ["land", "--connect", "tcp:127.0.0.1:9", "--legs", "/dev/null", "--slope", "70"]),
+    ("land (no --connect)", ["land", "--legs-port", "/dev/null", "--slope", "35"]),
+    (
+        "land --slope 70",
+        ["land", "--connect", "tcp:127.0.0.1:9", "--legs-port", "/dev/null", "--slope", "70"],
+    ),
     (
         "land --connect garbage:foo",
-        ["land", "--connect", "garbage:foo", "--legs", "/dev/null", "--slope", "35"],
+        ["land", "--connect", "garbage:foo", "--legs-port", "/dev/null", "--slope", "35"],
     ),
     ("legs status (no --port)", ["legs", "status"]),
     ("simulate --slope x", ["simulate", "--slope", "x"]),
     ("lookup --speed x", ["lookup", "--slope", "35", "--speed", "x"]),
-    ("params --dump /proc/p.yaml", ["params", "--dump", "/proc/p.yaml"]),
+    ("params --out /proc/p.yaml", ["params", "--out", "/proc/p.yaml"]),
     ("map rvt --out /proc/maps", ["map", "rvt", "--out", "/proc/maps"]),
     ("table --out /proc/t.yaml", ["table", "--out", "/proc/t.yaml"]),
     ("synth --drops x", ["synth", "--out", "/tmp/x", "--drops", "x"]),
@@ -78,7 +81,7 @@ def legs_status_seconds(runs: int) -> tuple[float, float]:
     with tempfile.TemporaryDirectory() as tmp:
         link = Path(tmp) / "legboard"
         board = subprocess.Popen(
-            [sys.executable, "-m", "sitl.legboard", "--link", str(link)],
+            [sys.executable, "-m", "slopelander_sitl.legboard", "--link", str(link)],
             env=ENV,
             cwd=REPO,
             stdout=subprocess.DEVNULL,
@@ -88,10 +91,12 @@ def legs_status_seconds(runs: int) -> tuple[float, float]:
             deadline = time.monotonic() + 30
             while not link.exists() and time.monotonic() < deadline:
                 time.sleep(0.05)
-            ok = subprocess.run([*CLI, "legs", "status", "--port", str(link)], env=ENV, capture_output=True)
+            ok = subprocess.run(
+                [*CLI, "legs", "status", "--legs-port", str(link)], env=ENV, capture_output=True
+            )
             if ok.returncode != 0:
                 raise SystemExit(f"legs status failed: {ok.stderr.decode()[-500:]}")
-            return median_seconds([*CLI, "legs", "status", "--port", str(link)], runs)
+            return median_seconds([*CLI, "legs", "status", "--legs-port", str(link)], runs)
         finally:
             board.terminate()
             board.wait(10)

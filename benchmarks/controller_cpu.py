@@ -37,9 +37,9 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from sitl.rig import Rig, config  # noqa: E402
 from slopelander.controller.link import LANDING_MESSAGES  # noqa: E402
 from slopelander.controller.runner import Lander  # noqa: E402
+from slopelander_sitl.rig import Rig, config  # noqa: E402
 
 
 def main() -> None:

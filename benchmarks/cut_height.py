@@ -1,4 +1,5 @@
-"""The on-board cut's figures for one landing, from what a flight rig recorded (``sitl.rig.Track``),
+"""The on-board cut's figures for one landing, from what a flight rig recorded
+(``slopelander_sitl.rig.Track``),
 and a side-by-side summary of landings saved by the landing benchmarks.
 
     python3 benchmarks/cut_height.py FILE.jsonl [FILE.jsonl ...]
@@ -11,7 +12,7 @@ p1, the cut height error's bad tail.
 
 Where the figures come from (vehicle time, both autopilots alike):
 - motors stopped: the physics' EV_STOP (the first frame whose four outputs are all in the ESCs'
-  stop band); contact: EV_CONTACT; reverse thrust: EV_RVT (sitl/vehicle/events.py);
+  stop band); contact: EV_CONTACT; reverse thrust: EV_RVT (src/slopelander_sitl/vehicle/events.py);
 - the range at EV_STOP: the rangefinder's own readings (DISTANCE_SENSOR, cm) in the
   ``FIT_S`` before EV_STOP, each distinct reading at the first message that carried it, fitted
   with a line (the steady descent) and read at EV_STOP. Both autopilots sample the rangefinder at

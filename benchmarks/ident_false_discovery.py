@@ -32,7 +32,8 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from ident_candidates import FILES, NAMES  # noqa: E402  (beside this script)
 
-from slopelander.ident.diagnose import ABOVE_FLOOR, ALPHA, MIN_GAIN, NOT_AMONG, diagnose  # noqa: E402
+from slopelander.ident.diagnose import ABOVE_FLOOR, ALPHA, NOT_AMONG, diagnose  # noqa: E402
+from slopelander.ident.evidence import MIN_GAIN  # noqa: E402
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize  # noqa: E402
 from slopelander.model import Model, load_effects  # noqa: E402
 

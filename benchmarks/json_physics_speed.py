@@ -23,10 +23,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
-from sitl.json_physics.ardupilot_side import ArduPilotSide  # noqa: E402
-from sitl.json_physics.launch import start_json_physics  # noqa: E402
-from sitl.json_physics.protocol import encode_servo_packet  # noqa: E402
-from sitl.vehicle.launch import start_legboard  # noqa: E402
+from slopelander_sitl.json_physics.ardupilot_side import ArduPilotSide  # noqa: E402
+from slopelander_sitl.json_physics.launch import start_json_physics  # noqa: E402
+from slopelander_sitl.json_physics.protocol import encode_servo_packet  # noqa: E402
+from slopelander_sitl.vehicle.launch import start_legboard  # noqa: E402
 
 RATE = 1200
 HOVERISH = [1800, 1800, 1800, 1800]  # lifts off and climbs: flight, not resting contact

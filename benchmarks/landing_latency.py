@@ -23,7 +23,7 @@ holds, the legs are loosened; the next landing sets its preset again), so a land
 s of vehicle time. The cut height varies per landing (0.1-0.3 m of free fall: impact 1.1-2.5 m/s);
 one vehicle per slope, each with its own noise seed.
 
-Where each time comes from (sitl/vehicle/events.py; all vehicle time):
+Where each time comes from (src/slopelander_sitl/vehicle/events.py; all vehicle time):
 - rangefinder cut: the first DISTANCE_SENSOR reading (stream at 200 Hz, cm) at or below the cut
   height. Both autopilots sample the rangefinder at 20 Hz and the script cuts on the second
   distinct sample at or below the cut (slopelander.lua, CUT_SAMPLES), so this is at least one
@@ -56,11 +56,11 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 import numpy as np  # noqa: E402
 
 from benchmarks.cut_height import cut_figures, stats_line  # noqa: E402
-from sitl.rig import Rig, RigError, add_autopilot_args, config  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.runner import ENDINGS, Lander  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
 from slopelander.legs.errors import LegBoardError  # noqa: E402
+from slopelander_sitl.rig import Rig, RigError, add_autopilot_args, config  # noqa: E402
 
 
 def contact_range(slope_deg: float) -> float:
@@ -147,7 +147,7 @@ def main() -> None:
     ap.add_argument("--save", metavar="FILE", help="write each landing's figures as a JSON line")
     a = ap.parse_args()
     if a.autopilot == "ardupilot":
-        from sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
+        from slopelander_sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
 
         try:
             arducopter_binary(a.arducopter)

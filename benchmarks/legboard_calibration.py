@@ -1,7 +1,7 @@
 """Calibration recovery on the simulated board: the fitted curve against the hidden one, over
 repeated calibrations.
 
-Each run starts ``python -m sitl.legboard`` (the firmware on MicroPython when
+Each run starts ``python -m slopelander_sitl.legboard`` (the firmware on MicroPython when
 ``SLOPELANDER_MICROPYTHON`` is set) with legs that follow a hidden curve (friction coefficients,
 no-load current, screw efficiency and a pressure-dependent μ that are not the shipped curve's)
 and a different noise seed, and runs ``slopelander legs calibrate`` on its simulated bench. The
@@ -30,8 +30,8 @@ sys.path[:0] = [str(ROOT / "src"), str(ROOT)]
 
 import yaml  # noqa: E402
 
-from sitl.legboard.runtime import HostBoard  # noqa: E402
 from slopelander.legs import load_calibration  # noqa: E402
+from slopelander_sitl.legboard.runtime import HostBoard  # noqa: E402
 
 HIDDEN = {"mu": [0.25, 0.29, 0.27, 0.30], "i_no_load": 0.047, "screw_efficiency": 0.22, "mu_slope": -0.05}
 MASSES = "0.2,0.5,0.9,1.5"
@@ -64,7 +64,7 @@ def calibrate(seed: int, directory: Path) -> tuple[Path, str, float]:
         [
             sys.executable,
             "-m",
-            "sitl.legboard",
+            "slopelander_sitl.legboard",
             "--link",
             str(link),
             "--clock",
@@ -90,7 +90,7 @@ def calibrate(seed: int, directory: Path) -> tuple[Path, str, float]:
                 "slopelander.cli",
                 "legs",
                 "calibrate",
-                "--port",
+                "--legs-port",
                 str(link),
                 "--masses",
                 MASSES,

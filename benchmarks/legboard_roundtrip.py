@@ -2,7 +2,7 @@
 
 The companion's driver (``slopelander.legs.driver.LegBoard``) asks for a STATUS (``QUERY``) and
 waits for it, and sends a command (``STOP`` on a loose leg) and waits for its ACK, ``--n`` times
-each; the board is ``python -m sitl.legboard`` on the external clock (fed no time, so nothing
+each; the board is ``python -m slopelander_sitl.legboard`` on the external clock (fed no time, so nothing
 but the answers crosses the link). The same run measures the firmware on this CPython as the
 peer. Prints median, 90th and 99th percentile and maximum in ms.
 
@@ -33,7 +33,7 @@ def _board(runtime: str, directory: Path) -> tuple[subprocess.Popen, Path]:
         [
             sys.executable,
             "-m",
-            "sitl.legboard",
+            "slopelander_sitl.legboard",
             "--link",
             str(link),
             "--clock",

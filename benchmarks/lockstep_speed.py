@@ -23,7 +23,7 @@ os.environ.setdefault("MAVLINK20", "1")
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
-from sitl.rig import Rig  # noqa: E402
+from slopelander_sitl.rig import Rig  # noqa: E402
 
 
 def fly(speed: float, slope: float, relay: bool) -> list[tuple[str, float, float]]:

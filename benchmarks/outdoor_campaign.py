@@ -32,11 +32,12 @@ first 80 s of vehicle time, from the landing's seed (docs/simulated-vehicle.md, 
 ``--gusts 0`` flies calm air.
 
 Outcome from the telemetry after contact until 2 s after the controller called the landing done,
-with the model's criteria (sitl/rig.py Flight.classify): slid = more than 1 m along the roof or
+with the model's criteria (src/slopelander_sitl/rig.py Flight.classify): slid = more than 1 m along the
+roof or
 still moving; flipped = pitch past 80 deg. Beside it: what the table said of the cell, and the
 model's outcome for the contact state the vehicle reported (slope, speeds, pitch, rate, preset,
 leg angles, reverse delay) with the reverse thrust as flown: held until the companion ended it,
-then ramped down as the on-board script did (sitl/rig.py Flight.model_conditions), and judged
+then ramped down as the on-board script did (src/slopelander_sitl/rig.py Flight.model_conditions), and judged
 after it; and, as the maps and the table assume, with the thrust held to the model's horizon.
 Last, the simulated vehicle's own judge of the landing (its STATUSTEXT "Landing: ..."): the
 model's classifier on the vehicle's physics, decided like the held column (at rest under the
@@ -60,7 +61,6 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 import numpy as np  # noqa: E402
 
 from benchmarks.cut_height import cut_figures, stats_line  # noqa: E402
-from sitl.rig import Rig, RigError, add_autopilot_args, config  # noqa: E402
 from slopelander.controller.actions import DESCENT_TYPE_MASK  # noqa: E402
 from slopelander.controller.landing import leg_geometry  # noqa: E402
 from slopelander.controller.link import mavlink  # noqa: E402
@@ -68,6 +68,7 @@ from slopelander.controller.runner import Lander  # noqa: E402
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable  # noqa: E402
 from slopelander.legs.errors import LegBoardError  # noqa: E402
 from slopelander.model.landing import simulate  # noqa: E402
+from slopelander_sitl.rig import Rig, RigError, add_autopilot_args, config  # noqa: E402
 
 CONTACT_OFFSET_M = 0.06
 
@@ -143,7 +144,7 @@ def main() -> None:
     )
     a = ap.parse_args()
     if a.autopilot == "ardupilot":
-        from sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
+        from slopelander_sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
 
         try:
             arducopter_binary(a.arducopter)

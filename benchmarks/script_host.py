@@ -1,6 +1,6 @@
 """Cost and latency of the on-board script in the simulation's Lua host.
 
-Runs the real `slopelander.lua` in `sitl.vehicle.scripting.ScriptHost` on a 400 Hz vehicle clock
+Runs the real `slopelander.lua` in `slopelander_sitl.vehicle.scripting.ScriptHost` on a 400 Hz vehicle clock
 (as the simulated vehicle does) and prints:
 - wall time per vehicle tick (host.run_due) with the script idle and with the reflex armed;
 - vehicle time from a COMMAND_LONG handed to the host to the script's COMMAND_ACK and to the
@@ -23,7 +23,7 @@ sys.path[:0] = [str(ROOT / "src"), str(ROOT)]
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # noqa: E402
 
-from sitl.vehicle.scripting import RangeReading, ScriptHost  # noqa: E402
+from slopelander_sitl.vehicle.scripting import RangeReading, ScriptHost  # noqa: E402
 
 SCRIPT = ROOT / "firmware_params" / "scripts" / "slopelander.lua"
 TICK_US = 2500  # 400 Hz

@@ -3,7 +3,8 @@ caught, on synthesized survey passes: offline, so that hundreds of passes cost s
 core, not hundreds of flights.
 
 Each pass is what the companion flies (controller/survey.py: spot, 1 m south, 2 m north, back;
-0.4 m/s, up to 1 m/s^2 at the turns) over the simulated vehicle's world (sitl/vehicle/world.py:
+0.4 m/s, up to 1 m/s^2 at the turns) over the simulated vehicle's world
+(src/slopelander_sitl/vehicle/world.py:
 the roof face, its beam of 2 deg read as a mean, the scenario's 5 mm range noise) at 20 Hz of
 range, ATTITUDE at 10 Hz and LOCAL_POSITION_NED at 20 Hz (the rates ``slopelander land`` asks
 for). The errors a real vehicle adds: pitch from the pass's acceleration, a per-pass attitude
@@ -37,7 +38,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-from sitl.vehicle.world import Beam, World, beam_at
 from slopelander.controller.config import load_config
 from slopelander.controller.slope_estimate import (
     EstimateSettings,
@@ -47,6 +47,7 @@ from slopelander.controller.slope_estimate import (
     pilot_refusal,
 )
 from slopelander.controller.survey import low_range
+from slopelander_sitl.vehicle.world import Beam, World, beam_at
 
 SPOT_X = 5.5
 G = 9.80665
@@ -188,9 +189,9 @@ def flown(args, cfg, slopes, heights) -> None:
     the heights and runs in turn over the roof's spot, each pass with a track of its own)."""
     import json
 
-    from sitl.rig import Rig, RigError
     from slopelander.controller.survey import measure_slope
     from slopelander.legs.errors import LegBoardError
+    from slopelander_sitl.rig import Rig, RigError
 
     print(
         f"flown on {args.autopilot}, runs {args.runs}"
@@ -285,7 +286,7 @@ def summarize(files: list[str], cfg) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from sitl.rig import add_autopilot_args
+    from slopelander_sitl.rig import add_autopilot_args
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=40, help="passes per (slope, height) (default 40)")
@@ -317,7 +318,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.autopilot == "ardupilot" and not args.flown:
         ap.error("--autopilot ardupilot flies the passes: add --flown")
     if args.autopilot == "ardupilot":
-        from sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
+        from slopelander_sitl.ardupilot.launch import ArduCopterMissingError, arducopter_binary
 
         try:
             arducopter_binary(args.arducopter)

@@ -30,8 +30,8 @@ sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
 from pymavlink import mavutil  # noqa: E402
 
-from sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 from slopelander.legs import LegBoard  # noqa: E402
+from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 
 M = mavutil.mavlink
 USER_2 = 31011  # the script's reflex command

@@ -1,11 +1,13 @@
-"""What starting a simulated vehicle and its leg board costs, fresh or forked from the zygote.
+"""What starting a simulated vehicle and its leg board costs, fresh or forked from the forkserver.
 
 A test run starts one vehicle and one leg board for every landing. Started fresh, each process
 imports numba, pymavlink's dialect and lupa and loads the compiled model from numba's cache
-before its first tick; forked from the zygote (``sitl/zygote.py``, which the test suite uses),
-it starts from a process that did this once. Prints, for ``--starts`` vehicle + leg-board pairs
-each way, the wall time until both said "ready" and their CPU time until then (read from
-/proc while they run), the zygote's own one-off CPU, and the ratio, in one run.
+before its first tick; forked from the multiprocessing forkserver that preloads ``slopelander_sitl.warm``
+(``src/slopelander_sitl/processes.py``, which the test suite uses), it starts from a process that did this
+once.
+Prints, for ``--starts`` vehicle + leg-board pairs each way, the wall time until both said
+"ready" and their CPU time until then (read from /proc while they run), the forkserver's own
+one-off CPU, and the ratio, in one run.
 
     python benchmarks/vehicle_start.py [--starts 5]
 """
@@ -22,8 +24,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO / "src"), str(REPO)]
 
-from sitl import zygote  # noqa: E402
-from sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
+import multiprocessing.forkserver  # noqa: E402
+
+from slopelander_sitl import processes  # noqa: E402
+from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle  # noqa: E402
 
 TICK = os.sysconf("SC_CLK_TCK")
 
@@ -58,15 +62,12 @@ def main() -> int:
     print(f"{now}: {a.starts} vehicle + leg board starts each way, {load()}")
     one_pair()  # numba's cache warm, files in the page cache: neither way pays a first time
     fresh = [one_pair() for _ in range(a.starts)]
-    zygote.enable()
-    z = zygote.active()
-    assert z is not None
-    t0 = time.perf_counter()
-    z._ensure()
-    zy_wall = time.perf_counter() - t0
-    zy_cpu = cpu_seconds(z._proc.pid)
+    processes.use_forkserver()
+    multiprocessing.forkserver.ensure_running()  # returns at once: the preload runs in the server
+    server = multiprocessing.forkserver._forkserver._forkserver_pid
+    first = one_pair()  # waits for the preload
+    zy_cpu = cpu_seconds(server)
     forked = [one_pair() for _ in range(a.starts)]
-    z.close()
 
     def row(name: str, runs: list[tuple[float, float]]) -> tuple[float, float]:
         w = statistics.median(r[0] for r in runs)
@@ -75,8 +76,8 @@ def main() -> int:
         return w, c
 
     fw, fc = row("fresh processes", fresh)
-    zw, zc = row("forked from the zygote", forked)
-    print(f"  the zygote's own start (once): wall {zy_wall:.2f} s, CPU {zy_cpu:.2f} s")
+    zw, zc = row("forked from the forkserver", forked)
+    print(f"  the forkserver's own start (once): CPU {zy_cpu:.2f} s; the first pair then: {first[0]:.2f} s")
     print(f"ratio fresh / forked: wall {fw / zw:.1f}x, CPU {fc / zc:.1f}x ({load()})")
     return 0
 

@@ -10,7 +10,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = sorted([ROOT / "README.md", *(ROOT / "docs").glob("*.md")])
 LINK = re.compile(r"\]\(([^)\s]+)\)")
-CODE_PATH = re.compile(r"`((?:docs|src|benchmarks|sitl|tests|firmware_params)/[\w./-]+)`")
+CODE_PATH = re.compile(r"`((?:docs|src|benchmarks|tests|firmware_params|firmware)/[\w./-]+)`")
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)

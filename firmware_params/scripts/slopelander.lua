@@ -14,7 +14,7 @@
 
 -- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
 -- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
-local VERSION = 5 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 6 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
 --    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
@@ -29,6 +29,9 @@ local VERSION = 5 -- 2: a refresh during RVT sets its duration (the companion en
 --    still) with the error; an ARMED reflex whose validity lapses stops the descent itself and
 --    climbs (CLIMB, 14); a disarm needs the vehicle still for STILL.MS, not one sample; CUT's
 --    override outlasts a stalled scripting thread as RVT's and HOLD's do.
+-- 6: a cut with no impact by the bound whose vehicle still falls freely (a low reading that
+--    lasted: the cut was made high) keeps the cut for up to MS.FALL_WAIT and reverses on the
+--    impact, instead of HOLD in the air.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
@@ -54,7 +57,7 @@ local OVERRIDE_MS = 30 -- each override lapses this soon unless refreshed
 local HELD_OVERRIDE_MS = 250
 -- update periods: while anything is active, otherwise (command latency); SL_STATE at 5 Hz, SL_VER
 -- at 1 Hz, a fault's STATUSTEXT every 5 s
-local MS = { FAST = 2, IDLE = 10, ANNOUNCE = 200, VERSION = 1000, FAULT_SAY = 5000 }
+local MS = { FAST = 2, IDLE = 10, ANNOUNCE = 200, VERSION = 1000, FAULT_SAY = 5000, FALL_WAIT = 500 }
 local GRAVITY = 9.80665
 -- The filtered accelerometer reads the thrust over the mass, ~1 g, in the steady descent at the
 -- cut, and falls toward 0 g as the thrust decays: an impact threshold must lie well above 1 g.
@@ -88,6 +91,13 @@ local RESEED_MS = 600
 -- spin-down (twice the model's 50 ms time constant) and one range sample to judge by
 local THRUST_DECAY_MS = 100
 local RANGE_PERIOD_MS = 50
+-- A cut whose bound passes with the range at or below the cut height but the vehicle still
+-- falling freely (the accelerometer under LEAVE.FALL_SUPPORT: nothing carries it) was made higher
+-- than the range said: a low reading that lasted past RESEED_MS (something under the beam, a stuck
+-- sensor). HOLD there met the roof with the motors held and no reverse thrust on the impact (a
+-- false cut about 1 m up); the motors given back cannot stop a vehicle falling at 4 m/s within the
+-- cut height the range reads either. So the cut stands and the impact is watched for, up to
+-- MS.FALL_WAIT past the bound (a further 3 m of fall); then HOLD as before.
 -- left the roof (slid off an edge, or high above it): this many distinct samples in a row, each
 -- with all three of
 --  * the body within LEAVE.TILT_DEG of level, and staying within it should the autopilot stop
@@ -133,7 +143,7 @@ local CLIMB, FAULT, FAULT_HELD = 14, 30, 31
 local state = IDLE
 local valid_until = 0
 local reverse_pct = 0
-local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from, bound_ms}
+local reflex = nil -- {cut_m, impact, pct, dur_ms, ramp_ms, ramp_from, bound_ms, falling}
 local setup = nil -- {ramp_ms, descent_mps}: the landing's settings, sent before ARM
 local armed_cut_m = nil -- the cut height of the last accepted ARM (bounds a commanded reverse)
 local entered_ms = 0
@@ -542,7 +552,16 @@ local function run_reflex(t, fresh, d)
     if near and a > threshold then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
-      if last_d ~= nil and last_d > reflex.cut_m then
+      local far = last_d ~= nil and last_d > reflex.cut_m
+      -- judged once, at the bound: the range near and the vehicle still falling freely means
+      -- the cut came higher than the range said; the impact is then watched for (MS.FALL_WAIT),
+      -- also while the contact lifts the filtered reading through LEAVE.FALL_SUPPORT
+      if reflex.falling == nil then reflex.falling = not far and a < LEAVE.FALL_SUPPORT end
+      if reflex.falling then
+        if t - entered_ms > reflex.bound_ms + MS.FALL_WAIT then
+          enter(HOLD, t, "no impact seen, holding motors stopped")
+        end
+      elseif far then
         release(t, "false cut, motors released")
       else
         enter(HOLD, t, "no impact seen, holding motors stopped")

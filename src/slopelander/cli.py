@@ -1,12 +1,9 @@
-"""The ``slopelander`` command: one entry point, one thin subcommand per part.
+"""The ``slopelander`` command: one entry point over the commands of
+:mod:`slopelander.commands` (one module each, with ``register(subparsers)``; the handler it
+installs calls a function a user could call from Python).
 
-Each part owns a ``cli`` module with ``register(subparsers)``; the handler it
-installs calls a function a user could call from Python.
-
-A command must answer at once: these modules import only the standard library, yaml and the
-leg protocol at module level; the model, numba, scipy, matplotlib and tqdm are imported inside
-the handlers that need them (tests/cli/test_cli_latency.py checks it, benchmarks/cli_latency.py
-measures it).
+Only the named command's module is imported, so a command answers at once
+(benchmarks/cli_latency.py measures it).
 """
 
 from __future__ import annotations
@@ -18,6 +15,8 @@ import os
 import sys
 
 from slopelander import __version__
+from slopelander.commands import COMMANDS
+from slopelander.commands.options import CommandParser
 from slopelander.errors import SlopelanderError
 
 SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa", "c3d")
@@ -27,19 +26,8 @@ SIM_EXTRA = ("numba", "scipy", "matplotlib", "tqdm", "cma", "lupa", "c3d")
 #: ``demo`` lives with the simulator (pyproject.toml), so the core never imports it
 COMMANDS_GROUP = "slopelander.commands"
 
-# Modules that add subcommands, in the order they appear in ``--help``, with the subcommands
-# each adds and whether they need the ``sim`` extra: on a companion computer that installed only
-# the core, the simulation's are listed but say which extra they need. The commands of
-# :data:`COMMANDS_GROUP` come first.
-SUBCOMMAND_MODULES = {
-    "slopelander.land_cli": (("land",), False),
-    "slopelander.legs.cli": (("legs",), False),
-    "slopelander.simulate_cli": (("simulate",), True),
-    "slopelander.params_cli": (("params",), True),
-    "slopelander.envelope_cli": (("map", "table"), True),
-    "slopelander.lookup_cli": (("lookup",), False),
-    "slopelander.ident.cli": (("import", "synth", "compare", "fit", "diagnose", "steps"), True),
-}
+#: the modules that add subcommands (:data:`slopelander.commands.COMMANDS`)
+SUBCOMMAND_MODULES = COMMANDS
 
 
 def subcommand_modules() -> dict[str, tuple[tuple[str, ...], bool]]:
@@ -54,25 +42,6 @@ def subcommand_modules() -> dict[str, tuple[tuple[str, ...], bool]]:
 def missing_sim_module() -> str | None:
     """The first module of the ``sim`` extra that is not installed (found without importing it)."""
     return next((m for m in SIM_EXTRA if importlib.util.find_spec(m) is None), None)
-
-
-class _DefaultsFormatter(argparse.ArgumentDefaultsHelpFormatter):
-    """Add "(default: X)" once: not where the help already names its default, and not for
-    options without one (None) or for on/off flags."""
-
-    def _get_help_string(self, action: argparse.Action) -> str | None:
-        text = action.help or ""
-        if "default" in text.lower() or any(action.default is x for x in (None, False, argparse.SUPPRESS)):
-            return text
-        return super()._get_help_string(action)
-
-
-class _Parser(argparse.ArgumentParser):
-    """Every subcommand's ``--help`` shows the defaults."""
-
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        kwargs.setdefault("formatter_class", _DefaultsFormatter)
-        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
 
 
 def named_command(argv: list[str]) -> str | None:
@@ -91,7 +60,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         description="Fast multirotor landing on steep slopes.",
     )
     parser.add_argument("--version", action="version", version=f"slopelander {__version__}")
-    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=CommandParser)
     missing = missing_sim_module()
     for module, (names, needs_sim) in subcommand_modules().items():
         if only is not None and only not in names:

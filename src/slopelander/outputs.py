@@ -1,7 +1,7 @@
 """Where a command may write: checked before any work starts, one rule for every command.
 
 The rule: slopelander creates only the output you name -- a file, or for commands that write a
-set of files (``map``, ``demo``, ``synth``, ``compare --report``) a folder -- never the folders
+set of files (``map``, ``demo``, ``synth``, ``compare --out``) a folder -- never the folders
 above it. A missing parent folder, a file where a folder is wanted (or the reverse) and an
 unwritable place are refused with one line before any simulation runs, so no work is lost.
 

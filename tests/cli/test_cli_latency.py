@@ -29,9 +29,9 @@ ARGVS = [
     ["--help"],
     ["--version"],
     ["demo", "--slope", "20"],
-    ["land", "--connect", "tcp:127.0.0.1:5760", "--legs", "/tmp/legboard", "--slope", "35"],
-    ["legs", "status", "--port", "/dev/ttyACM0"],
-    ["simulate", "--slope", "35", "--rvt"],
+    ["land", "--connect", "tcp:127.0.0.1:5760", "--legs-port", "/tmp/legboard", "--slope", "35"],
+    ["legs", "status", "--legs-port", "/dev/ttyACM0"],
+    ["simulate", "--slope", "35", "--reverse"],
     ["simulate", "--slope", "x"],
     ["params"],
     ["map", "rvt", "--out", "maps"],
@@ -63,10 +63,10 @@ def test_importing_the_cli_and_parsing_every_command_imports_no_science() -> Non
 @pytest.mark.parametrize(
     "argv",
     [
-        ["land", "--connect", "tcp:127.0.0.1:9", "--legs", "/nonexistent/port", "--slope", "35"],
-        ["land", "--connect", "tcp:127.0.0.1:9", "--legs", "/dev/null", "--slope", "70"],
-        ["land", "--connect", "garbage:foo", "--legs", "/dev/null", "--slope", "35"],
-        ["legs", "status", "--port", "/nonexistent/port"],
+        ["land", "--connect", "tcp:127.0.0.1:9", "--legs-port", "/nonexistent/port", "--slope", "35"],
+        ["land", "--connect", "tcp:127.0.0.1:9", "--legs-port", "/dev/null", "--slope", "70"],
+        ["land", "--connect", "garbage:foo", "--legs-port", "/dev/null", "--slope", "35"],
+        ["legs", "status", "--legs-port", "/nonexistent/port"],
         ["lookup", "--slope", "75", "--speed", "1.5"],
     ],
     ids=lambda a: " ".join(a[:2]),
@@ -85,16 +85,16 @@ def test_the_refusals_of_the_flying_commands_import_no_science(argv: list[str]) 
 
 
 def test_the_simulate_defaults_written_out_are_the_models() -> None:
+    from slopelander.commands.simulate import _D
     from slopelander.model import LandingConditions
-    from slopelander.simulate_cli import _D
 
     model = dataclasses.asdict(LandingConditions())
     assert vars(_D) == {k: model[k] for k in vars(_D)}
 
 
 def test_the_map_kinds_written_out_are_the_reports() -> None:
+    from slopelander.commands.map import MAP_KINDS as CLI_KINDS
     from slopelander.envelope.reports import MAP_KINDS
-    from slopelander.envelope_cli import MAP_KINDS as CLI_KINDS
 
     assert CLI_KINDS == MAP_KINDS
 
@@ -114,8 +114,8 @@ except SystemExit as exc:
     done = _fresh(code, "simulate", "--slope", "x")
     assert done.returncode == 2 and "invalid float value: 'x'" in done.stderr, done.stderr
     imported = set(json.loads(done.stdout.strip().splitlines()[-1]))
-    assert "slopelander.simulate_cli" in imported
-    others = {"serial", "slopelander.legs.driver", "slopelander.land_cli", "slopelander.ident.cli"}
+    assert "slopelander.commands.simulate" in imported
+    others = {"serial", "slopelander.legs.driver", "slopelander.commands.land", "slopelander.commands.fit"}
     assert not imported & others, imported & others
 
 

@@ -47,7 +47,7 @@ def test_output_onto_a_folder_is_refused(tmp_path: Path, capsys: pytest.CaptureF
 
 
 def test_reverse_thrust_without_rotors_is_a_contradiction(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["simulate", "--rvt", "--without", "rotors"]) == 1
+    assert main(["simulate", "--reverse", "--without", "rotors"]) == 1
     assert "reverse thrust needs the rotors" in capsys.readouterr().err
 
 
@@ -55,7 +55,7 @@ def test_leg_angle_outside_the_travel_is_refused_before_opening_the_port(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     with pytest.raises(SystemExit) as exc:
-        main(["legs", "angle", "--port", "/nonexistent/port", "--uphill", "50"])
+        main(["legs", "angle", "--legs-port", "/nonexistent/port", "--angle-up", "50"])
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "50 deg is outside the legs' travel 0..37.5 deg" in err

@@ -26,8 +26,8 @@ WORK = (
     "matplotlib",
     "slopelander.model",
     "slopelander.envelope.reports",
-    "sitl.rig",
-    "sitl.vehicle",
+    "slopelander_sitl.rig",
+    "slopelander_sitl.vehicle",
 )
 PROBE = (
     "import sys; from slopelander.cli import main; rc = main(sys.argv[1:]); "
@@ -51,7 +51,7 @@ def run_fresh(argv: list[str]) -> tuple[int, str, list[str]]:
         ["simulate", "--csv", "/proc/x.csv"],
         ["map", "rvt", "--out", "/proc/maps", *TINY],
         ["table", "--out", "/proc/t.yaml", *TINY],
-        ["params", "--dump", "/proc/p.yaml"],
+        ["params", "--out", "/proc/p.yaml"],
         ["synth", "--out", "/proc/drops", "--drops", "1"],
         ["demo", "--out", "/proc/demo"],
     ],

@@ -175,7 +175,7 @@ def _argv(draw, root: Path) -> list[str]:
     if command == "params":
         argv = ["params"]
         if opt(st.booleans()):
-            argv += ["--dump"] + ([_path(draw, root, "out")] if opt(st.booleans()) else [])
+            argv += ["--out"] + ([_path(draw, root, "out")] if opt(st.booleans()) else [])
         if opt(st.booleans()):
             argv += ["--params", _path(draw, root, "params")]
         return argv
@@ -190,12 +190,12 @@ def _argv(draw, root: Path) -> list[str]:
             "--tau-down",
             "--angle-up",
             "--angle-down",
-            "--rvt-percent",
+            "--reverse-percent",
             "--horizontal-speed",
         ):
             argv += maybe(flag, NUMBERS)
         argv += maybe("--dt", DT)
-        argv += opt(st.sampled_from([[], ["--rvt"], ["--rigid"], ["--rvt", "--rigid"]]))
+        argv += opt(st.sampled_from([[], ["--reverse"], ["--rigid"], ["--reverse", "--rigid"]]))
         if opt(st.booleans()):
             argv += ["--without", *opt(st.lists(EFFECTS, min_size=1, max_size=2))]
         if opt(st.booleans()):
@@ -227,17 +227,17 @@ def _argv(draw, root: Path) -> list[str]:
             (dataset / f"drop{i}.csv").write_text(csv_text)
             if draw(st.booleans()) or i == 0:
                 (dataset / f"drop{i}.json").write_text(side)
-        report = ["--report", _path(draw, root, "out")] if opt(st.booleans()) else []
+        report = ["--out", _path(draw, root, "out")] if opt(st.booleans()) else []
         return ["compare", str(dataset), *report]
     return [
         "legs",
         "angle",
-        "--port",
+        "--legs-port",
         str(root / "no-such-port"),
         "--timeout",
         "0.5",
-        *maybe("--uphill", NUMBERS),
-        *maybe("--downhill", NUMBERS),
+        *maybe("--angle-up", NUMBERS),
+        *maybe("--angle-down", NUMBERS),
     ]
 
 

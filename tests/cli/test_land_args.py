@@ -63,13 +63,15 @@ def one_line(out: subprocess.CompletedProcess[str]) -> str:
     ],
 )
 def test_a_connection_string_of_no_known_form_names_the_forms(connect: str, named: str) -> None:
-    err = one_line(land("--connect", connect, "--legs", "/dev/null", "--slope", "35"))
+    err = one_line(land("--connect", connect, "--legs-port", "/dev/null", "--slope", "35"))
     assert named in err and "invalid literal" not in err
 
 
 def test_baud_is_for_a_serial_device_only() -> None:
     err = one_line(
-        land("--connect", "tcp:127.0.0.1:5760", "--baud", "57600", "--legs", "/dev/null", "--slope", "35")
+        land(
+            "--connect", "tcp:127.0.0.1:5760", "--baud", "57600", "--legs-port", "/dev/null", "--slope", "35"
+        )
     )
     assert "--baud is for a serial device" in err
 
@@ -84,7 +86,7 @@ def test_baud_is_for_a_serial_device_only() -> None:
 )
 def test_arguments_are_refused_before_the_autopilot_is_waited_for(args: list[str], message: str) -> None:
     t0 = time.monotonic()
-    err = one_line(land("--connect", free_udp(), "--legs", "/dev/null", *args))
+    err = one_line(land("--connect", free_udp(), "--legs-port", "/dev/null", *args))
     assert message in err
     assert time.monotonic() - t0 < 8.0  # the wait for an autopilot alone is 10 s
 
@@ -95,7 +97,7 @@ def test_only_a_pseudo_terminal_may_hold_a_simulated_board() -> None:
     device /dev/null stands for one) the claim is refused before anything flies."""
     import os
 
-    from slopelander.land_cli import pseudo_terminal
+    from slopelander.commands.land import pseudo_terminal
 
     main, sub = os.openpty()
     try:
@@ -109,7 +111,7 @@ def test_only_a_pseudo_terminal_may_hold_a_simulated_board() -> None:
 
 
 def test_the_old_record_option_is_refused_with_its_new_name() -> None:
-    out = land("--connect", free_udp(), "--legs", "/dev/null", "--slope", "35", "--record", "x.jsonl")
+    out = land("--connect", free_udp(), "--legs-port", "/dev/null", "--slope", "35", "--record", "x.jsonl")
     assert out.returncode == 2 and "name it with --out DIR" in out.stderr, out.stderr
 
 
@@ -118,7 +120,7 @@ def test_the_default_baud_is_the_shipped_parameter_files() -> None:
     code 921 is 921600 baud): a serial --connect without --baud meets the autopilot at its rate."""
     import re
 
-    from slopelander.land_cli import DEFAULT_BAUD, connection_string
+    from slopelander.commands.land import DEFAULT_BAUD, connection_string
 
     parm = (ROOT / "firmware_params" / "f450-fsa.parm").read_text()
     code = int(re.search(r"^SERIAL2_BAUD\s+(\d+)", parm, re.MULTILINE).group(1))
@@ -127,8 +129,8 @@ def test_the_default_baud_is_the_shipped_parameter_files() -> None:
 
 
 def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> None:
-    err = one_line(land("--connect", free_udp(), "--legs", "/dev/no-such-legboard", "--slope", "35"))
-    assert "--legs /dev/no-such-legboard: no such device" in err
+    err = one_line(land("--connect", free_udp(), "--legs-port", "/dev/no-such-legboard", "--slope", "35"))
+    assert "--legs-port /dev/no-such-legboard: no such device" in err
 
 
 # A board that answers exactly as the simulated one does, except that it does not say it is
@@ -136,7 +138,7 @@ def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> N
 REAL_BOARD = textwrap.dedent(
     """
     import sys
-    from sitl.legboard.server import BoardServer
+    from slopelander_sitl.legboard.server import BoardServer
     from slopelander.legs.messages import Capability
     server = BoardServer(link=sys.argv[1])
     server.capabilities = Capability.ANGLE_STOP
@@ -167,7 +169,7 @@ def real_board(tmp_path: Path):
 def test_a_real_leg_board_without_a_measured_calibration_is_refused_before_the_autopilot(
     real_board: Path, tmp_path: Path
 ) -> None:
-    err = one_line(land("--connect", free_udp(), "--legs", str(real_board), "--slope", "35"))
+    err = one_line(land("--connect", free_udp(), "--legs-port", str(real_board), "--slope", "35"))
     assert "a real leg board flies only with a measured calibration (no --calibration given)" in err
     # the shipped curve passed by name is still the assumed one
     from slopelander.legs.calibration import default_calibration_path
@@ -176,7 +178,7 @@ def test_a_real_leg_board_without_a_measured_calibration_is_refused_before_the_a
         land(
             "--connect",
             free_udp(),
-            "--legs",
+            "--legs-port",
             str(real_board),
             "--slope",
             "35",
@@ -198,7 +200,7 @@ def test_a_real_leg_board_with_a_measured_calibration_goes_on_to_the_autopilot(
     measured.write_text(text.replace("provenance: assumed", "provenance: measured"))
     wait = tmp_path / "wait.yaml"
     wait.write_text("link:\n  heartbeat_wait_s: 1\n")  # no autopilot here: the check is that it got this far
-    flight = ["--connect", free_udp(), "--legs", str(real_board), "--slope", "35"]
+    flight = ["--connect", free_udp(), "--legs-port", str(real_board), "--slope", "35"]
     out = land(*flight, "--calibration", str(measured), "--config", str(wait))
     assert out.returncode == 1 and "no autopilot heartbeat within 1 s" in out.stderr, out.stderr
 
@@ -207,13 +209,13 @@ def test_a_real_leg_board_with_a_measured_calibration_goes_on_to_the_autopilot(
 def test_state_changes_print_as_they_happen_and_the_landing_leaves_its_folder(tmp_path: Path) -> None:
     import json
 
-    from sitl.vehicle.launch import start_legboard, start_vehicle
+    from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
 
     board = start_legboard(clock="external")
     vehicle = start_vehicle(scenario={"slope_deg": 35.0}, legboard_control=board.control)
     try:
         t0 = time.monotonic()
-        args = ["--connect", vehicle.mavlink_url, "--legs", board.pty, "--slope", "35", "--timeout", "6"]
+        args = ["--connect", vehicle.mavlink_url, "--legs-port", board.pty, "--slope", "35", "--timeout", "6"]
         proc = subprocess.Popen(
             [sys.executable, "-m", "slopelander.cli", "land", *args],
             stdout=subprocess.PIPE,
@@ -257,7 +259,7 @@ def test_state_changes_print_as_they_happen_and_the_landing_leaves_its_folder(tm
 def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> None:
     import json
 
-    from sitl.vehicle.launch import start_legboard, start_vehicle
+    from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
 
     board = start_legboard(clock="external")
     vehicle = start_vehicle(scenario={"slope_deg": 35.0}, legboard_control=board.control)
@@ -266,7 +268,7 @@ def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> N
         out = land(
             "--connect",
             vehicle.mavlink_url,
-            "--legs",
+            "--legs-port",
             board.pty,
             "--slope",
             "35",
@@ -275,7 +277,7 @@ def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> N
             "--out",
             str(folder),
         )
-        check = land("--connect", vehicle.mavlink_url, "--legs", board.pty, "--check")
+        check = land("--connect", vehicle.mavlink_url, "--legs-port", board.pty, "--check")
     finally:
         vehicle.stop()
         board.stop()
@@ -298,11 +300,11 @@ def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> N
 
 def test_a_refused_mode_is_named_once() -> None:
     """CHECKS reads the mode from the vehicle's HEARTBEAT: STABILIZE (0) is a name, not "mode 0"."""
-    from sitl.vehicle.launch import start_vehicle
     from slopelander.controller.config import load_config
     from slopelander.controller.link import Link
     from slopelander.controller.runner import Lander
     from slopelander.controller.states.checks import refusal
+    from slopelander_sitl.vehicle.launch import start_vehicle
 
     vehicle = start_vehicle(scenario={"slope_deg": 35.0})
     try:

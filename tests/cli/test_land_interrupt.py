@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from sitl.rig import Rig
-from sitl.vehicle.launch import free_port
+from slopelander_sitl.rig import Rig
+from slopelander_sitl.vehicle.launch import free_port
 
 ENV = {**os.environ, "MAVLINK20": "1"}
 ABORTING = "aborting the landing: the autopilot holds position in LOITER"
@@ -40,7 +40,15 @@ def fly_land_and_interrupt(tmp_path: Path, when: str, slope: float = 20.0, surve
         pty = rig.board.pty
         rig.legs.close()  # the leg board is the landing's now
         rig.legs = None
-        args = ["--connect", f"tcp:127.0.0.1:{port}", "--legs", pty, "--slope", f"{slope:g}", "--lockstep"]
+        args = [
+            "--connect",
+            f"tcp:127.0.0.1:{port}",
+            "--legs-port",
+            pty,
+            "--slope",
+            f"{slope:g}",
+            "--lockstep",
+        ]
         args += ["--config", str(cfg), "--timeout", "120"]
         proc = subprocess.Popen(
             [

@@ -8,12 +8,12 @@ import time
 
 import pytest
 
-from sitl.vehicle.launch import REPO, start_legboard, start_vehicle
 from slopelander.controller.config import load_config
 from slopelander.controller.link import Link, mavlink
 from slopelander.controller.runner import Lander
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
+from slopelander_sitl.vehicle.launch import REPO, start_legboard, start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 
 SCRIPT = REPO / "firmware_params" / "scripts" / "slopelander.lua"

@@ -4,7 +4,8 @@ board (real processes, TCP MAVLink, pseudo-terminal, lock-step), compared with t
 On each roof (20, 35, 45 deg) the vehicle takes off once and lands several times: the legs set
 to the lookup table's preset for the slope and the expected impact speed, the cut height chosen
 for a free fall of 0.1 m or 0.3 m after the cut (impact ≈ 1.5 or 2.5 m/s). The vehicle reports
-the state at first contact (sitl/vehicle/events.py); the model, run alone for that contact state,
+the state at first contact (src/slopelander_sitl/vehicle/events.py); the model, run alone for that contact
+state,
 the preset, the leg angles and the reverse thrust the vehicle gave, must predict the outcome class
 the flight had (landed / slid / flipped). The model is given the reverse thrust as flown: held
 until the companion ended it (once still, after ``reflex.reverse_thrust_ms``), then ramped down
@@ -24,12 +25,15 @@ from dataclasses import replace
 
 import pytest
 
-from sitl.rig import Flight, Rig, config
-from sitl.vehicle.vehicle import CONTROL_HZ, PHYSICS_HZ
 from slopelander.controller.landing import expected_impact_speed, leg_geometry
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.model.landing import simulate
 from slopelander.model.outcome import Outcome
+from slopelander_sitl.rig import Flight, Rig, config
+from slopelander_sitl.vehicle.vehicle import CONTROL_HZ, PHYSICS_HZ
+
+#: its tests share a vehicle flown by several tests (rig): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("controller/flight_outcomes")
 
 SEQUENCE = ["PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED", "CUT", "REVERSE", "SETTLED", "LANDED"]
 
@@ -95,7 +99,7 @@ def ensure_airborne(rig: Rig) -> None:
 
 
 #: how long (local s) a landing on the 45 deg roof may take (one held sliding on the roof stays
-#: SETTLED, armed, motors held, the pilot told, until the rig ends the hold: sitl.rig.HELD_S)
+#: SETTLED, armed, motors held, the pilot told, until the rig ends the hold: slopelander_sitl.rig.HELD_S)
 ROOF45_TIMEOUT_S = 45.0
 #: the model's rotor time constant (model/default_parameters.yaml, rotor_time_constant) and the
 #: script's spin-down allowance, two of them (slopelander.lua THRUST_DECAY_MS)
@@ -116,7 +120,7 @@ def fly(rig: Rig, fall_m: float, timeout_s: float = 90.0, **reflex) -> tuple[Fli
 
 
 def assert_held_sliding(rig: Rig, flight: Flight, source: str) -> None:
-    """A landing that ended SETTLED (the rig ends the hold after ``sitl.rig.HELD_S``): the vehicle
+    """A landing that ended SETTLED (the rig ends the hold after ``slopelander_sitl.rig.HELD_S``): the vehicle
     slid after the thrust and is held on the roof, armed, motors stopped, the pilot told; neither
     disarmed nor handed back."""
     assert flight.states == SEQUENCE[:-1], (flight.history, source)

@@ -17,8 +17,11 @@ import time
 
 import pytest
 
-from sitl.rig import Rig, config
 from slopelander.controller.runner import Lander
+from slopelander_sitl.rig import Rig, config
+
+#: its tests share a vehicle flown by several tests (rig): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("controller/flight_safety")
 
 LOITER, GUIDED = 5, 4
 HOVER_M = 2.8  # above the roof: within the rangefinder's 3 m

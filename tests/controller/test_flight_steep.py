@@ -25,9 +25,9 @@ import math
 
 import pytest
 
-from sitl.rig import Rig, config
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.model.landing import simulate
+from slopelander_sitl.rig import Rig, config
 
 SLOPE = 55.0
 # the uphill foot meets the 55 deg roof at ~0.47 m; the script cuts on the second distinct 20 Hz

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import math
 
-from sitl.rig import Rig, config
 from slopelander.controller.landing import leg_geometry
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+from slopelander_sitl.rig import Rig, config
 
 SLOPE = 41.9
 SPEED = 2.3  # m/s, the impact speed the cut height aims at

@@ -1,5 +1,5 @@
 """How a flight's reverse thrust is read from what the vehicle and the script reported
-(``sitl/rig.py`` ``Flight.model_conditions``), on recorded telemetry values: the events and
+(``src/slopelander_sitl/rig.py`` ``Flight.model_conditions``), on recorded telemetry values: the events and
 SL_STATE changes a flight's track holds. The flight tests read real flights the same way
 (``test_flight_outcomes.py``); these cover the endings a flight shows only now and then."""
 
@@ -9,7 +9,7 @@ import math
 
 import pytest
 
-from sitl.rig import Flight, Track, config
+from slopelander_sitl.rig import Flight, Track, config
 
 CONTACT = 10.0
 RVT = 10.002  # the vehicle's EV_RVT: outputs reversed

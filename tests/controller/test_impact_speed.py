@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import pytest
 
-from sitl.rig import Rig
 from slopelander.controller.config import load_config
 from slopelander.controller.landing import contact_range, cut_dynamics, expected_impact_speed, leg_geometry
 from slopelander.controller.telemetry import Telemetry, first_contact_speed
+from slopelander_sitl.rig import Rig
 
 
 def test_free_fall_from_the_cut_on_level_ground_matches_the_prediction():

@@ -50,15 +50,15 @@ def port() -> int:
     ],
 )
 def test_bad_input_is_one_clear_line(args, message):
-    out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs", "/nonexistent/tty", *args)
+    out = land("--connect", f"udpin:127.0.0.1:{port()}", "--legs-port", "/nonexistent/tty", *args)
     assert out.returncode == 1, out.stderr
     assert message in out.stderr and "Traceback" not in out.stderr
 
 
 def test_no_autopilot_is_reported(tmp_path):
     """After the settings' ``link.heartbeat_wait_s`` (10 s by default; 2 here) without a heartbeat."""
-    from sitl.vehicle.launch import start_legboard
     from slopelander.controller.config import load_config
+    from slopelander_sitl.vehicle.launch import start_legboard
 
     assert load_config()["link.heartbeat_wait_s"] == 10.0
     cfg = tmp_path / "wait.yaml"
@@ -66,7 +66,9 @@ def test_no_autopilot_is_reported(tmp_path):
     board = start_legboard()  # the leg board is checked first, before the autopilot is waited for
     try:
         url = f"udpin:127.0.0.1:{port()}"
-        out = land("--connect", url, "--legs", board.pty, "--slope", "20", "--config", str(cfg), timeout=30)
+        out = land(
+            "--connect", url, "--legs-port", board.pty, "--slope", "20", "--config", str(cfg), timeout=30
+        )
     finally:
         board.stop()
     assert out.returncode == 1 and "no autopilot heartbeat within 2 s" in out.stderr

@@ -9,12 +9,12 @@ import time
 
 import pytest
 
-from sitl.vehicle.launch import REPO, child_env, start_legboard
 from slopelander.controller.actions import MavActions
 from slopelander.controller.clock import ManualClock
 from slopelander.controller.config import load_config
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
+from slopelander_sitl.vehicle.launch import REPO, child_env, start_legboard
 
 HANG_S = 60.0  # only a bound against a hung test; the driver's timeouts run on the manual clock
 
@@ -59,7 +59,16 @@ def test_the_preset_sets_the_uphill_angle_then_the_torques(board):
 def test_a_board_without_the_angle_stop_gets_only_the_torques(tmp_path):
     link = tmp_path / "legs"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "sitl.legboard", "--link", str(link), "--speed", "20", "--no-angle-stop"],
+        [
+            sys.executable,
+            "-m",
+            "slopelander_sitl.legboard",
+            "--link",
+            str(link),
+            "--speed",
+            "20",
+            "--no-angle-stop",
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,

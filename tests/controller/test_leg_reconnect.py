@@ -12,12 +12,12 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
-from sitl.rig import config
-from sitl.vehicle.launch import REPO, child_env
 from slopelander.controller.link import Link
 from slopelander.controller.runner import Lander
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
+from slopelander_sitl.rig import config
+from slopelander_sitl.vehicle.launch import REPO, child_env
 
 mavlink = mavutil.mavlink
 HANG_S = 60.0  # only a bound against a hung test: every decision below runs on vehicle time
@@ -25,7 +25,7 @@ HANG_S = 60.0  # only a bound against a hung test: every decision below runs on 
 
 def start_board(link: Path) -> subprocess.Popen:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "sitl.legboard", "--link", str(link), "--speed", "20"],
+        [sys.executable, "-m", "slopelander_sitl.legboard", "--link", str(link), "--speed", "20"],
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,

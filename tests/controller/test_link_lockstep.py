@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import time
 
-from sitl.vehicle.launch import start_vehicle
 from slopelander.controller.link import Link, mavlink
 from slopelander.controller.link.lockstep import PERIOD_S as TIMESYNC_PERIOD_S
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 
-LEAD_S = 0.05  # the vehicle's lock-step lead (sitl/vehicle/vehicle.py)
+LEAD_S = 0.05  # the vehicle's lock-step lead (src/slopelander_sitl/vehicle/vehicle.py)
 TICK_S = 0.0025  # one control tick: the vehicle checks the lead between ticks
 GIVE_UP_S = 1.0  # wall seconds without an echo before the vehicle runs free
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from dataclasses import replace
 
 import pytest
@@ -46,6 +47,7 @@ def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
     t = t0
     rng = base.range_m
     script = 0
+    climbed = 0.0
     for _ in range(2000):
         t += 0.02
         if m.name in ("DESCEND", "ARMED"):
@@ -65,7 +67,8 @@ def run_to(m: Machine, state: str, base: Inputs = OK, t0: float = 0.0) -> float:
             inp = replace(inp, armed=False, takeoff_request=True)
         if m.name in ("TAKEOFF",):
             rng += 0.02
-            inp = replace(inp, range_m=rng)
+            climbed += 0.02  # the vehicle's own height (LOCAL_POSITION_NED) rises with the range
+            inp = replace(inp, range_m=rng, position_m=(0.0, 0.0, -climbed))
         if m.step(inp) == state:
             return t
     raise AssertionError(f"never reached {state}; at {m.name}")
@@ -159,7 +162,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 4.0}, "v4, v5 needed"),  # contract 5 reports faults, climbs, disarms only still
+        ({"script_version": 5.0}, "v5, v6 needed"),  # contract 6 waits on a cut still falling at its bound
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),
@@ -319,14 +322,14 @@ def test_false_cut_and_no_impact():
     # decides. High above the roof: aborted to the autopilot, which flies.
     m, _, _ = make()
     t = run_to(m, "CUT")
-    m.step(replace(OK, t=t + 0.5, range_m=1.2, script_state=11))
-    assert m.name == "CUT"  # within the script's own bound (0.35 s) and the margin
-    m.step(replace(OK, t=t + 1.0, range_m=1.2, script_state=11))
+    m.step(replace(OK, t=t + 1.3, range_m=1.2, script_state=11))
+    assert m.name == "CUT"  # within the script's own bound (0.35 s), its wait for a fall and the margin
+    m.step(replace(OK, t=t + 1.4, range_m=1.2, script_state=11))
     assert m.name == "ABORTED" and "not near the roof" in m.history[-1]["reason"]
     # on the roof: the motors stay held and the landing is judged as it lies
     m, act, _ = make()
     t = run_to(m, "CUT")
-    m.step(replace(OK, t=t + 1.0, range_m=0.2, script_state=11))
+    m.step(replace(OK, t=t + 1.4, range_m=0.2, script_state=11))
     assert m.name == "SETTLED" and "on the roof" in m.history[-1]["reason"]
     assert "release" not in act.names() and "reflex_abort" not in act.names()
 
@@ -406,7 +409,7 @@ def test_a_number_in_an_invalid_range_never_loosens_the_legs(bad):
     assert m.name == "TAKEOFF" and "loosen_legs" not in [c[0] for c in act.calls]
     for i in range(30):  # a believed range above the clear height, held for 0.5 s
         if (
-            m.step(replace(OK, t=t + 0.3 + 0.02 * i, range_m=1.0, range_ok=True, takeoff_request=True))
+            m.step(replace(OK, t=t + 0.3 + 0.02 * i, range_m=1.0, takeoff_request=True, position_m=up(0.9)))
             != "TAKEOFF"
         ):
             break
@@ -600,6 +603,11 @@ def test_a_vehicle_re_armed_after_it_disarmed_in_the_descent_gets_only_the_unfor
     assert [c[0] for c in act.calls] == ["disarm_on_ground"], act.calls
 
 
+def up(m: float) -> tuple[float, float, float]:
+    """LOCAL_POSITION_NED ``m`` metres above where the take-off began (NED: up is -z)."""
+    return (0.0, 0.0, -m)
+
+
 def _to_takeoff():
     m, _, _ = make()
     t = run_to(m, "LANDED")
@@ -621,6 +629,37 @@ def test_a_rangefinder_spike_on_the_ground_does_not_loosen_the_legs(spike_s):
     assert m.name == "TAKEOFF", m.history[-1]
 
 
+@pytest.mark.parametrize("spike_s", [0.3, 1.5])
+def test_a_spike_that_is_the_first_valid_reading_does_not_loosen_the_legs(spike_s):
+    """Found by the soak on ArduCopter: on the roof the body sat 0.07 m up, under the sensor's
+    minimum (no valid reading), and a 0.25 s spike of 2.42 m was the first valid one: it seeded
+    the chain and loosened the legs. LOCAL_POSITION_NED shows no climb: the legs stay clamped,
+    until the vehicle has climbed the clear height (less the height estimate's tolerance)."""
+    m, act, _ = make()
+    t = run_to(m, "LANDED") + 0.02
+    ground = replace(OK, range_m=0.07, range_ok=False, position_m=up(0.0))
+    m.step(replace(ground, t=t, armed=False, takeoff_request=True))
+    assert m.name == "TAKEOFF"
+    for _ in range(10):
+        t += 0.02
+        m.step(replace(ground, t=t))
+    for _ in range(int(spike_s / 0.02)):
+        t += 0.02
+        m.step(replace(ground, t=t, range_m=2.42, range_ok=True))
+    for _ in range(25):
+        t += 0.02
+        m.step(replace(ground, t=t))
+    assert m.name == "TAKEOFF", m.history[-1]
+    assert "loosen_legs" not in act.names()
+    assert any(c[:1] == ("statustext",) and "not climbed" in c[1] for c in act.calls)
+    rise = 0.0  # now the vehicle climbs at 1 m/s, the range with it
+    while m.name == "TAKEOFF" and rise < 2.0:
+        t += 0.02
+        rise += 0.02
+        m.step(replace(ground, t=t, range_m=0.07 + rise, range_ok=0.07 + rise >= 0.2, position_m=up(rise)))
+    assert m.name in ("RESET", "READY") and rise >= 0.8 - 0.15, (rise, m.history[-2:])
+
+
 def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_dropout():
     m, t = _to_takeoff()
     rng = 0.1
@@ -629,7 +668,7 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
             break
         t += 0.02
         rng += 0.02  # 1 m/s
-        m.step(replace(OK, t=t, range_m=rng))
+        m.step(replace(OK, t=t, range_m=rng, position_m=up(rng - 0.1)))
     assert [h["to"] for h in m.history][-2:] in (["TAKEOFF", "RESET"], ["RESET", "READY"]), m.history[-2:]
     assert rng >= 0.8 + HOLD_S * 1.0 - 0.03  # held clear for HOLD_S
     m, t = _to_takeoff()
@@ -637,7 +676,7 @@ def test_the_legs_loosen_after_a_steady_climb_past_the_clear_height_and_after_a_
     seen_at = None
     for i in range(200):
         t += 0.02
-        m.step(replace(OK, t=t, range_m=2.1 + 0.02 * i))
+        m.step(replace(OK, t=t, range_m=2.1 + 0.02 * i, position_m=up(2.0 + 0.02 * i)))
         if m.name != "TAKEOFF":
             seen_at = i * 0.02
             break
@@ -654,12 +693,12 @@ def test_a_range_read_with_the_body_tilted_does_not_loosen_the_legs(tilt):
     for _ in range(100):  # climbing at 1 m/s through and past the clear height, tilted
         t += 0.02
         rng += 0.02
-        m.step(replace(OK, t=t, range_m=rng, tilt_deg=tilt))
+        m.step(replace(OK, t=t, range_m=rng, tilt_deg=tilt, position_m=up(rng - 0.1)))
     assert m.name == "TAKEOFF", m.history[-1]
     level_at = t
     for _ in range(100):  # the body levels at 2.1 m: clear after the hold
         t += 0.02
-        if m.step(replace(OK, t=t, range_m=rng, tilt_deg=4.0)) != "TAKEOFF":
+        if m.step(replace(OK, t=t, range_m=rng, tilt_deg=4.0, position_m=up(rng - 0.1))) != "TAKEOFF":
             break
     assert (
         m.history[-1]["to"] in ("RESET", "READY")
@@ -699,6 +738,90 @@ def test_a_take_off_that_never_climbs_is_disarmed_on_the_roof():
     assert m.name == "TAKEOFF" and 2 <= act.names().count("disarm_on_ground") <= 4, act.names()
     m.step(replace(on_roof, t=t + 0.02, armed=False))
     assert m.name == "LANDED" and "no climb within" in m.history[-1]["reason"]
+
+
+class RefusesToDisarm(Recorder):
+    """An autopilot whose land detector says the vehicle flies: every unforced disarm refused."""
+
+    def refused(self, key: str) -> bool:
+        return key == "disarm_on_ground"
+
+
+def _drift_off_the_roof(m, t, estimate, heading=None):
+    """Found on ArduCopter: leaving a 35 deg roof (falling north, the way the vehicle faces) the
+    tilted body was pushed 3.4 m downhill and ended 0.85 m lower than it began, 1.5 m over the
+    roof; the range read that, level. Steps until the machine leaves TAKEOFF (or 30 s)."""
+    slope = math.tan(math.radians(35.0))
+    for k in range(1500):
+        t += 0.02
+        north = min(3.4, 0.02 * k)  # 1 m/s downhill
+        height = min(1.5, 0.1 + 0.02 * k * 0.5)
+        down = north * slope - height + 0.1  # NED z: the roof falls faster than the body rises
+        inp = replace(
+            OK,
+            t=t,
+            range_m=height,
+            tilt_deg=2.0,
+            position_m=(north, 0.0, down),
+            slope_measured=estimate,
+            heading_deg=heading,
+        )
+        if m.step(inp) != "TAKEOFF":
+            break
+    return t
+
+
+def test_a_take_off_that_drifts_downhill_off_a_slope_loosens_the_legs_by_its_rise_over_the_roof():
+    """The climb that must bear out a clear range is the rise over the roof plane the survey
+    measured, not over the take-off spot's height: the demo on ArduCopter otherwise hovered 1.6 m
+    over the roof with the legs clamped, asking the autopilot to disarm it, until its 60 s ran out."""
+    from slopelander.controller.slope_estimate import SlopeEstimate
+
+    roof = SlopeEstimate(
+        slope_deg=35.1, sigma_deg=0.6, refusal=None, spot_x_m=0.0, heading_deg=0.0, cross_deg=-1.4
+    )
+    for estimate, heading, slope in ((roof, None, None), (None, 0.0, 35.0)):  # the survey's, or the landing's
+        m, t = _to_takeoff()
+        m.ctx.slope_deg = slope
+        _drift_off_the_roof(m, t, estimate, heading)
+        assert (
+            m.history[-1]["to"] in ("RESET", "READY")
+            and "clear of the ground" in (m.history[-2 if m.name == "READY" else -1]["reason"])
+        ), m.history[-2:]
+        assert "disarm_on_ground" not in m.ctx.act.names()
+
+
+def test_without_a_measured_roof_a_downhill_drift_is_no_climb_and_a_refused_disarm_ends_in_loiter():
+    """Without a slope or a heading only the height counts (a drift uphill must not be credited): the legs
+    stay clamped; the autopilot refuses the disarm (it flies), and after DISARM_REFUSED_S the
+    vehicle is handed to LOITER, not asked to disarm for ever."""
+    from slopelander.controller.states.takeoff import DISARM_REFUSED_S, GIVE_UP_S
+
+    m, t0 = _to_takeoff()
+    m.ctx.act.__class__ = RefusesToDisarm
+    m.ctx.slope_deg = 35.0  # the slope, but no heading
+    t = _drift_off_the_roof(m, t0, None)
+    assert m.name == "READY" and "refuses to disarm" in m.history[-1]["reason"], m.history[-1]
+    assert "loosen_legs" not in m.ctx.act.names() and ("set_mode", "LOITER") in m.ctx.act.calls
+    assert GIVE_UP_S + DISARM_REFUSED_S <= t - t0 < GIVE_UP_S + DISARM_REFUSED_S + 0.1
+
+
+@pytest.mark.parametrize(
+    ("heading", "move", "expect"),
+    [
+        (0.0, (1.0, 0.0, 0.0), 1.0),  # 1 m north, the way a 45 deg roof falls: 1 m over it
+        (90.0, (0.0, 1.0, 0.2), 0.8),  # facing east, 1 m east and 0.2 m lower
+        (0.0, (-1.0, 0.0, -0.5), -0.5),  # uphill 1 m while rising 0.5: closer to the roof
+        (0.0, (0.0, 1.0, 0.0), math.tan(math.radians(10.0))),  # to the right, where it falls 10 deg
+    ],
+)
+def test_rise_over_roof_follows_the_plane(heading, move, expect):
+    from slopelander.controller.states.takeoff import rise_over_roof
+
+    start = (5.0, 5.0, 1.0)
+    now = tuple(a + b for a, b in zip(start, move, strict=True))
+    assert rise_over_roof(start, now, 45.0, heading, 10.0) == pytest.approx(expect)
+    assert rise_over_roof((0.0, 0.0, 0.0), (3.0, 0.0, -0.2), 45.0, None) == pytest.approx(0.2)
 
 
 def test_checks_refuse_downhill_legs_that_did_not_spring_back():
@@ -810,6 +933,27 @@ def test_the_timeout_while_the_link_is_out_after_the_script_landed_keeps_the_mot
     out = replace(OK, t=t + 1.0, range_m=1.0, script_state=12, link_ok=False)
     m.transition("ABORTED", "landing not finished within 120 s", out)
     assert m.name != "ABORTED", m.history[-1]
+    assert not {"release", "reflex_abort", "set_mode"} & {c[0] for c in act.calls[n:]}
+
+
+@pytest.mark.parametrize("then", ["link back", "timeout"])
+def test_a_script_gone_silent_after_it_met_the_roof_is_judged_on_the_roof_not_handed_to_loiter(then):
+    """Found by the property test: the link lost in ARMED, the script reported RVT (the vehicle
+    met the roof meanwhile), then fell silent; the link came back (or the landing timed out) and
+    the silent script read as "not holding": ABORTED, LOITER asked of a vehicle armed on the roof.
+    A silent script after contact is judged in SETTLED (the forced disarm once still)."""
+    m, act, _ = make()
+    t = run_to(m, "ARMED")
+    m.step(replace(OK, t=t + 0.02, range_m=1.0, script_state=10, link_ok=False))
+    m.step(replace(OK, t=t + 0.5, range_m=0.2, script_state=12, link_ok=False))  # RVT, link out
+    assert m.name == "LINK_LOST"
+    n = len(act.calls)
+    silent = replace(OK, t=t + 2.0, range_m=0.2, script_state=12, script_present=False, speed_mps=0.0)
+    if then == "link back":
+        m.step(silent)
+    else:
+        m.transition("ABORTED", "landing not finished within 120 s", replace(silent, link_ok=False))
+    assert m.name == "SETTLED", m.history[-1]
     assert not {"release", "reflex_abort", "set_mode"} & {c[0] for c in act.calls[n:]}
 
 

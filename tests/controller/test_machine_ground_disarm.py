@@ -1,14 +1,15 @@
 """LANDED's own disarm (``MavActions.disarm_on_ground``) against the simulated vehicle: unforced,
 so the autopilot takes it on the ground and refuses it in the air (AP_Arming_Copter::disarm, as
-sitl/vehicle/arducopter_rules.py mirrors it). That refusal is what makes it safe to send when the
+src/slopelander_sitl/vehicle/arducopter_rules.py mirrors it). That refusal is what makes it safe to send
+when the
 on-board script is idle and will not disarm."""
 
 from __future__ import annotations
 
-from sitl.guided import arm_in_guided
-from sitl.rig import Rig
 from slopelander.controller.actions import MavActions
 from slopelander.controller.config import load_config
+from slopelander_sitl.guided import arm_in_guided
+from slopelander_sitl.rig import Rig
 
 
 def test_the_companions_disarm_is_refused_in_the_air_and_made_on_the_ground():

@@ -164,6 +164,11 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
     def takeoff_request(self, dt: float, req: bool) -> None:
         self._step(dt, takeoff_request=req)
 
+    @rule(dt=st.floats(0.005, 0.2), up=st.one_of(st.none(), st.floats(-1.0, 5.0)))
+    def vehicle_height(self, dt: float, up: float | None) -> None:
+        """LOCAL_POSITION_NED's height (None: none recent): the take-off's climb evidence."""
+        self._step(dt, position_m=None if up is None else (0.0, 0.0, -up))
+
     @rule(dt=st.floats(0.005, 0.2))
     def landing_times_out(self, dt: float) -> None:
         """The runner's wall-clock timeout (Lander.run) aborts from any state but its endings."""
@@ -234,8 +239,8 @@ def test_a_script_report_after_rvt_does_not_undo_the_contact() -> None:
 
 
 def test_two_waits_in_a_row_each_end():
-    """LEGS_WAIT's 30 s ready timeout, then (the script had met the roof) SETTLED, TAKEOFF and
-    RESET's own 30 s: each wait ends, though together they outlast one wait."""
+    """LEGS_WAIT's 30 s ready timeout, then (the script had met the roof) SETTLED and TAKEOFF's own
+    15 s: each wait ends, though together they outlast one wait."""
     s = LandingUnderRandomEvents()
     s.start(start="PRESET")
     for _ in range(12):
@@ -243,7 +248,10 @@ def test_two_waits_in_a_row_each_end():
     s.script_reports(dt=0.125, s=12)
     s.takeoff_request(dt=0.125, req=True)
     s.teardown()
-    assert [h["to"] for h in s.m.history][-3:] == ["TAKEOFF", "RESET", "READY"]
+    # the inputs frozen: a clear range (3 m) with no climb reported is not believed, the legs stay
+    # clamped and the vehicle that never rose is asked to disarm where it is
+    assert [h["to"] for h in s.m.history][-2:] == ["SETTLED", "TAKEOFF"]
+    assert "loosen_legs" not in s.act.names() and "disarm_on_ground" in s.act.names()
 
 
 def test_a_script_reversing_past_its_bound_is_not_released_before_a_take_off():

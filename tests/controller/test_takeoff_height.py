@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from slopelander.controller.states.takeoff import height_over_slope
-from tests.controller.test_machine import OK, _to_takeoff
+from tests.controller.test_machine import OK, _to_takeoff, up
 
 
 def beam_length(height_m: float, slope_deg: float, tilt_deg: float, azimuth_deg: float) -> float:
@@ -59,7 +59,7 @@ def _climb(slope, tilt, reading):
     for _ in range(200):
         t += 0.02
         rng = min(reading, rng + 0.02)
-        if m.step(replace(OK, t=t, range_m=rng, tilt_deg=tilt)) != "TAKEOFF":
+        if m.step(replace(OK, t=t, range_m=rng, tilt_deg=tilt, position_m=up(rng - 0.1))) != "TAKEOFF":
             break
     return m
 

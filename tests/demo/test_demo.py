@@ -11,10 +11,14 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.scenario import Scenario
-from sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
 from slopelander.controller.config import load_config
 from slopelander.controller.landing import cut_dynamics, expected_impact_speed, leg_geometry
+from slopelander.controller.session import read_transitions as transitions
+from slopelander_sitl.vehicle.scenario import Scenario
+from slopelander_sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
+
+#: its tests share one demo run (demo): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("demo/demo")
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -52,11 +56,7 @@ def _descent_flown(out: Path) -> tuple[float, float]:
     ending WINDOW_GAP_S before the CUT, fitted with a line and carried on to the CUT; the contact
     lies somewhere in the gap, so the tolerance is the drift over the gap, plus the reports'
     largest scatter about the line (either side), plus the IMU carry."""
-    t_cut = next(
-        json.loads(line)["t"]
-        for line in (out / "transitions.jsonl").read_text().splitlines()
-        if json.loads(line)["to"] == "CUT"
-    )
+    t_cut = next(ln["t"] for ln in transitions(out / "transitions.jsonl") if ln["to"] == "CUT")
     log = mavutil.mavlink_connection(str(out / "flight.tlog"))
     pts = []
     while (msg := log.recv_match(type="LOCAL_POSITION_NED")) is not None:
@@ -97,7 +97,7 @@ def test_the_demo_lands_on_the_roof_takes_off_and_resets_the_legs(demo) -> None:
     proc, out = demo
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "outcome: LANDED_AND_RESET" in proc.stdout
-    seq = [json.loads(line)["to"] for line in (out / "transitions.jsonl").read_text().splitlines()]
+    seq = [ln["to"] for ln in transitions(out / "transitions.jsonl")]
     assert seq == [
         "PRESET",
         "LEGS_WAIT",

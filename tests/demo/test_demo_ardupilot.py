@@ -6,7 +6,6 @@ about 1.5 minutes of wall time."""
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import subprocess
@@ -15,13 +14,16 @@ from pathlib import Path
 
 import pytest
 
-from sitl.ardupilot import arducopter_binary
-from sitl.ardupilot.launch import ArduCopterMissingError
+from slopelander.controller.script_contract import SCRIPT_CONTRACT
+from slopelander.controller.session import read_transitions as transitions
 from slopelander.ident.flightlog.compare import compare_log
 from slopelander.model import Model
+from slopelander_sitl.ardupilot import arducopter_binary
+from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
 from tests.ident.test_flightlog import true_contact
 
-pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)
+# one ArduCopter at a time; a long flight (tests/conftest.py)
+pytestmark = [pytest.mark.xdist_group("arducopter"), pytest.mark.timeout(1200)]
 
 
 def landed_legs(printed: str) -> tuple[float, float]:
@@ -46,9 +48,9 @@ def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path
         timeout=900,
     )
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
-    assert "firmware 4." in r.stdout and "on-board script v5" in r.stdout, r.stdout[:800]
+    assert "firmware 4." in r.stdout and f"on-board script v{SCRIPT_CONTRACT}" in r.stdout, r.stdout[:800]
     assert "outcome: LANDED_AND_RESET" in r.stdout
-    lines = [json.loads(ln) for ln in (out / "transitions.jsonl").read_text().splitlines()]
+    lines = transitions(out / "transitions.jsonl")
     states = [ln["to"] for ln in lines]
     assert states[-4:] == ["LANDED", "TAKEOFF", "RESET", "READY"], states
     landed = next(ln for ln in lines if ln["to"] == "LANDED")

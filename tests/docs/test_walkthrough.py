@@ -5,7 +5,8 @@ simulated leg board, the simulated ArduCopter, a real MAVProxy typed into at its
 
 The page's commands use fixed places (`/tmp/legboard`, TCP ports 5760 and 5762), as a user's
 would. So that two runs, or anything else on the machine, cannot collide with them, every command
-runs inside one sandbox of Linux namespaces: its own `/tmp` (an empty tmpfs), its own network
+runs inside one sandbox of Linux namespaces: its own `/tmp` (a tmpfs, showing of the machine's
+only what holds this checkout or its Python, when they live there), its own network
 holding only loopback, and its own process tree, which the kernel ends whole when the test ends
 (even when the test is killed). The commands are otherwise run verbatim by bash from the
 repository's root, `python3` and `slopelander` being this checkout's."""
@@ -31,16 +32,13 @@ PAGE = ROOT / "docs" / "commands.md"
 HEADING = "## Using it"
 #: what a long-running terminal prints once it is up; a block whose command is not here runs to its end
 READY = {
-    "sitl.legboard": "legboard ready",
-    "sitl.vehicle": "vehicle ready",
+    "slopelander_sitl.legboard": "legboard ready",
+    "slopelander_sitl.vehicle": "vehicle ready",
     "mavproxy.py": "Detected vehicle",
 }
 #: a new user (mapped to root in it, so no privilege is needed), network, mount and process namespace
 UNSHARE = ["unshare", "--user", "--map-root-user", "--net", "--mount", "--pid", "--fork", "--kill-child"]
 PROMPT = re.compile(r"^[A-Z_]+> ")
-
-# the walkthrough's flight and processes; it shares nothing with other tests in this module
-pytestmark = pytest.mark.spread
 
 
 @dataclass
@@ -80,9 +78,9 @@ def test_the_walkthrough_starts_the_board_vehicle_mavproxy_then_lands_on_a_match
     blocks = walkthrough(PAGE.read_text())
     assert [b.kind for b in blocks] == ["sh", "sh", "sh", "text", "sh"]
     board, vehicle, mavproxy, console, land = blocks
-    assert "sitl.legboard" in board.text and "sitl.vehicle" in vehicle.text
+    assert "slopelander_sitl.legboard" in board.text and "slopelander_sitl.vehicle" in vehicle.text
     assert "mavproxy.py" in mavproxy.text and land.text.startswith("slopelander land ")
-    v, b = _argv(vehicle, "sitl.vehicle"), _argv(board, "sitl.legboard")
+    v, b = _argv(vehicle, "slopelander_sitl.vehicle"), _argv(board, "slopelander_sitl.legboard")
     assert v[v.index("--legboard-control") + 1] == b[b.index("--link") + 1] + ".ctl"
     assert "--lockstep" in v and "--lockstep" in _argv(land, "land")  # the companion echoes its time
     scenario = re.search(r"slope_deg: (\d+)", vehicle.text)
@@ -95,14 +93,41 @@ def test_a_block_of_another_kind_is_refused():
         walkthrough(f"x\n{HEADING}\n\n```python\nprint()\n```\n")
 
 
+def kept_under_tmp() -> list[str]:
+    """The entries of the machine's /tmp that hold this checkout, this Python (a venv) or a folder
+    on its path: each name right under /tmp, which the sandbox's own /tmp must show too."""
+    places = [ROOT, Path(sys.executable), Path(sys.prefix), Path(sys.base_prefix), *map(Path, sys.path)]
+    names = set()
+    for place in places:
+        for path in {place.absolute(), place.resolve()}:
+            if (
+                len(path.parts) > 2
+                and path.parts[:2] == ("/", "tmp")
+                and Path("/tmp", path.parts[2]).is_dir()
+            ):
+                names.add(path.parts[2])
+    return sorted(names)
+
+
 class Sandbox:
     """A private /tmp, loopback-only network and process tree (``unshare``); :meth:`run` starts a
     shell command inside it. Its first process (the namespace's init) reads the test's pipe: when
     the test closes it, or dies, init ends and the kernel ends every process in the sandbox."""
 
     def __init__(self) -> None:
-        up = f"{shlex.quote(sys.executable)} -c 'from sitl.netns import bring_loopback_up as f; f()'"
-        script = f"mount -t tmpfs walkthrough /tmp && {up} && echo ready && exec cat >/dev/null"
+        up_code = "from slopelander_sitl.netns import bring_loopback_up as f; f()"
+        up = f"{shlex.quote(sys.executable)} -c '{up_code}'"
+        # what lives under the machine's /tmp and the commands need (a checkout or a venv cloned
+        # there) is bound back into the private one, reached through a descriptor of the old /tmp
+        # opened before it was covered (not canonicalized: that path would resolve into the new one)
+        names = [shlex.quote(name) for name in kept_under_tmp()]
+        keep = " && ".join(
+            f"mkdir /tmp/{n} && mount --no-canonicalize --bind /proc/self/fd/3/{n} /tmp/{n}" for n in names
+        )
+        script = (
+            f"exec 3</tmp && mount -t tmpfs walkthrough /tmp && {keep or 'true'} && exec 3<&- && {up} "
+            "&& echo ready && exec cat >/dev/null"
+        )
         self.env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT)])}
         self.holder = subprocess.Popen(
             [*UNSHARE, "sh", "-c", script],

@@ -44,7 +44,8 @@ def test_a_bad_grid_is_an_error_message_not_a_traceback(tmp_path, capsys):
 
 
 def test_the_main_command_lists_map_and_table(capsys):
-    from slopelander.envelope import cli as envelope_cli
+    from slopelander.commands import map as map_command
+    from slopelander.commands import table as table_command
 
     with pytest.raises(SystemExit):
         main(["--help"])
@@ -56,8 +57,8 @@ def test_the_main_command_lists_map_and_table(capsys):
     assert "landing maps" in lines["map"] and "lookup table" in lines["table"]
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    assert sub.choices["map"].get_default("handler") is envelope_cli.run_map
-    assert sub.choices["table"].get_default("handler") is envelope_cli.run_table
+    assert sub.choices["map"].get_default("handler") is map_command.run
+    assert sub.choices["table"].get_default("handler") is table_command.run
 
 
 def test_a_table_with_the_thrust_ended_records_it_and_lands_fewer_steep_cells(tmp_path, capsys):

@@ -19,6 +19,9 @@ from slopelander.envelope.presets import (
 )
 from slopelander.model import RESULT_DTYPE, Outcome, condition_grid, simulate_batch
 
+#: its tests share one small sweep (small_axes): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("envelope/envelope_presets")
+
 
 def results(*rows: tuple[Outcome, float, float]) -> np.ndarray:
     r = np.zeros(len(rows), RESULT_DTYPE)

@@ -1,12 +1,17 @@
-"""Chunked local sweeps and Dask sweeps give exactly the landings of one batch."""
+"""Chunked local sweeps give exactly the landings of one batch (on a Dask cluster:
+test_envelope_cluster.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from slopelander.envelope.cluster import ClusterError
 from slopelander.envelope.sweep import SweepError, connect, run_sweep
 from slopelander.model import simulate_batch
+
+#: its tests share one grid and its reference (grid, reference): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("envelope/envelope_sweep")
 
 
 @pytest.fixture(scope="module")
@@ -40,19 +45,7 @@ def test_a_zero_chunk_is_refused(grid, model):
         run_sweep(grid, model, chunk=0)
 
 
-def test_a_dask_cluster_gives_identical_results(grid, model, reference):
-    distributed = pytest.importorskip("distributed")
-    with (
-        distributed.LocalCluster(
-            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
-        out = run_sweep(grid, model, chunk=6, client=client, progress=False)
-    assert same(out, reference)
-
-
 def test_an_unreachable_scheduler_is_a_clear_error():
     pytest.importorskip("distributed")
-    with pytest.raises(SweepError, match="cannot reach"):
+    with pytest.raises(ClusterError, match="cannot reach"):
         connect("tcp://127.0.0.1:9", timeout="1s")

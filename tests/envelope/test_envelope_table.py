@@ -10,6 +10,9 @@ from slopelander.envelope.maps import preset_conditions
 from slopelander.envelope.table import build_table, write_table
 from slopelander.model import Outcome, simulate_batch
 
+#: its tests share one built table (built): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("envelope/envelope_table")
+
 
 @pytest.fixture(scope="module")
 def built(model, tiny_axes, tmp_path_factory):

@@ -17,6 +17,9 @@ from slopelander.envelope.uncertainty import (
 )
 from slopelander.model import ModelParams, Outcome
 
+#: its tests share one small sweep (two_by_two): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("envelope/envelope_uncertainty_robustness")
+
 
 def test_sets_reproduce_table_ii_mean_and_sigma_exactly(model):
     sets = parameter_sets(model.params, 3, seed=0)

@@ -12,7 +12,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from pymavlink.mavutil import x25crc
 
-from sitl.vehicle.scripting import RangeReading, ScriptHost
+from slopelander_sitl.vehicle.scripting import RangeReading, ScriptHost
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "firmware_params" / "scripts" / "slopelander.lua"

@@ -15,12 +15,11 @@ from pathlib import Path
 
 import pytest
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 REPO = Path(__file__).resolve().parents[2]
 PARM = REPO / "firmware_params" / "f450-fsa.parm"
-REFERENCE = Path("/work/shared/reference/ardupilot-copter-params.tsv")
+#: ArduPilot's parameter documentation, in the reference folder (the ``reference`` fixture:
+#: $SLOPELANDER_ARDUPILOT_REFERENCE, else shared/reference beside or above the checkout)
+PARAMS_DOC = "ardupilot-copter-params.tsv"
 
 
 def read_parm(path: Path) -> dict[str, tuple[float, str]]:
@@ -34,9 +33,9 @@ def read_parm(path: Path) -> dict[str, tuple[float, str]]:
     return out
 
 
-def mavlink_protocols() -> set[int]:
+def mavlink_protocols(params_doc: Path) -> set[int]:
     """The SERIALn_PROTOCOL values that make a port MAVLink, from ArduPilot's parameter documentation."""
-    for line in REFERENCE.read_text().splitlines():
+    for line in params_doc.read_text().splitlines():
         cells = line.split("\t")
         if cells[0] == "SERIAL1_PROTOCOL":
             pairs = (v.split("=", 1) for v in cells[3].split(";") if "=" in v)
@@ -62,11 +61,10 @@ def companion_instance(parm: dict[str, tuple[float, str]], mav: set[int]) -> tup
     return port, count
 
 
-@pytest.mark.skipif(not REFERENCE.exists(), reason="ArduPilot parameter reference not available")
 @pytest.mark.parametrize("path", [PARM, PARM.with_name("sitl.parm")], ids=lambda p: p.name)
-def test_the_companion_streams_are_set_on_its_own_mavlink_instance(path: Path):
+def test_the_companion_streams_are_set_on_its_own_mavlink_instance(path: Path, reference: Path):
     parm = read_parm(path)
-    mav = mavlink_protocols()
+    mav = mavlink_protocols(reference / PARAMS_DOC)
     assert {1, 2} <= mav
     port, n = companion_instance(parm, mav)
     assert (port, n) == (2, 3)  # TELEM2, behind USB and the TELEM1 radio
@@ -74,7 +72,7 @@ def test_the_companion_streams_are_set_on_its_own_mavlink_instance(path: Path):
     assert rates, "no stream rates set for the companion"
     wrong = sorted(r for r in rates if not r.startswith(f"MAV{n}_"))
     assert not wrong, f"stream rates on another MAVLink instance than the companion's MAV{n}_: {wrong}"
-    names = {line.split("\t")[0] for line in REFERENCE.read_text().splitlines()[2:]}
+    names = {line.split("\t")[0] for line in (reference / PARAMS_DOC).read_text().splitlines()[2:]}
     assert {f"SERIAL{port}_PROTOCOL", f"SERIAL{port}_BAUD", *rates} <= names
 
 

@@ -7,9 +7,6 @@ from pathlib import Path
 
 import pytest
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware_params"
 
@@ -118,7 +115,7 @@ def test_route_a_output_range_is_the_same_on_vehicle_and_sitl() -> None:
 def test_json_sitl_outputs_mean_to_the_physics_what_the_route_says() -> None:
     """Through the physics server's ESC mapping: the mixer's minimum is stopped, its in-flight
     minimum spins forward, and the whole mixer range never reverses."""
-    from sitl.vehicle.esc import pwm_to_command
+    from slopelander_sitl.vehicle.esc import pwm_to_command
 
     v = {name: val for _, name, val, _ in parse_parm(FIRMWARE / "sitl-json.parm")}
     lo, hi = v["MOT_PWM_MIN"], v["MOT_PWM_MAX"]
@@ -145,7 +142,7 @@ def test_the_simulated_vehicle_and_the_script_use_real_parameter_names(
 ) -> None:
     """The names the simulated vehicle serves and the script reads are ArduCopter's own, with
     values it accepts, so a .parm file written for one is understood by the other."""
-    from sitl.vehicle.params import VEHICLE_DEFAULTS
+    from slopelander_sitl.vehicle.params import VEHICLE_DEFAULTS
 
     ref = load_reference(reference)
     script = (FIRMWARE / "scripts" / "slopelander.lua").read_text()

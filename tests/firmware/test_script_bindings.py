@@ -5,12 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import pytest
-
-from sitl.vehicle.scripting import binding_calls
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+from slopelander_sitl.vehicle.scripting import binding_calls
 
 SCRIPT = Path(__file__).resolve().parents[2] / "firmware_params" / "scripts" / "slopelander.lua"
 
@@ -49,7 +44,7 @@ def test_a_dot_call_on_a_binding_is_caught_and_local_tables_are_not(reference: P
 
 
 def test_the_host_provides_every_binding_the_script_calls() -> None:
-    from sitl.vehicle.scripting import _PRELUDE
+    from slopelander_sitl.vehicle.scripting import _PRELUDE
 
     provided = {
         f"{obj.removesuffix('_ud')}:{meth}"

@@ -7,13 +7,10 @@ import math
 import pytest
 from script_bench import Bench
 
-from sitl.vehicle.scripting import RangeReading
 from slopelander.controller.script_contract import CMD_ACTUATOR as ACTUATOR
 from slopelander.controller.script_contract import CMD_REFLEX as REFLEX
 from slopelander.controller.script_contract import SCRIPT_CONTRACT, Reflex, ScriptState
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+from slopelander_sitl.vehicle.scripting import RangeReading
 
 ACCEPTED, TEMP_REJECTED, DENIED = 0, 1, 2
 ARM = (Reflex.ARM, 0.3, 30, 100, 300, 2000)

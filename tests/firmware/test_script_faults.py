@@ -14,9 +14,6 @@ from test_script_reflex import PCT, arm, descend, good, refresh, setup
 
 from slopelander.controller.script_contract import CMD_REFLEX, STILL_S, Reflex, ScriptState
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 S = ScriptState
 ACCEPTED, TEMP_REJECTED, DENIED = 0, 1, 2
 STILL_MS = round(STILL_S * 1000)

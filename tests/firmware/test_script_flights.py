@@ -17,11 +17,11 @@ from pathlib import Path
 
 import pytest
 
-import sitl.rig
-from sitl.rig import Rig, config
-from sitl.vehicle.launch import start_vehicle
+import slopelander_sitl.rig
 from slopelander.controller.runner import Lander
 from slopelander.controller.script_contract import ScriptState
+from slopelander_sitl.rig import Rig, config
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.firmware.script_bench import SCRIPT
 from tests.flights.conftest import AUTOPILOTS, autopilot_available
 from tests.flights.test_landings_on_both_autopilots import (
@@ -59,7 +59,9 @@ def rig_with(autopilot: str, seed: int, script: Path | None, monkeypatch) -> Rig
     one). The simulated vehicle is given the script the way its command line is
     (``start_vehicle(script=...)``); ArduCopter through its scripts folder."""
     if script is not None and autopilot == "sim":
-        monkeypatch.setattr(sitl.rig, "start_vehicle", functools.partial(start_vehicle, script=script))
+        monkeypatch.setattr(
+            slopelander_sitl.rig, "start_vehicle", functools.partial(start_vehicle, script=script)
+        )
     rig = Rig(
         slope_deg=ROOF_DEG,
         seed=seed,
@@ -142,7 +144,8 @@ def test_an_error_in_the_script_after_the_cut_keeps_the_motors_stopped_on_the_ro
         assert any(t.startswith("SL: error ") and t.endswith(": injected fault") for t in texts), ctx
 
 
-@pytest.mark.arducopter
+@pytest.mark.xdist_group("arducopter")
+@pytest.mark.timeout(1200)  # a long flight
 def test_a_stalled_scripting_thread_in_cut_keeps_the_motors_stopped(tmp_path: Path, monkeypatch) -> None:
     """ArduCopter only: its scripting thread stalled (injected: the script's own update busy for
     40-100 ms of vehicle time at the cut). CUT's override lasted 30 ms and the mixer, demanding

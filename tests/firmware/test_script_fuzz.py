@@ -6,15 +6,11 @@ from __future__ import annotations
 
 import struct
 
-import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import all as mavlink2
 from pymavlink.generator.mavcrc import x25crc
 from script_bench import Bench, decode
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
 
 COMMAND_LONG = 76
 ACTUATOR, REFLEX = 31010, 31011

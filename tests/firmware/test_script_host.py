@@ -9,10 +9,7 @@ from pymavlink.dialects.v10 import ardupilotmega as mavlink1
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from script_bench import SCRIPT, Bench, TestVehicle
 
-from sitl.vehicle.scripting import ScriptError, ScriptHost
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+from slopelander_sitl.vehicle.scripting import ScriptError, ScriptHost
 
 
 def script(tmp_path: Path, text: str) -> Path:
@@ -172,7 +169,7 @@ def test_a_script_past_ardupilots_100_locals_is_refused_as_ardupilot_refuses_it(
     """Stock Lua 5.3 takes 200 locals per function, ArduPilot's takes 100 (MAXVARS,
     libraries/AP_Scripting/lua/src/lparser.c; held to the real binary in
     tests/json_physics/test_real_ardupilot.py): the stand-in refuses what the autopilot would."""
-    from sitl.vehicle.lua_limits import MAXVARS, locals_per_function
+    from slopelander_sitl.vehicle.lua_limits import MAXVARS, locals_per_function
 
     def body(n: int) -> str:
         return "".join(f"local v{i} = {i}\n" for i in range(n)) + "return\n"

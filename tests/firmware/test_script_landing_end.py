@@ -12,9 +12,6 @@ from test_script_reflex import CUT_M, IMPACT, PCT, SAMPLE_MS, cut_now, good, imp
 
 from slopelander.controller.script_contract import CMD_ACTUATOR, CMD_REFLEX, STILL_S, Reflex, ScriptState
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 ACCEPTED, TEMP_REJECTED = 0, 1
 STILL_MS = round(STILL_S * 1000)
 

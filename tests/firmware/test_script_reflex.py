@@ -10,12 +10,9 @@ import random
 import pytest
 from script_bench import Bench
 
-from sitl.vehicle.scripting import RangeReading
 from slopelander.controller.script_contract import CMD_REFLEX as REFLEX
 from slopelander.controller.script_contract import Reflex, ScriptState
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+from slopelander_sitl.vehicle.scripting import RangeReading
 
 ACCEPTED, TEMP_REJECTED = 0, 1
 CUT_M, IMPACT, PCT, DUR_MS = 0.30, 30.0, 80.0, 300.0
@@ -355,6 +352,33 @@ def test_missed_impact_on_the_ground_holds(bench: Bench) -> None:
     assert bench.io.state() == HOLD
     assert bench.outputs() == [1500] * 4
     assert "SL: no impact seen, holding motors stopped" in bench.io.sl_texts()
+
+
+def test_a_cut_still_falling_at_the_bound_waits_for_the_impact_and_reverses(bench: Bench) -> None:
+    """The range near (a low reading that lasted) but the vehicle still falling freely at the
+    missed-impact bound: the cut was higher than the range said. Before, HOLD: the vehicle met
+    the roof with the motors held and no reverse thrust ("a false cut below about 1 m"). Now the
+    cut stands and the impact, when it comes, reverses as in any landing."""
+    cut_now(bench)
+    bench.io.accel_body = (0.0, 0.0, -0.3)  # free fall: nothing carries the vehicle
+    cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
+    bench.run(cut_at + BOUND_MS + 150 - bench.io.now_ms)
+    assert bench.io.state() == CUT and bench.outputs() == [1500] * 4
+    assert "SL: no impact seen, holding motors stopped" not in bench.io.sl_texts()
+    bench.io.accel_body = (0.0, 0.0, -45.0)  # the roof
+    bench.run(5)
+    assert bench.io.state() == RVT
+
+
+def test_a_cut_falling_past_its_wait_holds(bench: Bench) -> None:
+    """Free fall for 500 ms past the bound (3 m more of it): the old rule, HOLD."""
+    cut_now(bench)
+    bench.io.accel_body = (0.0, 0.0, -0.3)
+    cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
+    bench.run(cut_at + BOUND_MS + 495 - bench.io.now_ms)
+    assert bench.io.state() == CUT
+    bench.run(15)
+    assert bench.io.state() == HOLD
 
 
 def test_missed_impact_in_the_air_releases(bench: Bench) -> None:

@@ -15,20 +15,21 @@ from pathlib import Path
 import pytest
 import vibration
 from script_bench import SCRIPT, Bench
+from test_script_contract import lua_locals
 from test_script_reflex import REFLEX, good, setup
 
-from sitl.vehicle.scripting import RangeReading
 from slopelander.controller.config import load_config
 from slopelander.controller.script_contract import Reflex, ScriptState, missed_impact_s
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+from slopelander_sitl.vehicle.scripting import RangeReading
 
 CFG = load_config()
 IMPACT = CFG["reflex.impact_threshold_mps2"]  # the shipped 20 m/s², not a test's own
 CUT_M = CFG["reflex.cut_height_m"]
 DESCENT = CFG["descent.rate_mps"]
 BOUND_MS = round(missed_impact_s(CUT_M, DESCENT) * 1000)
+#: past the bound a vehicle still falling freely with the range near waits this long more for the
+#: impact (the script's MS.FALL_WAIT): these cuts meet no roof, so all of it is in the air
+FALL_WAIT_MS = round(lua_locals(SCRIPT.read_text())["MS_FALL_WAIT"])
 START_M = CUT_M + 0.25
 S = ScriptState
 
@@ -53,7 +54,8 @@ def fly(
 ):
     """Arm ``script`` with the shipped settings over a descent through the cut height; ``accel(ms)``
     is the filtered accelerometer, ``ms`` counted from the cut (negative before it). Returns the
-    cut's tick and the ms after the cut of the reverse thrust (None: none before the bound)."""
+    cut's tick and the ms after the cut of the reverse thrust (None: none before the bound and
+    the wait for a vehicle still falling after it)."""
     b = Bench(script)
     b.run(50)
     b.io.range = good(START_M)
@@ -79,7 +81,7 @@ def fly(
             seen["cut"], seen["h"] = b.io.now_ms, START_M - DESCENT * (b.io.now_ms - t0) / 1000.0
         if b.io.state() == S.RVT:
             return b.io.now_ms - t0, b.io.now_ms - seen["cut"]
-        if seen["cut"] is not None and b.io.now_ms - seen["cut"] > BOUND_MS + 20:
+        if seen["cut"] is not None and b.io.now_ms - seen["cut"] > BOUND_MS + FALL_WAIT_MS + 20:
             break
     assert seen["cut"] is not None and b.io.state() == S.HOLD, b.io.sl_texts()
     return seen["cut"] - t0, None

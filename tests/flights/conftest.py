@@ -7,12 +7,16 @@ import os
 
 import pytest
 
-from sitl.ardupilot import arducopter_binary
-from sitl.ardupilot.launch import ArduCopterMissingError
+from slopelander_sitl.ardupilot import arducopter_binary
+from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
 
-# A flight on real ArduCopter joins the one "arducopter" work unit (tests/conftest.py): no two
-# ArduCopters at once. The flights on the simulated vehicle stay in their module's unit.
-AUTOPILOTS = ["sim", pytest.param("ardupilot", marks=pytest.mark.arducopter)]
+# A flight on real ArduCopter joins the one "arducopter" xdist group (tests/conftest.py): no two
+# ArduCopters at once. The flights on the simulated vehicle go where their module says.
+# ArduCopter's flights are long: their own time limit.
+AUTOPILOTS = [
+    "sim",
+    pytest.param("ardupilot", marks=[pytest.mark.xdist_group("arducopter"), pytest.mark.timeout(1200)]),
+]
 
 
 def autopilot_available(name: str) -> str:

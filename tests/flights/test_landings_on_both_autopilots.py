@@ -1,5 +1,6 @@
 """The landings that matter, flown on both autopilots with the same assertions: the project's
-simulated vehicle (``sitl.vehicle``) and real ArduCopter SITL (V4.7-dev, ``SLOPELANDER_ARDUCOPTER``)
+simulated vehicle (``slopelander_sitl.vehicle``) and real ArduCopter SITL (V4.7-dev,
+``SLOPELANDER_ARDUCOPTER``)
 behind the same physics, leg board and companion.
 
 Each flight: take off from the pad, fly over the roof, land with the legs ``slopelander land`` plans
@@ -9,7 +10,7 @@ the autopilot's HEARTBEAT says disarmed: a command sent is not an end.
 
 Which cases fly on both, and how (CI stays well under 30 minutes on 2 cores; the ArduCopter
 tests share one xdist group, one ArduCopter at a time; its fast boot to armed costs about 13 s of
-wall time, a landing 15-35 s more: at up to 8x real time (sitl.rig.ARDUCOPTER_SPEEDUP), at real
+wall time, a landing 15-35 s more: at up to 8x real time (slopelander_sitl.rig.ARDUCOPTER_SPEEDUP), at real
 time within 1.6 m of the ground while the script may time something, held for a companion that
 falls behind): every case below flies on
 both autopilots.
@@ -35,10 +36,10 @@ import time
 
 import pytest
 
-from sitl.legboard.control import BoardControl
-from sitl.rig import Flight, Rig, config
 from slopelander.controller.landing import leg_geometry
 from slopelander.controller.runner import Lander
+from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.rig import Flight, Rig, config
 from tests.flights.conftest import AUTOPILOTS, autopilot_available
 
 
@@ -252,7 +253,7 @@ RC_CONFIG = {
 def roof_scenario(autopilot: str) -> dict:
     """The pilot: the throttle stick at the bottom for the arming, centred in the air (an abort's
     LOITER holds its height), channel 8 flipped once. ArduCopter gets them from the physics on its
-    RC input (sitl/json_physics/pilot_rc.py)."""
+    RC input (src/slopelander_sitl/json_physics/pilot_rc.py)."""
     return {
         "rc": [
             {"t": 0.0, "channels": {3: 1000, 8: 1500}},
@@ -414,7 +415,12 @@ def test_the_leg_board_unplugged_in_the_descent_aborts_to_loiter_before_the_cut(
         assert_hovering_safe(rig, lander, "leg failure")
 
 
-@pytest.fixture(scope="class", params=AUTOPILOTS)
+#: the link cuts on the simulated vehicle in a group of their own (the two flights share it, in
+#: order); on ArduCopter in the "arducopter" group, as every ArduCopter flight
+CUT_AUTOPILOTS = [pytest.param("sim", marks=pytest.mark.xdist_group("flights/link_cuts")), AUTOPILOTS[1]]
+
+
+@pytest.fixture(scope="class", params=CUT_AUTOPILOTS)
 def cut_roof(request):
     """One vehicle for the link-cut tests, in their order. Scoped to their class: pytest stops a
     module-scoped vehicle only when the module ends, and this one flew on, idle, through the

@@ -9,6 +9,9 @@ from slopelander.ident.recording import Drop
 from slopelander.ident.report import write_report
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
 
+#: its tests share one clean dataset (clean): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("ident/compare")
+
 
 @pytest.fixture(scope="module")
 def clean(model):

@@ -14,6 +14,9 @@ import pytest
 from slopelander.ident.diagnose import ALPHA, diagnose
 from slopelander.ident.synth import NoiseModel, paper_drops, survived, synthesize
 
+#: its tests share one truth dataset (truth): one worker, file order (tests/conftest.py)
+pytestmark = [pytest.mark.xdist_group("ident/diagnose"), pytest.mark.timeout(1200)]  # long searches
+
 BUDGET = {"cma_evals": 300, "refit_evals": 150}
 #: the default suite's budget for the two proofs it runs (leg flexibility and the control, one seed
 #: each): a fifth less CPU than ``BUDGET`` on their seeds, and each still passes every assertion

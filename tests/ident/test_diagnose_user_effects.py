@@ -22,6 +22,12 @@ from slopelander.ident.diagnose import diagnose
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
 from slopelander.model import load_effects
 
+#: its tests share a base fit and datasets (base, user_effects): one worker, file order (tests/conftest.py)
+pytestmark = [
+    pytest.mark.xdist_group("ident/diagnose_user_effects"),
+    pytest.mark.timeout(1200),
+]  # long searches
+
 ROOT = Path(__file__).resolve().parents[2]
 FILES = {
     "viscous_joint": ROOT / "docs" / "examples" / "effect_joint_torque.py",

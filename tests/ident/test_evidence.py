@@ -222,3 +222,63 @@ def test_an_effect_acting_on_some_drops_is_not_hidden_by_tiny_consistent_gains()
     tiny = [-0.001 + rng.normal(0, 1e-5, 10) for _ in range(6)]
     t = sign_flip_test(np.array([real, *tiny]))
     assert t.p[0] <= 0.05 and t.p[1:].min() > 0.5
+
+
+def test_a_recordings_first_and_last_rates_are_centred_as_the_models_are(model):
+    """``meta.rates`` ``lsq_slope``: a window centred on every sample, the first and last too
+    (the take runs on beyond its export). The model used to be observed with a one-sided
+    difference there (window 3) or the first window's slope: its rates at the edges then
+    differed from the recording's central differences by half a frame of acceleration (z rate
+    0.025 m/s in flight at 200 Hz), and the noise floor counted twice the noise there."""
+    from slopelander.ident.compare import predict
+    from slopelander.ident.recording import Drop
+    from slopelander.ident.synth import true_states
+    from slopelander.model import LandingConditions
+
+    cond = LandingConditions(slope_deg=20.0, speed=2.0, tau_up=1.1, tau_down=1.7)
+    dt = 0.005
+    take = np.arange(-11, 102) * dt  # the take; the export is its frames 1..-2
+    truth, _ = true_states(model, cond, take)
+    central = (truth[2:, :3] - truth[:-2, :3]) / (2 * dt)
+    for window in (3, 7):
+        h = window // 2
+        t = take[h : len(take) - h]
+        states = np.column_stack([truth[h : len(take) - h, :3], central[h - 1 : len(central) - h + 1]])
+        if window == 7:  # a 7-frame least-squares slope over the take, cut to the export
+            states[:, 3:] = differentiate(truth[:, :3], take, 7)[h : len(take) - h]
+        drop = Drop("d", t, states, cond, None, "", {"rates": {"method": "lsq_slope", "window": window}})
+        sim, _ = predict(model, drop, outcome=False)
+        err = np.abs(sim[:, 3:] - states[:, 3:])
+        inside = err[h:-h].max(axis=0)
+        assert (err[0] <= 2 * inside + 1e-4).all(), (window, err[0], inside)
+        assert (err[-1] <= 2 * inside + 1e-4).all(), (window, err[-1], inside)
+
+
+def test_noise_floor_counts_the_edges_as_the_recording_has_them(model):
+    """Short recordings (7 samples after contact) of the model's own landing, central
+    differences centred on every sample: the declared noise floor is what the truth scores on
+    them. Counting the last sample's rate as a one-sided difference (4x its variance) lifted
+    the floor above the truth's score."""
+    from slopelander.ident.recording import Drop
+    from slopelander.ident.synth import true_states
+    from slopelander.model import LandingConditions
+
+    cond = LandingConditions(slope_deg=20.0, speed=2.0, tau_up=1.1, tau_down=1.7)
+    dt, lat, sd, ang = 0.005, 0.002, 1e-3, 0.3
+    take = np.arange(-5, 8) * dt  # the export: its frames 1..-2 (-0.02..0.03 s)
+    truth, _ = true_states(model, cond, take - lat)
+    rng = np.random.default_rng(5)
+    meta = {
+        "rates": {"method": "lsq_slope", "window": 3},
+        "noise": {"position_sd_m": sd, "angle_sd_deg": ang, "latency_s": lat},
+    }
+    drops = []
+    for i in range(150):
+        pos = truth[:, :3] + rng.normal(0.0, [sd, sd, math.radians(ang)], (len(take), 3))
+        rates = (pos[2:] - pos[:-2]) / (2 * dt)
+        states = np.column_stack([pos[1:-1], rates])
+        drops.append(Drop(f"d{i}", take[1:-1], states, cond, None, "central differences", meta))
+    ranges = state_ranges(drops)
+    floor = noise_floor(model, drops, ranges, draws=2, seed=1)
+    score = compare(model, drops, ranges).nrmse
+    assert floor == pytest.approx(score, rel=0.04)

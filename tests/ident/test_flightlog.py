@@ -149,7 +149,7 @@ def test_rest_and_the_first_peak() -> None:
 def test_compare_prints_the_table_and_writes_json_and_plot(tmp_path, capsys) -> None:
     log = tmp_path / "landing.dat"  # any name: the content says it is a log
     shutil.copy(EXAMPLE, log)
-    assert main(["compare", str(log), "--report", str(tmp_path / "out")]) == 0
+    assert main(["compare", str(log), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "landing.dat (DataFlash): landing 1 of 1, first contact at" in out
     assert "| lowest pitch, deg |" in out and "| time to rest, s |" in out

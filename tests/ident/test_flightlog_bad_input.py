@@ -19,7 +19,7 @@ EXAMPLE = ROOT / "docs" / "examples" / "flightlog" / "landing-20deg.bin"
 def compare(folder: Path, *args: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
     return subprocess.run(
-        [sys.executable, "-m", "slopelander.cli", "compare", *args, "--report", "out"],
+        [sys.executable, "-m", "slopelander.cli", "compare", *args, "--out", "out"],
         capture_output=True,
         text=True,
         env=env,
@@ -102,8 +102,14 @@ def test_a_complete_log_with_no_landing(tmp_path) -> None:
 
 def test_a_log_without_the_companions_messages_asks_for_the_torques(tmp_path) -> None:
     rewrite(tmp_path / "quiet.bin", lambda m: not (m.get_type() == "MSG" and "SRC=" in m.Message))
-    refused(compare(tmp_path, "quiet.bin"), tmp_path, "quiet.bin", "legs' friction torques", "--tau UP DOWN")
-    r = compare(tmp_path, "quiet.bin", "--tau", "1.1", "1.1")
+    refused(
+        compare(tmp_path, "quiet.bin"),
+        tmp_path,
+        "quiet.bin",
+        "legs' friction torques",
+        "--tau-up UP --tau-down DOWN",
+    )
+    r = compare(tmp_path, "quiet.bin", "--tau-up", "1.1", "--tau-down", "1.1")
     assert r.returncode == 0, r.stderr
     assert "legs: given" in r.stdout
 

@@ -15,6 +15,9 @@ from slopelander.ident.recording import RecordingError, load_drop, write_drop
 from slopelander.ident.synth import NoiseModel, synthesize
 from slopelander.model import LandingConditions
 
+#: its tests share one dataset (drops): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("ident/gaps")
+
 
 @pytest.fixture(scope="module")
 def drops(model):

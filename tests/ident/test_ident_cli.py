@@ -9,6 +9,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+LOG = ROOT / "docs" / "examples" / "flightlog" / "landing-20deg.bin"
+"""A flight log: compared, not identified."""
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
@@ -24,7 +26,7 @@ def test_synth_then_compare_with_report(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "wrote 3 drops" in r.stdout and len(list(ds.glob("*.csv"))) == 3
     rep = tmp_path / "rep"
-    r = run("compare", str(ds), "--without", "leg_flex", "--report", str(rep))
+    r = run("compare", str(ds), "--without", "leg_flex", "--out", str(rep))
     assert r.returncode == 0, r.stderr
     assert "NRMSE" in r.stdout and "per phase" in r.stdout and "worst:" in r.stdout
     assert (rep / "report.md").is_file() and len(list(rep.glob("*.png"))) == 3
@@ -35,12 +37,23 @@ def test_synth_then_compare_with_report(tmp_path):
 def test_synth_on_the_steep_part_of_the_spread_without_flips(tmp_path):
     ds = tmp_path / "ds"
     r = run(
-        "synth", "--out", str(ds), "--drops", "16", "--duration", "0.2", "--slopes", "30", "45", "--no-flips"
+        "synth",
+        "--out",
+        str(ds),
+        "--drops",
+        "16",
+        "--duration",
+        "0.2",
+        "--slope-min",
+        "30",
+        "--slope-max",
+        "45",
+        "--no-flips",
     )
     assert r.returncode == 0, r.stderr
     # the shipped model flips on 6 of these 16 (so does the one without eq. 3: docs/ident.md)
     assert "left out 6 of 16 drops" in r.stdout and "wrote 10 drops (0 flipped)" in r.stdout
-    bad = run("synth", "--out", str(tmp_path / "y"), "--slopes", "30", "60")
+    bad = run("synth", "--out", str(tmp_path / "y"), "--slope-min", "30", "--slope-max", "60")
     assert bad.returncode == 1 and "within the paper's" in bad.stderr
 
 
@@ -52,6 +65,8 @@ def test_bad_requests_are_one_line_errors(tmp_path):
         (("fit", str(ds), "--fit", "friction_kinetic=a:b"), "NAME=LOW:HIGH"),
         (("fit", str(ds), "--without", "leg_flex", "--fit", "flex_stiffness"), "leg_flex"),
         (("compare", str(tmp_path / "none")), "no such dataset folder"),
+        (("fit", str(LOG)), "a flight log's landings are compared"),
+        (("diagnose", str(LOG)), "a flight log's landings are compared"),
         (("synth", "--out", str(tmp_path / "x"), "--set", "body_mass=-1"), "body_mass"),
     ]:
         r = run(*args)
@@ -108,7 +123,7 @@ def test_a_user_effect_parameter_is_fitted_by_name_within_its_declared_bounds(tm
 
     import yaml
 
-    from slopelander.ident.cli import IdentCliError, build_model
+    from slopelander.commands.ident_options import IdentCliError, build_model
 
     doc = yaml.safe_load((tmp_path / "fitted.yaml").read_text())
     saved = doc["user_effects"]["viscous_joint"]["joint_viscous_gain"]
@@ -139,7 +154,8 @@ def test_bare_diagnose_on_the_shipped_model_points_at_candidates(tmp_path):
 def test_diagnose_takes_several_candidate_files_or_a_folder_and_its_budgets(tmp_path):
     import argparse
 
-    from slopelander.ident.cli import IdentCliError, candidate_effects, register
+    from slopelander.commands.diagnose import register
+    from slopelander.commands.ident_options import IdentCliError, candidate_effects
 
     ap = argparse.ArgumentParser()
     register(ap.add_subparsers())
@@ -180,7 +196,7 @@ def test_diagnose_prints_its_evidence_and_the_noise_floor(tmp_path):
         "--json",
         str(tmp_path / "verdict.json"),
     )
-    from slopelander.ident.cli import DIAGNOSE_EXIT
+    from slopelander.commands.diagnose import DIAGNOSE_EXIT
 
     verdict = json.loads((tmp_path / "verdict.json").read_text())
     assert r.returncode == DIAGNOSE_EXIT[verdict["verdict"]], (r.returncode, verdict["verdict"], r.stderr)

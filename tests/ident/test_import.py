@@ -18,6 +18,9 @@ from slopelander.ident.mocap.rates import savgol_rates
 from slopelander.ident.recording import load_dataset, load_drop
 from tests.ident.mocap_files import motive_csv, qualisys_tsv, vicon_csv
 
+#: its tests share one imported take (imported, marker_take): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("ident/import")
+
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "docs" / "examples" / "mocap"
 MARKERS = EXAMPLE / "markers.yaml"

@@ -40,7 +40,7 @@ def lab(tmp_path) -> Path:
     return tmp_path
 
 
-def refused(r: subprocess.CompletedProcess, folder: Path, *words: str) -> str:
+def assert_refused(r: subprocess.CompletedProcess, folder: Path, *words: str) -> str:
     assert r.returncode == 1, r.stdout + r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("slopelander import: error: "), r.stderr
@@ -54,19 +54,19 @@ def refused(r: subprocess.CompletedProcess, folder: Path, *words: str) -> str:
 def test_a_truncated_c3d_among_good_takes_writes_nothing(lab):
     data = (lab / "drop07.c3d").read_bytes()
     (lab / "drop07.c3d").write_bytes(data[: len(data) // 2])
-    refused(run_import(lab, "."), lab, "drop07.c3d", "take 'drop07'", "field '<data>'", "truncated")
+    assert_refused(run_import(lab, "."), lab, "drop07.c3d", "take 'drop07'", "field '<data>'", "truncated")
 
 
 def test_a_file_that_is_not_c3d(lab):
     (lab / "notes.c3d").write_text("take 4 was bad, the roof moved\n")
-    refused(run_import(lab, "notes.c3d"), lab, "notes.c3d", "field '<header>'", "not a C3D file")
+    assert_refused(run_import(lab, "notes.c3d"), lab, "notes.c3d", "field '<header>'", "not a C3D file")
 
 
 def test_a_csv_from_another_exporter(lab):
     (lab / "take.csv").write_text(
         "PathFileType,4,(X/Y/Z),take.trc\nDataRate,CameraRate,NumFrames\n200,200,140\n"
     )
-    refused(
+    assert_refused(
         run_import(lab, "take.csv"), lab, "take.csv", "field '<format>'", "Vicon Nexus", "OptiTrack Motive"
     )
 
@@ -74,14 +74,16 @@ def test_a_csv_from_another_exporter(lab):
 def test_a_marker_the_markers_file_names_is_not_in_the_take(lab):
     text = (lab / "markers.yaml").read_text().replace("TOP: [", "TOPP: [")
     (lab / "markers.yaml").write_text(text)
-    refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "field 'body.markers.TOPP'", "closest: TOP")
+    assert_refused(
+        run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "field 'body.markers.TOPP'", "closest: TOP"
+    )
 
 
 def test_a_marker_renamed_in_the_export(lab):
     tk = read_take(lab / "drop01.c3d")
     labels = [("HEAD" if m == "TOP" else m) for m in tk.labels]
     vicon_csv(lab / "drop01.csv", labels, tk.xyz, tk.rate)
-    line = refused(run_import(lab, "drop01.csv"), lab, "drop01.csv", "field 'body.markers.TOP'")
+    line = assert_refused(run_import(lab, "drop01.csv"), lab, "drop01.csv", "field 'body.markers.TOP'")
     assert "no marker 'TOP'" in line
 
 
@@ -91,32 +93,38 @@ def test_a_cluster_that_is_not_rigid(lab):
     i = tk.labels.index("TOP")
     xyz[:, i, 0] += np.linspace(0.0, 0.03, tk.frames)  # the marker slides 30 mm along the frame
     write_c3d(lab / "drop01.c3d", list(tk.labels), xyz, tk.rate)
-    refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "field 'body.markers'", "not rigid", "TOP")
+    assert_refused(
+        run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "field 'body.markers'", "not rigid", "TOP"
+    )
 
 
 def test_lengths_in_another_unit_than_the_file_says(lab):
     """Millimetre numbers under POINT:UNITS 'm': a 1.5 km drop."""
     tk = read_take(lab / "drop01.c3d")
     write_c3d(lab / "drop01.c3d", list(tk.labels), tk.xyz * 1000.0, tk.rate, units="m")
-    refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "field 'POINT:UNITS'", "not in that unit")
+    assert_refused(
+        run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "field 'POINT:UNITS'", "not in that unit"
+    )
 
 
 def test_a_take_that_ends_at_contact(lab):
     tk = read_take(lab / "drop01.c3d")
     keep = int(0.18 * tk.rate)  # contact is at 0.15 s
     write_c3d(lab / "drop01.c3d", list(tk.labels), tk.xyz[:keep], tk.rate)
-    refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "too little data", "after contact")
+    assert_refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "too little data", "after contact")
 
 
 def test_a_take_that_starts_on_the_roof(lab):
     tk = read_take(lab / "drop01.c3d")
     write_c3d(lab / "drop01.c3d", list(tk.labels), tk.xyz[int(0.2 * tk.rate) :], tk.rate)
-    refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "does not start in free fall")
+    assert_refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "does not start in free fall")
 
 
 def test_a_condition_the_take_measures_itself(lab):
     (lab / "markers.yaml").write_text((lab / "markers.yaml").read_text() + "conditions: {slope_deg: 20}\n")
-    refused(run_import(lab, "drop01.c3d"), lab, "markers.yaml", "field 'conditions.slope_deg'", "measured")
+    assert_refused(
+        run_import(lab, "drop01.c3d"), lab, "markers.yaml", "field 'conditions.slope_deg'", "measured"
+    )
 
 
 def test_an_output_folder_that_holds_something(lab):
@@ -155,12 +163,14 @@ def test_an_output_folder_that_holds_something(lab):
 )
 def test_a_markers_file_that_cannot_be_used(lab, edit, field, words):
     (lab / "markers.yaml").write_text(edit((lab / "markers.yaml").read_text()))
-    refused(run_import(lab, "drop01.c3d"), lab, "markers.yaml", f"field '{field}'", words)
+    assert_refused(run_import(lab, "drop01.c3d"), lab, "markers.yaml", f"field '{field}'", words)
 
 
 def test_a_takes_table_with_a_bad_cell(lab):
     (lab / "takes.csv").write_text("take,tau_up,tau_down\ndrop01.c3d,1.1,strong\n")
-    refused(run_import(lab, "drop01.c3d"), lab, "takes.csv", "field 'line 2, tau_down'", "not a number")
+    assert_refused(
+        run_import(lab, "drop01.c3d"), lab, "takes.csv", "field 'line 2, tau_down'", "not a number"
+    )
 
 
 def test_a_motive_rigid_body_exported_with_euler_angles(lab):
@@ -178,4 +188,6 @@ def test_a_motive_rigid_body_exported_with_euler_angles(lab):
     text = (lab / "markers.yaml").read_text()
     start, end = text.index("body:"), text.index("roof:")
     (lab / "markers.yaml").write_text(text[:start] + "body:\n  rigid_body: quad\n" + text[end:])
-    refused(run_import(lab, "drop01.csv"), lab, "drop01.csv", "field 'body.rigid_body'", "export quaternions")
+    assert_refused(
+        run_import(lab, "drop01.csv"), lab, "drop01.csv", "field 'body.rigid_body'", "export quaternions"
+    )

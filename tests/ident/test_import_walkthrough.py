@@ -60,8 +60,8 @@ def test_the_worked_example_prints_what_the_page_shows(tmp_path):
             cwd=tmp_path,
             timeout=600,
         )
-        # diagnose exits with its verdict's code (ident/cli.py DIAGNOSE_EXIT); the page says which
-        from slopelander.ident.cli import DIAGNOSE_EXIT
+        # diagnose exits with its verdict's code (commands/diagnose.py DIAGNOSE_EXIT); the page says which
+        from slopelander.commands.diagnose import DIAGNOSE_EXIT
 
         codes = set(DIAGNOSE_EXIT.values()) if argv[1] == "diagnose" else {0}
         assert r.returncode in codes, f"{command}\n{r.stderr}"

@@ -70,7 +70,9 @@ def test_noise_has_the_stated_size_and_rates_come_from_noisy_positions(model):
         truth, _ = true_states(model, d.conditions, d.t - noise.latency)
         err_pos.append(d.states[:, :2] - truth[:, :2])
         err_ang.append(d.states[:, 2] - truth[:, 2])
-        np.testing.assert_allclose(d.states[:, 3:], differentiate(d.states[:, :3], d.t, 7))
+        # inside, the 7-frame slope of the recorded positions; the first and last three rates are
+        # centred on frames beyond the recording (as a lab's take runs on beyond its export)
+        np.testing.assert_allclose(d.states[3:-3, 3:], differentiate(d.states[:, :3], d.t, 7)[3:-3])
     sd_pos = np.concatenate(err_pos).std()
     sd_ang = math.degrees(np.concatenate(err_ang).std())
     assert 0.85e-3 < sd_pos < 1.15e-3

@@ -14,7 +14,8 @@ from slopelander.ident.truth import HIDDEN, MotionCapture, truth_states
 from slopelander.ident.truth.mocap import observe, record
 from slopelander.model import LandingConditions, load_effects
 
-pytestmark = pytest.mark.slow
+#: its tests share one base model and dataset (base, plain): one worker, file order (tests/conftest.py)
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ident/truth")]
 
 COND = LandingConditions(slope_deg=20.0, speed=2.5, tau_up=1.1, tau_down=1.7)
 T = np.arange(-2, 61) * 0.005  # 0.3 s after contact at 200 Hz

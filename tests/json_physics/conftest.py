@@ -7,10 +7,10 @@ import math
 
 import pytest
 
-from sitl.json_physics.ardupilot_side import ArduPilotSide
-from sitl.json_physics.launch import start_json_physics
-from sitl.vehicle.esc import command_to_pwm
 from slopelander.model.landing import Model
+from slopelander_sitl.json_physics.ardupilot_side import ArduPilotSide
+from slopelander_sitl.json_physics.launch import start_json_physics
+from slopelander_sitl.vehicle.esc import command_to_pwm
 
 QUIET = {"noise": {"accel": 0.0, "gyro": 0.0, "range": 0.0}}
 

@@ -1,4 +1,4 @@
-"""``python -m sitl.json_physics`` refuses bad starts with one line and exit status 2."""
+"""``python -m slopelander_sitl.json_physics`` refuses bad starts with one line and exit status 2."""
 
 from __future__ import annotations
 
@@ -7,12 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-from sitl.vehicle.launch import REPO, child_env
+from slopelander_sitl.vehicle.launch import REPO, child_env
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "sitl.json_physics", *args],
+        [sys.executable, "-m", "slopelander_sitl.json_physics", *args],
         capture_output=True,
         text=True,
         env=child_env(),
@@ -24,7 +24,11 @@ def _run(*args: str) -> subprocess.CompletedProcess:
 def _one_line_error(r: subprocess.CompletedProcess) -> str | None:
     """The error line of a refused start (exit status 2, one line on stderr), else None."""
     lines = r.stderr.strip().splitlines()
-    if r.returncode != 2 or len(lines) != 1 or not lines[0].startswith("sitl.json_physics: error: "):
+    if (
+        r.returncode != 2
+        or len(lines) != 1
+        or not lines[0].startswith("slopelander_sitl.json_physics: error: ")
+    ):
         return None
     return lines[0]
 

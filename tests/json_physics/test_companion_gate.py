@@ -1,4 +1,5 @@
-"""The physics holds ArduPilot while the companion is behind (sitl/json_physics/companion_gate.py):
+"""The physics holds ArduPilot while the companion is behind
+(src/slopelander_sitl/json_physics/companion_gate.py):
 the waiting rule on real UDP sockets, the server holding a stand-in ArduPilot's frame until the
 echo comes, and the pod's tap reading the echoes out of a MAVLink byte stream. Real ArduCopter
 held by it: tests/json_physics/test_real_ardupilot.py."""
@@ -12,9 +13,9 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from sitl.ardupilot.echo_tap import EchoTap
-from sitl.json_physics.ardupilot_side import ArduPilotSide
-from sitl.json_physics.companion_gate import (
+from slopelander_sitl.ardupilot.echo_tap import EchoTap
+from slopelander_sitl.json_physics.ardupilot_side import ArduPilotSide
+from slopelander_sitl.json_physics.companion_gate import (
     DESCENT_MPS,
     ECHO,
     GONE,
@@ -23,7 +24,7 @@ from sitl.json_physics.companion_gate import (
     CompanionGate,
     script_may_time,
 )
-from sitl.json_physics.launch import free_udp_port, start_json_physics
+from slopelander_sitl.json_physics.launch import free_udp_port, start_json_physics
 
 
 def _echo(port: int, t_s: float) -> None:

@@ -10,9 +10,12 @@ import time
 
 import pytest
 
-from sitl.json_physics.ardupilot_side import ArduPilotSide
-from sitl.json_physics.protocol import encode_servo_packet
+from slopelander_sitl.json_physics.ardupilot_side import ArduPilotSide
+from slopelander_sitl.json_physics.protocol import encode_servo_packet
 from tests.json_physics.conftest import alt, fly
+
+#: its tests share one physics server (pad_server): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("json_physics/lockstep")
 
 KEYS = {"timestamp", "imu.gyro", "imu.accel_body", "position", "velocity", "attitude", "rng_1"}
 

@@ -8,13 +8,16 @@ import math
 import numpy as np
 import pytest
 
-from sitl.json_physics.ardupilot_side import ArduPilotSide
-from sitl.json_physics.launch import start_json_physics
-from sitl.legboard.control import BoardControl
-from sitl.vehicle.launch import start_legboard
 from slopelander.legs import LegBoard
+from slopelander_sitl.json_physics.ardupilot_side import ArduPilotSide
+from slopelander_sitl.json_physics.launch import start_json_physics
+from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.vehicle.launch import start_legboard
 from tests.json_physics.conftest import QUIET, alt, climb, fly, hover_pwm, run
 from tests.legs.fed_clock import board_time, feed_until_done
+
+#: its tests share one physics server (pad_server): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("json_physics/physics")
 
 G = 9.81
 
@@ -217,10 +220,10 @@ def test_arducopters_yaw_torque_turns_the_vehicle_clockwise_and_the_reply_says_s
     so does the physics, in the air, and the pairs' thrust is kept (the vertical speed changes as
     with four equal motors: the mean of the pairs' commands lost 4 % and sank the vehicle). The
     reply's yaw and body yaw rate follow; on the pad the same outputs turn nothing."""
-    from sitl.json_physics.physics import JsonPhysics
-    from sitl.json_physics.protocol import encode_reply
-    from sitl.vehicle import esc
-    from sitl.vehicle.scenario import scenario_from_dict
+    from slopelander_sitl.json_physics.physics import JsonPhysics
+    from slopelander_sitl.json_physics.protocol import encode_reply
+    from slopelander_sitl.vehicle import esc
+    from slopelander_sitl.vehicle.scenario import scenario_from_dict
 
     quiet = {"accel": 0.0, "gyro": 0.0, "range": 0.0}
     scn = scenario_from_dict({"slope_deg": 20.0, "seed": 5, "noise": quiet})

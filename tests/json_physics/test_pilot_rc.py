@@ -7,8 +7,8 @@ from __future__ import annotations
 import socket
 import struct
 
-from sitl.json_physics.pilot_rc import PERIOD_S, PilotRc
-from sitl.vehicle.scenario import scenario_from_dict
+from slopelander_sitl.json_physics.pilot_rc import PERIOD_S, PilotRc
+from slopelander_sitl.vehicle.scenario import scenario_from_dict
 
 
 def listener() -> socket.socket:

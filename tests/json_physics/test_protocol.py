@@ -10,8 +10,8 @@ import struct
 
 import pytest
 
-from sitl.json_physics.ardupilot_side import EULER_ATT, parse_sensors
-from sitl.json_physics.protocol import (
+from slopelander_sitl.json_physics.ardupilot_side import EULER_ATT, parse_sensors
+from slopelander_sitl.json_physics.protocol import (
     Fdm,
     ProtocolError,
     decode_servo_packet,
@@ -110,8 +110,8 @@ def test_the_physics_fast_reply_is_the_reply_of_its_report() -> None:
     """``JsonPhysics.reply`` formats the frame without building the report (``fdm``): the same
     bytes as ``encode_reply(fdm())`` on the pad, climbing, falling back and in contact, with
     noise, wind and a fault window."""
-    from sitl.json_physics.physics import JsonPhysics
-    from sitl.vehicle.scenario import scenario_from_dict
+    from slopelander_sitl.json_physics.physics import JsonPhysics
+    from slopelander_sitl.vehicle.scenario import scenario_from_dict
 
     scn = scenario_from_dict(
         {

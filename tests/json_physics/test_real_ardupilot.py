@@ -1,5 +1,5 @@
 """Real ArduCopter SITL (``SLOPELANDER_ARDUCOPTER``; ``.ci/run`` points it at the shared build)
-boots on slopelander's physics through :func:`sitl.ardupilot.start_arducopter`, which runs it in a
+boots on slopelander's physics through :func:`slopelander_sitl.ardupilot.start_arducopter`, which runs it in a
 loopback-only network namespace of its own, in its own temporary folder: its MAVLink shows the
 physics (level on the pad, the rangefinder reading the leg height), the on-board script announces
 itself, and the rangefinder's "no data" reaches it as no data.
@@ -12,10 +12,11 @@ import time
 
 import pytest
 
-from sitl.ardupilot import arducopter_binary, start_arducopter
-from sitl.ardupilot.launch import ArduCopterMissingError
+from slopelander_sitl.ardupilot import arducopter_binary, start_arducopter
+from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
 
-pytestmark = pytest.mark.arducopter  # one ArduCopter at a time (tests/conftest.py)
+# one ArduCopter at a time; long flights (tests/conftest.py)
+pytestmark = [pytest.mark.xdist_group("arducopter"), pytest.mark.timeout(1200)]
 
 os.environ.setdefault("MAVLINK20", "1")
 
@@ -44,12 +45,13 @@ def _collect(conn, types: list[str], until, timeout_s: float = 90.0) -> dict:
 
 
 def test_it_boots_fast_and_is_handed_over_at_real_time_ready_to_arm_in_guided() -> None:
-    """The fast boot (sitl/ardupilot/fast_boot.py) on the real binary: ready once it could arm,
+    """The fast boot (src/slopelander_sitl/ardupilot/fast_boot.py) on the real binary: ready once it could
+    arm,
     at the flight's speed-up, and then it arms in GUIDED at the first asking."""
     binary = _binary()
     from pymavlink import mavutil
 
-    from sitl.guided import GUIDED, THROTTLE_DOWN_US, throttle_channels
+    from slopelander_sitl.guided import GUIDED, THROTTLE_DOWN_US, throttle_channels
 
     t0 = time.monotonic()
     with start_arducopter(binary=binary, speedup=1.0) as ap:
@@ -156,11 +158,12 @@ def test_a_rangefinder_dropout_reaches_arducopter_as_no_data() -> None:
 
 def test_arducopter_waits_for_a_companion_that_falls_behind() -> None:
     """At speed-up 8 ArduCopter runs ahead of real time while the companion keeps up, and no more
-    than the gate's lead (0.25 s of vehicle time, sitl/json_physics/companion_gate.py) past the
+    than the gate's lead (0.25 s of vehicle time, src/slopelander_sitl/json_physics/companion_gate.py) past
+    the
     newest time the companion echoed while it reads nothing: a second's stall of the companion is
     not eight seconds of flight it never saw."""
     binary = _binary()
-    from sitl.rig import Rig
+    from slopelander_sitl.rig import Rig
 
     with pytest.raises(ValueError, match="positive"):
         Rig(autopilot="ardupilot", arducopter=str(binary), arducopter_speedup=0.0)
@@ -187,10 +190,10 @@ def _locals_script(n: int) -> str:
 
 @pytest.mark.parametrize("n", [100, 101])
 def test_arducopters_lua_allows_100_locals_per_function(n: int, tmp_path) -> None:
-    """The rule the stand-in mirrors (sitl/vehicle/lua_limits.py, MAXVARS in ArduPilot's
+    """The rule the stand-in mirrors (src/slopelander_sitl/vehicle/lua_limits.py, MAXVARS in ArduPilot's
     libraries/AP_Scripting/lua/src/lparser.c): 100 locals load, the 101st is refused, though
     stock Lua 5.3 (the stand-in's lupa) takes 200."""
-    from sitl.vehicle.lua_limits import ardupilot_load_error
+    from slopelander_sitl.vehicle.lua_limits import ardupilot_load_error
 
     binary = _binary()
     script = tmp_path / "probe.lua"

@@ -1,6 +1,6 @@
 """A real simulated leg board in its own process, on a real pseudo-terminal.
 
-``sim_board(*flags)`` starts ``python -m sitl.legboard`` at a high time scale and returns a
+``sim_board(*flags)`` starts ``python -m slopelander_sitl.legboard`` at a high time scale and returns a
 handle; every board a test starts is terminated (then killed if need be) at teardown, its
 pipe closed and its temporary directory removed.
 """
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from sitl.legboard.control import BoardControl
+from slopelander_sitl.legboard.control import BoardControl
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEED = 20.0
@@ -44,7 +44,16 @@ def _start(directory: Path, flags: tuple[str, ...], speed: float) -> SimBoard:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(ROOT), env.get("PYTHONPATH", "")])
     proc = subprocess.Popen(
-        [sys.executable, "-m", "sitl.legboard", "--link", str(link), "--speed", str(speed), *flags],
+        [
+            sys.executable,
+            "-m",
+            "slopelander_sitl.legboard",
+            "--link",
+            str(link),
+            "--speed",
+            str(speed),
+            *flags,
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         env=env,

@@ -8,9 +8,9 @@ board's reset spring moves a loose leg at about 700 deg a second between the veh
 
 from __future__ import annotations
 
-from sitl.legboard.control import BoardControl
 from slopelander.legs import LegBoard
 from slopelander.legs.driver import Operation
+from slopelander_sitl.legboard.control import BoardControl
 
 STEP_S = 0.1
 

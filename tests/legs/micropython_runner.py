@@ -17,7 +17,7 @@ needs_micropython = pytest.mark.skipif(
     reason="SLOPELANDER_MICROPYTHON is not set: it names a MicroPython unix-port binary "
     "(docs/legs-build.md says how to build one); .ci/run sets it when one is beside the checkout",
 )
-HEAP = "192K"  # what sitl.legboard gives the firmware: about a Pico's free heap
+HEAP = "192K"  # what slopelander_sitl.legboard gives the firmware: about a Pico's free heap
 
 
 def run(script: str, stdin: str = "", timeout: float = 300.0) -> list:

@@ -13,9 +13,6 @@ import pytest
 from slopelander.legs import LegBoard, LegFault, ProtocolError, codec, messages, wire
 from slopelander.legs.messages import FaultCode
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 
 class FakeBoard:
     """A pty whose other end answers every HELLO with ``reply(seq)`` bytes, from a thread."""

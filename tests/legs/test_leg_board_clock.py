@@ -13,13 +13,9 @@ import time
 
 import pytest
 
-from sitl.legboard.control import BoardControl, ControlError
-from sitl.legboard.server import MAX_ADVANCE_S, BoardServer, FaultSpec
 from slopelander.legs import codec, messages
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
+from slopelander_sitl.legboard.control import BoardControl, ControlError
+from slopelander_sitl.legboard.server import MAX_ADVANCE_S, BoardServer, FaultSpec
 
 TICK_S = 0.004  # the firmware's tick
 

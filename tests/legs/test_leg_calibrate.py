@@ -18,14 +18,14 @@ from pathlib import Path
 import pytest
 import yaml
 
-from sitl.legboard.control import BoardControl
-from sitl.legboard.runtime import HostBoard
 from slopelander.legs import LegBoard, load_calibration, wire
 from slopelander.legs.errors import CalibrationError
+from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.legboard.runtime import HostBoard
 from tests.legs.conftest import ROOT
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+#: its tests share one calibration run (calibrated): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("legs/leg_calibrate")
 
 HIDDEN = {"mu": [0.25, 0.29, 0.27, 0.30], "i_no_load": 0.047, "screw_efficiency": 0.22, "mu_slope": -0.05}
 MASSES = "0.2,0.5,0.9,1.5"
@@ -46,7 +46,15 @@ class Board:
         self.link = directory / "legs"
         self.control = directory / "legs.ctl"
         (directory / "plant.json").write_text(json.dumps(plant))
-        cmd = [sys.executable, "-m", "sitl.legboard", "--link", str(self.link), "--clock", "external"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "slopelander_sitl.legboard",
+            "--link",
+            str(self.link),
+            "--clock",
+            "external",
+        ]
         cmd += ["--plant", str(directory / "plant.json"), *extra]
         self.proc = subprocess.Popen(
             cmd, stdout=subprocess.PIPE, text=True, env=_env(), start_new_session=True
@@ -65,7 +73,7 @@ class Board:
 
     def calibrate(self, out: Path, *extra: str) -> subprocess.CompletedProcess:
         return self.cli(
-            "calibrate", "--port", str(self.link), "--masses", MASSES, "--lever", LEVER,
+            "calibrate", "--legs-port", str(self.link), "--masses", MASSES, "--lever", LEVER,
             "--repeats", "2", "--out", str(out), "--bench", f"sim:{self.control}", *extra,
         )  # fmt: skip
 
@@ -185,14 +193,14 @@ def test_a_flight_clamp_at_the_calibrated_current_holds_the_torque_asked(calibra
 
 def test_status_checks_the_calibration_against_the_board_and_the_table(calibrated, tmp_path):
     board, out, _ = calibrated
-    done = board.cli("status", "--port", str(board.link), "--calibration", str(out))
+    done = board.cli("status", "--legs-port", str(board.link), "--calibration", str(out))
     assert done.returncode == 0, done.stdout + done.stderr
     assert "board 53494d424f415244  firmware 1.0  protocol 3  simulated" in done.stdout
     assert "ready: board, calibration" in done.stdout
     # the same file made on another board is refused on opening, by name
     other = tmp_path / "other.yaml"
     other.write_text(out.read_text().replace("board_id: 53494d424f415244", "board_id: e6614103e7452d2f"))
-    done = board.cli("status", "--port", str(board.link), "--calibration", str(other))
+    done = board.cli("status", "--legs-port", str(board.link), "--calibration", str(other))
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert "field board_id: measured on leg board e6614103e7452d2f, but the board connected is" in done.stderr
     with pytest.raises(CalibrationError, match="board_id"):
@@ -203,7 +211,7 @@ def test_status_checks_the_calibration_against_the_board_and_the_table(calibrate
     for entry in doc["legs"]:
         entry["torque_nm"] = [round(t + 0.3, 4) for t in entry["torque_nm"]]
     narrow.write_text(yaml.safe_dump(doc))
-    done = board.cli("status", "--port", str(board.link), "--calibration", str(narrow))
+    done = board.cli("status", "--legs-port", str(board.link), "--calibration", str(narrow))
     assert done.returncode == 1
     assert "NOT READY: leg 0 cannot take the table's tau_up of 0.56 N·m" in done.stdout
 

@@ -9,9 +9,6 @@ from hypothesis import strategies as st
 from slopelander.legs import CalibrationError, TorqueOutOfRange, load_calibration
 from slopelander.legs.calibration import LegCurve, default_calibration_path
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 GOOD = """provenance: measured
 units: {current: mA, torque: N*m}
 legs:

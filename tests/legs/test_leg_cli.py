@@ -6,14 +6,11 @@ import pytest
 
 from slopelander import cli
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 
 @pytest.fixture
 def run(monkeypatch, capsys):
     # The worktree may not have every part's subcommands yet; the legs part is enough here.
-    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", {"slopelander.legs.cli": (("legs",), False)})
+    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", {"slopelander.commands.legs": (("legs",), False)})
 
     def run_cli(*argv: str) -> tuple[int, str, str]:
         code = cli.main(list(argv))
@@ -25,16 +22,16 @@ def run(monkeypatch, capsys):
 
 def test_status_set_loosen(board, run):
     port = str(board.link)
-    code, out, _ = run("legs", "status", "--port", port)
+    code, out, _ = run("legs", "status", "--legs-port", port)
     assert code == 0 and out.count("LOOSE") == 4 and "ASSUMED" in out
     code, out, _ = run(
         "legs",
         "set",
-        "--port",
+        "--legs-port",
         port,
-        "--uphill",
+        "--tau-up",
         "1.7",
-        "--downhill",
+        "--tau-down",
         "2.3",
         "--timeout",
         str(board.wall(20)),
@@ -44,15 +41,15 @@ def test_status_set_loosen(board, run):
     with board.ctl() as ctl:
         torques = ctl.friction_torques()
     assert torques == pytest.approx([1.7, 1.7, 2.3, 2.3], abs=0.15)
-    code, out, _ = run("legs", "loosen", "--port", port, "--timeout", str(board.wall(20)))
+    code, out, _ = run("legs", "loosen", "--legs-port", port, "--timeout", str(board.wall(20)))
     assert code == 0 and out.count("37.50 °") == 4
 
 
 def test_errors_are_one_clear_line(board, run):
-    code, _, err = run("legs", "set", "--port", str(board.link), "--leg", "1=9")
+    code, _, err = run("legs", "set", "--legs-port", str(board.link), "--leg", "1=9")
     assert code == 1 and "Traceback" not in err
     assert "legs: error: leg 1: 9.0 N·m is outside the calibrated range" in err
-    code, _, err = run("legs", "status", "--port", "/nonexistent/tty", "--timeout", "1")
+    code, _, err = run("legs", "status", "--legs-port", "/nonexistent/tty", "--timeout", "1")
     assert code == 1 and "cannot open leg board port /nonexistent/tty" in err
 
 
@@ -63,7 +60,7 @@ def test_set_from_the_lookup_table(board, run):
     code, out, err = run(
         "legs",
         "set",
-        "--port",
+        "--legs-port",
         str(board.link),
         "--table",
         "--slope",
@@ -82,5 +79,5 @@ def test_set_from_the_lookup_table(board, run):
 
 
 def test_set_from_the_table_needs_slope_and_speed(run):
-    code, _, err = run("legs", "set", "--port", "/nonexistent", "--table", "--slope", "35")
+    code, _, err = run("legs", "set", "--legs-port", "/nonexistent", "--table", "--slope", "35")
     assert code == 1 and "--table needs --slope and --speed" in err

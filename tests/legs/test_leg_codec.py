@@ -5,16 +5,12 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
-import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from slopelander.legs import codec, messages
 from slopelander.legs.framing import MAX_ENCODED, cobs_decode, cobs_encode, crc32
 from slopelander.legs.messages import N_LEGS, FaultCode, LegState
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
 
 u8 = st.integers(0, 255)
 mask = st.integers(1, 15)

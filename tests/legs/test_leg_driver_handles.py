@@ -30,9 +30,6 @@ from slopelander.legs import (
 from slopelander.legs.messages import LegState
 from tests.legs.conftest import _start, _stop
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 # Only a bound against a hung test: no driver timeout below depends on the wall clock.
 HANG_S = 30.0
 

@@ -20,9 +20,6 @@ from slopelander.legs import (
 )
 from slopelander.legs.messages import FaultCode, LegState
 
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
-
 PAPER_LEVELS = (0.56, 1.1, 1.7, 2.3)
 
 

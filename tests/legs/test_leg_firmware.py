@@ -11,12 +11,9 @@ import math
 
 import pytest
 
-from sitl.legboard.runtime import HostBoard
 from slopelander.legs import wire
 from slopelander.legs.messages import FaultCode, LegState
-
-#: runs while the model compiles (tests/compile_once.py): nothing here needs it
-pytestmark = pytest.mark.model_free
+from slopelander_sitl.legboard.runtime import HostBoard
 
 STEP_S = 0.02
 

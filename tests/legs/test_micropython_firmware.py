@@ -8,10 +8,11 @@ import sys
 
 import pytest
 
-from sitl.legboard.runtime import FIRMWARE_DIR, HostBoard
+from slopelander_sitl.legboard.runtime import FIRMWARE_DIR, HostBoard
 from tests.legs.micropython_runner import needs_micropython, run
 
-pytestmark = [pytest.mark.model_free, needs_micropython]
+#: its tests share one run on both runtimes (both): one worker, file order (tests/conftest.py)
+pytestmark = [needs_micropython, pytest.mark.xdist_group("legs/micropython_firmware")]
 
 # the same source runs below on MicroPython (as a string) and here on CPython (exec)
 SCENARIO = """
@@ -115,7 +116,7 @@ def test_the_firmware_fits_the_heap_of_a_pico():
     assert states == [3, 3, 3, 3] and alloc < 120_000
 
 
-assert HostBoard  # the in-process firmware the CPython half runs is sitl.legboard's
+assert HostBoard  # the in-process firmware the CPython half runs is slopelander_sitl.legboard's
 
 
 def test_the_reference_boards_code_compiles_on_micropython_and_its_config_loads():

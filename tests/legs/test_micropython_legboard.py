@@ -1,5 +1,5 @@
 """The companion's real driver, over a real pseudo-terminal, against the leg-board firmware
-running on the real MicroPython (``python -m sitl.legboard --runtime micropython``)."""
+running on the real MicroPython (``python -m slopelander_sitl.legboard --runtime micropython``)."""
 
 from __future__ import annotations
 
@@ -14,8 +14,6 @@ from slopelander.legs import BoardDisconnected, LegBoard, LegFault, ProtocolErro
 from slopelander.legs.messages import FaultCode, LegState
 from tests.legs.conftest import ROOT
 from tests.legs.micropython_runner import needs_micropython
-
-pytestmark = pytest.mark.model_free
 
 MP = ("--runtime", "micropython")
 
@@ -72,7 +70,7 @@ def test_asking_for_micropython_without_one_is_a_clear_error(tmp_path):
     env.pop("SLOPELANDER_MICROPYTHON", None)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(ROOT)])
     done = subprocess.run(
-        [sys.executable, "-m", "sitl.legboard", "--link", str(tmp_path / "legs"), *MP],
+        [sys.executable, "-m", "slopelander_sitl.legboard", "--link", str(tmp_path / "legs"), *MP],
         capture_output=True,
         text=True,
         env=env,
@@ -82,7 +80,7 @@ def test_asking_for_micropython_without_one_is_a_clear_error(tmp_path):
     assert "--runtime micropython needs SLOPELANDER_MICROPYTHON set to a MicroPython binary" in done.stderr
     env["SLOPELANDER_MICROPYTHON"] = str(tmp_path / "no-such-micropython")
     done = subprocess.run(
-        [sys.executable, "-m", "sitl.legboard", "--link", str(tmp_path / "legs")],
+        [sys.executable, "-m", "slopelander_sitl.legboard", "--link", str(tmp_path / "legs")],
         capture_output=True,
         text=True,
         env=env,

@@ -6,13 +6,11 @@ from __future__ import annotations
 import json
 import random
 
-import pytest
-
 from slopelander.legs import codec, messages, wire
 from slopelander.legs.messages import FaultCode, LegState
 from tests.legs.micropython_runner import needs_micropython, run
 
-pytestmark = [pytest.mark.model_free, needs_micropython]
+pytestmark = needs_micropython
 
 
 def _sample_messages(rng: random.Random) -> list:

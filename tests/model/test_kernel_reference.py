@@ -14,6 +14,9 @@ import pytest
 
 from slopelander.model import layout
 
+#: its tests share recorded and current landings (now, recorded): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("model/kernel_reference")
+
 
 def _recorded_part(now: np.ndarray, recorded: np.ndarray) -> np.ndarray:
     """``now`` cut to the state entries the references recorded; the memory after them is zero."""

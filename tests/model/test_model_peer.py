@@ -12,6 +12,9 @@ from slopelander.model import kernel as k
 from slopelander.model.conditions import conditions_array
 from slopelander.peers.mujoco_drop import MujocoDrop, PeerError, matched_model
 
+#: its tests share one matched peer model (matched, peer): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("model/model_peer")
+
 # the peer imports MuJoCo only when one is built
 mujoco = pytest.importorskip("mujoco", reason="the MuJoCo peer needs the optional 'peers' extra (mujoco)")
 

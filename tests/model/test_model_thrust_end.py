@@ -16,6 +16,9 @@ from model_helpers import ROOF
 from slopelander.model import LandingConditions, Model
 from slopelander.model.thrust_end import ThrustEnd, land_and_end_thrust
 
+#: its tests share one pair of landings (ramped_end, step_end): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("model/model_thrust_end")
+
 UP, DOWN = 0, 1
 
 

@@ -28,6 +28,9 @@ from slopelander.model import (
 )
 from slopelander.model.thrust_end import ThrustEnd, land_and_end_thrust
 
+#: its tests share one batch of landings (flown): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("model/model_thrust_end_batch")
+
 
 @pytest.fixture(scope="module", params=[0.0, 1.0], ids=["step", "ramp-1s"])
 def flown(request):

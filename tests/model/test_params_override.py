@@ -1,4 +1,4 @@
-"""``slopelander params --dump`` and override files that hold only what they change."""
+"""``slopelander params --out`` and override files that hold only what they change."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ def test_the_dump_loads_back_as_the_defaults_and_comments_every_parameter(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "params.yaml"
-    assert main(["params", "--dump", str(out)]) == 0
+    assert main(["params", "--out", str(out)]) == 0
     assert "wrote" in capsys.readouterr().out
     loaded, default = ModelParams.load(out), ModelParams.default()
     assert {n: (v.value, v.unit, v.provenance) for n, v in loaded.values.items()} == {
@@ -29,7 +29,7 @@ def test_the_dump_loads_back_as_the_defaults_and_comments_every_parameter(
 
 
 def test_the_dump_goes_to_standard_output_without_a_file(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["params", "--dump"]) == 0
+    assert main(["params", "--out"]) == 0
     text = capsys.readouterr().out
     assert ModelParams.from_yaml_text(text).values["body_mass"].value == 1.502
 
@@ -37,9 +37,9 @@ def test_the_dump_goes_to_standard_output_without_a_file(capsys: pytest.CaptureF
 def test_the_dump_does_not_overwrite_a_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "mine.yaml"
     out.write_text("precious\n")
-    assert main(["params", "--dump", str(out)]) == 1
+    assert main(["params", "--out", str(out)]) == 1
     assert "exists" in capsys.readouterr().err and out.read_text() == "precious\n"
-    assert main(["params", "--dump", str(tmp_path / "no" / "p.yaml")]) == 1
+    assert main(["params", "--out", str(tmp_path / "no" / "p.yaml")]) == 1
     assert "does not exist" in capsys.readouterr().err
 
 

@@ -24,7 +24,7 @@ def test_simulate_prints_outcome_and_writes_plot_and_csv(tmp_path):
         "1.7",
         "--tau-down",
         "1.7",
-        "--rvt",
+        "--reverse",
         "--plot",
         str(png),
         "--csv",
@@ -61,12 +61,12 @@ def test_simulate_rigid_names_the_damage_and_the_load_behind_it():
 
 def test_simulate_ends_the_reverse_thrust_and_judges_after_it():
     roof = ["--slope", "42", "--speed", "2.25", "--tau-up", "1.1", "--tau-down", "1.7", "--angle-up", "22.3"]
-    held = _run(*roof, "--rvt")
-    step = _run(*roof, "--rvt", "--rvt-duration", "0.6")
-    ramp = _run(*roof, "--rvt", "--rvt-duration", "0.6", "--rvt-ramp", "1.0")
+    held = _run(*roof, "--reverse")
+    step = _run(*roof, "--reverse", "--reverse-duration", "0.6")
+    ramp = _run(*roof, "--reverse", "--reverse-duration", "0.6", "--reverse-ramp", "1.0")
     assert held.returncode == step.returncode == ramp.returncode == 0, (held.stderr, step.stderr, ramp.stderr)
     assert "outcome: under-used" in held.stdout or "outcome: ideal" in held.stdout
     assert "held 0.6 s, then stopped" in step.stdout and "outcome: slid" in step.stdout
     assert "ramped to zero over 1 s" in ramp.stdout and "outcome: slid" not in ramp.stdout
-    bad = _run(*roof, "--rvt", "--rvt-ramp", "1.0")
+    bad = _run(*roof, "--reverse", "--reverse-ramp", "1.0")
     assert bad.returncode == 1 and "reverse_ramp" in bad.stderr and "Traceback" not in bad.stderr

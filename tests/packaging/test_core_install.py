@@ -10,13 +10,10 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 
-#: runs while the model compiles (tests/compile_once.py): no test here needs it
-pytestmark = pytest.mark.model_free
-
 CHECK = """
 import importlib.util, sys
 import slopelander.controller.runner, slopelander.controller.link, slopelander.controller.table
-import slopelander.legs.driver, slopelander.land_cli
+import slopelander.legs.driver, slopelander.commands.land
 heavy = [m for m in ("numba", "scipy", "matplotlib", "lupa", "cma") if importlib.util.find_spec(m)]
 assert not heavy, f"the core installed {heavy}"
 assert not any(m.split(".")[0] in ("numba", "scipy", "matplotlib") for m in sys.modules)

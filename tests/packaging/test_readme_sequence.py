@@ -64,7 +64,7 @@ def test_install_after_the_demo_left_its_folders_in_the_root(tmp_path: Path) -> 
     )
     assert install.returncode == 0, install.stdout[-2000:] + install.stderr[-3000:]
     where = subprocess.run(
-        [str(py), "-c", "import slopelander.cli, sitl.vehicle; print(slopelander.cli.__file__)"],
+        [str(py), "-c", "import slopelander.cli, slopelander_sitl.vehicle; print(slopelander.cli.__file__)"],
         cwd=env_dir,  # not next to the clone's folder, which would shadow the installed package
         capture_output=True,
         text=True,
@@ -84,7 +84,7 @@ def test_the_output_folders_are_ignored_by_git() -> None:
 
 def test_the_packages_found_are_exactly_the_source_packages(tmp_path: Path) -> None:
     """Package discovery finds every package with an ``__init__.py`` under src/slopelander and
-    sitl, and nothing else, whatever folders sit in the root."""
+    src/slopelander_sitl, and nothing else, whatever folders sit in the root."""
     clone = tmp_path / "slopelander"
     _fresh_checkout(clone)
     _leave_outputs(clone)
@@ -103,7 +103,7 @@ def test_the_packages_found_are_exactly_the_source_packages(tmp_path: Path) -> N
     found = set(json.loads(out.stdout))
     expected = {
         ".".join(p.parent.relative_to(base).parts)
-        for base, top in ((REPO / "src", "slopelander"), (REPO, "sitl"))
+        for base, top in ((REPO / "src", "slopelander"), (REPO / "src", "slopelander_sitl"))
         for p in (base / top).rglob("__init__.py")
         if "__pycache__" not in p.parts
     }

@@ -2,11 +2,11 @@
 process during a flight, each checked against its row of docs/failsafes.md.
 
 The companion's controller flies the simulated vehicle (real on-board script) and leg board as
-processes in lock-step, its MAVLink link through the fault-injecting relay (sitl.linkfault). One
+processes in lock-step, its MAVLink link through the fault-injecting relay (slopelander_sitl.linkfault). One
 vehicle on a 20 deg roof flies the module's tests in order. This is a fast representative subset;
 ``benchmarks/soak.py`` injects cuts of 0.5 s, 3 s and for good in every state, and every leg fault,
 at random. Cuts last vehicle seconds: the relay paces the lock-stepped vehicle in real time while
-the link is down (``sitl.linkfault.Relay(lockstep=True)``).
+the link is down (``slopelander_sitl.linkfault.Relay(lockstep=True)``).
 """
 
 from __future__ import annotations
@@ -16,9 +16,12 @@ import time
 
 import pytest
 
-from sitl.legboard.control import BoardControl
-from sitl.rig import Rig, RigError, config
 from slopelander.controller.runner import Lander
+from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.rig import Rig, RigError, config
+
+#: its tests share a vehicle flown by several tests (rig): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("reliability/flight_faults")
 
 LOITER, GUIDED = 5, 4
 PRESET = (1.7, 2.3)

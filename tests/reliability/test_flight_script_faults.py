@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from sitl.rig import Rig, config
 from slopelander.controller.runner import Lander
+from slopelander_sitl.rig import Rig, config
 
 LOITER = 5
 PRESET = (1.7, 2.3)

@@ -15,13 +15,13 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sitl.vehicle.params import ParamError, load_parm
-from sitl.vehicle.scenario import ScenarioError, load_scenario
 from slopelander.controller.config import load_config
 from slopelander.controller.table import LookupTable
 from slopelander.errors import SlopelanderError
 from slopelander.legs.calibration import load_calibration
 from slopelander.model.parameters import ModelParams
+from slopelander_sitl.vehicle.params import ParamError, load_parm
+from slopelander_sitl.vehicle.scenario import ScenarioError, load_scenario
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "slopelander"
 REPO = SRC.parents[1]

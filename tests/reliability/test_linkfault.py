@@ -16,9 +16,12 @@ os.environ.setdefault("MAVLINK20", "1")
 import pytest
 from pymavlink import mavutil
 
-from sitl.linkfault import LinkFaults, RelayControl
-from sitl.linkfault.faults import FaultConfigError, decide
-from sitl.vehicle.launch import REPO, child_env, free_port, start_vehicle
+from slopelander_sitl.linkfault import LinkFaults, RelayControl
+from slopelander_sitl.linkfault.faults import FaultConfigError, decide
+from slopelander_sitl.vehicle.launch import REPO, child_env, free_port, start_vehicle
+
+#: its tests share one link under faults (link): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("reliability/linkfault")
 
 ROUTE_A = {"FRAME_CLASS": 1, "MOT_PWM_TYPE": 0, "MOT_PWM_MIN": 1525, "MOT_PWM_MAX": 2000}
 #: frames on their way between the relay's count and the client when a count is taken
@@ -64,7 +67,7 @@ def test_the_relay_sends_each_frame_at_once_over_tcp() -> None:
     time whatever its speed (found by timing the soak: 1.1x at --speed 20, 7-8x without it)."""
     import socket
 
-    from sitl.linkfault.relay import Relay
+    from slopelander_sitl.linkfault.relay import Relay
 
     srv = socket.create_server(("127.0.0.1", 0))
     relay = Relay("tcp:127.0.0.1:0", f"tcp:127.0.0.1:{srv.getsockname()[1]}").start()
@@ -93,7 +96,7 @@ def link():
     v = start_vehicle(params=ROUTE_A, no_script=True, speed=4.0)
     port = free_port()
     relay = subprocess.Popen(
-        [sys.executable, "-m", "sitl.linkfault", "--listen", f"tcp:127.0.0.1:{port}",
+        [sys.executable, "-m", "slopelander_sitl.linkfault", "--listen", f"tcp:127.0.0.1:{port}",
          "--to", f"tcp:127.0.0.1:{v.port}", "--seed", "3"],
         stdout=subprocess.PIPE, text=True, env=child_env(), cwd=REPO,
     )  # fmt: skip
@@ -245,7 +248,7 @@ def test_a_lockstep_cut_lasts_its_vehicle_seconds_and_the_vehicle_runs_in_real_t
     v = start_vehicle(params=ROUTE_A, no_script=True, speed=0.0, lockstep=True)
     port = free_port()
     relay = subprocess.Popen(
-        [sys.executable, "-m", "sitl.linkfault", "--listen", f"tcp:127.0.0.1:{port}",
+        [sys.executable, "-m", "slopelander_sitl.linkfault", "--listen", f"tcp:127.0.0.1:{port}",
          "--to", f"tcp:127.0.0.1:{v.port}", "--lockstep"],
         stdout=subprocess.PIPE, text=True, env=child_env(), cwd=REPO,
     )  # fmt: skip

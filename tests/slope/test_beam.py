@@ -8,8 +8,8 @@ import math
 
 import pytest
 
-from sitl.vehicle.scenario import ScenarioError, scenario_from_dict
-from sitl.vehicle.world import beam_range, start_on_ground, world_beam
+from slopelander_sitl.vehicle.scenario import ScenarioError, scenario_from_dict
+from slopelander_sitl.vehicle.world import beam_range, start_on_ground, world_beam
 
 
 def over(x: float, height: float = 2.0, **scn):

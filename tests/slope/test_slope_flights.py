@@ -1,4 +1,4 @@
-"""The measured slope in whole flights (sitl.rig): the companion flies its survey pass over the
+"""The measured slope in whole flights (slopelander_sitl.rig): the companion flies its survey pass over the
 spot, fits the slope, and either lands on it (``--slope auto``) or checks the pilot's number in
 CHECKS. The estimate, its uncertainty and its points are the record's first line.
 
@@ -17,15 +17,15 @@ import os
 
 import pytest
 
-from sitl.ardupilot import arducopter_binary
-from sitl.ardupilot.launch import ArduCopterMissingError
-from sitl.guided import GUIDED, arm_in_guided
-from sitl.rig import Rig, config
 from slopelander.controller.landing import expected_impact_speed, leg_geometry
 from slopelander.controller.runner import Lander
 from slopelander.controller.slope_estimate import SurfaceTrack, check_bound, slope_to_land
 from slopelander.controller.survey import measure_slope
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
+from slopelander_sitl.ardupilot import arducopter_binary
+from slopelander_sitl.ardupilot.launch import ArduCopterMissingError
+from slopelander_sitl.guided import GUIDED, arm_in_guided
+from slopelander_sitl.rig import Rig, config
 from tests.flights.test_landings_on_both_autopilots import FALL_M, contact_range
 
 TABLE = LookupTable.load(DEFAULT_TABLE)
@@ -139,7 +139,8 @@ def back_to_guided(rig: Rig) -> None:
     arm_in_guided(rig.link, rig.poll)
 
 
-@pytest.mark.arducopter
+@pytest.mark.xdist_group("arducopter")
+@pytest.mark.timeout(1200)  # a long flight
 def test_on_arducopter_the_pad_and_a_wrong_slope_are_refused_and_auto_lands_on_the_roof() -> None:
     """The three cases above on real ArduCopter, one vehicle: over the flat pad a pilot's 35 deg is
     refused; over the 35 deg roof a pilot's 15 deg is refused before the cut; then ``auto`` lands
@@ -255,7 +256,8 @@ def test_a_pilot_slope_of_0_over_the_east_falling_roof_is_refused_along_the_head
     assert "CUT" not in flight.states and flight.contact is None
 
 
-@pytest.mark.arducopter
+@pytest.mark.xdist_group("arducopter")
+@pytest.mark.timeout(1200)  # a long flight
 def test_on_arducopter_the_cross_slope_is_faced_and_landed() -> None:
     """The 45 deg roof falling east on real ArduCopter: its GUIDED takes the survey's headings (the
     JSON physics turns with the motors' yaw torque), the vehicle faces the fall line, and lands

@@ -1,4 +1,5 @@
-"""Run the command sequence (sitl/vehicle/ack_sequence.py) on the simulated vehicle, and compare
+"""Run the command sequence (src/slopelander_sitl/vehicle/ack_sequence.py) on the simulated vehicle, and
+compare
 two runs' answers command by command (helpers for the tests, no test logic of their own)."""
 
 from __future__ import annotations
@@ -8,8 +9,8 @@ from pathlib import Path
 
 from pymavlink import mavutil
 
-from sitl.vehicle.ack_sequence import Answer, run_sequence
-from sitl.vehicle.launch import start_vehicle
+from slopelander_sitl.vehicle.ack_sequence import Answer, run_sequence
+from slopelander_sitl.vehicle.launch import start_vehicle
 
 REFERENCE = Path(__file__).parent / "data" / "arducopter_command_acks.json"
 

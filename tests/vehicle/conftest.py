@@ -9,7 +9,7 @@ os.environ.setdefault("MAVLINK20", "1")
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import start_vehicle
+from slopelander_sitl.vehicle.launch import start_vehicle
 
 ROUTE_A = {"FRAME_CLASS": 1, "MOT_PWM_TYPE": 0, "MOT_PWM_MIN": 1525, "MOT_PWM_MAX": 2000}
 

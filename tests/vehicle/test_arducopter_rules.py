@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-from sitl.vehicle import arducopter_rules as r
-from sitl.vehicle import modes
+from slopelander_sitl.vehicle import arducopter_rules as r
+from slopelander_sitl.vehicle import modes
 
 
 def test_force_magics_differ_for_arm_and_disarm():

@@ -15,11 +15,11 @@ import time
 
 import pytest
 
-from sitl.legboard.control import BoardControl
-from sitl.rig import Rig
-from sitl.vehicle.launch import REPO, child_env
-from sitl.vehicle.legs_link import PERIOD_S
 from slopelander.legs.driver import LegBoard, LegTimeout
+from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.rig import Rig
+from slopelander_sitl.vehicle.launch import REPO, child_env
+from slopelander_sitl.vehicle.legs_link import PERIOD_S
 
 TICK_S = 1.0 / 400  # the vehicle's control tick
 IMU_PERIOD_S = 1.0 / 200  # the rig's RAW_IMU stream: the newest stamp lags the vehicle by at most this
@@ -72,7 +72,7 @@ def test_the_board_keeps_the_vehicles_time_and_stands_still_without_it():
 def test_a_bad_exchange_period_is_refused_by_name():
     for bad in ("0", "-5", "nan"):
         r = subprocess.run(
-            [sys.executable, "-m", "sitl.vehicle", "--legboard-period-ms", bad],
+            [sys.executable, "-m", "slopelander_sitl.vehicle", "--legboard-period-ms", bad],
             capture_output=True,
             text=True,
             env=child_env(),
@@ -83,7 +83,8 @@ def test_a_bad_exchange_period_is_refused_by_name():
 
 
 # The companion stops echoing the vehicle's time for STALL_S of wall time, less than the
-# lock-stepped vehicle's give-up (1 s, sitl/vehicle/vehicle.py LOCKSTEP_GIVE_UP_S): the vehicle,
+# lock-stepped vehicle's give-up (1 s, src/slopelander_sitl/vehicle/vehicle.py LOCKSTEP_GIVE_UP_S): the
+# vehicle,
 # and the board on its time, stand still, as they do in shorter spells on a loaded machine. The
 # drivers count a silent board after SILENT_S (the shipped 1 s would need a stall past the give-up).
 STALL_S = 0.5

@@ -1,5 +1,5 @@
 """The simulated vehicle answers the companion's commands as real ArduCopter does: the scripted
-sequence (sitl/vehicle/ack_sequence.py: modes, arming, take-off, disarm before and after the
+sequence (src/slopelander_sitl/vehicle/ack_sequence.py: modes, arming, take-off, disarm before and after the
 land detector fires, forced disarm, message intervals up to 400 Hz, a servo on a motor channel, an
 unknown command) gets the same COMMAND_ACK result, command by command, as ArduCopter SITL
 V4.7.0-dev gave it (tests/vehicle/data/arducopter_command_acks.json says how it was recorded;

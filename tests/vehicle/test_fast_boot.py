@@ -1,11 +1,12 @@
-"""The rules that end ArduCopter's fast boot (sitl/ardupilot/fast_boot.py), message by message.
+"""The rules that end ArduCopter's fast boot (src/slopelander_sitl/ardupilot/fast_boot.py), message by
+message.
 tests/json_physics/test_real_ardupilot.py holds them to the real binary."""
 
 from __future__ import annotations
 
 from types import SimpleNamespace as Msg
 
-from sitl.ardupilot.fast_boot import CAP_S, GIVE_UP_S, POSITION_FLAGS, PREARM_CHECK, FastBoot
+from slopelander_sitl.ardupilot.fast_boot import CAP_S, GIVE_UP_S, POSITION_FLAGS, PREARM_CHECK, FastBoot
 
 
 def at(boot: FastBoot, s: float, prearm: bool | None = None, position: bool | None = None) -> None:

@@ -10,9 +10,12 @@ import itertools
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import start_vehicle
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 from tests.vehicle.flying import M, command, set_interval, set_mode, velocity, wait_msg
+
+#: its tests share one vehicle on the roof (on_roof): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("vehicle/ground_rules")
 
 SPIN_ARM_PWM = round(1525 + 0.10 * (2000 - 1525))
 

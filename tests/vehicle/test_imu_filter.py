@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.signal import butter, lfilter, lfilter_zi
 
-from sitl.vehicle.sensors import LowPass2p
+from slopelander_sitl.vehicle.sensors import LowPass2p
 
 FS, FC = 1200.0, 20.0  # the physics rate, INS_ACCEL_FILTER
 

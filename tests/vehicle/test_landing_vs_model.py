@@ -14,10 +14,10 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.landing_record import FIELDS
-from sitl.vehicle.launch import REPO, start_legboard, start_vehicle
 from slopelander.legs import LegBoard
 from slopelander.model import LandingConditions, Outcome, simulate
+from slopelander_sitl.vehicle.landing_record import FIELDS
+from slopelander_sitl.vehicle.launch import REPO, start_legboard, start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 from tests.vehicle.flying import M, command, take_off, velocity, wait_msg
 

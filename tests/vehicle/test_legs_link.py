@@ -7,9 +7,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from sitl.legboard.control import BoardControl
-from sitl.vehicle.launch import start_legboard, start_vehicle
 from slopelander.legs import LegBoard
+from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
 from tests.legs.fed_clock import board_time, feed_until_done
 from tests.vehicle.conftest import ROUTE_A
 

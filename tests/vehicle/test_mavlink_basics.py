@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import pytest
+
 from tests.vehicle.flying import M, arm, command, set_interval, set_mode, wait_msg
+
+#: its tests share one vehicle (vehicle_module): one worker, file order (tests/conftest.py)
+pytestmark = pytest.mark.xdist_group("vehicle/mavlink_basics")
 
 
 def test_heartbeat_is_an_arducopter_quad(vehicle):

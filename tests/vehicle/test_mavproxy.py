@@ -13,7 +13,7 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import start_vehicle
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 
 pytestmark = pytest.mark.skipif(shutil.which("mavproxy.py") is None, reason="MAVProxy is not installed")

@@ -10,18 +10,18 @@ import time
 
 import pytest
 
-from sitl.vehicle.launch import REPO, child_env
+from slopelander_sitl.vehicle.launch import REPO, child_env
 
 LAUNCHER = """
-import sys, time
-from sitl import zygote
-if sys.argv[1] == "zygote":
-    zygote.enable()
-from sitl.vehicle.launch import start_legboard, start_vehicle
+import multiprocessing.forkserver, sys, time
+from slopelander_sitl import processes
+if sys.argv[1] == "forkserver":
+    processes.use_forkserver()
+from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
 board = start_legboard(clock="external")
 vehicle = start_vehicle(speed=1.0, legboard_control=board.control)
-z = zygote.active()
-print(vehicle.proc.pid, board.proc.pid, *([z._proc.pid] if z else []), flush=True)
+server = multiprocessing.forkserver._forkserver._forkserver_pid if sys.argv[1] == "forkserver" else None
+print(vehicle.proc.pid, board.proc.pid, *([server] if server else []), flush=True)
 time.sleep(600)
 """
 
@@ -39,10 +39,11 @@ def alive(pid: int) -> bool:
         return False
 
 
-@pytest.mark.parametrize("how", ["fresh", "zygote"])
+@pytest.mark.parametrize("how", ["fresh", "forkserver"])
 def test_simulators_end_when_their_launcher_is_killed(how: str):
-    """Started fresh, or forked from a zygote (sitl/zygote.py): the zygote ends with its
-    launcher, and its children with it."""
+    """Started fresh, or forked from the forkserver (src/slopelander_sitl/processes.py): the forkserver
+    ends with
+    its launcher, and its children with it."""
     env = child_env()
     env.pop("SLOPELANDER_PARENT_PID")  # the launcher itself is not watched
     launcher = subprocess.Popen(
@@ -51,7 +52,7 @@ def test_simulators_end_when_their_launcher_is_killed(how: str):
     try:
         line = launcher.stdout.readline()
         pids = [int(p) for p in line.split()]
-        assert len(pids) == (3 if how == "zygote" else 2), line  # the zygote too: it must end
+        assert len(pids) == (3 if how == "forkserver" else 2), line  # the forkserver too: it must end
         time.sleep(1.0)
         assert all(alive(p) for p in pids), "the simulators should run while their launcher lives"
         launcher.send_signal(signal.SIGKILL)  # no clean-up runs in the launcher
@@ -70,7 +71,7 @@ def test_simulators_end_when_their_launcher_is_killed(how: str):
 
 
 def test_a_simulator_started_by_hand_is_not_watched():
-    from sitl.parent_watch import ENV, watch_parent
+    from slopelander_sitl.parent_watch import ENV, watch_parent
 
     saved = os.environ.pop(ENV, None)
     try:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import start_vehicle
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 from tests.vehicle.flying import M, arm, command, wait_msg
 

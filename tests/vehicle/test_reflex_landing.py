@@ -11,7 +11,7 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import REPO, start_vehicle
+from slopelander_sitl.vehicle.launch import REPO, start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 from tests.vehicle.flying import M, command, take_off, velocity, wait_msg
 

@@ -1,7 +1,8 @@
-"""The same command sequence (sitl/vehicle/ack_sequence.py) sent live to real ArduCopter SITL and to
+"""The same command sequence (src/slopelander_sitl/vehicle/ack_sequence.py) sent live to real ArduCopter
+SITL and to
 the simulated vehicle: their COMMAND_ACK results must agree command by command, so the stand-in
 cannot drift kinder than the firmware. Needs SLOPELANDER_ARDUCOPTER (the ArduCopter SITL binary)
-and the launcher sitl.ardupilot.launch; without the variable it is skipped and says why."""
+and the launcher slopelander_sitl.ardupilot.launch; without the variable it is skipped and says why."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import os
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.ack_sequence import run_sequence
+from slopelander_sitl.vehicle.ack_sequence import run_sequence
 from tests.vehicle.ack_compare import differences, standin_answers
 
 BINARY = os.environ.get("SLOPELANDER_ARDUCOPTER")
@@ -18,13 +19,13 @@ pytestmark = [
     pytest.mark.skipif(
         not BINARY, reason="SLOPELANDER_ARDUCOPTER is not set: no ArduCopter SITL binary to compare with"
     ),
-    pytest.mark.arducopter,  # one ArduCopter at a time (tests/conftest.py)
+    pytest.mark.xdist_group("arducopter"),  # one ArduCopter at a time (tests/conftest.py)
 ]
 
 
 def test_stand_in_answers_commands_as_arducopter_does():
     try:
-        from sitl.ardupilot.launch import start_arducopter
+        from slopelander_sitl.ardupilot.launch import start_arducopter
     except ImportError as exc:
         pytest.fail(f"SLOPELANDER_ARDUCOPTER is set but the launcher is missing: {exc}")
     with start_arducopter(speedup=4.0) as ap:

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sitl.vehicle.params import ParamError, load_parm
-from sitl.vehicle.scenario import ScenarioError, load_scenario, scenario_from_dict
-from sitl.vehicle.sensors import Range
+from slopelander_sitl.vehicle.params import ParamError, load_parm
+from slopelander_sitl.vehicle.scenario import ScenarioError, load_scenario, scenario_from_dict
+from slopelander_sitl.vehicle.sensors import Range
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,7 @@ import time
 
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import free_port, start_vehicle
+from slopelander_sitl.vehicle.launch import free_port, start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 from tests.vehicle.flying import M, set_interval
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sitl.rig import Track
+from slopelander_sitl.rig import Track
 
 
 def test_trim_keeps_only_samples_from_the_given_time_on():
@@ -26,7 +26,7 @@ def test_a_height_plus_the_home_range_is_what_the_rangefinder_reads():
     ``home_range_m``. Standing level on the pad, the vehicle's own rangefinder reads the height
     plus that (the soak once compared the two unadjusted and flagged legs loosened at a range
     height of 0.76-0.84 m as loosened at 0.61-0.69 m)."""
-    from sitl.rig import Rig
+    from slopelander_sitl.rig import Rig
 
     with Rig(slope_deg=30.0, seed=3) as rig:
         rig.wait(1.0)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from pymavlink import mavutil
 
-from sitl.vehicle.launch import start_vehicle
+from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 from tests.vehicle.flying import HOME_OVER_PAD_M, take_off, wait_msg
 

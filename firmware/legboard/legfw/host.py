@@ -1,6 +1,6 @@
 """The firmware on a host: the plant under the HAL, board time fed from outside.
 
-:class:`HostBoard` is what the simulated board runs (``sitl.legboard``), in its own CPython
+:class:`HostBoard` is what the simulated board runs (``slopelander_sitl.legboard``), in its own CPython
 process or as a MicroPython child (``micropython -X heapsize=192K host.py --fd N ...``, the
 heap a Pico leaves to MicroPython). The firmware never reads a clock: board time moves only
 when :meth:`HostBoard.advance` is called, one firmware tick (4 ms) at a time, so a host on the

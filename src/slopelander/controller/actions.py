@@ -13,6 +13,8 @@ from slopelander.legs.errors import LegBoardError
 
 MODES = {"GUIDED": 4, "LAND": 9, "LOITER": 5, "BRAKE": 17, "RTL": 6}
 DESCENT_TYPE_MASK = 0x0DC7  # velocity only
+#: MAV_CMD_COMPONENT_ARM_DISARM param 2 that skips the autopilot's disarm checks
+FORCE_DISARM = 21196
 
 
 class MavActions:
@@ -205,6 +207,12 @@ class MavActions:
         checks and refuses it unless its land detector says landed (AP_Arming_Copter::disarm),
         for a vehicle whose script is idle and so refuses to disarm it."""
         self._cmd("disarm_on_ground", mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0)
+
+    def disarm_forced(self) -> None:
+        """The companion's forced disarm (param 2 = 21196: no land-detector check), for a vehicle
+        on the roof whose script is dead or failed, read still and at or below the cut height
+        (states/settled.py, ``Settled.without_script``): what the script would have done."""
+        self._cmd("disarm_forced", mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, FORCE_DISARM)
 
     def takeoff(self, height_m: float) -> None:
         self.set_mode("GUIDED")

@@ -62,6 +62,11 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "reflex.confirm_timeout_s": (0.2, 5.0, False),
     "range.max_age_s": (0.01, 5.0, False),
     "range.min_quality": (0, 100, True),
+    # a range moving less than stuck_fraction of the reported descent over stuck_window_s is stuck
+    # (controller/stuck_range.py); a window longer than 2 s would outlast most of ARMED's descent
+    "range.stuck_window_s": (0.2, 2.0, False),
+    "range.stuck_fraction": (0.05, 0.8, False),
+    "range.stuck_min_samples": (3, 100, True),
     "legs.tolerance_nm": (0.0, 2.0, False),
     "legs.ready_timeout_s": (0.1, 60.0, False),
     "legs.board_silent_s": (0.05, 10.0, False),

@@ -2,12 +2,14 @@
 
 Rule: once the motors are cut, the vehicle falls freely and its accelerometer's specific force
 only falls (the thrust decays) until something pushes on the vehicle. Ground contact is the first
-IMU sample whose specific-force magnitude exceeds the lowest one since the cut by ``threshold_mps2``
-(``reflex.impact_threshold_mps2``, at least 2 g) less 1 g, or exceeds ``threshold_mps2`` itself:
-at the cut (1 g of thrust) that is the threshold; once the thrust has decayed a soft first contact
-(an uphill leg near the horizontal slips at a small foot force) is seen at about 1.2 g. Samples
-count only after the cut and only when newer than the previous one (a repeated or reordered
-packet never counts twice).
+IMU sample whose specific-force magnitude exceeds ``threshold_mps2`` (``reflex.impact_threshold_mps2``,
+at least 2 g), or, from :data:`RISE_AFTER_S` (50 ms) after the cut, exceeds the lowest one since
+the cut by the threshold less 1 g: once the thrust has decayed a soft first contact (an uphill leg
+near the horizontal slips at a small foot force) is seen at about 1.2 g. Before the 50 ms the
+rotors' vibration is still there, and a trough followed by a crest read as a rise in the air
+(issue 40; tests/controller/test_impact_vibration.py), as in the script, which counts the rise
+from the same moment. Samples count only after the cut and only when newer than the previous one
+(a repeated or reordered packet never counts twice).
 
 Latency budget from contact to the companion's decision (RAW_IMU at 200 Hz):
   autopilot 20 Hz low-pass filter (two-pole, INS_ACCEL_FILTER)                  ~ 8-10 ms to rise
@@ -25,6 +27,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from slopelander.controller.script_contract import RISE_AFTER_S
 
 G = 9.80665
 
@@ -80,7 +84,10 @@ class ImpactDetector:
         if not math.isfinite(a):
             return None  # a corrupt sample is not an impact; the range and the script still watch
         self.floor = a if self.floor is None else min(self.floor, a)
-        if a > min(self.threshold, self.floor + self.threshold - G):
+        threshold = self.threshold
+        if t - self.cut_at >= RISE_AFTER_S:
+            threshold = min(threshold, self.floor + self.threshold - G)
+        if a > threshold:
             self.impact = Impact(t, a)
             return self.impact
         return None

@@ -12,6 +12,7 @@ import logging
 from typing import IO
 
 from slopelander.controller.script_contract import LANDING, ScriptState
+from slopelander.controller.script_rules import MOTORS_HELD, script_move
 from slopelander.controller.states.aborted import Aborted
 from slopelander.controller.states.armed import Armed
 from slopelander.controller.states.base import Context, Inputs, State
@@ -52,8 +53,8 @@ STATES: dict[str, type[State]] = {
     )
 }
 PRE_CONTACT = ("PRESET", "LEGS_WAIT", "CHECKS", "DESCEND", "ARMED")
-#: the on-board script's CUT, RVT and HOLD: once it reports one, the motors are its business
-SCRIPT_HAS_CUT = (ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD)
+#: the script's reports that say the vehicle met the roof
+CONTACT = (ScriptState.RVT, ScriptState.HOLD, ScriptState.FAULT_HELD)
 LINK_EXEMPT = ("LANDED", "ABORTED", "ESTOP", "LINK_LOST", "READY")
 
 
@@ -65,11 +66,15 @@ def failsafe(state: State, inp: Inputs) -> tuple[str, str] | None:
     if not inp.link_ok and name not in LINK_EXEMPT:
         why = f" ({inp.link_lost_why})" if inp.link_lost_why else ""
         return ("LINK_LOST", f"link to the autopilot lost{why}")
-    if state.airborne_descent and inp.script_state in SCRIPT_HAS_CUT:
+    if state.airborne_descent and inp.script_present and inp.script_state in LANDING:
         # The script cut the motors before this step saw it (a slow companion reads the cut and
         # the range below the sensor's minimum in one batch): aborting now would hand a falling
         # vehicle back to the autopilot. The state's own step moves on to CUT, whose row applies.
         return None
+    # the script's own word (controller/script_rules.py): a fault, its climb, its silence
+    move = script_move(name, inp.script_state, inp.script_present, inp.armed)
+    if move is not None:
+        return move
     if name in PRE_CONTACT and inp.legs_fault:
         return ("ABORTED", f"leg failure: {inp.legs_fault}")
     if state.airborne_descent:
@@ -77,8 +82,6 @@ def failsafe(state: State, inp: Inputs) -> tuple[str, str] | None:
             return ("ABORTED", f"pilot changed mode to {inp.mode}")
         if not inp.range_valid:
             return ("ABORTED", "range invalid or missing")
-        if not inp.script_present:
-            return ("ABORTED", "on-board script silent")
     return None
 
 
@@ -99,19 +102,22 @@ class Machine:
 
     def held_on_the_roof(self, inp: Inputs) -> bool:
         """Whether this landing has met the roof (an impact, or the script's landing sequence
-        reported after the cut) and the script still holds the motors of an armed vehicle. The
+        reported after the cut) and the script still holds the motors of an armed vehicle, or has
+        gone silent there (it may hold them still; SETTLED judges a silent script as one, with the
+        forced disarm at rest: ``Settled.without_script``, not LOITER on the roof). The
         script's own RVT or HOLD is that evidence too: a vehicle that came down while the link was
         out is on the roof before any state of this machine marked an impact. It is asked outside
         a step too (the runner's interrupt and time-out), so it notes the contact in ``inp``
         itself."""
         self._note_contact(inp)
         met = self.ctx.marks.get("impact") is not None
-        return self._started and met and inp.armed and inp.script_state in LANDING
+        held = not inp.script_present or inp.script_state in MOTORS_HELD
+        return self._started and met and inp.armed and held
 
     def _note_contact(self, inp: Inputs) -> None:
-        """The script's RVT or HOLD is the contact, kept for the landing: a later (stale or
-        reordered) report does not undo it. A take-off clears the mark (states/takeoff.py)."""
-        if inp.script_state in (ScriptState.RVT, ScriptState.HOLD):
+        """The script's RVT, HOLD or FAULT_HELD is the contact, kept for the landing: a later (stale
+        or reordered) report does not undo it. A take-off clears the mark (states/takeoff.py)."""
+        if inp.script_present and inp.script_state in CONTACT:
             self.ctx.marks.setdefault("impact", inp.t)
 
     def transition(self, new: str, reason: str, inp: Inputs) -> None:
@@ -144,7 +150,7 @@ class Machine:
             self.ctx.act.statustext(f"SL {new}: {reason}"[:50])
         refused = self.state.enter(self.ctx, inp)
         if refused is not None and new != "ABORTED":
-            self.transition("ABORTED", f"{new} refused: {refused}", inp)
+            self.transition(self.state.refused_to, f"{new} refused: {refused}", inp)
 
     def step(self, inp: Inputs) -> str:
         """One control step; returns the state name after it."""

@@ -157,6 +157,8 @@ class Lander:
             # the body's tilt at the reading's own moment: the beam looks along the body, and a
             # newer attitude says nothing of an older reading (found by the soak under link noise)
             tilt = tilt_at(ln.near("ATTITUDE", ds.time_boot_ms / 1000.0, cfg["takeoff.attitude_window_s"]))
+        att = ln.last.get("ATTITUDE")
+        heading = math.degrees(att.yaw) % 360.0 if att is not None and math.isfinite(att.yaw) else None
         op = self.act.leg_op
         legs_fault = None if self.legs is not None else "no leg board connected"
         legs_fault = self.ctx.marks.get("legs_error") or legs_fault
@@ -181,6 +183,7 @@ class Lander:
             estop=state == SCRIPT_ESTOP,
             range_m=range_m,
             range_ok=range_ok,
+            range_t=ds.time_boot_ms / 1000.0 if ds is not None else None,
             script_present=ln.script_present,
             script_state=state if state is not None else ScriptState.IDLE,
             script_version=ln.info.script_version if ln.info is not None else None,
@@ -193,6 +196,7 @@ class Lander:
             climb_mps=climb,
             position_m=position,
             tilt_deg=tilt,
+            heading_deg=heading,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,
             slope_measured=self.slope_estimate,

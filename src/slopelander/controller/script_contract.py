@@ -18,8 +18,10 @@ from slopelander.controller.link import CommandHandle, Link, LinkError
 #: the contract version this companion speaks (the script's SL_VER must be at least this):
 #: 2 ends the reverse thrust on a refresh, 3 ramps it down, 4 numbers every request and adds
 #: SETUP, END_REVERSE, TAKEOFF_RELEASE and DISARM, 5 adds CLIMB, FAULT and FAULT_HELD, a disarm
-#: only after the vehicle has been still for :data:`STILL_S`
-SCRIPT_CONTRACT = 5
+#: only after the vehicle has been still for :data:`STILL_S`, 6 keeps a cut whose vehicle still
+#: falls freely at the missed-impact bound for :data:`FALL_WAIT_S` (the companion's backstop
+#: counts on it)
+SCRIPT_CONTRACT = 6
 
 CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
 CMD_REFLEX = 31011  # MAV_CMD_USER_2
@@ -39,6 +41,15 @@ TAKEOFF_RELEASE_TILT_DEG = 25.0
 
 #: the spin-down of the rotors and one 20 Hz range sample, added to the free fall (ms), as the script
 THRUST_DECAY_MS, RANGE_PERIOD_MS = 100, 50
+#: the impact rule's rise (a reading a threshold less 1 g above the lowest since the cut) counts only
+#: this long (s) after the cut, the script's RISE_AFTER_MS: the rotors' time constant, by which their
+#: thrust and vibration are down to 14 %; before it a trough and the next crest of the hover's
+#: vibration read as a rise (issue 40), and only the threshold itself (and the range) can fire
+RISE_AFTER_S = 0.05
+#: how much longer (s) than :func:`missed_impact_s` a cut may last: a vehicle still falling freely
+#: at that bound with the range near (a low reading that lasted) keeps its cut and waits this long
+#: for the impact (the script's MS.FALL_WAIT)
+FALL_WAIT_S = 0.5
 
 
 def missed_impact_s(cut_m: float, descent_mps: float) -> float:

@@ -316,3 +316,19 @@ class _Tee:
         self.first.flush()
         if self.second is not None:
             self.second.flush()
+
+
+def read_transitions(path: Path) -> list[dict]:
+    """The state transitions in a landing's ``transitions.jsonl`` (``t``, ``from``, ``to``,
+    ``reason``), in order. The file also holds, before each landing's transitions, the slope
+    measured for it (an entry with ``slope_estimate``: docs/slope-estimate.md); those are left out.
+    A line that is not JSON (a landing cut off mid-write) is left out too."""
+    out = []
+    for line in Path(path).read_text().splitlines():
+        try:
+            entry = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if isinstance(entry, dict) and "to" in entry:
+            out.append(entry)
+    return out

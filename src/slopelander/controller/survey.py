@@ -64,6 +64,13 @@ RATE_WINDOW_S = 0.25
 #: a turned-back vehicle brakes for about this long (s): its range falls on meanwhile (the
 #: simulated vehicle at 0.35 m/s: 0.15 m in 0.5 s)
 STOP_LOOKAHEAD_S = 0.6
+#: no in-range reading for longer than this (s of vehicle time) while a leg flies out aborts the
+#: pass: the roof guard (:func:`low_range`) stops guarding at RANGE_FRESH_S, and a rangefinder that
+#: lost the surface (weak returns off a steep roof, a roof risen nearer than the sensor's minimum,
+#: an edge) must not let the pass fly on blind at constant height. Six of ArduCopter's 20 Hz samples
+RANGE_LOST_S = RANGE_FRESH_S
+#: LOITER's custom mode number (ArduCopter)
+LOITER = 5
 
 
 def survey_refusal(link: Link) -> str | None:
@@ -127,6 +134,9 @@ def measure_slope(
             if done is not None:
                 est = estimate_plane(track.surface_points(), spot[:2], st).along(track.heading_deg())
                 est.refusal = f"survey pass not finished: {done}"
+                if done.startswith(DROPOUT):
+                    _loiter(link, spot, track.heading_deg())
+                    note("survey: pass aborted on the rangefinder dropout; LOITER asked over the spot")
                 return est, link.clock.now() - t0
         plane = estimate_plane(track.surface_points(), spot[:2], st)
         if not plane.ok:
@@ -172,6 +182,17 @@ def low_range(track: SurfaceTrack, now: float, min_range_m: float) -> float | No
             break
     ahead = r - fall * STOP_LOOKAHEAD_S
     return ahead if ahead < min_range_m else None
+
+
+#: how a leg's refusal on a rangefinder dropout begins
+DROPOUT = "rangefinder dropout"
+
+
+def _loiter(link: Link, spot, heading: float | None) -> None:
+    """Hold the spot (a position target), then ask the autopilot for LOITER: the pass is over and
+    nobody sends GUIDED targets any more; the pilot takes it from there."""
+    _send(link, *spot, heading)
+    link.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, LOITER, retries=3)
 
 
 def _at_rest_over(link: Link, spot, heading: float) -> bool:
@@ -273,7 +294,10 @@ def _fly_leg(
     then back to the spot. The leg holds its height while the surface may rise under it: where
     the range reads below ``slope.survey_min_range_m`` (or will, by the time a vehicle turned now
     has stopped) the target turns back at once (uphill on a steep roof: at 60 deg, 1 m of the pass
-    rises the roof 1.7 m, into a vehicle hovering 1 m over the spot)."""
+    rises the roof 1.7 m, into a vehicle hovering 1 m over the spot). With no in-range reading for
+    :data:`RANGE_LOST_S` while it flies out, that guard is blind: the target stops where the
+    vehicle is and comes back to the spot (over ground this leg has flown at this height), and the
+    leg ends refused (:data:`DROPOUT`)."""
     n0, e0, d0 = spot
     u = (math.cos(math.radians(heading)), math.sin(math.radians(heading)))
     half = cfg["slope.survey_length_m"] / 2
@@ -287,6 +311,7 @@ def _fly_leg(
     limit = cfg["slope.survey_timeout_s"]
     end_wall = time.monotonic() + wall_s
     last_sent = -1.0
+    dropout: str | None = None
     while True:
         tick()
         why = survey_refusal(link)
@@ -311,7 +336,17 @@ def _fly_leg(
         # guarded: going out behind, and ahead of the spot going out ahead (between the far end
         # behind and the spot the vehicle has just flown; a turn there would undo the pass)
         guarded = leg == 0 or (leg == 1 and along >= 0.0)
-        r = low_range(track, now, min_range) if guarded else None
+        newest = track.ranges[-1][0] if track.ranges else -math.inf
+        blind = now - max(newest, t0)
+        if dropout is None and leg < len(goals) - 1 and blind > RANGE_LOST_S:
+            # the guard below has nothing to guard with: stop, and back to the spot
+            dropout = (
+                f"{DROPOUT}: no in-range reading for {blind:.2f} s at {along:+.2f} m toward "
+                f"{az_text(heading)} of the spot"
+            )
+            note(f"survey: {dropout}: pass aborted, back over the spot")
+            target, leg, last_sent = along, len(goals) - 1, -1.0
+        r = low_range(track, now, min_range) if guarded and dropout is None else None
         if r is not None:  # the surface rises ahead
             target = along  # the target leads the vehicle: turn where the vehicle is
             note(
@@ -324,7 +359,7 @@ def _fly_leg(
             _send(link, n0 + target * u[0], e0 + target * u[1], d0, heading)
             last_sent = now
         if leg >= len(goals) and _at_rest_over(link, spot, heading):
-            return None
+            return dropout
         time.sleep(0.001)
 
 

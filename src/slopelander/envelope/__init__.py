@@ -7,6 +7,7 @@ Sweeps run on every local core (``run_sweep``) or on a Dask cluster (``client=``
 """
 
 from slopelander.envelope.axes import AxesError, MapAxes
+from slopelander.envelope.cluster import ClusterError, ClusterVersionError
 from slopelander.envelope.maps import (
     LandingMap,
     envelope_area,
@@ -33,6 +34,8 @@ __all__ = [
     "STRATEGIES",
     "TORQUE_LEVELS",
     "AxesError",
+    "ClusterError",
+    "ClusterVersionError",
     "LandingMap",
     "MapAxes",
     "Strategy",

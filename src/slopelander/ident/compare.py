@@ -14,7 +14,7 @@ import numpy as np
 from slopelander.ident.mocap.rates import savgol_rates
 from slopelander.ident.phases import PHASES, phase_labels
 from slopelander.ident.recording import STATES, Drop
-from slopelander.ident.synth import ballistic, differentiate
+from slopelander.ident.synth import ballistic, centred_rates, extend
 from slopelander.model import LandingConditions, Model, Outcome, simulate
 from slopelander.model.landing import STATE_COLUMNS
 
@@ -29,7 +29,8 @@ def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarr
     """The model's states at the drop's sample times (free flight before contact) and, with
     ``outcome``, its predicted outcome over the model's full horizon. When the recording's rates
     were differentiated from its positions, the model's are too, the same way."""
-    t = drop.t
+    h = (drop.rate_window or 0) // 2
+    t = extend(drop.t, h)  # a recording's rates are centred on its first and last samples too
     horizon = float(t[-1]) + 0.01
     if outcome:
         horizon = max(horizon, model.criteria.horizon)
@@ -46,7 +47,9 @@ def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarr
         z0 = float(raw[0, STATE_COLUMNS[1]])
         after[pre] = _flight(drop.conditions, t[pre], z0, model.params["gravity"])
     if drop.rate_window:  # observe the model as the recording was observed
-        after[:, 3:] = differentiate(after[:, :3], t, drop.rate_window)
+        rates = centred_rates(after[:, :3], t, drop.rate_window)
+        after = after[h : len(t) - h]
+        after[:, 3:] = rates
     elif drop.savgol:
         after[:, 3:] = savgol_rates(after[:, :3], drop.savgol[2], *drop.savgol[:2])
     return after, (tr.result.outcome if outcome else None)

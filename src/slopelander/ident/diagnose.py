@@ -16,13 +16,14 @@ of it to tell with these drops.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.evidence import (
     SignFlipTest,
+    names_missing,
     noise_floor,
     sign_flip_test,
     weighted_mse,
@@ -39,6 +40,7 @@ from slopelander.ident.fit import (
     make_param,
     resolve_params,
 )
+from slopelander.ident.optimizers import CMA
 from slopelander.ident.recording import STATES, Drop
 from slopelander.model import Model, UserEffect
 
@@ -53,16 +55,17 @@ NEUTRAL: dict[str, float] = {"factor_tau": 0.0, "factor_mu": 0.0}
 so it begins at the base model's optimum."""
 ALPHA = 0.05
 """Level of the sign-flip test over drops."""
-MIN_GAIN = 0.02
-"""A candidate must also lower the held-out NRMSE by this fraction: on control sets the test
-alone passed candidates that gained 0.03-0.6 %, the same for several at once (a refit's extra
-search improving the base parameters, shared by all drops of a group), never a real effect."""
 FOLDS = 2
 """Cross-fitting groups: each drop is predicted by fits on the other groups' drops."""
 ABOVE_FLOOR = 1.2
 """A held-out residual above this multiple of the noise floor is more than noise: an effect
 adding more than sqrt(1.2^2 - 1) = 0.66 floors (in quadrature) lifts it above. (On control
 sets the base's held-out NRMSE, fitted on half the drops, read 0.95-1.12 floors.)"""
+STALL = 8
+"""Generations without a lower cost after which a diagnosis's CMA-ES search stops
+(:class:`~slopelander.ident.optimizers.CMA` ``stall``): the base's refits and the candidates'
+start at an optimum, and where nothing is missing their searches spent the whole budget
+confirming it (benchmarks/results/2026-12-06-diagnose-speed.md)."""
 NOT_AMONG = 1.5
 """An excess beyond the floor of more than this many floors that no candidate explains reads
 "missing, but not among these candidates"; a smaller one "too small to tell"."""
@@ -174,8 +177,10 @@ class Diagnosis:
 
     @property
     def missing(self) -> CandidateResult | None:
-        passed = [r for r in self.fitted if r.p <= self.alpha and self.gain(r) >= MIN_GAIN]
-        return max(passed, key=self.gain) if passed else None
+        fitted = {r.candidate.name: r for r in self.fitted}
+        heldout = {n: (r.validation_nrmse, r.p) for n, r in fitted.items()}
+        name = names_missing(heldout, self.base_validation, self.floor, self.alpha)
+        return None if name is None else fitted[name]
 
     def evidence(self, r: CandidateResult) -> str:
         t = self.test
@@ -611,6 +616,114 @@ def _heldout(
     return nrmse / count, mse / count
 
 
+@dataclass
+class CrossFit:
+    """What every fit of one diagnosis shares: the drops and their (training, held-out) splits,
+    the states' ranges, the base model's fitted parameters and bounds, the base's search and a
+    refit's (the control's and each candidate's: the refit budget, near its start)."""
+
+    model: Model
+    drops: list[Drop]
+    splits: list[tuple[list[int], list[int]]]
+    ranges: np.ndarray
+    base_params: list[FitParam]
+    bounds: dict[str, tuple[float, float]]
+    search: Identifier
+    refit: Identifier
+
+    @property
+    def seed(self) -> int:
+        return self.search.seed
+
+    def fit(self, ident: Identifier, k: int, **changes: object) -> FitResult:
+        """``ident`` fitted on group ``k``'s training drops (its held-out ones validate it),
+        seeded for the group."""
+        tr, va = self.splits[k]
+        one = ident.with_(seed=self.seed + k, **changes)
+        return one.fit([self.drops[i] for i in tr], [self.drops[i] for i in va]).result_  # type: ignore[return-value]
+
+    def heldout(self, fits: list[FitResult]) -> tuple[np.ndarray, np.ndarray]:
+        return _heldout(fits, self.splits, self.drops, self.ranges)
+
+
+def _base_and_control(cf: CrossFit) -> tuple[list[FitResult], list[FitResult]]:
+    """Per group: the base model's fit, and the control, the base searched again from its
+    optimum with a candidate's budget (the comparator: a candidate must beat the base given as
+    much search)."""
+    base, control = [], []
+    for k in range(len(cf.splits)):
+        b = cf.fit(cf.search, k)
+        base.append(b)
+        control.append(cf.fit(cf.refit, k, start=b.values))
+    return base, control
+
+
+def _screened(c: Candidate, sc: Screening) -> CandidateResult:
+    """A candidate as its screening left it (not refitted yet)."""
+    return CandidateResult(c, sc.share, nested=sc.nested, nested_note=sc.note, sensitivity=sc.sensitivity)
+
+
+def _refit_candidate(
+    cf: CrossFit, res: CandidateResult, base: list[FitResult], control: list[FitResult]
+) -> None:
+    """The candidate refitted with the base's parameters in every group, from the group's base
+    optimum with the candidate off, and its held-out errors (into ``res``)."""
+    c = res.candidate
+    params = candidate_params(cf.model, c, cf.base_params, cf.bounds)
+    extra, neutral = params[len(cf.base_params) :], neutral_values(c)
+    centre = {p.name: p.value(0.5) for p in extra}
+    # a parameter without a neutral value starts at the centre of its bounds: its shipped or
+    # declared value would be the truth of a synthetic proof
+    off = {**centre, **neutral}
+    cand = cf.refit.with_(model=c.add_to(cf.model), params=params)
+    for k in range(len(cf.splits)):
+        # also the control's optimum with the candidate off: a nested candidate's training cost
+        # cannot end above the control's
+        res.fits.append(cf.fit(cand, k, start={**base[k].values, **off}, also=[{**control[k].values, **off}]))
+    stuck = [stuck_at_neutral(f.values, extra, neutral) for f in res.fits]
+    if any(stuck) and not all(stuck):
+        # some groups' searches left "off" and others never did: from the base optimum the effect
+        # can need the base parameters to move with it (a valley no step of the search enters).
+        # Those are searched again from the centre of the candidate's bounds, a start no drop
+        # chose; the first answer is kept if still best on the group's own training drops.
+        # (Another group's values are not used as a start: they were fitted on this group's
+        # held-out drops.)
+        for k in np.flatnonzero(stuck):
+            again = {"start": {**base[k].values, **centre}, "also": [res.fits[k].values]}
+            res.fits[k] = cf.fit(cand, int(k), **again)
+            res.restarted += 1
+    res.heldout, res.heldout_mse = cf.heldout(res.fits)
+
+
+def _test(
+    fitted: list[CandidateResult], base_mse: np.ndarray, alpha: float, seed: int
+) -> SignFlipTest | None:
+    """The sign-flip test of the refitted candidates' per-drop held-out gains; sets each one's p."""
+    if not fitted:
+        return None
+    gains = np.array([np.log(base_mse / np.maximum(r.heldout_mse, 1e-300)) for r in fitted])
+    test = sign_flip_test(gains, alpha, seed)
+    for r, p in zip(fitted, test.p, strict=True):
+        r.p = float(p)
+    return test
+
+
+def _final(cf: CrossFit, m: CandidateResult) -> FitResult:
+    """The missing candidate refitted on every drop, from the groups' mean: the decision used
+    held-out drops, the estimate uses them all."""
+    mean = {p.name: float(np.mean([f.values[p.name] for f in m.fits])) for p in m.fits[0].params}
+    one = cf.refit.with_(
+        model=m.candidate.add_to(cf.model),
+        params=list(m.fits[0].params),
+        seed=cf.seed,
+        start=mean,
+        also=[f.values for f in m.fits],
+        sigma=0.1,
+        starts=None,
+    )
+    return one.fit(cf.drops).result_  # type: ignore[return-value]
+
+
 def diagnose(
     model: Model,
     drops: list[Drop],
@@ -621,25 +734,28 @@ def diagnose(
     folds: int = FOLDS,
     repeats: int = 1,
     refits: int | None = None,
-    seed: int = 0,
-    cma_evals: int = 400,
     refit_evals: int = 200,
-    ls_evals: int = 20,
     refit_from_centre: bool = False,
     alpha: float = ALPHA,
-    workers: int | None = None,
-    client=None,
-    progress=None,
+    stall: int | None = STALL,
+    **search: object,
 ) -> Diagnosis:
     """Find the effect ``model`` is missing to explain ``drops``.
 
     ``names``: the base model's fitted parameters (default the paper's seven it has);
     ``folds``: cross-fitting groups, ``repeats``: how many times the drops are split into them
     (a drop's held-out error is averaged over repeats); ``refits``: how many of the screened
-    candidates get the expensive refit (default all); ``refit_from_centre``: each refit's
-    CMA-ES budget is shared between a run from the base optimum and one from the centre of the
-    bounds (the base optimum can sit far from the answer when the base model bent its
-    parameters to mimic the missing effect); ``alpha``: the test's level.
+    candidates get the expensive refit (default all); ``refit_evals``: the global search's
+    budget of each refit (the control's, a candidate's); ``refit_from_centre``: each refit's
+    budget is shared between a run from the base optimum and one from the centre of the bounds
+    (the base optimum can sit far from the answer when the base model bent its parameters to
+    mimic the missing effect); ``alpha``: the test's level; ``stall``: a CMA-ES search (the
+    default optimizer, or a :class:`~slopelander.ident.optimizers.CMA` given without its own
+    ``stall``) stops after this many generations without a lower cost (None: every search runs
+    its whole budget, as before 2026-12-06). ``search``: the base fit's settings,
+    those of an :class:`~slopelander.ident.fit.Identifier` (``seed``, ``cma_evals`` 400,
+    ``ls_evals`` 20, ``optimizer``, ``workers``, ``client``, ``progress``); ``seed`` also seeds
+    the splits, the test and the noise floor.
     """
     bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
     base_params = resolve_params(model, names, bounds)
@@ -650,98 +766,42 @@ def diagnose(
             "give effects to try with --candidates FILE|FOLDER ... (docs/effects.md)"
         )
     ranges = state_ranges(drops)
-    splits = fold_splits(drops, folds, repeats, seed)
-    centre = [{}] if refit_from_centre else None
-    ident = Identifier(
-        model,
-        base_params,
+    opt = search.get("optimizer") or CMA()
+    if isinstance(opt, CMA) and opt.stall is None and stall is not None:
+        search = {**search, "optimizer": replace(opt, stall=stall)}
+    ident = Identifier(model, base_params, ranges=ranges, **{"ls_evals": 20, **search})  # type: ignore[arg-type]
+    seed = ident.seed
+    cf = CrossFit(
+        model=model,
+        drops=drops,
+        splits=fold_splits(drops, folds, repeats, seed),
         ranges=ranges,
-        workers=workers,
-        client=client,
-        progress=progress,
-        ls_evals=ls_evals,
+        base_params=base_params,
+        bounds=bounds,
+        search=ident,
+        refit=ident.with_(cma_evals=refit_evals, sigma=0.25, starts=[{}] if refit_from_centre else None),
     )
-    # a refit (the control's, a candidate's) searches near its start with the refit budget
-    refit = ident.with_(cma_evals=refit_evals, sigma=0.25, starts=centre)
-    base_fits, control = [], []
-    for k, (tr, va) in enumerate(splits):
-        train, held = [drops[i] for i in tr], [drops[i] for i in va]
-        b = ident.with_(seed=seed + k, cma_evals=cma_evals).fit(train, held).result_
-        base_fits.append(b)
-        # the control: the base searched again from its optimum with a candidate's budget
-        control.append(refit.with_(seed=seed + k, start=b.values).fit(train, held).result_)
-    base_nrmse, base_mse = _heldout(control, splits, drops, ranges)
+    base, control = _base_and_control(cf)
+    base_nrmse, base_mse = cf.heldout(control)
     scr = screen(control[0].model, drops, cands, base_params, ranges, bounds)
-    order = sorted(cands, key=lambda c: -scr[c.name].share)
-    n_refit = len(order) if refits is None else max(0, refits)
-    results = []
-    for i, c in enumerate(order):
-        sc = scr[c.name]
-        res = CandidateResult(c, sc.share, nested=sc.nested, nested_note=sc.note, sensitivity=sc.sensitivity)
-        if i < n_refit:
-            params = candidate_params(model, c, base_params, bounds)
-            extra, neutral = params[len(base_params) :], neutral_values(c)
-            centre = {p.name: p.value(0.5) for p in extra}
-            # a parameter without a neutral value starts at the centre of its bounds: its
-            # shipped or declared value would be the truth of a synthetic proof
-            off = {**centre, **neutral}
-            cand = refit.with_(model=c.add_to(model), params=params)
-            runs = []
-            for k, (tr, va) in enumerate(splits):
-                one = cand.with_(
-                    seed=seed + k,
-                    start={**base_fits[k].values, **off},
-                    # the control's optimum with the candidate off: a nested candidate's
-                    # training cost cannot end above the control's
-                    also=[{**control[k].values, **off}],
-                )
-                runs.append(one)
-                res.fits.append(one.fit([drops[j] for j in tr], [drops[j] for j in va]).result_)
-            stuck = [stuck_at_neutral(f.values, extra, neutral) for f in res.fits]
-            if any(stuck) and not all(stuck):
-                # some groups' searches left "off" and others never did: from the base optimum
-                # the effect can need the base parameters to move with it (a valley no step of
-                # the search enters). Those are searched again from the centre of the
-                # candidate's bounds, a start no drop chose; the first answer is kept if still
-                # best on the group's own training drops. (Another group's values are not used
-                # as a start: they were fitted on this group's held-out drops.)
-                for k, (tr, va) in enumerate(splits):
-                    if stuck[k]:
-                        again = runs[k].with_(
-                            start={**base_fits[k].values, **centre}, also=[res.fits[k].values]
-                        )
-                        res.fits[k] = again.fit([drops[j] for j in tr], [drops[j] for j in va]).result_
-                        res.restarted += 1
-            res.heldout, res.heldout_mse = _heldout(res.fits, splits, drops, ranges)
-        results.append(res)
-    fitted = [r for r in results if r.fits]
-    test = None
-    if fitted:
-        gains = np.array([np.log(base_mse / np.maximum(r.heldout_mse, 1e-300)) for r in fitted])
-        test = sign_flip_test(gains, alpha, seed)
-        for r, p in zip(fitted, test.p, strict=True):
-            r.p = float(p)
-    floor = noise_floor(control[0].model, drops, ranges, seed=seed)
-    d = Diagnosis(control, results, base_nrmse, base_mse, drops, test, floor, folds, alpha)
+    results = [_screened(c, scr[c.name]) for c in sorted(cands, key=lambda c: -scr[c.name].share)]
+    for res in results[: len(results) if refits is None else max(0, refits)]:
+        _refit_candidate(cf, res, base, control)
+    d = Diagnosis(
+        base=control,
+        results=results,
+        base_heldout=base_nrmse,
+        base_heldout_mse=base_mse,
+        drops=drops,
+        test=_test([r for r in results if r.fits], base_mse, alpha, seed),
+        floor=noise_floor(control[0].model, drops, ranges, seed=seed),
+        folds=folds,
+        alpha=alpha,
+    )
     results.sort(key=lambda r: (not r.fits, -d.gain(r) if r.fits else -r.screening))
     m = d.missing
     if m is not None:
-        # the decision used held-out drops; the estimate uses them all, from the groups' mean
-        mean = {p.name: float(np.mean([f.values[p.name] for f in m.fits])) for p in m.fits[0].params}
-        d.final = (
-            refit.with_(
-                model=m.candidate.add_to(model),
-                params=list(m.fits[0].params),
-                seed=seed,
-                start=mean,
-                also=[f.values for f in m.fits],
-                sigma=0.1,
-                starts=None,
-            )
-            .fit(drops)
-            .result_
-        )
-        m.final = d.final
+        d.final = m.final = _final(cf, m)
     return d
 
 

@@ -1,8 +1,9 @@
 """Identify named model parameters from recorded drops, as the paper did (Sec. IV-D).
 
-A global search (CMA-ES, from the given model's values, or from the centre of the bounds when
-asked) then a local least-squares polish with a finite-difference Jacobian whose columns are
-simulated in parallel. The Jacobian at the optimum also gives confidence intervals and shows
+A global search (CMA-ES by default, any :class:`~slopelander.ident.optimizers.Optimizer`
+given; from the given model's values, or from the centre of the bounds when asked) then a
+local least-squares polish with a finite-difference Jacobian whose columns are simulated in
+parallel. The Jacobian at the optimum also gives confidence intervals and shows
 directions the data cannot pin down (flat or correlated), which are reported as warnings.
 """
 
@@ -17,9 +18,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from slopelander.errors import SlopelanderError
 from slopelander.ident.compare import WEIGHTS, compare, predict, state_ranges
+from slopelander.ident.optimizers import CMA, Optimizer, SearchTask
 from slopelander.ident.recording import Drop
 from slopelander.model import BUILTIN_EFFECTS, Model
 
@@ -207,8 +210,22 @@ def _worker_part(task: tuple[np.ndarray, list[int]]) -> np.ndarray:
     return _WORKER_PROBLEM.residuals(task[0], task[1])
 
 
-def _dask_residuals(problem: Problem, u: np.ndarray) -> np.ndarray:
-    return problem.residuals(u)
+def _dask_keep(problem: Problem, expected: str) -> Problem:
+    """The fit's drops and model, held on the cluster once per fit (run again from its task
+    should every copy be lost with its worker)."""
+    from slopelander.envelope.cluster import check_worker
+
+    check_worker(expected)
+    return problem
+
+
+def _dask_part(
+    problem: Problem, points: list[np.ndarray], which: list[int] | None, expected: str
+) -> list[np.ndarray]:
+    from slopelander.envelope.cluster import check_worker
+
+    check_worker(expected)
+    return [problem.residuals(u, which) for u in points]
 
 
 WORKERS_ENV = "SLOPELANDER_WORKERS"
@@ -242,13 +259,20 @@ class Evaluator:
         problem.model.kernel()
         if client is None and self.workers > 1 and "fork" in mp.get_all_start_methods():
             self._pool = mp.get_context("fork").Pool(self.workers, _init_worker, (problem,))
+        self._held = None
+        if client is not None:
+            from slopelander.envelope.cluster import fingerprint, prepare
+
+            prepare(client, ("landing",))
+            self._expected = fingerprint()
+            # sent once: each task then carries a point and the drops it simulates, not the drops
+            self._held = client.submit(_dask_keep, problem, self._expected, pure=False)
         self.nfev = 0
 
     def residuals(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
         self.nfev += len(points)
         if self.client is not None:
-            futs = self.client.map(_dask_residuals, [self.problem] * len(points), list(points), pure=False)
-            return self.client.gather(futs)
+            return self._on_cluster(points)
         if self._pool is not None:
             # each point's drops shared out between the processes, one part a task: a single
             # point (a least-squares step) uses them all, and a population's slow points (long
@@ -261,7 +285,43 @@ class Evaluator:
             return [np.concatenate(parts[i * k : (i + 1) * k]) for i in range(len(points))]
         return [self.problem.residuals(u) for u in points]
 
+    def _on_cluster(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """As the pool, on the cluster's worker threads, one task a thread: a block of points,
+        or, with fewer points than threads (a least-squares step), a part of each point's
+        drops, joined in the same order. A point takes milliseconds to tenths of a second, a
+        task's round trip milliseconds: one task per point would spend as long on the trips.
+        Each task is asked of one thread's worker (another takes it if that one is gone): left
+        to itself, the scheduler keeps them all where the drops are held."""
+        from slopelander.envelope.cluster import gather, slots
+
+        where = slots(self.client)
+        k = max(1, len(where))
+        n, m = len(self.problem.drops), len(points)
+        if m >= k:
+            tasks = [([points[i] for i in b], None) for b in np.array_split(np.arange(m), k)]
+            parts = 1
+        else:
+            parts = min(n, -(-k // max(1, m)))
+            chunks = [c.tolist() for c in np.array_split(np.arange(n), parts)]
+            tasks = [([u], c) for u in points for c in chunks]
+        placed = [
+            {"workers": [where[i % k]], "allow_other_workers": True} if where else {}
+            for i in range(len(tasks))
+        ]
+        futures = [
+            self.client.submit(_dask_part, self._held, us, which, self._expected, pure=False, **place)
+            for (us, which), place in zip(tasks, placed, strict=True)
+        ]
+        got: list = [None] * len(futures)
+        gather(futures, got.__setitem__)
+        if parts == 1:
+            return [r for block in got for r in block]
+        return [np.concatenate([got[i * parts + j][0] for j in range(parts)]) for i in range(m)]
+
     def close(self) -> None:
+        if self._held is not None:
+            self._held.release()
+            self._held = None
         if self._pool is not None:
             self._pool.terminate()
             self._pool.join()
@@ -314,6 +374,81 @@ def _jacobian(ev: Evaluator, u: np.ndarray, r0: np.ndarray, h: float = 1e-3) -> 
     return np.column_stack([(c - r0) / s for c, s in zip(cols, steps, strict=True)])
 
 
+FLAT = 1e-3
+"""A direction whose singular value is below this share of the largest is flat: the data
+barely constrain it."""
+
+
+def _flat(params: list[FitParam], J: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Which parameters load on a flat direction of ``J`` (the pseudo-inverse drops such a
+    direction and would read them as perfectly known), and a warning per flat direction."""
+    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    unknown = np.zeros(len(params), dtype=bool)
+    if not (sv.size and sv[0] > 0):
+        for k in range(len(sv)):  # no direction is constrained at all
+            unknown |= np.abs(Vt[k]) > 0.1
+        return unknown, []
+    warnings = []
+    for k in np.flatnonzero(sv / sv[0] < FLAT):
+        lead = [params[i].name for i in np.argsort(-np.abs(Vt[k]))[:2]]
+        warnings.append(
+            f"flat direction: the data barely constrain a combination of "
+            f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})"
+        )
+    for k in np.flatnonzero(sv <= sv[0] * FLAT):
+        unknown |= np.abs(Vt[k]) > 0.1
+    return unknown, warnings
+
+
+def covariance(J: np.ndarray, r: np.ndarray, groups: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """The unit-cube parameters' covariance and the 95 % quantile its intervals use.
+
+    With ``groups`` (the drop of each residual, more than one drop) the sandwich over drops:
+    each drop's summed score J_i^T r_i one observation, Student's t with drops - 1 degrees of
+    freedom. Without, the Gauss-Newton covariance, every sample independent (optimistic)."""
+    JtJ = J.T @ J
+    ids = np.unique(groups) if groups is not None else np.zeros(1)
+    if len(ids) < 2:
+        s2 = float(r @ r) / max(len(r) - J.shape[1], 1)
+        return np.linalg.pinv(JtJ) * s2, 1.96
+    from scipy.stats import t as student
+
+    scores = np.array([J[groups == g].T @ r[groups == g] for g in ids])
+    inv = np.linalg.pinv(JtJ)
+    cov = inv @ (scores.T @ scores) @ inv * len(ids) / (len(ids) - 1)
+    return cov, float(student.ppf(0.975, len(ids) - 1))
+
+
+def _value_warnings(p: FitParam, v: float, half: float, u: float, unknown: bool) -> list[str]:
+    """What a user should know of one fitted value: not identified, poorly, or at its bound."""
+    out = []
+    if unknown:
+        out.append(
+            f"{p.name} is not identified: the drops do not change with it near {v:.3g} "
+            "(no interval can be given)"
+        )
+    elif half > 0.5 * abs(v) and abs(v) > 0:
+        out.append(f"{p.name} is poorly identified: 95 % interval +-{half:.3g} on a value of {v:.3g}")
+    if u < 0.01 or u > 0.99:
+        out.append(
+            f"{p.name} = {v:.3g} sits at its bound ({p.low:g}..{p.high:g}): widen the bounds "
+            "or the data do not need it"
+        )
+    return out
+
+
+def _correlated(params: list[FitParam], cov: np.ndarray, unknown: np.ndarray) -> list[str]:
+    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    corr = cov / np.outer(d, d)
+    return [
+        f"{params[i].name} and {params[j].name} are correlated "
+        f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each"
+        for i in range(len(params))
+        for j in range(i + 1, len(params))
+        if abs(corr[i, j]) > 0.95 and not (unknown[i] or unknown[j])
+    ]
+
+
 def identifiability(
     params: list[FitParam],
     J: np.ndarray,
@@ -330,65 +465,14 @@ def identifiability(
     several samples, a model error is one smooth curve), so each drop's summed score J_i^T r_i
     is one observation; the half-width uses Student's t with (drops - 1) degrees of freedom.
     Without, the Gauss-Newton covariance treats every sample as independent (optimistic)."""
-    n = len(params)
-    dof = max(len(r) - n, 1)
-    s2 = float(r @ r) / dof
-    JtJ = J.T @ J
-    quantile = 1.96
-    warnings = []
-    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
-    if sv.size and sv[0] > 0:
-        for k in np.flatnonzero(sv / sv[0] < 1e-3):
-            lead = [params[i].name for i in np.argsort(-np.abs(Vt[k]))[:2]]
-            warnings.append(
-                f"flat direction: the data barely constrain a combination of "
-                f"{' and '.join(lead)} (singular value ratio {sv[k] / sv[0]:.1e})"
-            )
-    cov = np.linalg.pinv(JtJ) * s2
-    if groups is not None:
-        from scipy.stats import t as student
-
-        ids = np.unique(groups)
-        if len(ids) > 1:
-            scores = np.array([J[groups == g].T @ r[groups == g] for g in ids])
-            inv = np.linalg.pinv(JtJ)
-            cov = inv @ (scores.T @ scores) @ inv * len(ids) / (len(ids) - 1)
-            quantile = float(student.ppf(0.975, len(ids) - 1))
+    unknown, warnings = _flat(params, J)
+    cov, quantile = covariance(J, r, groups)
     sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
-    # a parameter that loads on a flat direction is not known: the pseudo-inverse drops that
-    # direction and would read it as perfectly known (+-0)
-    unknown = np.zeros(n, dtype=bool)
-    flat = sv <= (sv[0] * 1e-3 if sv.size and sv[0] > 0 else np.inf)
-    for kk in np.flatnonzero(flat):
-        unknown |= np.abs(Vt[kk]) > 0.1
     ci = {}
     for i, p in enumerate(params):
         ci[p.name] = math.inf if unknown[i] else quantile * sd_u[i] * p.slope(float(u[i]))
-        v = values[p.name]
-        if unknown[i]:
-            warnings.append(
-                f"{p.name} is not identified: the drops do not change with it near {v:.3g} "
-                "(no interval can be given)"
-            )
-        elif ci[p.name] > 0.5 * abs(v) and abs(v) > 0:
-            warnings.append(
-                f"{p.name} is poorly identified: 95 % interval +-{ci[p.name]:.3g} on a value of {v:.3g}"
-            )
-        if u[i] < 0.01 or u[i] > 0.99:
-            warnings.append(
-                f"{p.name} = {v:.3g} sits at its bound ({p.low:g}..{p.high:g}): widen the bounds "
-                "or the data do not need it"
-            )
-    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
-    corr = cov / np.outer(d, d)
-    for i in range(n):
-        for j in range(i + 1, n):
-            if abs(corr[i, j]) > 0.95 and not (unknown[i] or unknown[j]):
-                warnings.append(
-                    f"{params[i].name} and {params[j].name} are correlated "
-                    f"(rho = {corr[i, j]:+.2f}): the data fix their combination, not each"
-                )
-    return ci, warnings
+        warnings += _value_warnings(p, values[p.name], ci[p.name], float(u[i]), bool(unknown[i]))
+    return ci, warnings + _correlated(params, cov, unknown)
 
 
 @dataclass
@@ -410,6 +494,8 @@ class Identifier:
     each of these points (unnamed values at the centre of the bounds). ``ranges`` fixes the
     states' normalising ranges (default: those of the drops fitted and validated on).
     ``progress`` is called with the number of new model evaluations (a progress bar).
+    ``optimizer`` is the global search (:mod:`slopelander.ident.optimizers`; default
+    :class:`~slopelander.ident.optimizers.CMA`), given ``cma_evals`` evaluations whichever it is.
 
     After :meth:`fit`: ``result_`` (the :class:`FitResult`: values, intervals, warnings),
     ``model_`` (the fitted model) and ``values_``.
@@ -431,6 +517,7 @@ class Identifier:
     workers: int | None = None
     client: object = None
     progress: Callable[[int], None] | None = None
+    optimizer: Optimizer | None = None
     result_: FitResult | None = field(default=None, init=False, repr=False)
 
     def with_(self, **changes: object) -> Identifier:
@@ -456,6 +543,11 @@ class Identifier:
                 raise FitError(f"{name} must be a whole number, 0 or more, not {v!r}")
         if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
             raise FitError(f"workers must be a whole number, 1 or more, not {self.workers!r}")
+        if self.optimizer is not None and not isinstance(self.optimizer, Optimizer):
+            raise FitError(
+                f"optimizer must be an object with a name and a search(task) method, e.g. CMA() or "
+                f"DifferentialEvolution() from slopelander.ident.optimizers, not {self.optimizer!r}"
+            )
         self.result_ = _search(self, list(drops), validation)
         return self
 
@@ -483,143 +575,170 @@ class Identifier:
         return self.result_
 
 
-def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None) -> FitResult:
-    """CMA-ES from the start, then least squares; intervals and warnings at the optimum."""
-    import cma
-    from scipy.optimize import least_squares
+def _start(params: list[FitParam], point: dict[str, float], base: dict[str, float]) -> np.ndarray:
+    """A point of the unit cube from values by name: ``point`` over ``base``, the centre of the
+    bounds for a parameter named in neither."""
+    merged = {**base, **point}
+    return np.clip([p.unit(merged[p.name]) if p.name in merged else 0.5 for p in params], 0.0, 1.0)
 
+
+def _origins(ident: Identifier, params: list[FitParam], x0: np.ndarray) -> list[np.ndarray]:
+    """Where the global search's runs begin: the start, each of ``starts``, then ``restarts``
+    random points (seeded) away from the bounds."""
+    origins = [x0]
+    origins += [_start(params, point, {}) for point in ident.starts or []]
+    for run in range(max(0, ident.restarts)):
+        origins.append(np.random.default_rng(ident.seed + 1 + run).uniform(0.2, 0.8, len(params)))
+    return origins
+
+
+class _Polish:
+    """The least-squares polish's residuals and Jacobians, each point evaluated once (the
+    intervals need the Jacobian at the optimum, where the polish has usually just computed it)."""
+
+    def __init__(self, ev: Evaluator, tick: Callable[[int], None]) -> None:
+        self.ev, self.tick = ev, tick
+        self._r: dict[bytes, np.ndarray] = {}
+        self._J: dict[bytes, np.ndarray] = {}
+
+    def fun(self, u: np.ndarray) -> np.ndarray:
+        key = np.asarray(u).tobytes()
+        if key not in self._r:
+            self._r[key] = self.ev.residuals([np.asarray(u)])[0]
+            self.tick(1)
+        return self._r[key]
+
+    def jac(self, u: np.ndarray) -> np.ndarray:
+        key = np.asarray(u, dtype=float).tobytes()
+        if key not in self._J:
+            self._J[key] = _jacobian(self.ev, np.asarray(u, dtype=float), self.fun(u))
+            self.tick(len(u))
+        return self._J[key]
+
+    def run(self, u: np.ndarray, cost: float, max_nfev: int) -> np.ndarray:
+        """Least squares from ``u`` (whose cost is ``cost``); its answer if no worse."""
+        if max_nfev <= 0:  # 0: the search's best point as it is, no polish
+            return u
+        from scipy.optimize import least_squares
+
+        ls = least_squares(
+            self.fun,
+            np.clip(u, 1e-6, 1 - 1e-6),
+            jac=self.jac,
+            bounds=(0.0, 1.0),
+            x_scale="jac",
+            max_nfev=max_nfev,
+            xtol=1e-8,
+            ftol=1e-10,
+            gtol=1e-10,
+        )
+        return ls.x if 2 * ls.cost <= cost else u
+
+
+def _global_search(
+    ident: Identifier, ev: Evaluator, params: list[FitParam], x0: np.ndarray
+) -> tuple[SearchTask, float]:
+    """The start and the points in ``also`` evaluated first, then the optimizer's search: the
+    task (holding the best point seen) and the start's cost."""
+
+    def evaluate(points: list[np.ndarray]) -> list[float]:
+        return [float(r @ r) for r in ev.residuals(points)]
+
+    firsts = [x0] + [_start(params, extra, ident.start or {}) for extra in ident.also or []]
+    costs0 = evaluate(firsts)
+    i0 = int(np.argmin(costs0))
+    task = SearchTask(
+        evaluate,
+        _origins(ident, params, x0),
+        budget=ident.cma_evals,
+        seed=ident.seed,
+        sigma=ident.sigma,
+        best_u=np.asarray(firsts[i0], dtype=float),
+        best_cost=costs0[i0],
+        progress=ident.progress or (lambda k: None),
+    )
+    (ident.optimizer or CMA()).search(task)
+    return task, costs0[0]
+
+
+def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None) -> FitResult:
+    """The global search from the start, then least squares; intervals and warnings at the optimum."""
     t0 = time.perf_counter()
-    model, seed, sigma, workers = ident.model, ident.seed, ident.sigma, ident.workers
-    cma_evals, ls_evals = ident.cma_evals, ident.ls_evals
     params = ident.fit_params()
     ranges = state_ranges(drops + (validation or [])) if ident.ranges is None else ident.ranges
-    prob = Problem(model, drops, params, ranges)
-    n = len(params)
-    tick = ident.progress or (lambda k: None)
-    here = {} if ident.from_centre else {p.name: model.parameter(p.name) for p in params}
-    start = {**here, **(ident.start or {})}
-    x0 = np.array([p.unit(start[p.name]) if p.name in start else 0.5 for p in params])
-    x0 = np.clip(x0, 0.0, 1.0)
-    start_values = dict(zip([p.name for p in params], prob.values(x0), strict=True))
-    with Evaluator(prob, workers, ident.client) as ev:
-        best_u, best_c = x0, math.inf
-        firsts = [x0]
-        for extra in ident.also or []:
-            merged = {**(ident.start or {}), **extra}
-            point = [p.unit(merged[p.name]) if p.name in merged else 0.5 for p in params]
-            firsts.append(np.clip(point, 0.0, 1.0))
-        costs0 = [float(r @ r) for r in ev.residuals(firsts)]
-        start_cost = costs0[0]
-        i0 = int(np.argmin(costs0))
-        best_u, best_c = np.asarray(firsts[i0], dtype=float), costs0[i0]
-        if cma_evals > 0 and n == 1:  # CMA-ES needs two dimensions: scan the line instead
-            X = [np.array([x]) for x in np.linspace(0.0, 1.0, max(3, min(cma_evals, 41)))]
-            costs = [float(r @ r) for r in ev.residuals(X)]
-            tick(len(X))
-            i = int(np.argmin(costs))
-            if costs[i] < best_c:
-                best_u, best_c = X[i].copy(), costs[i]
-        elif cma_evals > 0:
-            # even, whatever the number of processes: a seed gives the same search on any machine
-            popsize = max(8, 4 + int(3 * math.log(n)))
-            popsize += popsize % 2
-            origins = [x0]
-            for point in ident.starts or []:
-                origins.append(
-                    np.clip([p.unit(point[p.name]) if p.name in point else 0.5 for p in params], 0.0, 1.0)
-                )
-            for run in range(max(0, ident.restarts)):
-                origins.append(np.random.default_rng(seed + 1 + run).uniform(0.2, 0.8, n))
-            runs = len(origins)
-            for run, origin in enumerate(origins):
-                es = cma.CMAEvolutionStrategy(
-                    list(origin),
-                    sigma,
-                    {
-                        "bounds": [0, 1],
-                        "popsize": popsize,
-                        "seed": seed + 1 + 100 * run,
-                        "verbose": -9,
-                        "maxfevals": cma_evals // runs,
-                        "tolfun": 1e-10,
-                    },
-                )
-                while not es.stop():
-                    X = es.ask()
-                    rs = ev.residuals([np.asarray(x) for x in X])
-                    costs = [float(r @ r) for r in rs]
-                    es.tell(X, costs)
-                    tick(len(X))
-                    i = int(np.argmin(costs))
-                    if costs[i] < best_c:
-                        best_u, best_c = np.asarray(X[i], dtype=float).copy(), costs[i]
-        cache: dict[bytes, np.ndarray] = {}
-
-        def fun(u: np.ndarray) -> np.ndarray:
-            key = np.asarray(u).tobytes()
-            if key not in cache:
-                cache[key] = ev.residuals([np.asarray(u)])[0]
-                tick(1)
-            return cache[key]
-
-        jacs: dict[bytes, np.ndarray] = {}
-
-        def jac(u: np.ndarray) -> np.ndarray:
-            # kept: the intervals need the Jacobian at the optimum, where the polish has
-            # usually just computed it
-            key = np.asarray(u, dtype=float).tobytes()
-            if key not in jacs:
-                jacs[key] = _jacobian(ev, np.asarray(u, dtype=float), fun(u))
-                tick(len(u))
-            return jacs[key]
-
-        u = best_u
-        if ls_evals > 0:  # 0: the search's best point as it is, no polish
-            ls = least_squares(
-                fun,
-                np.clip(best_u, 1e-6, 1 - 1e-6),
-                jac=jac,
-                bounds=(0.0, 1.0),
-                x_scale="jac",
-                max_nfev=ls_evals,
-                xtol=1e-8,
-                ftol=1e-10,
-                gtol=1e-10,
-            )
-            if 2 * ls.cost <= best_c:
-                u = ls.x
-        r = fun(u)
-        J = jac(u)
+    prob = Problem(ident.model, drops, params, ranges)
+    here = {} if ident.from_centre else {p.name: ident.model.parameter(p.name) for p in params}
+    x0 = _start(params, ident.start or {}, here)
+    # the search's own linear algebra (tall, narrow matrices) on one thread: threaded BLAS gains
+    # nothing on them and, beside the processes that simulate, its threads wait for the cores
+    # (an SVD of the polish 10-100x slower on a busy 2-core machine); the results are the same
+    with threadpool_limits(1), Evaluator(prob, ident.workers, ident.client) as ev:
+        task, start_cost = _global_search(ident, ev, params, x0)
+        polish = _Polish(ev, ident.progress or (lambda k: None))
+        u = polish.run(task.best_u, task.best_cost, ident.ls_evals)
+        r, J = polish.fun(u), polish.jac(u)
         values = dict(zip([p.name for p in params], prob.values(u), strict=True))
         ci, warns = identifiability(params, J, u, r, values, prob.groups())
         nfev = ev.nfev
-    fitted = apply(model, params, [values[p.name] for p in params])
+    return _result(
+        ident,
+        prob,
+        u,
+        r,
+        ci=ci,
+        warnings=warns,
+        nfev=nfev,
+        start=dict(zip([p.name for p in params], prob.values(x0), strict=True)),
+        start_cost=start_cost,
+        validation=validation,
+        seconds=time.perf_counter() - t0,
+    )
+
+
+def _result(
+    ident: Identifier,
+    prob: Problem,
+    u: np.ndarray,
+    r: np.ndarray,
+    *,
+    ci: dict[str, float],
+    warnings: list[str],
+    nfev: int,
+    start: dict[str, float],
+    start_cost: float,
+    validation: list[Drop] | None,
+    seconds: float,
+) -> FitResult:
+    """The fit's result at ``u``: the fitted model, its NRMSEs, and a warning when the training
+    NRMSE ended worse than the start's (the cost never does)."""
+    params, drops, ranges = prob.params, prob.drops, prob.ranges
+    values = dict(zip([p.name for p in params], prob.values(u), strict=True))
+    fitted = apply(ident.model, params, [values[p.name] for p in params])
     train = compare(fitted, drops, ranges).nrmse
-    val = compare(fitted, validation, ranges).nrmse if validation else None
-    start_nrmse = compare(apply(model, params, list(start_values.values())), drops, ranges).nrmse
+    start_nrmse = compare(apply(ident.model, params, list(start.values())), drops, ranges).nrmse
     if train > start_nrmse * (1 + 1e-9):
-        warns.append(
+        warnings.append(
             f"the fit's training NRMSE {train:.4f} is worse than its start's {start_nrmse:.4f} "
             f"(its cost, the sum of squares it minimises, is not: {float(r @ r):.4g} <= {start_cost:.4g})"
         )
     return FitResult(
-        params,
-        values,
-        u,
-        float(r @ r),
-        train,
-        ci,
-        warns,
-        nfev,
-        time.perf_counter() - t0,
-        fitted,
-        val,
-        [d.name for d in drops],
-        [d.name for d in validation or []],
-        start_values,
-        start_cost,
-        start_nrmse,
-        ranges,
+        params=params,
+        values=values,
+        u=u,
+        cost=float(r @ r),
+        train_nrmse=train,
+        ci95=ci,
+        warnings=warnings,
+        nfev=nfev,
+        seconds=seconds,
+        model=fitted,
+        validation_nrmse=compare(fitted, validation, ranges).nrmse if validation else None,
+        train_names=[d.name for d in drops],
+        validation_names=[d.name for d in validation or []],
+        start_values=start,
+        start_cost=start_cost,
+        start_nrmse=start_nrmse,
+        ranges=ranges,
     )
 
 

@@ -326,6 +326,15 @@ def load_drop(csv_path: str | Path) -> Drop:
 def load_dataset(folder: str | Path) -> list[Drop]:
     """Every drop of a dataset folder, sorted by name."""
     folder = Path(folder)
+    if folder.is_file():
+        raise RecordingError(
+            folder,
+            None,
+            "<folder>",
+            "a file, not a dataset folder: fit, diagnose and steps read a folder of drop "
+            "recordings (docs/recordings.md); a flight log's landings are compared "
+            "(slopelander compare FILE), not identified (docs/flight-logs.md, known limits)",
+        )
     if not folder.is_dir():
         raise RecordingError(folder, None, "<folder>", "no such dataset folder")
     csvs = sorted(folder.glob("*.csv"))

@@ -14,6 +14,7 @@ import numpy as np
 from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.diagnose import NEUTRAL, Candidate, candidate_params
 from slopelander.ident.fit import DEFAULT_BOUNDS, FitResult, Identifier, resolve_params, subsets
+from slopelander.ident.optimizers import Optimizer
 from slopelander.ident.recording import STATES, Drop
 from slopelander.model import Model
 
@@ -125,6 +126,7 @@ def run_steps(
     workers: int | None = None,
     client=None,
     progress=None,
+    optimizer: Optimizer | None = None,
 ) -> Steps:
     """Fit ``model``, then ``model`` + effects[0], + effects[1], ... re-identifying at each step."""
     bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
@@ -132,7 +134,14 @@ def run_steps(
     splits = subsets(len(drops), repeats, seed=seed)
     params = resolve_params(model, names, bounds)
     ident = Identifier(
-        model, params, ranges=ranges, workers=workers, client=client, progress=progress, ls_evals=ls_evals
+        model,
+        params,
+        ranges=ranges,
+        workers=workers,
+        client=client,
+        progress=progress,
+        ls_evals=ls_evals,
+        optimizer=optimizer,
     )
     out: list[Step] = []
     prev: list[FitResult] = []

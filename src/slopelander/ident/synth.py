@@ -52,13 +52,14 @@ class NoiseModel:
 def differentiate(x: np.ndarray, t: np.ndarray, window: int = 7) -> np.ndarray:
     """Rates of sampled positions (columns of ``x``) by the least-squares slope over ``window``
     samples centred on each one, fitted against the samples' own times (a recording that lost
-    frames has gaps; a slope on a uniform grid would then misread them). Where the centred
-    window does not fit (the recording's first and last ``window // 2`` samples), the slope of
-    the line through the first or last ``window`` samples: as little noise as inside (the
-    differences there had 3.7 to 7.4 times the noise, so the flight phase, at the start, read
-    worse than the contact)."""
+    frames has gaps; a slope on a uniform grid would then misread them); ``window`` 3 is the
+    central difference. Where the centred window does not fit (the first and last
+    ``window // 2`` samples), the slope of the line through the first or last ``window``
+    samples: as little noise as inside (the differences there had 3.7 to 7.4 times the noise).
+    A recording's own rates are centred there too, from the frames beyond it
+    (:func:`centred_rates`)."""
     h = window // 2
-    if len(t) <= window or h < 2:
+    if len(t) <= window:
         return np.gradient(x, t, axis=0)
     n, c = x.shape
     if n != len(t):
@@ -74,6 +75,23 @@ def differentiate(x: np.ndarray, t: np.ndarray, window: int = 7) -> np.ndarray:
     out[:h] = slopes[0]
     out[-h:] = slopes[-1]
     return out
+
+
+def extend(t: np.ndarray, n: int) -> np.ndarray:
+    """``t`` with ``n`` more times before its first and after its last, at its ends' spacing."""
+    if n <= 0 or len(t) < 2:
+        return t
+    k = np.arange(n, 0, -1)
+    return np.concatenate([t[0] - k * (t[1] - t[0]), t, t[-1] + k[::-1] * (t[-1] - t[-2])])
+
+
+def centred_rates(pos: np.ndarray, t: np.ndarray, window: int) -> np.ndarray:
+    """Rates at the middle ``len(t) - 2 * (window // 2)`` samples of ``pos`` over times ``t``
+    (a recording's samples with ``window // 2`` frames beyond each end, as :func:`extend`
+    makes): a window centred on every sample of the recording, its first and last included.
+    This is what ``meta.rates`` ``lsq_slope`` declares, so the model is observed so too."""
+    h = window // 2
+    return differentiate(pos, t, window)[h : len(t) - h]
 
 
 _COEF: dict[tuple, np.ndarray] = {}
@@ -188,14 +206,24 @@ def synthesize(
     dt = 1.0 / noise.sample_rate
     t = np.arange(-round(before / dt), round(duration / dt) + 1) * dt
     drops = []
+    # the frames beyond the recording's ends that its first and last rates are centred on
+    h = noise.rate_window // 2
+    te = extend(t, h)
     for i, cond in enumerate(conditions):
-        truth, outcome = true_states(model, cond, t - noise.latency)
-        pos = truth[:, :3].copy()
+        truth_e, outcome = true_states(model, cond, te - noise.latency)
+        truth = truth_e[h : len(te) - h]
+        pos_e = truth_e[:, :3].copy()
+        pos = pos_e[h : len(te) - h]  # a view: the recording's own frames
         pos[:, :2] += rng.normal(0.0, noise.position_sd, (len(t), 2)) if noise.position_sd else 0.0
         if noise.angle_sd_deg:
             pos[:, 2] += rng.normal(0.0, math.radians(noise.angle_sd_deg), len(t))
         noisy = noise.position_sd > 0 or noise.angle_sd_deg > 0
-        rates = differentiate(pos, t, noise.rate_window) if noisy else truth[:, 3:]
+        if noisy:  # the frames beyond, from a generator of their own (the recording's draws as before)
+            out = np.r_[0:h, len(te) - h : len(te)]
+            beyond = rng.spawn(1)[0]
+            pos_e[out, :2] += beyond.normal(0.0, noise.position_sd, (2 * h, 2))
+            pos_e[out, 2] += beyond.normal(0.0, math.radians(noise.angle_sd_deg), 2 * h)
+        rates = centred_rates(pos_e, te, noise.rate_window) if noisy else truth[:, 3:]
         meta = {"rates": {"method": "lsq_slope", "window": noise.rate_window}} if noisy else {}
         meta["noise"] = {
             "position_sd_m": noise.position_sd,

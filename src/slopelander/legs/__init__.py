@@ -1,6 +1,6 @@
 """The leg board: serial protocol, torque ↔ current calibration and the driver.
 
-``slopelander.legs.codec`` is shared with the simulated board (``sitl.legboard``); the
+``slopelander.legs.codec`` is shared with the simulated board (``slopelander_sitl.legboard``); the
 driver needs only pyserial and pyyaml (no scipy), so it runs on the companion.
 """
 

@@ -3,7 +3,8 @@
 On the bench each leg carries a lever with a known mass; a peg holds the lever at its mark
 while the board clamps, and is pulled to let the mass pull on the clamped joint
 (docs/legs-build.md, "Calibration"). :class:`PromptBench` asks a person to do that;
-:class:`SimBench` does it through a simulated board's control channel.
+:func:`simulated_bench` finds the simulator's bench, which does it through a simulated
+board's control channel.
 """
 
 from __future__ import annotations
@@ -77,65 +78,21 @@ class PromptBench:
         self._out("Done: take the masses off and hook the reset springs again.")
 
 
-class SimBench:
-    """The bench of a simulated board (``python -m sitl.legboard``), through its control channel.
+BENCH_GROUP = "slopelander.benches"
+"""Entry-point group of benches other packages provide: the simulator registers ``sim``
+(a simulated board's bench, ``slopelander_sitl.legboard.bench``), so this package never
+imports the simulator."""
 
-    On an external-clock board the bench is the board's clock: :meth:`wait` feeds it time, so
-    a calibration runs as fast as the machine allows; on a wall-clock board it sleeps."""
 
-    STEP_S = 0.05
+def simulated_bench(control_path: str | Path) -> Bench:
+    """The bench of a simulated board through its control channel (``--bench sim:PATH``)."""
+    from importlib.metadata import entry_points
 
-    def __init__(self, control_path: str | Path) -> None:
-        try:
-            from sitl.legboard.control import BoardControl
-        except ImportError as exc:  # an install without the simulator
-            raise RuntimeError(f"a simulated bench needs the sitl package of a checkout: {exc}") from None
-        self.ctl = BoardControl(control_path, timeout=30.0)
-        state = self.ctl.state()
-        self.external = state.get("clock") == "external"
-        self.speed = float(state.get("speed", 1.0))
-        self.now = float(state["time_s"])
-        self._wall0 = time.monotonic()
-        self._board0 = self.now
-        self.poll: Callable[[], object] | None = None  # called between steps (the driver's poll)
-
-    def clock(self) -> float:
-        if self.external:
-            return self.now
-        return self._board0 + (time.monotonic() - self._wall0) * self.speed
-
-    def wait(self, seconds: float) -> None:
-        end = self.clock() + seconds
-        tick = 0.004 if self.external else 0.0  # the board's time moves in whole firmware ticks
-        while self.clock() < end - tick + 1e-9:
-            if self.external:
-                self.now = float(self.ctl.advance(min(end, self.now + self.STEP_S))["time_s"])
-            else:
-                time.sleep(min(self.STEP_S, (end - self.clock()) / self.speed))
-            if self.poll is not None:
-                self.poll()
-
-    def hang(self, load_nm: Sequence[float]) -> None:
-        for leg, load in enumerate(load_nm):
-            self.ctl.request(
-                op="bench",
-                leg=leg,
-                load_nm=float(load),
-                peg=True,
-                spring=False,
-                angle_deg=MARK_DEG,
-                catch_deg=CATCH_DEG,
-            )
-
-    def hold(self, legs: Sequence[int]) -> None:
-        for leg in legs:
-            self.ctl.request(op="bench", leg=leg, peg=True, angle_deg=MARK_DEG)
-
-    def release(self, legs: Sequence[int]) -> None:
-        for leg in legs:
-            self.ctl.request(op="bench", leg=leg, peg=False)
-
-    def finish(self) -> None:
-        for leg in range(4):
-            self.ctl.request(op="bench", leg=leg, load_nm=0.0, peg=False, spring=True, catch_deg=0.0)
-        self.ctl.close()
+    found = entry_points(group=BENCH_GROUP, name="sim")
+    if not found:
+        raise RuntimeError(
+            "a simulated bench needs slopelander's simulator (the slopelander_sitl package of a "
+            "checkout, installed with it): pip install -e . in the checkout"
+        )
+    (ep,) = tuple(found)[:1]
+    return ep.load()(control_path)

@@ -10,7 +10,7 @@ A parameter file is YAML (``default_parameters.yaml`` is the shipped one)::
 An override file holds only what it changes: every parameter it leaves out, and the effects
 if it has no ``effects`` list, come from the shipped defaults. An entry needs a ``value``
 (or is a bare number); ``unit`` is checked when given; ``provenance`` defaults to ``assumed``.
-``slopelander params --dump FILE`` writes the defaults, commented, to start from.
+``slopelander params --out FILE`` writes the defaults, commented, to start from.
 
 Parameters are addressable by name (``params.with_values(ground_damping=400)``) because the
 identification tools fit them by name; the integrator sees them as one float array in
@@ -292,7 +292,7 @@ def _flow(v: Any) -> str:
 
 def commented_yaml(params: ModelParams | None = None) -> str:
     """A parameter file with a comment per parameter (meaning, unit, allowed range): the file
-    ``slopelander params --dump`` writes to start an override from."""
+    ``slopelander params --out`` writes to start an override from."""
     params = params or ModelParams.default()
     lines = [
         "# slopelander model parameters (schema slopelander.model-parameters/1).",

@@ -1,6 +1,6 @@
 """The lock-step echo, for a simulator that asks for it and for nothing else.
 
-The project's simulated vehicle (``sitl.vehicle --lockstep``) and its ArduCopter SITL rig (the
+The project's simulated vehicle (``slopelander_sitl.vehicle --lockstep``) and its ArduCopter SITL rig (the
 JSON physics' companion gate) run at most 50 ms of vehicle time ahead of the newest vehicle time
 the companion echoed, so a simulated flight does not depend on how fast the machine runs the
 companion. The echo is a TIMESYNC whose ``tc1`` is non-zero (an answer, not a request) and whose

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from slopelander.controller.script_contract import ScriptState
+from slopelander.controller.script_rules import STOPS_DESCENT
 from slopelander.controller.states.base import SCRIPT_LANDING, Context, Inputs, State
 
 #: vehicle seconds between asks for LOITER while the autopilot still reports GUIDED, armed
@@ -15,6 +16,8 @@ CLIMB_MPS = 0.3
 NOT_DESCENDING_MPS = 0.05
 #: ... for this long (vehicle s) before the reflex is let go: the vehicle is climbing or holding
 HOLDING_S = 0.3
+#: the script's states the abort keeps as they are until the vehicle climbs or holds
+KEEP_UNTIL_HOLDING = frozenset({ScriptState.ARMED}) | STOPS_DESCENT
 
 
 class Aborted(State):
@@ -23,11 +26,12 @@ class Aborted(State):
     reports LOITER, or the vehicle reads not descending for ``HOLDING_S``), and is then disarmed
     and the script released.
 
-    The order matters: the GUIDED descent target runs on until ``GUID_TIMEOUT`` (3 s in
-    f450-fsa.parm) after the companion's last setpoint, so a lost LOITER command after the reflex
-    was let go flew the vehicle into the roof under power with nobody to cut it. Now a climb
-    setpoint goes first (and is re-sent while in GUIDED), the mode second, and if the roof comes
-    anyway the reflex still cuts the motors: the landing goes on in CUT.
+    The order matters: the GUIDED descent target runs on until ``GUID_TIMEOUT`` (1 s in the
+    parameter files since contract 5, 3 s before) after the companion's last setpoint, so a lost
+    LOITER command after the reflex was let go flew the vehicle into the roof under power with
+    nobody to cut it. Now a climb setpoint goes first (and is re-sent while in GUIDED), the mode
+    second, and if the roof comes anyway the reflex still cuts the motors: the landing goes on in
+    CUT.
 
     LOITER is asked for again every ``REASK_S`` while the autopilot still reports GUIDED and
     armed: one mode command and its retries can all be lost (the link just back from a cut, seen
@@ -41,7 +45,9 @@ class Aborted(State):
             ctx.act.hold(CLIMB_MPS)
             ctx.act.set_mode("LOITER")
             ctx.marks["loiter_asks"] = (1, inp.t)
-            if inp.script_state == ScriptState.ARMED:  # a reflex to keep until climbing or holding
+            # a reflex to keep, or the script's own climb (its reflex lapsed, or it failed in the
+            # descent: ABORT would end that climb), until the vehicle climbs or holds
+            if inp.script_present and inp.script_state in KEEP_UNTIL_HOLDING:
                 ctx.marks["abort_pending"] = True
                 ctx.marks["abort_holding_since"] = None
                 return None

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 from slopelander.controller.script_contract import ScriptState, state_name
+from slopelander.controller.script_rules import REFLEX_HELD
 from slopelander.controller.states.base import Context, Inputs, State
-
-#: the script's states that say it holds the reflex (armed, or already past the cut)
-REFLEX_HELD = (ScriptState.ARMED, ScriptState.CUT, ScriptState.RVT, ScriptState.HOLD)
+from slopelander.controller.stuck_range import range_stuck
 
 
 class Armed(State):
@@ -15,7 +14,8 @@ class Armed(State):
     script reports its reflex armed: until then the vehicle hovers, and without that report
     within ``reflex.confirm_timeout_s`` (a refusal: emergency stop, a system-id mismatch, no
     rangefinder) the landing is aborted in the air, motors running, rather than flown into the
-    roof with nobody to cut them."""
+    roof with nobody to cut them. A range that stops changing while the vehicle descends (the
+    script would never cut on it) aborts too (controller/stuck_range.py)."""
 
     name = "ARMED"
     airborne_descent = True
@@ -36,6 +36,9 @@ class Armed(State):
             return ("CUT", "on-board script cut the motors")
         if inp.script_state in (ScriptState.RVT, ScriptState.HOLD):  # cut and impact between two steps
             return ("CUT", "on-board script cut the motors and reports impact")
+        stuck = range_stuck(ctx, inp)
+        if stuck is not None:
+            return ("ABORTED", stuck)
         confirmed = inp.script_state in REFLEX_HELD
         if confirmed:
             ctx.marks["reflex_confirmed"] = True

@@ -28,6 +28,7 @@ class Actions(Protocol):
     def reverse(self, pct: float, ms: int) -> None: ...
     def disarm(self) -> None: ...
     def disarm_on_ground(self) -> None: ...
+    def disarm_forced(self) -> None: ...
     def takeoff(self, height_m: float) -> None: ...
     def refused(self, key: str) -> bool: ...
     def statustext(self, text: str) -> None: ...
@@ -49,6 +50,8 @@ class Inputs:
     estop: bool = False
     range_m: float | None = None
     range_ok: bool = False
+    #: the range reading's own vehicle time (s, DISTANCE_SENSOR time_boot_ms); None: the step's
+    range_t: float | None = None
     script_present: bool = True
     script_state: int = ScriptState.IDLE
     #: the contract version the on-board script reports (SL_VER); None until it has
@@ -69,6 +72,8 @@ class Inputs:
     #: the body's largest tilt from level (deg) by the ATTITUDEs stamped near the range reading's
     #: own moment; None when none was (and outside TAKEOFF, the one state that reads it)
     tilt_deg: float | None = 0.0
+    #: the vehicle's heading (deg from north, clockwise; the newest ATTITUDE yaw); None: unknown
+    heading_deg: float | None = None
     impact: bool = False
     takeoff_request: bool = False
     #: the slope measured before the landing (controller/slope_estimate.py) and how far the
@@ -152,6 +157,8 @@ class State:
     airborne_descent = False
     #: True once the on-board reflex owns the motors (the companion must not interfere).
     reflex_owns = False
+    #: where a refused ``enter`` goes
+    refused_to = "ABORTED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         return None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from slopelander.controller.link import stream_refusal
+from slopelander.controller.script_rules import FAULT_REFUSAL, faulted
 from slopelander.controller.slope_estimate import pilot_refusal
 from slopelander.controller.states.base import SCRIPT_CONTRACT, Context, Inputs, State
 
@@ -11,6 +12,8 @@ def refusal(inp: Inputs) -> str | None:
     """The first failed pre-descent check, or None."""
     if not inp.script_present:
         return "on-board script not present"
+    if faulted(inp.script_state, inp.script_present):
+        return FAULT_REFUSAL
     if inp.script_version is None:
         return "on-board script did not report its version (SL_VER)"
     if inp.script_version < SCRIPT_CONTRACT:

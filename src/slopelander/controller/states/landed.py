@@ -2,21 +2,9 @@
 
 from __future__ import annotations
 
-from slopelander.controller.script_contract import ScriptState
+from slopelander.controller.script_rules import DISARMS, FAULT_REFUSAL, faulted
 from slopelander.controller.states.base import Context, Inputs, State
-from slopelander.controller.states.settled import DISARM_RETRY_S, request_disarm
-
-#: the script's states in which it accepts a disarm (docs/onboard-script.md, action 5 DISARM)
-SCRIPT_DISARMS = (ScriptState.HOLD, ScriptState.STOP)
-
-
-def request_ground_disarm(ctx: Context, inp: Inputs) -> None:
-    """The companion's own, unforced disarm, at most every :data:`DISARM_RETRY_S`. ArduCopter
-    refuses it while its land detector says flying (AP_Arming_Copter::disarm: a GCS disarm needs
-    ``ap.land_complete``), so it disarms a vehicle on the ground and never one in the air."""
-    if inp.t - ctx.marks.get("ground_disarm_sent", -1e9) >= DISARM_RETRY_S:
-        ctx.act.disarm_on_ground()
-        ctx.marks["ground_disarm_sent"] = inp.t
+from slopelander.controller.states.settled import request_disarm, request_ground_disarm
 
 
 class Landed(State):
@@ -24,17 +12,27 @@ class Landed(State):
     before any take-off request (a late or reordered heartbeat, a pilot's arm), the disarm is
     asked for again until a take-off is requested: LANDED never stays armed by the companion's
     doing. The on-board script went idle by itself when the vehicle disarmed, and an idle script
-    refuses a disarm; so the script is asked only while it holds the motors (HOLD, STOP), and
+    refuses a disarm; so the script is asked only while it holds the motors (HOLD, STOP, FAULT_HELD), and
     otherwise the companion sends its own unforced disarm, which ArduCopter accepts only with
-    its land detector saying landed."""
+    its land detector saying landed.
+
+    A take-off is never asked of a script in a fault (FAULT, FAULT_HELD): it would not release the
+    motors for it, nor cut or reverse on the next roof, and the soak on ArduCopter re-armed and
+    flew such a vehicle, which then ended armed in LOITER at the roof. The request is refused with
+    the reason (``marks["takeoff_refused"]``, one STATUSTEXT) and LANDED stays, disarmed."""
 
     name = "LANDED"
 
     def step(self, ctx: Context, inp: Inputs):
         if inp.takeoff_request:
-            return ("TAKEOFF", "take-off commanded")
+            if not faulted(inp.script_state, inp.script_present):
+                ctx.marks.pop("takeoff_refused", None)
+                return ("TAKEOFF", "take-off commanded")
+            if ctx.marks.get("takeoff_refused") is None:
+                ctx.marks["takeoff_refused"] = f"take-off refused: {FAULT_REFUSAL}"
+                ctx.act.statustext("SL take-off refused: script fault, reboot")
         if inp.armed and inp.link_ok:  # a lost link's armed flag is stale, and a command lost
-            if inp.script_present and inp.script_state in SCRIPT_DISARMS:
+            if inp.script_present and inp.script_state in DISARMS:
                 request_disarm(ctx, inp)
             else:
                 request_ground_disarm(ctx, inp)

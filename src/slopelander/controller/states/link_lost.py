@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from slopelander.controller.script_contract import LANDING
+from slopelander.controller.script_rules import MOTORS_HELD
 from slopelander.controller.states.base import Context, Inputs, State
 
 #: states after contact: the vehicle is on the roof and the script owns the motors
@@ -29,7 +29,7 @@ class LinkLost(State):
             return None
         # lost before contact but the script reports its landing sequence: the vehicle came down
         # while the link was out, and a tilted vehicle on a roof is not handed to LOITER
-        landed_meanwhile = inp.script_state in LANDING
+        landed_meanwhile = inp.script_present and inp.script_state in MOTORS_HELD
         if ctx.marks.get("lost_in") == "TAKEOFF" and not landed_meanwhile:
             # lost during the take-off: a vehicle still near the roof is not handed to LOITER
             # armed there (seen: armed on the roof in LOITER, it slid 20 m down it). Disarmed

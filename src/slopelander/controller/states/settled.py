@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import math
 
-from slopelander.controller.script_contract import ScriptState, state_name
+from slopelander.controller.script_contract import state_name
+from slopelander.controller.script_rules import GONE, LET_GO, reading
 from slopelander.controller.states.base import Context, Inputs, State, keep_reflex, still
 from slopelander.controller.states.reverse import SCRIPT_RVT
 
@@ -58,6 +59,26 @@ def request_disarm(ctx: Context, inp: Inputs) -> None:
         ctx.marks["disarm_sent"] = inp.t
 
 
+def request_ground_disarm(ctx: Context, inp: Inputs, forced: bool = False) -> None:
+    """The companion's own disarm, at most every :data:`DISARM_RETRY_S`. Unforced, ArduCopter
+    refuses it while its land detector says flying (AP_Arming_Copter::disarm: a GCS disarm needs
+    ``ap.land_complete``), so it disarms a vehicle on the ground and never one in the air; on a
+    steep roof that detector may never fire. ``forced`` (param 2 = 21196) skips the check: only
+    for a vehicle the script would itself have disarmed (:meth:`Settled.without_script`)."""
+    key = "forced_disarm_sent" if forced else "ground_disarm_sent"
+    if inp.t - ctx.marks.get(key, -1e9) >= DISARM_RETRY_S:
+        if forced:
+            ctx.act.disarm_forced()
+        else:
+            ctx.act.disarm_on_ground()
+        ctx.marks[key] = inp.t
+
+
+#: a range this far above the cut height (m) says the vehicle is in the air, not on the roof: the
+#: script's own margin for "left the roof" (LEAVE.MARGIN_M: the beam tilted by a touchdown's pivot)
+AIR_MARGIN_M = 0.3
+
+
 class Settled(State):
     """On the roof with the motors held stopped by the script. Has the vehicle disarmed once it
     has been still (:func:`still`: accel 1 g and speed low) for ``settle.still_s``, and moves to
@@ -82,6 +103,9 @@ class Settled(State):
             "disarm_asked",
             "said",
             "script_let_go",
+            "gone_still_since",
+            "ground_disarm_sent",
+            "forced_disarm_sent",
         ):
             ctx.marks.pop(k, None)
         _moved(ctx, inp)
@@ -99,9 +123,20 @@ class Settled(State):
         if not inp.armed:
             how = ctx.marks.get("disarm_asked", "by the autopilot")
             return ("LANDED", f"disarmed ({how}): seen in the HEARTBEAT")
+        script = reading(inp.script_state, inp.script_present)
+        if script in GONE:
+            return self.without_script(ctx, inp, script)
+        if script == "FAULT_HELD":
+            # the script failed after the cut and holds the motors stopped until disarmed: it
+            # refuses a take-off release and an abort, so the only end is the disarm, asked every
+            # DISARM_RETRY_S (it disarms once the vehicle has been still for a second)
+            ctx.marks.setdefault("disarm_asked", "script fault, motors held")
+            self._say_once(ctx, "fault", "SL script fault: motors held, disarm once still")
+            request_disarm(ctx, inp)
+            return None
         if inp.takeoff_request:
             return ("TAKEOFF", "take-off commanded on the roof")
-        if inp.script_state in (ScriptState.IDLE, ScriptState.STOP, ScriptState.REVERSE):
+        if inp.script_state in LET_GO:
             # the script let go while armed: it gave the motors back (the range says the vehicle
             # left the roof, or its validity lapsed) and the autopilot flies. But a script that
             # disarmed as asked says IDLE before the next HEARTBEAT says disarmed: wait for that.
@@ -141,4 +176,30 @@ class Settled(State):
             else:
                 what = "position unknown" if drift is None else f"moving at {drift:.2f} m/s"
                 self._say_once(ctx, "timeout", f"{what} at the settle timeout: motors held, not disarmed")
+        return None
+
+    def without_script(self, ctx: Context, inp: Inputs, script: str):
+        """After the cut with no script holding the motors (silent: dead, its overrides lapsed
+        within 250 ms; FAULT: failed, or its faulted hold released by the emergency stop): the
+        autopilot's mixer has the motors. The range decides. Above the cut height plus
+        :data:`AIR_MARGIN_M` the vehicle is in the air (a false cut, or the mixer lifted it): the
+        landing is aborted, the autopilot flies (climb setpoint, LOITER). Otherwise it is on the
+        roof: the companion's unforced disarm every :data:`DISARM_RETRY_S`, and once the vehicle has
+        read still for ``settle.still_s`` with the range at or below the cut height (where the
+        reflex itself would have cut) the forced one, as the script would have disarmed it."""
+        cfg, what = ctx.cfg, script.lower()
+        cut = cfg["reflex.cut_height_m"]
+        if inp.range_valid and inp.range_m > cut + AIR_MARGIN_M:
+            high = f"range {inp.range_m:.2f} m"
+            return ("ABORTED", f"on-board script {what}, {high}: in the air, the autopilot flies")
+        ctx.marks.setdefault("disarm_asked", f"on-board script {what}: the companion's own disarm")
+        self._say_once(ctx, "gone", f"SL script {what} on the roof: disarming")
+        request_ground_disarm(ctx, inp)
+        low = inp.range_valid and inp.range_m <= cut
+        if still(cfg, inp) and low:
+            since = ctx.marks.setdefault("gone_still_since", inp.t)
+            if inp.t - since >= cfg["settle.still_s"]:
+                request_ground_disarm(ctx, inp, forced=True)
+        else:
+            ctx.marks.pop("gone_still_since", None)
         return None

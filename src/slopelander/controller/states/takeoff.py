@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from slopelander.controller.script_rules import FAULT_REFUSAL, faulted
 from slopelander.controller.states.base import Context, Inputs, State, hand_to_loiter
 
 #: a reading is believed only when it follows the last believed one within this jump plus what the
@@ -19,8 +20,19 @@ RESEED_S = 1.0
 #: autopilot's LOITER with the legs left clamped (safe in the air; READY, the pilot told); one that
 #: never left the roof is disarmed there (LANDED), not left idling armed on it
 GIVE_UP_S = 15.0
-#: the vehicle rose at least this much (m, LOCAL_POSITION_NED) since the take-off was asked: it flew
+#: the vehicle rose at least this much (m) over the roof (:func:`rise_over_roof`) since the take-off
+#: was asked: it flew
 CLIMBED_M = 0.3
+#: the autopilot refused the companion's disarm this long after GIVE_UP_S (its land detector says
+#: the vehicle flies): the vehicle is handed to LOITER, legs clamped, rather than asked for ever
+DISARM_REFUSED_S = 10.0
+#: how far (m) the rise over the roof (:func:`rise_over_roof`) may fall short of the
+#: clear height when a clear range is believed: its height estimate's error over a take-off's few
+#: seconds. The body's rest height over the roof is not counted (no reading on the roof need be
+#: valid: the soak's first valid reading was a spike of 2.42 m with the body 0.07 m up, 0.25 s long,
+#: and loosened the legs): a body resting high loosens its legs that much later, within the climb
+#: to the take-off's target (twice the clear height)
+CLIMB_TOLERANCE_M = 0.15
 #: vehicle seconds between asks for the disarm of a vehicle that never left the roof
 DISARM_RETRY_S = 1.0
 #: not armed this long after the take-off was asked (vehicle time): the autopilot refuses to arm
@@ -43,6 +55,41 @@ def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> floa
     return range_m * c / math.cos(a)
 
 
+def rise_over_roof(
+    start: tuple[float, float, float],
+    now: tuple[float, float, float],
+    slope_deg: float | None,
+    heading_deg: float | None,
+    cross_deg: float | None = None,
+) -> float:
+    """How far (m) the vehicle rose over the roof plane through the spot it took off from, by
+    LOCAL_POSITION_NED (north-east-down) and the roof: ``slope_deg`` along ``heading_deg`` (deg
+    from north; positive: falling the way the vehicle faces, as it lands) and ``cross_deg`` across
+    it (positive: falling to the right). Leaving a slope the tilted body is pushed downhill and
+    the roof falls away below it: on ArduCopter a take-off from a 35 deg roof drifted 3.4 m
+    downhill and ended 0.85 m *lower* than it began, 1.5 m over the roof. Without a slope or a
+    heading only the height itself counts (a drift uphill would otherwise be credited)."""
+    dn, de, dd = (b - a for a, b in zip(start, now, strict=True))
+    rise = -dd  # NED: up is a smaller z
+    if slope_deg is None or heading_deg is None:
+        return rise
+    h = math.radians(heading_deg)
+    along = dn * math.cos(h) + de * math.sin(h)  # the way the vehicle faces
+    right = -dn * math.sin(h) + de * math.cos(h)
+    fall = along * math.tan(math.radians(slope_deg)) + right * math.tan(math.radians(cross_deg or 0.0))
+    return rise + fall if math.isfinite(fall) else rise
+
+
+def roof_of(ctx: Context, inp: Inputs) -> tuple[float | None, float | None, float | None]:
+    """The roof the take-off leaves: (slope along the heading, heading, cross-slope), deg. The
+    survey's plane when there is one; else the landing's slope along the heading the vehicle had
+    when the take-off began (it lands facing the way the roof falls); else unknown."""
+    est = inp.slope_measured
+    if getattr(est, "heading_deg", None) is not None and getattr(est, "slope_deg", None) is not None:
+        return est.slope_deg, est.heading_deg, getattr(est, "cross_deg", None)
+    return ctx.slope_deg, ctx.marks.get("takeoff_heading"), None
+
+
 class Takeoff(State):
     """Releases the script, takes off, and moves on once the range shows the vehicle clear: a
     chain of readings that each follow the last (no spike, no jump) above the clear height for
@@ -52,11 +99,18 @@ class Takeoff(State):
     reads up to 1.5 times the height over the slope (found by the soak: legs loosened 0.66-0.84 m
     above the roof on readings of 0.84-1.14 m). The attitude is the one of the reading's own
     moment; none is not level. Within the tilt allowed, the reading is still turned into a height
-    over the slope (:func:`height_over_slope`) before it is compared with the clear height."""
+    over the slope (:func:`height_over_slope`) before it is compared with the clear height. And a
+    clear range is believed only with the climb LOCAL_POSITION_NED reports since the take-off
+    began bearing it out (:meth:`_climb_short`): the soak on ArduCopter loosened the legs on a
+    0.25 s spike of 2.42 m with the body 0.07 m over the roof."""
 
     name = "TAKEOFF"
+    #: a refused take-off leaves the vehicle where it was: disarmed on the roof
+    refused_to = "LANDED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        if faulted(inp.script_state, inp.script_present):
+            return FAULT_REFUSAL  # nothing armed or released: see Landed
         ctx.act.release_for_takeoff()  # a held, armed vehicle is given back only level enough
         ctx.marks.pop("impact", None)  # the landing is over: the next one meets its roof anew
         ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
@@ -65,22 +119,50 @@ class Takeoff(State):
         ctx.marks["takeoff_clear"] = None  # since when the believed range is clear
         ctx.marks["takeoff_sent"] = inp.t
         ctx.marks["takeoff_prev_t"] = None  # time of the previous valid reading, believed or not
-        ctx.marks["takeoff_z0"] = inp.position_m[2] if inp.position_m is not None else None
+        ctx.marks["takeoff_short_said"] = None
+        if ctx.previous == "LINK_LOST" and ctx.marks.get("takeoff_p0") is not None:
+            return None  # the same take-off goes on: its climb is counted from where it began
+        ctx.marks["takeoff_p0"] = inp.position_m
+        ctx.marks["takeoff_heading"] = inp.heading_deg
         ctx.marks["takeoff_rose"] = False
         return None
 
     @staticmethod
-    def _rose(ctx: Context, inp: Inputs) -> bool:
-        """Whether the vehicle has left the roof: its height rose :data:`CLIMBED_M` above the first
-        position known in TAKEOFF (once seen, remembered). With no position ever known it cannot
-        be told, and is taken to have flown (the legs then stay clamped, handed to LOITER)."""
+    def _rise(ctx: Context, inp: Inputs) -> float | None:
+        """The rise over the roof since the take-off began (:func:`rise_over_roof`), None without
+        a position."""
+        p0 = ctx.marks.get("takeoff_p0")
+        if inp.position_m is None or p0 is None:
+            return None
+        return rise_over_roof(p0, inp.position_m, *roof_of(ctx, inp))
+
+    @classmethod
+    def _climb_short(cls, ctx: Context, inp: Inputs) -> str | None:
+        """Why the vehicle's own climb over the roof since the take-off began does not bear out a
+        clear range, or None: it must have risen the clear height, less
+        :data:`CLIMB_TOLERANCE_M`."""
+        need = ctx.cfg["takeoff.clear_height_m"] - CLIMB_TOLERANCE_M
+        rise = cls._rise(ctx, inp)
+        if rise is None:
+            return "no position (LOCAL_POSITION_NED) to confirm the climb"
+        if rise < need:
+            return f"climbed {rise:.2f} m of {need:.2f} m"
+        return None
+
+    @classmethod
+    def _rose(cls, ctx: Context, inp: Inputs) -> bool:
+        """Whether the vehicle has left the roof: it rose :data:`CLIMBED_M` over the roof from the
+        first position known in TAKEOFF (once seen, remembered). With no position ever known it
+        cannot be told, and is taken to have flown (the legs then stay clamped, handed to LOITER)."""
         m = ctx.marks
+        if m.get("takeoff_heading") is None:
+            m["takeoff_heading"] = inp.heading_deg  # the first known: still the landing's
         if inp.position_m is not None:
-            if m.get("takeoff_z0") is None:
-                m["takeoff_z0"] = inp.position_m[2]
-            if m["takeoff_z0"] - inp.position_m[2] >= CLIMBED_M:  # NED: up is a smaller z
+            if m.get("takeoff_p0") is None:
+                m["takeoff_p0"] = inp.position_m
+            if cls._rise(ctx, inp) >= CLIMBED_M:
                 m["takeoff_rose"] = True
-        return m["takeoff_rose"] or m.get("takeoff_z0") is None
+        return m["takeoff_rose"] or m.get("takeoff_p0") is None
 
     def step(self, ctx: Context, inp: Inputs):
         m = ctx.marks
@@ -111,6 +193,13 @@ class Takeoff(State):
                 return (
                     "LANDED",
                     f"take-off failed: never climbed within {GIVE_UP_S:g} s; disarmed on the roof",
+                )
+            if inp.t - ctx.entered_at > GIVE_UP_S + DISARM_REFUSED_S and ctx.act.refused("disarm_on_ground"):
+                hand_to_loiter(ctx, inp)
+                return (
+                    "READY",
+                    f"legs left clamped: no climb seen within {GIVE_UP_S:g} s and the autopilot refuses "
+                    "to disarm (its land detector says flying); handed to LOITER",
                 )
             if inp.t - m.get("takeoff_disarm_sent", -1e9) >= DISARM_RETRY_S:
                 m["takeoff_disarm_sent"] = inp.t  # armed on the roof and not flying: disarm it there
@@ -154,9 +243,17 @@ class Takeoff(State):
         if m.get("takeoff_clear") is None:
             m["takeoff_clear"] = inp.t
         if inp.t - m["takeoff_clear"] >= HOLD_S:
+            # the range alone is not believed: the vehicle's own climb must bear it out
+            short = self._climb_short(ctx, inp)
+            if short is not None:
+                if m.get("takeoff_short_said") is None:
+                    m["takeoff_short_said"] = inp.t
+                    ctx.act.statustext(f"SL range clear, not climbed: {short}"[:50])
+                return None
+            rise = self._rise(ctx, inp)
             return (
                 "RESET",
                 f"clear of the ground at {height:.2f} m over the {slope:g} deg slope "
-                f"(range {inp.range_m:.2f} m, tilt {inp.tilt_deg:.0f} deg)",
+                f"(range {inp.range_m:.2f} m, tilt {inp.tilt_deg:.0f} deg, climbed {rise:.2f} m)",
             )
         return None

@@ -19,7 +19,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from dataclasses import dataclass, field
@@ -197,12 +196,10 @@ def preset_torques(log: FlightLog, before: float) -> tuple[tuple[float, float], 
         return found
     beside = log.path.parent / "transitions.jsonl"
     if beside.is_file():
+        from slopelander.controller.session import read_transitions
+
         last = None
-        for line in beside.read_text().splitlines():
-            try:
-                entry = json.loads(line)
-            except json.JSONDecodeError:
-                continue
+        for entry in read_transitions(beside):
             m = TORQUES.search(str(entry.get("reason", ""))) if entry.get("to") == "LEGS_WAIT" else None
             t = entry.get("t")
             if m and isinstance(t, (int, float)) and t <= before:
@@ -328,7 +325,8 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
             raise FlightLogError(
                 log.path,
                 f"landing {ev.number}: the log does not say the legs' friction torques (no companion "
-                "'SL LEGS_WAIT' message in it, no transitions.jsonl beside it): give --tau UP DOWN",
+                "'SL LEGS_WAIT' message in it, no transitions.jsonl beside it): "
+                "give --tau-up UP --tau-down DOWN",
             )
         tau, sources["legs"] = found
     if given.angles is not None:
@@ -339,7 +337,8 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
             angles = table_angles(slope_deg, speed)
         except ValueError as exc:
             raise FlightLogError(
-                log.path, f"landing {ev.number}: no leg angles for it ({exc}): give --angles UP DOWN"
+                log.path,
+                f"landing {ev.number}: no leg angles for it ({exc}): give --angle-up UP --angle-down DOWN",
             ) from None
         sources["leg angles"] = "not in the log: the shipped lookup table's for this slope"
     thrust, sources["reverse thrust"], more = reverse_as_flown(log, ev, contact)

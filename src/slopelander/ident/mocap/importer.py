@@ -26,6 +26,7 @@ from slopelander.ident.mocap.contact import (
     find_flight,
     flight_residual,
     flight_state,
+    foot_contact,
 )
 from slopelander.ident.mocap.formats import read_take
 from slopelander.ident.mocap.markerset import MarkerSet, load_markerset
@@ -56,6 +57,7 @@ class Checked:
     body_idx: list[int]
     roof_idx: list[int]
     entry: dict[str, Any]
+    feet_idx: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -120,7 +122,8 @@ def check_take(path: Path, ms: MarkerSet) -> Checked:
     else:
         body_idx = [take.index(m, f"body.markers.{m}") for m in ms.body]
     roof_idx = [take.index(m, f"roof.markers.{m}") for m in ms.roof]
-    _check_extent(take, body_idx + roof_idx)
+    feet_idx = [take.index(m, f"feet.markers.{m}") for m in ms.feet]
+    _check_extent(take, body_idx + roof_idx + feet_idx)
     if body_idx:
         check_rigid(
             take.xyz[:, body_idx],
@@ -139,7 +142,7 @@ def check_take(path: Path, ms: MarkerSet) -> Checked:
             take.up_field,
             f"the file says the vertical is {take.up}, the markers file's up_axis {ms.up_axis}",
         )
-    return Checked(take, body_idx, roof_idx, entry)
+    return Checked(take, body_idx, roof_idx, entry, tuple(feet_idx))
 
 
 def _check_extent(take: Take, idx: list[int]) -> None:
@@ -281,6 +284,28 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
                 f"the roof markers are {1000 * roof_rms:.1f} mm (RMS) off one plane",
             )
     ct = contact_time(t, pos @ up, flight.onset, rate)
+    contact_from = "the body's deceleration"
+    if c.feet_idx:
+        n_up = normal if normal @ up > 0 else -normal
+        heights = (take.xyz[:, list(c.feet_idx)] - p0) @ n_up - ms.foot_height
+        jitter = marker_sd if marker_sd is not None and math.isfinite(marker_sd) else noise_for_flight
+        fc = foot_contact(t, heights, GRAVITY * float(up @ n_up), jitter)
+        if fc is None:
+            raise MocapError(
+                path,
+                take.name,
+                "feet.markers",
+                "no foot marker is seen in 3 frames of free flight before it reaches the roof",
+            )
+        if abs(fc.time - ct.time) > 0.02:
+            raise MocapError(
+                path,
+                take.name,
+                "feet.marker_height",
+                f"{ms.feet[fc.foot]} reaches the roof at {fc.time:.4f} s, but the body decelerates from "
+                f"{ct.time:.4f} s: is the marker height at touch ({1000 * ms.foot_height:g} mm) right?",
+            )
+        ct, contact_from = fc, f"foot marker {ms.feet[fc.foot]}"
     tc = ct.time
     fl = t < tc
     fwd = np.nanmean(rot[fl][:, :, 0], axis=0)
@@ -387,6 +412,7 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
         "gap_share_after_contact": round(gap_share, 4),
         "contact_time_in_take_s": round(tc, 5),
         "contact_sd_s": round(ct.sd, 5),
+        "contact_from": contact_from,
         "planar": not over,
         "lateral_m": round(lateral, 5),
         "yaw_deg": round(max_yaw, 2),
@@ -442,7 +468,7 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
         f"{drop.name}: slope {cond.slope_deg:.1f} deg, impact {cond.speed:.2f} m/s (horizontal "
         f"{signed(cond.horizontal_speed, 2)} m/s, pitch {signed(cond.pitch_deg, 1)} deg, "
         f"{signed(cond.pitch_rate_dps, 0)} deg/s), "
-        f"contact at {tc:.4f} s +- {1000 * ct.sd:.1f} ms"
+        f"contact at {tc:.4f} s +- {1000 * ct.sd:.1f} ms" + (f" ({contact_from})" if c.feet_idx else "")
     )
     line2 = (
         f"  data: {rate:g} Hz, {int(keep.sum())} frames ({-tk[0]:.2f} s before contact, "

@@ -74,6 +74,10 @@ class MarkerSet:
     """Per take (file name or stem): its conditions and outcome, over ``conditions``."""
     takes_table: Path | None = None
     """The CSV the takes came from, if any (not a take itself)."""
+    feet: tuple[str, ...] = ()
+    """Markers on the feet: first contact is where the first of them reaches the roof."""
+    foot_height: float = 0.0
+    """m: height of a foot marker's centre above the roof when its foot touches."""
 
     def take_entry(self, path: Path) -> dict[str, Any]:
         """The conditions of the take in ``path`` (its own over the shared ones)."""
@@ -167,6 +171,7 @@ def load_markerset(path: str | Path) -> MarkerSet:
             "units",
             "body",
             "roof",
+            "feet",
             "up_axis",
             "latency_s",
             "rates",
@@ -244,6 +249,28 @@ def load_markerset(path: str | Path) -> MarkerSet:
     else:
         raise _err(path, "roof", "give markers: [...] or plane: {point, normal}")
 
+    feet_doc = doc.get("feet")
+    feet: tuple[str, ...] = ()
+    foot_height = 0.0
+    if feet_doc is not None:
+        if not isinstance(feet_doc, dict):
+            raise _err(path, "feet", "must be {markers: [...], marker_height: h}")
+        _keys(path, "feet.", feet_doc, {"markers", "marker_height"})
+        raw = feet_doc.get("markers")
+        if not isinstance(raw, list) or not raw:
+            raise _err(path, "feet.markers", "need a list of the markers on the feet (one or more)")
+        feet = tuple(str(m) for m in raw)
+        clash = [m for m in feet if m in body or m in roof]
+        if clash:
+            raise _err(path, "feet.markers", f"{', '.join(clash)} is also a body or roof marker")
+        if "marker_height" not in feet_doc:
+            raise _err(
+                path,
+                "feet.marker_height",
+                "missing: the height of a foot marker's centre above the roof when its foot touches",
+            )
+        foot_height = _number(path, "feet.marker_height", feet_doc["marker_height"], 0.0) * s
+
     up_axis = _axis(path, "up_axis", doc["up_axis"]) if "up_axis" in doc else None
     rates = doc.get("rates") or {}
     _keys(path, "rates.", rates, {"window_s", "polyorder"})
@@ -283,6 +310,8 @@ def load_markerset(path: str | Path) -> MarkerSet:
         _conditions(path, "conditions", doc.get("conditions")),
         takes,
         table,
+        feet,
+        foot_height,
     )
 
 

@@ -87,6 +87,58 @@ def markers_of(states: np.ndarray, slope_deg: float, lab: LabTake) -> tuple[list
     return [*BODY_MARKERS, *ROOF_MARKERS], pts
 
 
+FOOT_MARKERS = ("FOOT_C", "FOOT_D")
+"""One marker on each planar foot (legs C and D), in the landing plane."""
+FOOT_MARKER_HEIGHT = 0.010
+"""m: a foot marker's centre above the roof when its foot touches."""
+
+
+def foot_offsets(model, cond) -> np.ndarray:
+    """(2, 2): each foot tip's (x forward, z up) in the body frame at first contact, from the
+    model's own kinematics (the legs are still at their set angles then)."""
+    from slopelander.model import kernel as k
+    from slopelander.model.reference import ReferenceLanding
+
+    ref = ReferenceLanding(model, cond)
+    M, f, pts, vel, J = k.kinematics_views(ref.ws)
+    k.kinematics(ref.p, ref.st, M, f, pts, vel, J)
+    q = ref.st[k.S_Q : k.S_Q + 3]
+    c, s = math.cos(q[2]), math.sin(q[2])
+    d = pts[k.PT_FOOT : k.PT_FOOT + 2] - q[:2]
+    return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+
+
+def feet_of(
+    states: np.ndarray,
+    slope_deg: float,
+    lab: LabTake,
+    offsets: np.ndarray,
+    height: float = FOOT_MARKER_HEIGHT,
+) -> np.ndarray:
+    """The foot markers (frames, 2, 3) in capture coordinates: carried with the body (the legs
+    at their set angles) until each reaches its height above the roof, then held there. Exact
+    up to the first foot's touch, which is what the importer reads from them; after it the
+    legs turn and the feet slide, which this marker model leaves out."""
+    h = math.radians(lab.heading_deg)
+    ex = np.array([math.cos(h), math.sin(h), 0.0])
+    ez = np.array([0.0, 0.0, 1.0])
+    a = math.radians(slope_deg)
+    normal = math.sin(a) * ex + math.cos(a) * ez
+    origin = np.array(lab.origin)
+    c, s = np.cos(states[:, 2]), np.sin(states[:, 2])
+    out = np.empty((len(states), 2, 3))
+    for i, (bx, bz) in enumerate(offsets):
+        x = states[:, 0] + c * bx - s * bz
+        z = states[:, 1] + s * bx + c * bz
+        pts = origin + x[:, None] * ex + z[:, None] * ez + height * normal
+        above = (pts - origin) @ normal - height
+        down = np.flatnonzero(above <= 0.0)
+        if down.size:
+            pts[down[0] :] = pts[down[0]]
+        out[:, i] = pts
+    return out
+
+
 def frame_times(rng: np.random.Generator, rate: float, before: float, after: float) -> np.ndarray:
     """Frame times (s from the true contact) with a random phase against it."""
     dt = 1.0 / rate
@@ -101,9 +153,14 @@ def observe(
     lab: LabTake,
     rng: np.random.Generator,
     marker_sd: float = 5e-4,
+    feet: np.ndarray | None = None,
 ) -> tuple[list[str], np.ndarray]:
-    """The markers as the cameras report them: jittered, with the occlusions as NaN."""
+    """The markers as the cameras report them: jittered, with the occlusions as NaN.
+    ``feet``: the feet's body-frame offsets (:func:`foot_offsets`), to add a marker on each."""
     labels, pts = markers_of(states, slope_deg, lab)
+    if feet is not None:
+        labels = [*labels, *FOOT_MARKERS]
+        pts = np.concatenate([pts, feet_of(states, slope_deg, lab, feet)], axis=1)
     pts = pts + rng.normal(0.0, marker_sd, pts.shape)
     for occ in lab.occlusions:
         hide = (t >= occ.start) & (t < occ.start + occ.duration)

@@ -5,7 +5,8 @@ a sample exactly at contact), this models the measurement the way it is made: ma
 body, each seen with its own jitter, the pose solved from them by a least-squares rigid fit;
 frames at the camera's rate with a random phase against the instant of contact; a latency;
 frames the tracker lost (absent from the export: the time column jumps); rates differentiated
-from the noisy poses by a least-squares slope over a window of frames, using their real times.
+from the noisy poses by a least-squares slope over a window of frames, using their real times,
+centred on every exported frame (the take runs on a few frames beyond the export).
 The recording declares its noise (``meta.noise``) as docs/recordings.md and docs/ident.md say:
 the pose noise the marker jitter makes, the latency, and here also the share of lost frames.
 """
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from slopelander.ident.recording import Drop
-from slopelander.ident.synth import differentiate
+from slopelander.ident.synth import centred_rates, extend
 from slopelander.model import LandingConditions, Outcome
 
 MARKERS = ((-0.12, 0.02), (0.12, 0.02), (0.0, 0.07), (0.05, -0.04))
@@ -92,7 +93,10 @@ def observe(
     dt = 1.0 / mocap.sample_rate
     phase = round(rng.uniform(0.0, dt), 6)  # the cameras do not know when the feet touch (1 us: the export)
     t = np.arange(math.ceil((-before - phase) / dt), math.floor((duration - phase) / dt) + 1) * dt + phase
-    pose = truth(t - mocap.latency)
+    # the take runs on beyond the export: its first and last rates are centred on frames there
+    h = mocap.rate_window // 2
+    te = extend(t, h)
+    pose = truth(te - mocap.latency)
     body = np.asarray(mocap.markers, dtype=float)
     c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
     world = np.stack(
@@ -102,14 +106,19 @@ def observe(
         ],
         axis=2,
     )
-    world += rng.normal(0.0, mocap.marker_sd, world.shape)
+    inside = slice(h, len(te) - h)
+    world[inside] += rng.normal(0.0, mocap.marker_sd, world[inside].shape)
+    beyond = rng.spawn(1)[0]  # the frames beyond the export: a generator of their own
+    out = np.r_[0:h, len(te) - h : len(te)]
+    world[out] += beyond.normal(0.0, mocap.marker_sd, world[out].shape)
     centre, angle = _fit_pose(world, body)
     pos = np.column_stack([centre, angle])
-    keep = rng.uniform(size=len(t)) >= mocap.dropped
-    keep[[0, -1]] = True  # the export spans the take
-    t, pos = t[keep], pos[keep]
-    rates = differentiate(pos, t, mocap.rate_window)
-    return t, np.column_stack([pos, rates])
+    keep = np.ones(len(te), dtype=bool)
+    keep[inside] = rng.uniform(size=len(t)) >= mocap.dropped
+    keep[[h, len(te) - h - 1]] = True  # the export spans the take
+    te, pos = te[keep], pos[keep]
+    rates = centred_rates(pos, te, mocap.rate_window)
+    return te[h : len(te) - h], np.column_stack([pos[h : len(te) - h], rates])
 
 
 def record(

@@ -104,6 +104,65 @@ HIDDEN: dict[str, HiddenEffect] = {
 described by a candidate file of docs/examples or tests/ident/effects (``name``)."""
 
 
+@dataclass(frozen=True)
+class Departure:
+    """A small, documented way the truth's base physics departs from the analysed model's.
+
+    Real data always differs a little from any model in its base physics, so a verdict is also
+    tested on truths that are not the model's equations (benchmarks/ident_truth_table.py
+    ``--departures``): an effect named on such a truth with nothing hidden, or another than the
+    hidden one, only absorbed the departure."""
+
+    name: str
+    description: str
+    smoothing_speed: float = 0.0
+    """m/s: > 0 replaces the feet's stick/slip (a tangential spring-damper until mu_s N) by
+    Coulomb friction regularised as tanh(v / v_s); the velocity weakening is kept."""
+    joint_static: float = 0.0
+    """> 0: the joints' friction is velocity-weakening like the feet's, tau (1 + s
+    exp(-(w / w_s)^2)) at the leg's rate w: a stuck joint breaks away at (1 + s) tau and slides
+    at tau, where the model's joint has one torque."""
+    joint_stribeck_rate: float = 1.0
+    """rad/s: w_s, the leg's rate at which the excess has fallen to 1/e."""
+
+    def joint_torque(self, rate: float, tau: float) -> float:
+        """The joint's slip torque at the leg's rate (rad/s) given the model's."""
+        if self.joint_static <= 0.0:
+            return tau
+        return tau * (1.0 + self.joint_static * math.exp(-((rate / self.joint_stribeck_rate) ** 2)))
+
+    def truth_model(self, model: Model) -> Model:
+        """The model the truth integrates: ``model`` with the friction law swapped, if any."""
+        if self.smoothing_speed <= 0.0:
+            return model
+        out = model.without("foot_stiction") if "foot_stiction" in model.effects else model
+        return out.with_effects("regularised_friction").with_params(
+            "assumed", friction_smoothing_speed=self.smoothing_speed
+        )
+
+
+DEPARTURES: dict[str, Departure] = {
+    d.name: d
+    for d in (
+        Departure("exact", "the analysed model's own equations (no departure)"),
+        Departure(
+            "tanh_friction",
+            "another friction regularisation: feet slide with mu N tanh(v / 5 mm/s) and never "
+            "stick, where the model sticks them on a tangential spring until mu_s N",
+            smoothing_speed=0.005,
+        ),
+        Departure(
+            "joint_stribeck",
+            "another joint model: the joints' friction weakens with speed, tau (1 + 0.3 "
+            "exp(-(w / 1 rad/s)^2)) (breaking away at 1.3 tau), where the model's joint has one "
+            "torque",
+            joint_static=0.3,
+        ),
+    )
+}
+"""The base-physics departures the verdicts are tested on, by name (``exact``: none)."""
+
+
 class TruthLanding(ReferenceLanding):
     """The reference integration with a hidden effect at its seam (``hidden=None``: none).
 
@@ -120,8 +179,10 @@ class TruthLanding(ReferenceLanding):
         hidden: HiddenEffect | None = None,
         rtol: float = 1e-7,
         atol: float = 1e-9,
+        departure: Departure | None = None,
     ):
-        super().__init__(model, cond, rtol, atol)
+        self.departure = departure or DEPARTURES["exact"]
+        super().__init__(self.departure.truth_model(model), cond, rtol, atol)
         self.hidden = hidden or HiddenEffect("none", "none")
 
     def _normal(self, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
@@ -145,8 +206,14 @@ class TruthLanding(ReferenceLanding):
         return mu
 
     def _joint_torque(self, t: float, V: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """The joints' torque law, given the leg's rate."""
-        return np.array([max(0.0, self.hidden.joint_torque(t, j, V[3 + j], tau[j])) for j in range(2)])
+        """The joints' torque law, given the leg's rate (the departure's, then the hidden one's)."""
+        dep = self.departure
+        return np.array(
+            [
+                max(0.0, self.hidden.joint_torque(t, j, V[3 + j], dep.joint_torque(V[3 + j], tau[j])))
+                for j in range(2)
+            ]
+        )
 
 
 STATE_COLUMNS = (0, 1, 2, 5, 6, 7)
@@ -161,18 +228,20 @@ def truth_states(
     *,
     resolution: float = 4000.0,
     rtol: float = 1e-7,
+    departure: Departure | None = None,
 ) -> tuple[np.ndarray, Outcome | None]:
     """The truth's six states at times ``t`` (s from first contact; flight before it), and
     ``Outcome.FLIP`` if it flipped, else None: the other outcomes are judged at rest, which a
     0.6 s recording does not reach, and the recording format lets a drop leave its outcome
     unsaid (the kernel's, over its 2 s horizon, would not be the truth's). The integration is
     sampled at ``resolution`` Hz and interpolated linearly (at 4 kHz that moves a position by
-    under 1e-6 m: far below any motion capture's noise). After a flip the last state is held."""
+    under 1e-6 m: far below any motion capture's noise). After a flip the last state is held.
+    ``departure``: the base physics departs from ``model``'s that way (:data:`DEPARTURES`)."""
     if model.user_effects:
         raise ValueError("the truth's hidden effect is its own; give a model without user effects")
     span = float(t[-1]) + 0.01
     m = replace(model, criteria=replace(model.criteria, horizon=max(span, 0.05)))
-    ref = TruthLanding(m, cond, hidden, rtol=rtol, atol=rtol * 1e-2)
+    ref = TruthLanding(m, cond, hidden, rtol=rtol, atol=rtol * 1e-2, departure=departure)
     ts, ys, flipped = ref.run(span, sample_rate=resolution)
     t0 = ref.t_impact or 0.0  # the run starts at first contact; kept in case it does not
     tt = np.clip(t + t0, 0.0, None)

@@ -1,0 +1,91 @@
+"""How often a fit's printed 95 % interval holds the truth, over noise seeds.
+
+Drops of a known truth are fitted again and again with new motion-capture noise (``--seeds``);
+each fit's interval (``FitResult.ci95``) either holds the value the drops were made with or not.
+Nominal coverage is 95 %; the count comes with its own 95 % range (Wilson), so 20 seeds can
+only tell 95 % from about 75 %.
+
+``--truth model``: drops from the model itself (``slopelander.ident.synth``: the same
+integrator, motion-capture noise), where the only error is noise. ``--truth independent``: drops
+from the independent truth simulator (``slopelander.ident.truth``: solve_ivp, its own
+motion-capture model), where part of the residual is model error, as in real data.
+
+Usage: python benchmarks/interval_coverage.py [--truth model|independent] [--seeds 20] [--drops 8]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+
+from slopelander.ident.fit import Identifier
+from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+from slopelander.model import Model
+
+TRUTH = {"ground_stiffness": 3.0e4, "friction_kinetic": 0.65}
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % range of a proportion k / n (Wilson's score interval)."""
+    if n == 0:
+        return math.nan, math.nan
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--truth", choices=("model", "independent"), default="model")
+    ap.add_argument("--seeds", type=int, default=20)
+    ap.add_argument("--drops", type=int, default=8)
+    ap.add_argument("--duration", type=float, default=0.6)
+    ap.add_argument("--cma-evals", type=int, default=60)
+    ap.add_argument("--ls-evals", type=int, default=15)
+    args = ap.parse_args()
+    one, five, _ = os.getloadavg()
+    print(
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: interval coverage, load {one:.1f}/{five:.1f}"
+    )
+    model = Model.default()
+    truth = model.with_params(**TRUTH)
+    conds = paper_drops(args.drops, seed=7)
+    cache: dict = {}
+    held = dict.fromkeys(TRUTH, 0)
+    for seed in range(args.seeds):
+        if args.truth == "model":
+            drops = synthesize(truth, conds, NoiseModel(), seed=seed, duration=args.duration)
+        else:
+            from slopelander.ident.truth.dataset import truth_dataset
+
+            drops = truth_dataset(truth, conds, seed=seed, duration=args.duration, cache=cache)
+        ident = Identifier(
+            model, list(TRUTH), cma_evals=args.cma_evals, ls_evals=args.ls_evals, workers=1, seed=seed
+        )
+        r = ident.fit(drops).result_
+        line = []
+        for name, value in TRUTH.items():
+            inside = abs(r.values[name] - value) <= r.ci95[name]
+            held[name] += inside
+            line.append(
+                f"{name} {r.values[name]:.5g} +- {r.ci95[name]:.2g} ({'holds' if inside else 'misses'})"
+            )
+        print(f"  seed {seed:2d}: " + "; ".join(line), flush=True)
+    for name, k in held.items():
+        lo, hi = wilson(k, args.seeds)
+        print(
+            f"{name}: the 95 % interval held the truth in {k} of {args.seeds} fits "
+            f"({100 * k / args.seeds:.0f} %, 95 % range {100 * lo:.0f}-{100 * hi:.0f} %)"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

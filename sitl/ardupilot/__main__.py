@@ -1,5 +1,0 @@
-import sys
-
-from sitl.ardupilot.pod import main
-
-sys.exit(main())

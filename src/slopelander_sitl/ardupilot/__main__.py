@@ -1,0 +1,5 @@
+import sys
+
+from slopelander_sitl.ardupilot.pod import main
+
+sys.exit(main())

@@ -1,0 +1,134 @@
+"""A rangefinder stuck while the vehicle descends (DESCEND, ARMED) aborts the landing in the air,
+on an injected clock: the readings come at 20 Hz with their own time, in whole centimetres with the
+simulated vehicle's noise, and LOCAL_POSITION_NED's descent alongside.
+
+Found by a 200-landing soak on ArduCopter SITL: the reading held one value for 1.7-3 s in ARMED,
+the script never cut and the vehicle met the roof at 0.46 m/s under power."""
+
+from __future__ import annotations
+
+import random
+import re
+from dataclasses import replace
+
+import pytest
+
+from slopelander.controller.config import ConfigError, load_config
+from slopelander.controller.stuck_range import StuckRange
+from tests.controller.test_machine import OK, make
+
+RANGE_DT = 0.05  # ArduCopter's rangefinder: 20 Hz
+STEP_DT = 0.02
+NOISE_M = 0.005  # the simulated vehicle's range noise (slopelander_sitl scenario: range_noise)
+
+
+def fly(m, height, until_s, descent_mps=0.5, stuck_from=None, ground=None, seed=1, script=None):
+    """Step the machine from DESCEND: the vehicle descends at ``descent_mps`` (reported and true);
+    the range reads the height over ``ground(t)`` (default flat) in cm with noise, held from
+    ``stuck_from`` (s) on. Returns the last input."""
+    rnd = random.Random(seed)
+    t, reading, reading_t, stuck = 0.0, None, None, None
+    inp = OK
+    while t < until_s and m.name in ("DESCEND", "ARMED"):
+        t += STEP_DT
+        h = height - descent_mps * t
+        if reading_t is None or t - reading_t >= RANGE_DT - 1e-9:
+            reading_t = t
+            true = h - (ground(t) if ground else 0.0)
+            if stuck_from is not None and t >= stuck_from:
+                stuck = reading if stuck is None else stuck
+                reading = stuck
+            else:
+                reading = round(true + rnd.gauss(0.0, NOISE_M), 2)
+        s = script if script is not None else (10 if m.name == "ARMED" else 0)
+        if m.name == "ARMED" and reading <= 0.3:
+            s = 11
+        stamp = 100.0 + reading_t
+        inp = replace(OK, t=100.0 + t, range_m=reading, range_t=stamp, climb_mps=-descent_mps, script_state=s)
+        m.step(inp)
+    return inp
+
+
+def at_descend():
+    m, act, _ = make(start="DESCEND")
+    return m, act
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_normal_descent_never_reads_stuck(seed):
+    """From 3 m to the cut with the shipped noise: DESCEND, ARMED, CUT, no abort."""
+    m, _ = at_descend()
+    fly(m, 3.0, 10.0, seed=seed)
+    assert m.name == "CUT", m.history
+    assert [h["to"] for h in m.history] == ["DESCEND", "ARMED", "CUT"]
+
+
+def test_a_roof_edge_is_not_a_stuck_range():
+    """The beam crosses a roof's edge (the surface below drops 0.4 m) and, later, the vehicle
+    drifts along a slope so that the range falls at only half the descent: the reading moves,
+    the landing goes on."""
+    m, _ = at_descend()
+
+    def ground(t):
+        g = 0.4 if t < 1.0 else 0.0  # over the roof, then past its edge onto the lower surface
+        return g + (0.25 * (t - 2.0) if t > 2.0 else 0.0)  # a surface rising under a downhill drift
+
+    fly(m, 3.4, 12.0, ground=ground)
+    assert "ABORTED" not in [h["to"] for h in m.history], m.history
+
+
+@pytest.mark.parametrize(("stuck_from", "where"), [(0.8, "DESCEND"), (3.3, "ARMED")])
+def test_a_range_stuck_in_the_descent_aborts_in_the_air(stuck_from, where):
+    """Stuck from ``stuck_from`` s (3 m, 0.5 m/s: in DESCEND at 2.6 m, in ARMED at 1.35 m): the
+    landing is aborted within the window and a few samples, a climb setpoint and LOITER asked,
+    the reading never reaching the cut (the script would never have cut on it)."""
+    m, act = at_descend()
+    last = fly(m, 3.0, 10.0, stuck_from=stuck_from)
+    assert m.name == "ABORTED", m.history
+    assert m.history[-2]["to"] == where
+    reason = m.history[-1]["reason"]
+    assert re.match(r"range stuck: 0\.0\d m of change over 0\.6\d s while the vehicle descended 0\.3", reason)
+    assert last.t - 100.0 - stuck_from <= 0.6 + 0.1  # at most the window and a sample
+    assert ("hold", 0.3) in act.calls and ("set_mode", "LOITER") in act.calls
+    assert "CUT" not in [h["to"] for h in m.history]
+
+
+def test_a_hover_with_a_stuck_range_is_not_judged():
+    """ARMED hovers until the script reports its reflex armed: a range that does not move then is
+    not stuck (the vehicle reports no descent); the abort is the confirm time-out's."""
+    m, _ = at_descend()
+    last = fly(m, 1.6, 0.3, script=0)
+    assert m.name == "ARMED"
+    t = last.t
+    for k in range(1, 50):
+        m.step(replace(last, t=t + 0.02 * k, range_t=t + 0.02 * k, climb_mps=0.0))
+    assert m.name == "ABORTED" and "not armed" in m.history[-1]["reason"], m.history[-1]
+
+
+def test_the_watcher_needs_the_window_and_the_samples():
+    """Judged only over a full window and at least ``stuck_min_samples`` distinct readings; a
+    reading repeated (the same time) is one sample; no descent known starts over."""
+    cfg = load_config()
+    w = StuckRange(cfg)
+    assert w.feed(0.0, 2.0, 0.5) is None
+    assert w.feed(0.3, 2.0, 0.5) is None
+    assert w.feed(0.3, 2.0, 0.5) is None
+    assert w.feed(0.6, 2.0, 0.5) is not None  # 3 readings over 0.6 s, none moved
+    w = StuckRange(cfg)
+    for t in (0.0, 0.6):  # two readings a window apart: too few
+        assert w.feed(t, 2.0, 0.5) is None
+    w = StuckRange(cfg)
+    for t in (0.0, 0.3, 0.6):
+        assert w.feed(t, 2.0, None if t == 0.3 else 0.5) is None
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("stuck_window_s", 0.1), ("stuck_window_s", 5.0), ("stuck_fraction", 0.0), ("stuck_fraction", 1.0),
+     ("stuck_min_samples", 2), ("stuck_min_samples", 3.5)],
+)  # fmt: skip
+def test_the_stuck_range_settings_are_bounded(tmp_path, key, value):
+    path = tmp_path / "c.yaml"
+    path.write_text(f"range:\n  {key}: {value}\n")
+    with pytest.raises(ConfigError, match=f"range.{key}"):
+        load_config(path)
