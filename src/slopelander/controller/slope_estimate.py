@@ -790,6 +790,116 @@ class PlaneEstimate:
         return est
 
 
+def _coverage_refusal(
+    dirs: list[float],
+    proj: list[np.ndarray],
+    legs: list[np.ndarray],
+    extents: tuple[float, ...],
+    st: EstimateSettings,
+) -> str | None:
+    """Why the points do not see enough of the surface along each direction (the baseline, and
+    both sides of the spot), or None."""
+    for d, p, m, ext in zip(dirs, proj, legs, extents, strict=True):
+        if ext < st.min_baseline_m:
+            return (
+                f"{LACK}: the points span {ext:.2f} m along {d:.0f} deg ({st.min_baseline_m:g} m needed "
+                "two ways: the slope across the pass is unseen)"
+            )
+        behind, ahead = -float(p[m].min()), float(p[m].max())
+        if min(behind, ahead) < st.min_side_m:
+            toward = d if ahead < behind else d + 180.0
+            return (
+                f"{LACK}: surface seen only {min(behind, ahead):.2f} m toward {az_text(toward)} of the spot "
+                f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
+            )
+    return None
+
+
+def _own_runs(legs: list[np.ndarray], far: np.ndarray, groups: np.ndarray) -> list[np.ndarray]:
+    """Each leg's own points: the run of its own clear of the crossing, with its stretch near the
+    spot (a slow height wander offsets one leg from the other, so each side is fitted from one)."""
+    own = []
+    for k, m in enumerate(legs):
+        clear = m & far & ~legs[1 - k]
+        label = np.bincount(groups[clear]).argmax() if clear.any() else -1
+        own.append(m & (groups == label))
+    return own
+
+
+def _side_slopes(
+    p: np.ndarray, hh: np.ndarray, m: np.ndarray, st: EstimateSettings
+) -> list[tuple[float, float]]:
+    """The slope (deg) and its standard error before and beyond the spot along one direction, for
+    each side seen well enough to fit a line."""
+    sides = []
+    for side in (m & (p < 0), m & (p >= 0)):
+        if np.count_nonzero(side) >= max(5, st.min_points // 4) and np.ptp(p[side]) >= 0.5 * st.min_side_m:
+            f = fit_line(p[side], hh[side])
+            sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
+    return sides
+
+
+def _one_plane_refusal(
+    est: PlaneEstimate,
+    dirs: list[float],
+    axes: list[np.ndarray],
+    proj: list[np.ndarray],
+    own: list[np.ndarray],
+    xy: np.ndarray,
+    h: np.ndarray,
+) -> str | None:
+    """Why the two sides of the spot are not one plane along some direction (a ridge or an edge
+    under the path), or None; keeps in ``est.sides_deg`` the two sides that differ most."""
+    g = np.array(est.gradient)
+    for d, ax, p, m in zip(dirs, axes, proj, own, strict=True):
+        across = np.array([-ax[1], ax[0]])
+        hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
+        sides = _side_slopes(p, hh, m, est.settings)
+        if len(sides) != 2:
+            continue
+        diff = abs(sides[0][0] - sides[1][0])
+        allowed = 3.0 * math.hypot(sides[0][1], sides[1][1]) + est.settings.plane_tolerance_deg
+        if est.sides_deg is None or diff > abs(est.sides_deg[0] - est.sides_deg[1]):
+            est.sides_deg = (sides[0][0], sides[1][0])
+        if diff > allowed:
+            return (
+                f"the surface is not one plane: toward {az_text(d)} it falls "
+                f"{sides[0][0]:.1f} deg before the spot and {sides[1][0]:.1f} deg beyond it "
+                "(a ridge or an edge under the path)"
+            )
+    return None
+
+
+def _jackknife_cov(
+    t: np.ndarray,
+    ne: tuple[np.ndarray, np.ndarray],
+    h: np.ndarray,
+    groups: np.ndarray,
+    proj: list[np.ndarray],
+    legs: list[np.ndarray],
+    extents: tuple[float, ...],
+) -> np.ndarray | None:
+    """The gradient's covariance from the block jackknife in time order, leaving out each block
+    that still leaves every leg a quarter of its extent; None with fewer than 3 such fits."""
+    dn, de = ne
+    order = np.argsort(t)
+    leave = []
+    for b in np.array_split(order, JACKKNIFE_BLOCKS):
+        keep = np.ones(t.size, bool)
+        keep[b] = False
+        if keep.sum() >= 3 and all(
+            np.ptp(p[keep & m]) > 0.25 * ext
+            for p, m, ext in zip(proj, legs, extents, strict=True)
+            if (keep & m).any()
+        ):
+            leave.append(fit_plane(dn[keep], de[keep], h[keep], groups[keep]).gradient)
+    k = len(leave)
+    if k < 3:
+        return None
+    d = np.array(leave) - np.mean(leave, axis=0)
+    return (k - 1) / k * (d.T @ d)
+
+
 def estimate_plane(
     points: list[tuple[float, float, float, float]],
     spot_ne: tuple[float, float],
@@ -829,21 +939,9 @@ def estimate_plane(
     proj = [xy @ ax for ax in axes]
     legs = [np.abs(xy @ _unit(d + 90.0)) <= LEG_BAND_M for d in dirs]
     est.extents_m = tuple(float(np.ptp(p[m])) for p, m in zip(proj, legs, strict=True))
-    for d, p, m, ext in zip(dirs, proj, legs, est.extents_m, strict=True):
-        if ext < st.min_baseline_m:
-            est.refusal = (
-                f"{LACK}: the points span {ext:.2f} m along {d:.0f} deg ({st.min_baseline_m:g} m needed "
-                "two ways: the slope across the pass is unseen)"
-            )
-            return est
-        behind, ahead = -float(p[m].min()), float(p[m].max())
-        if min(behind, ahead) < st.min_side_m:
-            toward = d if ahead < behind else d + 180.0
-            est.refusal = (
-                f"{LACK}: surface seen only {min(behind, ahead):.2f} m toward {az_text(toward)} of the spot "
-                f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
-            )
-            return est
+    est.refusal = _coverage_refusal(dirs, proj, legs, est.extents_m, st)
+    if est.refusal is not None:
+        return est
     far = np.hypot(dn, de) >= max(0.1, 0.5 * st.min_side_m)
     groups = _leg_labels(t, [m & far for m in legs])
     fit = fit_plane(dn, de, h, groups)
@@ -863,53 +961,14 @@ def estimate_plane(
             f"({st.min_inlier_fraction:.0%} needed): the surface under the pass is not flat"
         )
         return est
-    # the two sides of the spot along each direction, from that leg's points alone (a slow height
-    # wander offsets one leg from the other): one plane has one slope there
-    g = np.array(fit.gradient)
-    own = []  # each leg's points: the run of its own clear of the crossing, with its stretch near the spot
-    for k, m in enumerate(legs):
-        clear = m & far & ~legs[1 - k]
-        label = np.bincount(groups[clear]).argmax() if clear.any() else -1
-        own.append(m & (groups == label))
-    for d, ax, p, m in zip(dirs, axes, proj, own, strict=True):
-        across = np.array([-ax[1], ax[0]])
-        hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
-        sides = []
-        for side in (m & (p < 0), m & (p >= 0)):
-            if (
-                np.count_nonzero(side) >= max(5, st.min_points // 4)
-                and np.ptp(p[side]) >= 0.5 * st.min_side_m
-            ):
-                f = fit_line(p[side], hh[side])
-                sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
-        if len(sides) == 2:
-            diff = abs(sides[0][0] - sides[1][0])
-            allowed = 3.0 * math.hypot(sides[0][1], sides[1][1]) + st.plane_tolerance_deg
-            if est.sides_deg is None or diff > abs(est.sides_deg[0] - est.sides_deg[1]):
-                est.sides_deg = (sides[0][0], sides[1][0])
-            if diff > allowed:
-                est.refusal = (
-                    f"the surface is not one plane: toward {az_text(d)} it falls "
-                    f"{sides[0][0]:.1f} deg before the spot and {sides[1][0]:.1f} deg beyond it "
-                    "(a ridge or an edge under the path)"
-                )
-                return est
-    # block jackknife in time order
-    order = np.argsort(t)
-    leave = []
-    for b in np.array_split(order, JACKKNIFE_BLOCKS):
-        keep = np.ones(t.size, bool)
-        keep[b] = False
-        if keep.sum() >= 3 and all(
-            np.ptp(p[keep & m]) > 0.25 * ext
-            for p, m, ext in zip(proj, legs, est.extents_m, strict=True)
-            if (keep & m).any()
-        ):
-            leave.append(fit_plane(dn[keep], de[keep], h[keep], groups[keep]).gradient)
-    k = len(leave)
-    if k >= 3:
-        d = np.array(leave) - np.mean(leave, axis=0)
-        est.cov_jack = (k - 1) / k * (d.T @ d)
+    # the two sides of the spot along each direction, from that leg's points alone: one plane has
+    # one slope there
+    est.refusal = _one_plane_refusal(est, dirs, axes, proj, _own_runs(legs, far, groups), xy, h)
+    if est.refusal is not None:
+        return est
+    cov = _jackknife_cov(t, (dn, de), h, groups, proj, legs, est.extents_m)
+    if cov is not None:
+        est.cov_jack = cov
     return est
 
 
