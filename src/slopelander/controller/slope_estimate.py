@@ -427,6 +427,42 @@ def walk_gradient_se(t: np.ndarray, x: np.ndarray, w: np.ndarray, walk: float) -
     return walk * math.sqrt(float((gaps * after[1:] ** 2).sum()))
 
 
+def _line_coverage_refusal(
+    n: int, baseline_m: float, behind: float, ahead: float, st: EstimateSettings
+) -> str | None:
+    """Why ``n`` points spanning ``baseline_m`` (``behind`` and ``ahead`` of the spot, m) are too
+    few or too short a stretch to fit the slope from, or None."""
+    if n < st.min_points:
+        return f"{LACK}: {n} points, {st.min_points} needed"
+    if baseline_m < st.min_baseline_m:
+        return f"{LACK}: the points span {baseline_m:.2f} m, {st.min_baseline_m:g} m needed"
+    if min(behind, ahead) < st.min_side_m:
+        side = "south" if behind < ahead else "north"
+        return (
+            f"{LACK}: surface seen only {min(behind, ahead):.2f} m {side} of the spot "
+            f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
+        )
+    return None
+
+
+def _line_jackknife_deg(t: np.ndarray, x: np.ndarray, h: np.ndarray, baseline_m: float) -> float:
+    """The slope's block jackknife error (deg) in time order, leaving out each block that still
+    leaves a quarter of the baseline; inf with fewer than 3 such fits."""
+    order = np.argsort(t)
+    leave = []
+    for b in np.array_split(order, JACKKNIFE_BLOCKS):
+        keep = np.ones(x.size, bool)
+        keep[b] = False
+        if np.ptp(x[keep]) > 0.25 * baseline_m and keep.sum() >= 2:
+            leave.append(_deg(fit_line(x[keep], h[keep]).gradient))
+    k = len(leave)
+    return (
+        math.sqrt((k - 1) / k * float(np.sum((np.array(leave) - np.mean(leave)) ** 2)))
+        if k >= 3
+        else math.inf
+    )
+
+
 def estimate(
     points: list[tuple[float, float, float]], spot_x_m: float, settings: EstimateSettings | None = None
 ) -> SlopeEstimate:
@@ -449,18 +485,8 @@ def estimate(
     est.baseline_m = float(x.max() - x.min())
     behind, ahead = spot_x_m - float(x.min()), float(x.max()) - spot_x_m
     est.points = [(float(a), float(b), float(c), 1.0) for a, b, c in near]
-    if len(near) < st.min_points:
-        est.refusal = f"{LACK}: {len(near)} points, {st.min_points} needed"
-        return est
-    if est.baseline_m < st.min_baseline_m:
-        est.refusal = f"{LACK}: the points span {est.baseline_m:.2f} m, {st.min_baseline_m:g} m needed"
-        return est
-    if min(behind, ahead) < st.min_side_m:
-        side = "south" if behind < ahead else "north"
-        est.refusal = (
-            f"{LACK}: surface seen only {min(behind, ahead):.2f} m {side} of the spot "
-            f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
-        )
+    est.refusal = _line_coverage_refusal(len(near), est.baseline_m, behind, ahead, st)
+    if est.refusal is not None:
         return est
     fit = fit_line(x, h)
     est.points = [
@@ -478,11 +504,7 @@ def estimate(
         )
         return est
     # the two sides of the spot: one plane has one slope (a ridge or a gutter under the path does not)
-    sides = []
-    for m in (x < spot_x_m, x >= spot_x_m):
-        if np.count_nonzero(m) >= max(5, st.min_points // 4) and np.ptp(x[m]) >= 0.5 * st.min_side_m:
-            f = fit_line(x[m], h[m])
-            sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
+    sides = _side_slopes(x, h, (x < spot_x_m, x >= spot_x_m), st)
     if len(sides) == 2:
         est.sides_deg = (sides[0][0], sides[1][0])
         diff = abs(sides[0][0] - sides[1][0])
@@ -493,21 +515,7 @@ def estimate(
                 f"{sides[1][0]:.1f} deg north of it (a ridge or an edge under the path)"
             )
             return est
-    # block jackknife in time order
-    order = np.argsort(t)
-    blocks = np.array_split(order, JACKKNIFE_BLOCKS)
-    leave = []
-    for b in blocks:
-        keep = np.ones(x.size, bool)
-        keep[b] = False
-        if np.ptp(x[keep]) > 0.25 * est.baseline_m and keep.sum() >= 2:
-            leave.append(_deg(fit_line(x[keep], h[keep]).gradient))
-    k = len(leave)
-    jack = (
-        math.sqrt((k - 1) / k * float(np.sum((np.array(leave) - np.mean(leave)) ** 2)))
-        if k >= 3
-        else math.inf
-    )
+    jack = _line_jackknife_deg(t, x, h, est.baseline_m)
     walk = _deg_se(fit.gradient, walk_gradient_se(t, x, fit.weights, st.height_walk_m))
     stat = max(jack, math.hypot(_deg_se(fit.gradient, fit.gradient_se), walk))
     att = math.sin(math.radians(slope)) ** 2 * st.attitude_error_deg
@@ -827,16 +835,16 @@ def _own_runs(legs: list[np.ndarray], far: np.ndarray, groups: np.ndarray) -> li
 
 
 def _side_slopes(
-    p: np.ndarray, hh: np.ndarray, m: np.ndarray, st: EstimateSettings
+    p: np.ndarray, h: np.ndarray, sides: tuple[np.ndarray, np.ndarray], st: EstimateSettings
 ) -> list[tuple[float, float]]:
-    """The slope (deg) and its standard error before and beyond the spot along one direction, for
-    each side seen well enough to fit a line."""
-    sides = []
-    for side in (m & (p < 0), m & (p >= 0)):
+    """The slope (deg) and its standard error of the heights ``h`` along ``p`` before and beyond
+    the spot (the two masks ``sides``), for each side seen well enough to fit a line."""
+    out = []
+    for side in sides:
         if np.count_nonzero(side) >= max(5, st.min_points // 4) and np.ptp(p[side]) >= 0.5 * st.min_side_m:
-            f = fit_line(p[side], hh[side])
-            sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
-    return sides
+            f = fit_line(p[side], h[side])
+            out.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
+    return out
 
 
 def _one_plane_refusal(
@@ -854,7 +862,7 @@ def _one_plane_refusal(
     for d, ax, p, m in zip(dirs, axes, proj, own, strict=True):
         across = np.array([-ax[1], ax[0]])
         hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
-        sides = _side_slopes(p, hh, m, est.settings)
+        sides = _side_slopes(p, hh, (m & (p < 0), m & (p >= 0)), est.settings)
         if len(sides) != 2:
             continue
         diff = abs(sides[0][0] - sides[1][0])
