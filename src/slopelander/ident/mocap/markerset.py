@@ -147,11 +147,26 @@ def _conditions(path: Path, where: str, doc: object) -> dict[str, Any]:
     return out
 
 
-def load_markerset(path: str | Path) -> MarkerSet:
-    """Read and check a markers file (docs/import.md)."""
+_TOP_KEYS = {
+    "schema",
+    "units",
+    "body",
+    "roof",
+    "feet",
+    "up_axis",
+    "latency_s",
+    "rates",
+    "planarity",
+    "keep",
+    "conditions",
+    "takes",
+}
+
+
+def _read_yaml(path: Path) -> dict:
+    """The file's YAML mapping; a file that cannot be read or parsed is named with its line."""
     import yaml
 
-    path = Path(path)
     try:
         doc = yaml.safe_load(path.read_text())
     except OSError as exc:
@@ -162,25 +177,11 @@ def load_markerset(path: str | Path) -> MarkerSet:
         raise _err(path, where, f"not valid YAML: {getattr(exc, 'problem', exc)}") from None
     if not isinstance(doc, dict):
         raise _err(path, "<yaml>", "must be a mapping")
-    _keys(
-        path,
-        "",
-        doc,
-        {
-            "schema",
-            "units",
-            "body",
-            "roof",
-            "feet",
-            "up_axis",
-            "latency_s",
-            "rates",
-            "planarity",
-            "keep",
-            "conditions",
-            "takes",
-        },
-    )
+    return doc
+
+
+def _length_scale(path: Path, doc: dict) -> float:
+    """Metres per unit of the file's lengths, once the schema is known to be ours."""
     if doc.get("schema") != SCHEMA:
         raise _err(path, "schema", f"must be '{SCHEMA}', got {doc.get('schema')!r}")
     units = doc.get("units")
@@ -188,8 +189,40 @@ def load_markerset(path: str | Path) -> MarkerSet:
         raise _err(
             path, "units", f"{units!r}: say the unit of this file's lengths, one of {', '.join(_UNITS)}"
         )
-    s = _UNITS[units]
+    return _UNITS[units]
 
+
+def _rigid_body(path: Path, body_doc: dict, s: float) -> RigidBodySpec:
+    """The rigid body the capture software solved, its centre of mass and its axes."""
+    if "markers" in body_doc:
+        raise _err(path, "body", "give either markers or rigid_body, not both")
+    rigid = RigidBodySpec(
+        str(body_doc["rigid_body"]),
+        _vector(path, "body.centre_of_mass", body_doc.get("centre_of_mass", [0, 0, 0]), s),
+        _axis(path, "body.forward", body_doc.get("forward", "+X")),
+        _axis(path, "body.up", body_doc.get("up", "+Z")),
+    )
+    if rigid.forward.strip("+-") == rigid.up.strip("+-"):
+        raise _err(path, "body.up", f"the same axis as body.forward ({rigid.forward})")
+    return rigid
+
+
+def _body_markers(path: Path, raw: object, s: float) -> dict[str, np.ndarray]:
+    """The cluster's markers in the body frame (m): at least 3, not on one line, so that the
+    pose can be found from them."""
+    if not isinstance(raw, dict) or len(raw) < 3:
+        raise _err(path, "body.markers", "need at least 3 markers: name: [x, y, z] in the body frame")
+    body = {str(name): _vector(path, f"body.markers.{name}", v, s) for name, v in raw.items()}
+    pts = np.array(list(body.values()))
+    sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
+    if sv[1] < 1e-3 * max(sv[0], 1e-12) or sv[0] < 1e-3:
+        raise _err(path, "body.markers", "the markers lie on one line: their pose cannot be found")
+    return body
+
+
+def _body(path: Path, doc: dict, s: float) -> tuple[dict[str, np.ndarray], RigidBodySpec | None, float]:
+    """The ``body`` section: the cluster's markers or the solved rigid body, and how far (m) a
+    marker may stray from the cluster's shape."""
     body_doc = doc.get("body")
     if not isinstance(body_doc, dict):
         raise _err(path, "body", "missing: name the body's markers (or its rigid body)")
@@ -202,94 +235,103 @@ def load_markerset(path: str | Path) -> MarkerSet:
     body: dict[str, np.ndarray] = {}
     rigid = None
     if "rigid_body" in body_doc:
-        if "markers" in body_doc:
-            raise _err(path, "body", "give either markers or rigid_body, not both")
-        rigid = RigidBodySpec(
-            str(body_doc["rigid_body"]),
-            _vector(path, "body.centre_of_mass", body_doc.get("centre_of_mass", [0, 0, 0]), s),
-            _axis(path, "body.forward", body_doc.get("forward", "+X")),
-            _axis(path, "body.up", body_doc.get("up", "+Z")),
-        )
-        if rigid.forward.strip("+-") == rigid.up.strip("+-"):
-            raise _err(path, "body.up", f"the same axis as body.forward ({rigid.forward})")
+        rigid = _rigid_body(path, body_doc, s)
     else:
-        raw = body_doc.get("markers")
-        if not isinstance(raw, dict) or len(raw) < 3:
-            raise _err(path, "body.markers", "need at least 3 markers: name: [x, y, z] in the body frame")
-        for name, v in raw.items():
-            body[str(name)] = _vector(path, f"body.markers.{name}", v, s)
-        pts = np.array(list(body.values()))
-        sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
-        if sv[1] < 1e-3 * max(sv[0], 1e-12) or sv[0] < 1e-3:
-            raise _err(path, "body.markers", "the markers lie on one line: their pose cannot be found")
+        body = _body_markers(path, body_doc.get("markers"), s)
     tol = _number(path, "body.rigid_tolerance", body_doc.get("rigid_tolerance", 0.005 / s), 0.0) * s
+    return body, rigid, tol
 
+
+def _roof_plane(path: Path, p: object, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """A roof given as a plane: a point on it (m) and its unit normal, in the capture's axes."""
+    if not isinstance(p, dict) or set(p) != {"point", "normal"}:
+        raise _err(path, "roof.plane", "must be {point: [x, y, z], normal: [x, y, z]} in the capture's axes")
+    n = _vector(path, "roof.plane.normal", p["normal"], 1.0)
+    if np.linalg.norm(n) < 1e-9:
+        raise _err(path, "roof.plane.normal", "is zero")
+    return _vector(path, "roof.plane.point", p["point"], s), n / np.linalg.norm(n)
+
+
+def _roof(
+    path: Path, doc: dict, s: float
+) -> tuple[tuple[str, ...], float, tuple[np.ndarray, np.ndarray] | None]:
+    """The ``roof`` section: its markers (or its plane) and the markers' height above the surface (m)."""
     roof_doc = doc.get("roof")
     if not isinstance(roof_doc, dict):
         raise _err(path, "roof", "missing: name the roof's markers (or give its plane)")
     _keys(path, "roof.", roof_doc, {"markers", "plane", "marker_height"})
     roof_height = _number(path, "roof.marker_height", roof_doc.get("marker_height", 0.0), 0.0) * s
-    roof: tuple[str, ...] = ()
-    plane = None
     if "markers" in roof_doc:
         raw = roof_doc["markers"]
         if not isinstance(raw, list) or len(raw) < 3:
             raise _err(path, "roof.markers", "need a list of at least 3 markers on the surface")
-        roof = tuple(str(m) for m in raw)
-    elif "plane" in roof_doc:
-        p = roof_doc["plane"]
-        if not isinstance(p, dict) or set(p) != {"point", "normal"}:
-            raise _err(
-                path, "roof.plane", "must be {point: [x, y, z], normal: [x, y, z]} in the capture's axes"
-            )
-        n = _vector(path, "roof.plane.normal", p["normal"], 1.0)
-        if np.linalg.norm(n) < 1e-9:
-            raise _err(path, "roof.plane.normal", "is zero")
-        plane = (_vector(path, "roof.plane.point", p["point"], s), n / np.linalg.norm(n))
-    else:
-        raise _err(path, "roof", "give markers: [...] or plane: {point, normal}")
+        return tuple(str(m) for m in raw), roof_height, None
+    if "plane" in roof_doc:
+        return (), roof_height, _roof_plane(path, roof_doc["plane"], s)
+    raise _err(path, "roof", "give markers: [...] or plane: {point, normal}")
 
+
+def _feet(path: Path, doc: dict, s: float, others: set[str]) -> tuple[tuple[str, ...], float]:
+    """The optional ``feet`` section: the foot markers (none of the body's or roof's ``others``)
+    and their height above the roof (m) when a foot touches."""
     feet_doc = doc.get("feet")
-    feet: tuple[str, ...] = ()
-    foot_height = 0.0
-    if feet_doc is not None:
-        if not isinstance(feet_doc, dict):
-            raise _err(path, "feet", "must be {markers: [...], marker_height: h}")
-        _keys(path, "feet.", feet_doc, {"markers", "marker_height"})
-        raw = feet_doc.get("markers")
-        if not isinstance(raw, list) or not raw:
-            raise _err(path, "feet.markers", "need a list of the markers on the feet (one or more)")
-        feet = tuple(str(m) for m in raw)
-        clash = [m for m in feet if m in body or m in roof]
-        if clash:
-            raise _err(path, "feet.markers", f"{', '.join(clash)} is also a body or roof marker")
-        if "marker_height" not in feet_doc:
-            raise _err(
-                path,
-                "feet.marker_height",
-                "missing: the height of a foot marker's centre above the roof when its foot touches",
-            )
-        foot_height = _number(path, "feet.marker_height", feet_doc["marker_height"], 0.0) * s
+    if feet_doc is None:
+        return (), 0.0
+    if not isinstance(feet_doc, dict):
+        raise _err(path, "feet", "must be {markers: [...], marker_height: h}")
+    _keys(path, "feet.", feet_doc, {"markers", "marker_height"})
+    raw = feet_doc.get("markers")
+    if not isinstance(raw, list) or not raw:
+        raise _err(path, "feet.markers", "need a list of the markers on the feet (one or more)")
+    feet = tuple(str(m) for m in raw)
+    clash = [m for m in feet if m in others]
+    if clash:
+        raise _err(path, "feet.markers", f"{', '.join(clash)} is also a body or roof marker")
+    if "marker_height" not in feet_doc:
+        raise _err(
+            path,
+            "feet.marker_height",
+            "missing: the height of a foot marker's centre above the roof when its foot touches",
+        )
+    return feet, _number(path, "feet.marker_height", feet_doc["marker_height"], 0.0) * s
 
-    up_axis = _axis(path, "up_axis", doc["up_axis"]) if "up_axis" in doc else None
-    rates = doc.get("rates") or {}
-    _keys(path, "rates.", rates, {"window_s", "polyorder"})
-    plan = doc.get("planarity") or {}
-    _keys(path, "planarity.", plan, {"lateral", "yaw_deg", "roll_deg"})
-    keep = doc.get("keep") or {}
-    _keys(path, "keep.", keep, {"before_s", "after_s"})
 
+def _section(path: Path, doc: dict, name: str, known: set[str]) -> dict:
+    """An optional section of settings (empty when absent), refusing keys it does not know."""
+    section = doc.get(name) or {}
+    _keys(path, f"{name}.", section, known)
+    return section
+
+
+def _takes(path: Path, doc: dict) -> tuple[dict[str, dict[str, Any]], Path | None]:
+    """Each take's conditions, from the file itself or from the CSV table it names (returned too)."""
     takes_doc = doc.get("takes")
-    takes: dict[str, dict[str, Any]] = {}
-    table = None
     if isinstance(takes_doc, str):
         table = path.parent / takes_doc
-        takes = _takes_table(table)
-    elif isinstance(takes_doc, dict):
-        for name, entry in takes_doc.items():
-            takes[str(name)] = _conditions(path, f"takes.{name}", entry)
-    elif takes_doc is not None:
+        return _takes_table(table), table
+    if isinstance(takes_doc, dict):
+        return {
+            str(name): _conditions(path, f"takes.{name}", entry) for name, entry in takes_doc.items()
+        }, None
+    if takes_doc is not None:
         raise _err(path, "takes", "a mapping take: {conditions} or the name of a CSV table")
+    return {}, None
+
+
+def load_markerset(path: str | Path) -> MarkerSet:
+    """Read and check a markers file (docs/import.md)."""
+    path = Path(path)
+    doc = _read_yaml(path)
+    _keys(path, "", doc, _TOP_KEYS)
+    s = _length_scale(path, doc)
+    body, rigid, tol = _body(path, doc, s)
+    roof, roof_height, plane = _roof(path, doc, s)
+    feet, foot_height = _feet(path, doc, s, set(body) | set(roof))
+    up_axis = _axis(path, "up_axis", doc["up_axis"]) if "up_axis" in doc else None
+    rates = _section(path, doc, "rates", {"window_s", "polyorder"})
+    plan = _section(path, doc, "planarity", {"lateral", "yaw_deg", "roll_deg"})
+    keep = _section(path, doc, "keep", {"before_s", "after_s"})
+    takes, table = _takes(path, doc)
     return MarkerSet(
         path,
         body,
