@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from slopelander.ident.mocap.formats import read_take, write_c3d
-from tests.ident.mocap_files import motive_csv, vicon_csv
+from slopelander.ident.mocap.take import MocapError
+from tests.ident.mocap_files import motive_csv, qualisys_tsv, vicon_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "docs" / "examples" / "mocap"
@@ -191,3 +192,80 @@ def test_a_motive_rigid_body_exported_with_euler_angles(lab):
     assert_refused(
         run_import(lab, "drop01.csv"), lab, "drop01.csv", "field 'body.rigid_body'", "export quaternions"
     )
+
+
+def _drop_motive_column(path: Path, marker: str, axis: str) -> None:
+    """The Motive export without one Position column of ``marker`` (every row under the
+    key/value first line loses that cell)."""
+    lines = path.read_text().splitlines()
+    rows = [r.split(",") for r in lines[2:]]
+    j = next(j for j in range(len(rows[4])) if rows[1][j] == marker and rows[4][j] == axis)
+    path.write_text("\n".join(lines[:2] + [",".join(r[:j] + r[j + 1 :]) for r in rows]) + "\n")
+
+
+def test_a_motive_marker_without_its_z_column(lab):
+    tk = read_take(lab / "drop01.c3d")
+    motive_csv(lab / "drop01.csv", list(tk.labels), tk.xyz, tk.rate)
+    _drop_motive_column(lab / "drop01.csv", "TOP", "Z")
+    line = assert_refused(
+        run_import(lab, "drop01.csv"), lab, "drop01.csv", "take 'drop01'", "field 'TOP Position'"
+    )
+    assert "expected one X, Y and Z column, found 2 (X, Y)" in line
+
+
+@pytest.mark.parametrize(
+    ("edit", "field", "words"),
+    [
+        (lambda rows: rows, None, None),  # the file as Motive writes it reads
+        (lambda rows: [r[:-1] for r in rows], "B Position", "found 2 (X, Y)"),
+        (lambda rows: [[*r, r[-1]] for r in rows], "B Position", "found 4 (X, Y, Z, Z)"),
+        (lambda rows: [[*r[:-2], r[-1], r[-1]] for r in rows], "B Position", "found 3 (X, Z, Z)"),
+    ],
+)
+def test_a_motive_marker_with_other_than_three_position_columns(tmp_path, edit, field, words):
+    xyz = np.arange(10 * 2 * 3, dtype=float).reshape(10, 2, 3)
+    path = tmp_path / "take.csv"
+    motive_csv(path, ["A", "B"], xyz, 100.0)
+    lines = path.read_text().splitlines()
+    rows = [r.split(",") for r in lines[2:]]
+    path.write_text("\n".join(lines[:2] + [",".join(r) for r in edit(rows)]) + "\n")
+    if field is None:
+        np.testing.assert_allclose(read_take(path).xyz, xyz, atol=1e-6)
+        return
+    with pytest.raises(MocapError) as err:
+        read_take(path)
+    msg = str(err.value)
+    assert str(path) in msg and "take 'take'" in msg and f"field '{field}'" in msg and words in msg, msg
+
+
+@pytest.mark.parametrize(
+    ("edit", "field", "words"),
+    [
+        (lambda t: t, None, None),
+        (
+            lambda t: t.replace("MARKER_NAMES\tA\tB", "MARKER_NAMES\tA\t\tB"),
+            "MARKER_NAMES",
+            "marker 2 has no name",
+        ),
+        (lambda t: t.replace("\tB X\tB Y\tB Z", "\tB X\tB Y"), "line 12, column 8", "expected 'B Z'"),
+        (
+            lambda t: t.replace("MARKER_NAMES\tA\tB", "MARKER_NAMES\tB\tA"),
+            "line 12, column 3",
+            "expected 'B X'",
+        ),
+    ],
+)
+def test_qualisys_columns_that_do_not_match_the_marker_names(tmp_path, edit, field, words):
+    """An empty name or a column header at odds with MARKER_NAMES would shift every marker's
+    columns silently."""
+    xyz = np.arange(1, 10 * 2 * 3 + 1, dtype=float).reshape(10, 2, 3) * 1e-3
+    path = tmp_path / "take.tsv"
+    qualisys_tsv(path, ["A", "B"], xyz, 100.0)
+    path.write_text(edit(path.read_text()))
+    if field is None:
+        np.testing.assert_allclose(read_take(path).xyz, xyz, atol=1e-6)
+        return
+    with pytest.raises(MocapError) as err:
+        read_take(path)
+    msg = str(err.value)
+    assert str(path) in msg and f"field '{field}'" in msg and words in msg, msg
