@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import reprlib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -242,6 +243,10 @@ def _read_landing(path: Path, text: str, raw: object) -> LandingConditions:
             )
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise RecordingError(path, _json_line(text, key), f"conditions.{key}", f"{v!r} is not a number")
+        if isinstance(v, int) and not -1e308 < v < 1e308:
+            raise RecordingError(
+                path, _json_line(text, key), f"conditions.{key}", f"{reprlib.repr(v)} is beyond any float"
+            )
     for key in ("slope_deg", "speed"):
         if key not in raw:
             raise RecordingError(path, _json_line(text, "conditions"), f"conditions.{key}", "missing")
@@ -258,7 +263,7 @@ def _read_outcome(path: Path, text: str, outcome: object) -> Outcome | None:
     """The observed outcome by its lower-case name, or None when the drop has none."""
     if outcome is None:
         return None
-    if outcome not in OUTCOME_NAMES:
+    if not isinstance(outcome, str) or outcome not in OUTCOME_NAMES:
         raise RecordingError(
             path,
             _json_line(text, "outcome"),
@@ -274,11 +279,14 @@ def _savgol_rates_ok(rates: dict[str, Any]) -> bool:
     return bool(
         isinstance(win, int)
         and isinstance(order, int)
+        and not isinstance(win, bool)
+        and not isinstance(order, bool)
         and isinstance(dt, (int, float))
+        and not isinstance(dt, bool)
         and win >= 3
         and win % 2
         and 1 <= order < win
-        and dt > 0
+        and 0 < dt < 1e308
     )
 
 
@@ -295,7 +303,7 @@ def _other_rates_ok(rates: object) -> bool:
 def _read_meta(path: Path, text: str, meta: object) -> dict[str, Any]:
     """The ``meta`` object (empty when absent); its ``rates`` say how the rate columns were made
     (load_drop checks the frames against them), so they are checked here."""
-    meta = meta or {}
+    meta = {} if meta is None else meta
     if not isinstance(meta, dict):
         raise RecordingError(path, _json_line(text, "meta"), "meta", "must be an object")
     rates = meta.get("rates")
@@ -317,6 +325,17 @@ def _read_meta(path: Path, text: str, meta: object) -> dict[str, Any]:
     return meta
 
 
+def _read_source(path: Path, text: str, source: object) -> str:
+    """The free-text note of where the data came from ("" when absent)."""
+    if source is None:
+        return ""
+    if not isinstance(source, str):
+        raise RecordingError(
+            path, _json_line(text, "source"), "source", f"must be text, got {reprlib.repr(source)}"
+        )
+    return source
+
+
 def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None, str, dict[str, Any]]:
     """Conditions, observed outcome, source note and extra metadata of one JSON sidecar."""
     path = Path(path)
@@ -324,7 +343,7 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
     cond = _read_landing(path, text, doc.get("conditions"))
     outcome = _read_outcome(path, text, doc.get("outcome"))
     meta = _read_meta(path, text, doc.get("meta"))
-    return cond, outcome, str(doc.get("source", "")), meta
+    return cond, outcome, _read_source(path, text, doc.get("source")), meta
 
 
 def load_drop(csv_path: str | Path) -> Drop:

@@ -203,7 +203,15 @@ def _numbers(path: Path, take: str, rows: list[tuple[int, list[str]]], names: li
 
 def _csv_lines(path: Path) -> list[list[str]]:
     """The file's rows as CSV cells (a byte-order mark dropped, bad bytes replaced)."""
-    return list(csv.reader(path.read_text(encoding="utf-8-sig", errors="replace").splitlines()))
+    try:
+        text = path.read_text(encoding="utf-8-sig", errors="replace")
+    except OSError as exc:
+        raise MocapError(path, path.stem, "<file>", f"cannot read: {exc.strerror}") from None
+    lines = text.splitlines()
+    try:
+        return list(csv.reader(lines))
+    except csv.Error as exc:  # e.g. a cell longer than the csv module's field limit
+        raise MocapError(path, path.stem, "<file>", f"not a CSV file ({exc})") from None
 
 
 def _vicon_section(path: Path, take: str, lines: list[list[str]]) -> int:
@@ -323,18 +331,32 @@ def _motive_layout(
 
 def _motive_columns(
     types: list[str], names: list[str], props: list[str], axes: list[str]
-) -> tuple[dict[str, list[int]], dict[str, dict[str, int]]]:
-    """Which columns hold each marker's position, and each rigid body's columns by
-    ``property:axis`` (``Rotation:X``, ``Mean Marker Error:``)."""
-    markers: dict[str, list[int]] = {}
+) -> tuple[dict[str, list[tuple[str, int]]], dict[str, dict[str, int]]]:
+    """Which columns hold each marker's position (axis, column), and each rigid body's columns
+    by ``property:axis`` (``Rotation:X``, ``Mean Marker Error:``)."""
+    markers: dict[str, list[tuple[str, int]]] = {}
     bodies: dict[str, dict[str, int]] = {}
     for j in range(2, len(axes)):
         kind, name, prop, ax = _cell(types, j), _cell(names, j), _cell(props, j), axes[j].strip()
         if kind == "Marker" and prop == "Position":
-            markers.setdefault(name, []).append(j)
+            markers.setdefault(name, []).append((ax, j))
         elif kind == "Rigid Body":
             bodies.setdefault(name, {})[f"{prop}:{ax}"] = j
     return markers, bodies
+
+
+def _motive_marker_xyz(path: Path, take: str, name: str, cols: list[tuple[str, int]]) -> list[int]:
+    """The X, Y and Z columns of one marker's position, in that order: exactly one of each."""
+    found = [ax for ax, _ in cols]
+    if sorted(found) != ["X", "Y", "Z"]:
+        raise MocapError(
+            path,
+            take,
+            f"{name} Position",
+            f"expected one X, Y and Z column, found {len(found)} ({', '.join(a or '?' for a in found)})",
+        )
+    by_axis = dict(cols)
+    return [by_axis[a] for a in "XYZ"]
 
 
 _MOTIVE_BODY = (
@@ -377,21 +399,18 @@ def _motive_bodies(
 
 def read_motive_csv(path: Path) -> Take:
     lines = _csv_lines(path)
-    meta, take, rate, scale = _motive_meta(path, path.stem, lines[0])
+    meta, take, rate, scale = _motive_meta(path, path.stem, lines[0] if lines else [])
     types, names, props, axes, rows = _motive_layout(path, take, lines)
     width = len(axes)
     colnames = [
         f"{names[j] if j < len(names) else ''} {props[j] if j < len(props) else ''} {axes[j]}".strip()
         for j in range(width)
     ]
-    data = _numbers(path, take, rows, colnames, width)
     markers, bodies = _motive_columns(types, names, props, axes)
     labels = tuple(markers)
-    xyz = (
-        np.stack([data[:, markers[m]] for m in labels], axis=1) * scale
-        if labels
-        else np.zeros((len(rows), 0, 3))
-    )
+    xyz_cols = [_motive_marker_xyz(path, take, m, markers[m]) for m in labels]
+    data = _numbers(path, take, rows, colnames, width)
+    xyz = np.stack([data[:, c] for c in xyz_cols], axis=1) * scale if labels else np.zeros((len(rows), 0, 3))
     solved, unusable = _motive_bodies(bodies, data, scale, meta.get("Rotation Type", "Quaternion"))
     return Take(
         path,
@@ -430,6 +449,47 @@ def _qualisys_lead(lines: list[str], i: int) -> tuple[int, int]:
     return 0, i
 
 
+def _qualisys_labels(path: Path, take: str, names: list[str]) -> tuple[str, ...]:
+    """The marker names, in the order of their X, Y, Z columns; an empty name between two
+    others would shift every column after it."""
+    while names and not names[-1]:
+        names = names[:-1]
+    if "" in names:
+        raise MocapError(
+            path,
+            take,
+            "MARKER_NAMES",
+            f"marker {names.index('') + 1} has no name (an empty cell between names)",
+        )
+    return tuple(names)
+
+
+def _qualisys_columns(
+    path: Path, take: str, lines: list[str], first: int, lead: int, labels: tuple[str, ...]
+) -> None:
+    """The column header row (QTM 2019 and later), when there is one, must name each marker's
+    X, Y, Z in the order MARKER_NAMES gives."""
+    if lead == 0:
+        return
+    found = [c.strip() for c in lines[first - 1].split("\t")][lead:]
+    while found and not found[-1]:
+        found.pop()
+    expected = [f"{m} {a}" for m in labels for a in "XYZ"]
+    if found != expected:
+        k = next(
+            (k for k, (f, e) in enumerate(zip(found, expected, strict=False)) if f != e),
+            min(len(found), len(expected)),
+        )
+        got = repr(found[k]) if k < len(found) else "nothing"
+        want = repr(expected[k]) if k < len(expected) else "no more columns"
+        raise MocapError(
+            path,
+            take,
+            f"line {first}, column {lead + k + 1}",
+            f"expected {want} (MARKER_NAMES, three columns X, Y, Z each), found {got}",
+        )
+
+
 def read_qualisys_tsv(path: Path) -> Take:
     take = path.stem
     try:
@@ -445,8 +505,9 @@ def read_qualisys_tsv(path: Path) -> Take:
             "missing: not a Qualisys TSV 3D export (header KEY<tab>value lines)",
         )
     rate = _rate(path, take, "FREQUENCY", (meta["FREQUENCY"] or [""])[0])
-    labels = tuple(m for m in meta["MARKER_NAMES"] if m)
+    labels = _qualisys_labels(path, take, meta["MARKER_NAMES"])
     lead, i = _qualisys_lead(lines, i)
+    _qualisys_columns(path, take, lines, i, lead, labels)
     rows = [(k + 1, lines[k].split("\t")) for k in range(i, len(lines)) if lines[k].strip()]
     if not rows:
         raise MocapError(path, take, "<data>", "no frames")

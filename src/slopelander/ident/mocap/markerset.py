@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import math
+import reprlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -97,11 +98,36 @@ def _err(path: Path, fieldname: str, why: str) -> MocapError:
 
 
 def _number(path: Path, name: str, v: object, lo: float = -math.inf, hi: float = math.inf) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise _err(path, name, f"{v!r} is not a number")
-    if not lo <= v <= hi:
-        raise _err(path, name, f"{v:g} must lie within {lo:g}..{hi:g}")
-    return float(v)
+    try:
+        x = math.nan if isinstance(v, bool) or not isinstance(v, (int, float)) else float(v)
+    except OverflowError:  # an integer beyond any float
+        x = math.nan
+    if not math.isfinite(x):
+        raise _err(path, name, f"{reprlib.repr(v)} is not a number")
+    if not lo <= x <= hi:
+        raise _err(path, name, f"{x:g} must lie within {lo:g}..{hi:g}")
+    return x
+
+
+def _whole(path: Path, name: str, v: object, lo: int, hi: int) -> int:
+    """A whole number in lo..hi (a fraction is refused, not rounded)."""
+    if _number(path, name, v, lo, hi) != int(v):  # type: ignore[call-overload]
+        raise _err(path, name, f"{v!r} is not a whole number")
+    return int(v)  # type: ignore[call-overload]
+
+
+def _name(path: Path, name: str, v: object) -> str:
+    """A marker's or rigid body's name: text or a number as YAML reads it, never a list or mapping."""
+    if isinstance(v, bool) or not isinstance(v, (str, int, float)) or not str(v).strip():
+        raise _err(path, name, f"{v!r} is not a name")
+    return str(v).strip()
+
+
+def _mapping(path: Path, name: str, v: object, what: str) -> dict:
+    """A section that must be a mapping; ``what`` says what it holds."""
+    if not isinstance(v, dict):
+        raise _err(path, name, f"must be a mapping {what}, got {v!r}")
+    return v
 
 
 def _keys(path: Path, where: str, doc: dict, known: set[str]) -> None:
@@ -129,7 +155,7 @@ def _conditions(path: Path, where: str, doc: object) -> dict[str, Any]:
     if doc is None:
         return {}
     if not isinstance(doc, dict):
-        raise _err(path, where, "must be a mapping of condition: value")
+        raise _err(path, where, f"must be a mapping of condition: value, got {doc!r}")
     out: dict[str, Any] = {}
     for k, v in doc.items():
         if k in MEASURED:
@@ -171,6 +197,8 @@ def _read_yaml(path: Path) -> dict:
         doc = yaml.safe_load(path.read_text())
     except OSError as exc:
         raise _err(path, "<file>", f"cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise _err(path, "<file>", f"not a text file (byte {exc.start}: {exc.reason})") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else "<yaml>"
@@ -185,7 +213,7 @@ def _length_scale(path: Path, doc: dict) -> float:
     if doc.get("schema") != SCHEMA:
         raise _err(path, "schema", f"must be '{SCHEMA}', got {doc.get('schema')!r}")
     units = doc.get("units")
-    if units not in _UNITS:
+    if not isinstance(units, str) or units not in _UNITS:
         raise _err(
             path, "units", f"{units!r}: say the unit of this file's lengths, one of {', '.join(_UNITS)}"
         )
@@ -197,7 +225,7 @@ def _rigid_body(path: Path, body_doc: dict, s: float) -> RigidBodySpec:
     if "markers" in body_doc:
         raise _err(path, "body", "give either markers or rigid_body, not both")
     rigid = RigidBodySpec(
-        str(body_doc["rigid_body"]),
+        _name(path, "body.rigid_body", body_doc["rigid_body"]),
         _vector(path, "body.centre_of_mass", body_doc.get("centre_of_mass", [0, 0, 0]), s),
         _axis(path, "body.forward", body_doc.get("forward", "+X")),
         _axis(path, "body.up", body_doc.get("up", "+Z")),
@@ -212,7 +240,10 @@ def _body_markers(path: Path, raw: object, s: float) -> dict[str, np.ndarray]:
     pose can be found from them."""
     if not isinstance(raw, dict) or len(raw) < 3:
         raise _err(path, "body.markers", "need at least 3 markers: name: [x, y, z] in the body frame")
-    body = {str(name): _vector(path, f"body.markers.{name}", v, s) for name, v in raw.items()}
+    body = {
+        _name(path, "body.markers", name): _vector(path, f"body.markers.{name}", v, s)
+        for name, v in raw.items()
+    }
     pts = np.array(list(body.values()))
     sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
     if sv[1] < 1e-3 * max(sv[0], 1e-12) or sv[0] < 1e-3:
@@ -224,8 +255,9 @@ def _body(path: Path, doc: dict, s: float) -> tuple[dict[str, np.ndarray], Rigid
     """The ``body`` section: the cluster's markers or the solved rigid body, and how far (m) a
     marker may stray from the cluster's shape."""
     body_doc = doc.get("body")
-    if not isinstance(body_doc, dict):
+    if body_doc is None:
         raise _err(path, "body", "missing: name the body's markers (or its rigid body)")
+    _mapping(path, "body", body_doc, "{markers: {name: [x, y, z]}} or {rigid_body: name}")
     _keys(
         path,
         "body.",
@@ -257,15 +289,16 @@ def _roof(
 ) -> tuple[tuple[str, ...], float, tuple[np.ndarray, np.ndarray] | None]:
     """The ``roof`` section: its markers (or its plane) and the markers' height above the surface (m)."""
     roof_doc = doc.get("roof")
-    if not isinstance(roof_doc, dict):
+    if roof_doc is None:
         raise _err(path, "roof", "missing: name the roof's markers (or give its plane)")
+    _mapping(path, "roof", roof_doc, "{markers: [...]} or {plane: {point, normal}}")
     _keys(path, "roof.", roof_doc, {"markers", "plane", "marker_height"})
     roof_height = _number(path, "roof.marker_height", roof_doc.get("marker_height", 0.0), 0.0) * s
     if "markers" in roof_doc:
         raw = roof_doc["markers"]
         if not isinstance(raw, list) or len(raw) < 3:
             raise _err(path, "roof.markers", "need a list of at least 3 markers on the surface")
-        return tuple(str(m) for m in raw), roof_height, None
+        return tuple(_name(path, f"roof.markers[{i}]", m) for i, m in enumerate(raw)), roof_height, None
     if "plane" in roof_doc:
         return (), roof_height, _roof_plane(path, roof_doc["plane"], s)
     raise _err(path, "roof", "give markers: [...] or plane: {point, normal}")
@@ -278,12 +311,12 @@ def _feet(path: Path, doc: dict, s: float, others: set[str]) -> tuple[tuple[str,
     if feet_doc is None:
         return (), 0.0
     if not isinstance(feet_doc, dict):
-        raise _err(path, "feet", "must be {markers: [...], marker_height: h}")
+        raise _err(path, "feet", f"must be {{markers: [...], marker_height: h}}, got {feet_doc!r}")
     _keys(path, "feet.", feet_doc, {"markers", "marker_height"})
     raw = feet_doc.get("markers")
     if not isinstance(raw, list) or not raw:
         raise _err(path, "feet.markers", "need a list of the markers on the feet (one or more)")
-    feet = tuple(str(m) for m in raw)
+    feet = tuple(_name(path, f"feet.markers[{i}]", m) for i, m in enumerate(raw))
     clash = [m for m in feet if m in others]
     if clash:
         raise _err(path, "feet.markers", f"{', '.join(clash)} is also a body or roof marker")
@@ -298,7 +331,10 @@ def _feet(path: Path, doc: dict, s: float, others: set[str]) -> tuple[tuple[str,
 
 def _section(path: Path, doc: dict, name: str, known: set[str]) -> dict:
     """An optional section of settings (empty when absent), refusing keys it does not know."""
-    section = doc.get(name) or {}
+    section = doc.get(name)
+    if section is None:
+        return {}
+    _mapping(path, name, section, f"of {', '.join(sorted(known))}")
     _keys(path, f"{name}.", section, known)
     return section
 
@@ -314,7 +350,9 @@ def _takes(path: Path, doc: dict) -> tuple[dict[str, dict[str, Any]], Path | Non
             str(name): _conditions(path, f"takes.{name}", entry) for name, entry in takes_doc.items()
         }, None
     if takes_doc is not None:
-        raise _err(path, "takes", "a mapping take: {conditions} or the name of a CSV table")
+        raise _err(
+            path, "takes", f"a mapping take: {{conditions}} or the name of a CSV table, got {takes_doc!r}"
+        )
     return {}, None
 
 
@@ -343,7 +381,7 @@ def load_markerset(path: str | Path) -> MarkerSet:
         up_axis,
         _number(path, "latency_s", doc.get("latency_s", 0.0), 0.0, 1.0),
         _number(path, "rates.window_s", rates.get("window_s", 0.03), 0.0, 1.0),
-        int(_number(path, "rates.polyorder", rates.get("polyorder", 2), 1, 5)),
+        _whole(path, "rates.polyorder", rates.get("polyorder", 2), 1, 5),
         _number(path, "planarity.lateral", plan.get("lateral", 0.02 / s), 0.0) * s,
         _number(path, "planarity.yaw_deg", plan.get("yaw_deg", 5.0), 0.0, 180.0),
         _number(path, "planarity.roll_deg", plan.get("roll_deg", 5.0), 0.0, 180.0),
@@ -363,6 +401,8 @@ def _takes_table(path: Path) -> dict[str, dict[str, Any]]:
         rows = list(csv.reader(path.read_text().splitlines()))
     except OSError as exc:
         raise _err(path, "<file>", f"cannot read: {exc.strerror}") from None
+    except (ValueError, csv.Error) as exc:  # a NUL in the name, bytes that are not text, a huge cell
+        raise _err(path, "<file>", f"cannot read as a CSV table: {exc}") from None
     if not rows or not rows[0] or rows[0][0].strip() != "take":
         raise _err(path, "line 1", "the first column must be 'take' (the take's file name)")
     head = [c.strip() for c in rows[0]]
