@@ -50,9 +50,10 @@ Faults, one drawn per landing (weights in ``FAULTS``):
   lists it in the table under ``sensor faults seen``.
 
 Checks per landing ("unsafe" = any of these):
-- ``hang``: no ending (LANDED→READY, ABORTED, ESTOP, READY; or HELD: :data:`slopelander_sitl.rig.HELD_S` of
-  a hold in SETTLED after a slide, which waits for the pilot) within 150 s of vehicle time or 300 s
-  of wall time;
+- ``hang``: no ending (LANDED→READY, ABORTED, ESTOP, READY; FAULT_LANDED: LANDED with the
+  take-off refused for a script fault, the vehicle disarmed; or HELD: :data:`slopelander_sitl.rig.HELD_S`
+  of a hold in SETTLED after a slide, which waits for the pilot) within 150 s of vehicle time or
+  300 s of wall time;
 - ``stop_high``: the outputs stopped (vehicle event EV_STOP) before the landing's first contact
   while the body's range height was more than the cut height + 0.25 m, except after the pilot's
   emergency stop. A stop after a contact (a vehicle that flipped and tumbles down the roof, whose
@@ -563,6 +564,11 @@ class Soak:
                         took_off = True
                     elif name in ("ABORTED", "ESTOP", "READY") and self.forever_until is None:
                         end = name
+                        break
+                    elif name == "LANDED" and lander.ctx.marks.get("takeoff_refused"):
+                        # a faulted script is never flown again (states/landed.py): disarmed on
+                        # the roof, legs clamped, the pilot told to reboot; the landing's end
+                        end = "FAULT_LANDED"
                         break
                 if rig.now - t0 > VEHICLE_LIMIT_S or time.monotonic() - wall0 > WALL_LIMIT_S:
                     end = "hang"

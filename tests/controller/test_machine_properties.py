@@ -20,7 +20,7 @@ from slopelander.controller.config import load_config
 from slopelander.controller.machine import STATES, Machine
 from slopelander.controller.runner import ENDINGS
 from slopelander.controller.states.base import Context, Inputs
-from slopelander.controller.states.settled import DISARM_RETRY_S
+from slopelander.controller.states.settled import AIR_MARGIN_M, DISARM_RETRY_S
 
 CFG = load_config()
 # states the machine may stay in while nothing changes: the autopilot flies, or it is over, or
@@ -36,7 +36,29 @@ MOTOR_STOPPERS = {"disarm", "disarm_on_ground", "reverse"}
 SCRIPT_HOLDS = {11, 12, 13}
 #: what would hand the motors of a vehicle on the roof to the autopilot's mixer
 RELEASES = {"release", "reflex_abort"}
+
+
 # readings at the thresholds that matter, and the ones a broken sensor gives
+def script_holds(inp: Inputs) -> bool:
+    """The script holds the motors as far as the companion can tell: it reports CUT, RVT or HOLD,
+    or it fell silent after saying so with the range not reading the vehicle in the air (a dead
+    script's overrides lapse, and above the cut height plus AIR_MARGIN_M the mixer flies it:
+    docs/failsafes.md, SETTLED's silent row)."""
+    if inp.script_state not in SCRIPT_HOLDS:
+        return False
+    if inp.script_present:
+        return True
+    r = inp.range_m
+    in_air = (
+        inp.range_ok
+        and r is not None
+        and r == r
+        and r >= 0.0
+        and r > CFG["reflex.cut_height_m"] + AIR_MARGIN_M
+    )
+    return not in_air
+
+
 RANGES = [None, -1.0, 0.0, 0.29, 0.3, 0.31, 0.79, 0.8, 1.5, 1.51, 5.0, 50.0, float("nan"), float("inf")]
 
 
@@ -70,7 +92,7 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         visited = [h["to"] for h in self.m.history[seen:]]
         if self.m.name == "LANDED" and before != "LANDED":
             assert not self.inp.armed, f"LANDED entered from {before} with the vehicle armed"
-        if self.on_roof and self.inp.armed and self.inp.script_state in SCRIPT_HOLDS and not self.inp.estop:
+        if self.on_roof and self.inp.armed and script_holds(self.inp) and not self.inp.estop:
             # after contact, armed, the script holding the motors: whatever the machine does (a
             # timeout, an abort, a link loss and back), nothing gives them to the mixer; only a
             # take-off asks the script for them (the script checks the tilt), and the pilot's
@@ -178,7 +200,7 @@ class LandingUnderRandomEvents(RuleBasedStateMachine):
         n, before = len(self.act.calls), self.m.name
         self.m.transition("ABORTED", "landing not finished within 120 s", self.inp)
         names = [c[0] for c in self.act.calls[n:]]
-        if self.on_roof and self.inp.armed and self.inp.script_state in SCRIPT_HOLDS:
+        if self.on_roof and self.inp.armed and script_holds(self.inp):
             assert self.m.name == "SETTLED", f"timeout in {before} moved to {self.m.name}, armed on the roof"
             assert not RELEASES & set(names), f"{names} at the timeout in {before}, armed, script holding"
         self._step(0.0)

@@ -68,6 +68,27 @@ def test_a_faulted_hold_is_disarmed_by_asking_every_half_second_and_never_handed
     assert m.name == "LANDED"
 
 
+def test_a_faulted_hold_that_slides_says_so_and_keeps_asking_the_disarm():
+    """Found by the soak on ArduCopter: the script failed in HOLD on a 47 deg roof (FAULT_HELD),
+    the vehicle slid at 1.04 m/s for minutes, the script refused the disarm while it moved, and
+    the pilot was never told it slid. Now the slide is said as any held slide is, the disarm
+    still asked (the script gives it once still), nothing handed to LOITER."""
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    before = len(act.calls)
+    inp = replace(
+        OK, t=t, range_m=0.12, script_state=S.FAULT_HELD, speed_mps=1.04, position_m=(0.0, 0.0, 0.0)
+    )
+    for k in range(1, 150):  # 3 s down the roof at 1.04 m/s
+        inp = replace(inp, t=t + 0.02 * k, position_m=(1.04 * 0.02 * k, 0.0, 0.0))
+        m.step(inp)
+    texts = [c[1] for c in act.calls[before:] if c[0] == "statustext"]
+    assert any(x.startswith("sliding at 1.04 m/s") for x in texts), texts
+    assert "slide" in m.ctx.marks["said"] and m.name == "SETTLED"
+    names = [c[0] for c in sent(act, before)]
+    assert names.count("disarm") >= 5 and "set_mode" not in names and "release" not in names
+
+
 @pytest.mark.parametrize("state", ["CUT", "REVERSE", "SETTLED"])
 @pytest.mark.parametrize("script", ["silent", "fault"])
 def test_a_dead_script_on_the_roof_is_not_read_as_idle_the_companion_disarms(state, script):

@@ -206,3 +206,24 @@ def test_diagnose_prints_its_evidence_and_the_noise_floor(tmp_path):
     assert "| gain | p |" in r.stdout, r.stdout
     assert "noise floor" in r.stdout and "over 16 all sign flips of 4 drops" in r.stdout, r.stdout
     assert "no candidate can pass the test: the smallest p is 1/16" in r.stdout, r.stdout
+
+
+@pytest.mark.parametrize("command", ["compare", "fit", "diagnose"])
+def test_a_drop_whose_outcome_is_a_mapping_is_one_line_naming_file_and_field(tmp_path, command):
+    import numpy as np
+
+    from slopelander.ident.recording import Drop, write_drop
+    from slopelander.model import LandingConditions, Outcome
+
+    t = np.arange(-0.01, 0.2, 0.005)
+    cond = LandingConditions(slope_deg=20.0, speed=2.1)
+    write_drop(Drop("d0", t, np.zeros((len(t), 6)), cond, Outcome.IDEAL, "lab"), tmp_path / "ds")
+    side = tmp_path / "ds" / "d0.json"
+    side.write_text(side.read_text().replace('"outcome": "ideal"', '"outcome": {"ideal": true}'))
+    r = run(command, str(tmp_path / "ds"))
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, r.stderr
+    assert (
+        lines[0].startswith(f"slopelander {command}: error: {side}, line ") and "field 'outcome'" in lines[0]
+    )
+    assert "unknown outcome {'ideal': True}" in lines[0]

@@ -3,6 +3,8 @@ any take is solved, and nothing in (or beside) the output folder. A real process
 
 from __future__ import annotations
 
+import copy
+import math
 import os
 import shutil
 import subprocess
@@ -11,9 +13,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from slopelander.ident.mocap.formats import read_take, write_c3d
-from tests.ident.mocap_files import motive_csv, vicon_csv
+from slopelander.ident.mocap.markerset import load_markerset
+from slopelander.ident.mocap.take import MocapError
+from tests.ident.mocap_files import motive_csv, qualisys_tsv, vicon_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "docs" / "examples" / "mocap"
@@ -159,6 +166,27 @@ def test_an_output_folder_that_holds_something(lab):
             "takes.drop01.c3d.tau_up",
             "not a number",
         ),
+        (lambda t: t.replace("units: mm ", "units: {mm: 1} "), "units", "{'mm': 1}: say the unit"),
+        (lambda t: t.replace("units: mm ", "units: [mm] "), "units", "['mm']: say the unit"),
+        (
+            lambda t: t.replace("keep: {before_s: 0.1, after_s: 0.5}", "keep: [0.1, 0.5]"),
+            "keep",
+            "must be a mapping of after_s, before_s, got [0.1, 0.5]",
+        ),
+        (lambda t: t + "rates: 3\n", "rates", "must be a mapping of polyorder, window_s, got 3"),
+        (lambda t: t + "planarity: 0.02\n", "planarity", "must be a mapping of lateral, roll_deg, yaw_deg"),
+        (lambda t: t + "rates: {polyorder: 2.5}\n", "rates.polyorder", "2.5 is not a whole number"),
+        (lambda t: t + "latency_s: 1" + "0" * 400 + "\n", "latency_s", "is not a number"),
+        (
+            lambda t: t.replace("[ROOF1, ROOF2, ROOF3, ROOF4]", "[ROOF1, {a: 1}, ROOF3, ROOF4]"),
+            "roof.markers[1]",
+            "{'a': 1} is not a name",
+        ),
+        (
+            lambda t: t[: t.index("body:")] + "body: [FR_ARM, TOP]\n" + t[t.index("roof:") :],
+            "body",
+            "must be a mapping",
+        ),
     ],
 )
 def test_a_markers_file_that_cannot_be_used(lab, edit, field, words):
@@ -191,3 +219,167 @@ def test_a_motive_rigid_body_exported_with_euler_angles(lab):
     assert_refused(
         run_import(lab, "drop01.csv"), lab, "drop01.csv", "field 'body.rigid_body'", "export quaternions"
     )
+
+
+def _drop_motive_column(path: Path, marker: str, axis: str) -> None:
+    """The Motive export without one Position column of ``marker`` (every row under the
+    key/value first line loses that cell)."""
+    lines = path.read_text().splitlines()
+    rows = [r.split(",") for r in lines[2:]]
+    j = next(j for j in range(len(rows[4])) if rows[1][j] == marker and rows[4][j] == axis)
+    path.write_text("\n".join(lines[:2] + [",".join(r[:j] + r[j + 1 :]) for r in rows]) + "\n")
+
+
+def test_a_motive_marker_without_its_z_column(lab):
+    tk = read_take(lab / "drop01.c3d")
+    motive_csv(lab / "drop01.csv", list(tk.labels), tk.xyz, tk.rate)
+    _drop_motive_column(lab / "drop01.csv", "TOP", "Z")
+    line = assert_refused(
+        run_import(lab, "drop01.csv"), lab, "drop01.csv", "take 'drop01'", "field 'TOP Position'"
+    )
+    assert "expected one X, Y and Z column, found 2 (X, Y)" in line
+
+
+@pytest.mark.parametrize(
+    ("edit", "field", "words"),
+    [
+        (lambda rows: rows, None, None),  # the file as Motive writes it reads
+        (lambda rows: [r[:-1] for r in rows], "B Position", "found 2 (X, Y)"),
+        (lambda rows: [[*r, r[-1]] for r in rows], "B Position", "found 4 (X, Y, Z, Z)"),
+        (lambda rows: [[*r[:-2], r[-1], r[-1]] for r in rows], "B Position", "found 3 (X, Z, Z)"),
+    ],
+)
+def test_a_motive_marker_with_other_than_three_position_columns(tmp_path, edit, field, words):
+    xyz = np.arange(10 * 2 * 3, dtype=float).reshape(10, 2, 3)
+    path = tmp_path / "take.csv"
+    motive_csv(path, ["A", "B"], xyz, 100.0)
+    lines = path.read_text().splitlines()
+    rows = [r.split(",") for r in lines[2:]]
+    path.write_text("\n".join(lines[:2] + [",".join(r) for r in edit(rows)]) + "\n")
+    if field is None:
+        np.testing.assert_allclose(read_take(path).xyz, xyz, atol=1e-6)
+        return
+    with pytest.raises(MocapError) as err:
+        read_take(path)
+    msg = str(err.value)
+    assert str(path) in msg and "take 'take'" in msg and f"field '{field}'" in msg and words in msg, msg
+
+
+@pytest.mark.parametrize(
+    ("edit", "field", "words"),
+    [
+        (lambda t: t, None, None),
+        (
+            lambda t: t.replace("MARKER_NAMES\tA\tB", "MARKER_NAMES\tA\t\tB"),
+            "MARKER_NAMES",
+            "marker 2 has no name",
+        ),
+        (lambda t: t.replace("\tB X\tB Y\tB Z", "\tB X\tB Y"), "line 12, column 8", "expected 'B Z'"),
+        (
+            lambda t: t.replace("MARKER_NAMES\tA\tB", "MARKER_NAMES\tB\tA"),
+            "line 12, column 3",
+            "expected 'B X'",
+        ),
+    ],
+)
+def test_qualisys_columns_that_do_not_match_the_marker_names(tmp_path, edit, field, words):
+    """An empty name or a column header at odds with MARKER_NAMES would shift every marker's
+    columns silently."""
+    xyz = np.arange(1, 10 * 2 * 3 + 1, dtype=float).reshape(10, 2, 3) * 1e-3
+    path = tmp_path / "take.tsv"
+    qualisys_tsv(path, ["A", "B"], xyz, 100.0)
+    path.write_text(edit(path.read_text()))
+    if field is None:
+        np.testing.assert_allclose(read_take(path).xyz, xyz, atol=1e-6)
+        return
+    with pytest.raises(MocapError) as err:
+        read_take(path)
+    msg = str(err.value)
+    assert str(path) in msg and f"field '{field}'" in msg and words in msg, msg
+
+
+HOSTILE = [
+    None,
+    "",
+    "x",
+    "\0",
+    -1,
+    0,
+    2.5,
+    10**400,
+    -(10**400),
+    math.nan,
+    math.inf,
+    True,
+    [],
+    {},
+    [1, "a"],
+    {"a": 1},
+]
+RICH_MARKERS = {
+    "schema": "slopelander.markers/1",
+    "units": "mm",
+    "body": {
+        "markers": {"A": [120, -45, 30], "B": [110, 60, 25], "C": [-125, 10, 35]},
+        "rigid_tolerance": 5,
+    },
+    "roof": {"markers": ["R1", "R2", "R3"], "marker_height": 7},
+    "feet": {"markers": ["F1", "F2"], "marker_height": 10},
+    "up_axis": "+Z",
+    "latency_s": 0.01,
+    "rates": {"window_s": 0.03, "polyorder": 2},
+    "planarity": {"lateral": 20, "yaw_deg": 5, "roll_deg": 5},
+    "keep": {"before_s": 0.1, "after_s": 0.5},
+    "conditions": {"tau_up": 1.1, "outcome": "ideal"},
+    "takes": {"drop01.c3d": {"tau_down": 1.7}},
+}
+RIGID_MARKERS = {
+    "schema": "slopelander.markers/1",
+    "units": "m",
+    "body": {"rigid_body": "quad", "centre_of_mass": [0, 0, -0.02], "forward": "+X", "up": "+Y"},
+    "roof": {"plane": {"point": [0, 0, 0], "normal": [0, 1, 0.3]}},
+    "takes": "takes.csv",
+}
+
+
+def _leaf_paths(node, prefix=()):
+    """Every path to a value in a YAML tree, the root's included."""
+    yield prefix
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield from _leaf_paths(v, (*prefix, k))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield from _leaf_paths(v, (*prefix, i))
+
+
+def _replaced(doc, path, value):
+    doc = copy.deepcopy(doc)
+    if not path:
+        return value
+    parent = doc
+    for key in path[:-1]:
+        parent = parent[key]
+    parent[path[-1]] = value
+    return doc
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_a_wrong_typed_value_anywhere_in_a_markers_file_is_refused_naming_the_file(data, tmp_path):
+    """Any value of the markers file replaced by one of another type (or a hostile one): the
+    file loads, or load_markerset raises its own MocapError naming the file, never a bare error."""
+    base = data.draw(
+        st.sampled_from([yaml.safe_load((EXAMPLE / "markers.yaml").read_text()), RICH_MARKERS, RIGID_MARKERS])
+    )
+    path = data.draw(st.sampled_from(list(_leaf_paths(base))))
+    value = data.draw(
+        st.one_of(st.sampled_from(HOSTILE), st.lists(st.integers(), max_size=4), st.text(max_size=8))
+    )
+    (tmp_path / "takes.csv").write_text((EXAMPLE / "takes.csv").read_text())
+    markers = tmp_path / "markers.yaml"
+    markers.write_text(yaml.safe_dump(_replaced(base, path, value), allow_unicode=True))
+    try:
+        load_markerset(markers)
+    except MocapError as exc:
+        assert str(markers) in str(exc) or str(tmp_path) in str(exc), exc

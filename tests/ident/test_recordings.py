@@ -6,6 +6,8 @@ import shutil
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from slopelander.ident.recording import (
     Convention,
@@ -98,6 +100,29 @@ def test_malformed_csv_names_file_line_field(tmp_path, line, text, fieldname, wo
         (lambda d: d["conditions"].update(speed="fast"), "conditions.speed", "not a number"),
         (lambda d: d["conditions"].pop("speed"), "conditions.speed", "missing"),
         (lambda d: d.update(outcome="crashed"), "outcome", "unknown outcome"),
+        (
+            lambda d: d.update(outcome={"ideal": True}),
+            "outcome",
+            "unknown outcome {'ideal': True}; known: ideal",
+        ),
+        (lambda d: d.update(outcome=["slid"]), "outcome", "unknown outcome ['slid']; known: ideal"),
+        (lambda d: d.update(source=["lab", "take 7"]), "source", "must be text, got ['lab', 'take 7']"),
+        (lambda d: d["conditions"].update(speed=10**400), "conditions.speed", "is beyond any float"),
+        (lambda d: d.update(meta=[]), "meta", "must be an object"),
+        (
+            lambda d: d.update(
+                meta={"rates": {"method": "savgol", "window": 5, "polyorder": 2, "dt": 10**400}}
+            ),
+            "meta.rates",
+            '"savgol" needs',
+        ),
+        (
+            lambda d: d.update(
+                meta={"rates": {"method": "savgol", "window": 5, "polyorder": True, "dt": 0.005}}
+            ),
+            "meta.rates",
+            '"savgol" needs',
+        ),
         (lambda d: d.update(schema="other/1"), "schema", "must be"),
     ],
 )
@@ -216,3 +241,78 @@ def test_converter_reports_the_foreign_column(tmp_path):
         convert(src, LandingConditions(), tmp_path / "ds", conv, units=units)
     assert str(src) in str(err.value) and "line 3" in str(err.value) and "'Pitch'" in str(err.value)
     shutil.rmtree(tmp_path / "ds", ignore_errors=True)
+
+
+HOSTILE = [
+    None,
+    "",
+    "x",
+    -1,
+    0,
+    2.5,
+    10**400,
+    -(10**400),
+    True,
+    [],
+    {},
+    [1, "a"],
+    {"a": 1},
+    {"method": "savgol"},
+]
+
+
+def _json_paths(node, prefix=()):
+    """Every path to a value in a JSON tree, the root's included."""
+    yield prefix
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield from _json_paths(v, (*prefix, k))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield from _json_paths(v, (*prefix, i))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_a_wrong_typed_value_anywhere_in_a_sidecar_is_refused_naming_the_file(data, tmp_path):
+    """Any value of a drop's JSON replaced by one of another type (or a hostile one): the drop
+    loads, or load_drop raises its own RecordingError naming its file, never a bare error."""
+    d = _drop()
+    t = np.round(np.arange(-0.01, 0.2, 0.005), 6)
+    rates = data.draw(
+        st.sampled_from(
+            [
+                {"method": "measured"},
+                {"method": "lsq_slope", "window": 5},
+                {"method": "savgol", "window": 7, "polyorder": 2, "dt": 0.005},
+            ]
+        )
+    )
+    d = Drop(
+        "d0",
+        t,
+        d.states[: len(t)],
+        d.conditions,
+        d.outcome,
+        d.source,
+        {"rates": rates, "noise": {"x": 0.001}},
+    )
+    write_drop(d, tmp_path)
+    side = tmp_path / "d0.json"
+    doc = json.loads(side.read_text())
+    path = data.draw(st.sampled_from(list(_json_paths(doc))))
+    value = data.draw(
+        st.one_of(st.sampled_from(HOSTILE), st.lists(st.integers(), max_size=3), st.text(max_size=8))
+    )
+    if path:
+        parent = doc
+        for key in path[:-1]:
+            parent = parent[key]
+        parent[path[-1]] = value
+    else:
+        doc = value
+    side.write_text(json.dumps(doc, indent=2))
+    try:
+        load_drop(tmp_path / "d0.csv")
+    except RecordingError as exc:  # names the JSON, or the CSV when the JSON's rates do not fit its frames
+        assert str(side) in str(exc) or str(tmp_path / "d0.csv") in str(exc), exc

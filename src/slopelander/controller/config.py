@@ -230,9 +230,8 @@ def _validate_slope(sl: dict[str, Any], source: str) -> None:
         raise ConfigError(source, "slope.min_side_m", "must be at most half of slope.survey_length_m")
 
 
-def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
-    if not isinstance(doc, dict):
-        raise ConfigError(source, "(top level)", "expected a mapping of sections")
+def _check_limits(doc: dict[str, Any], source: str) -> None:
+    """Every setting of LIMITS is present, a finite number, whole where it must be, and in range."""
     for field, (lo, hi, integer) in LIMITS.items():
         section, key = field.split(".")
         try:
@@ -245,67 +244,77 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
             raise ConfigError(source, field, f"expected a whole number, got {v!r}")
         if not lo <= v <= hi:
             raise ConfigError(source, field, f"{v!r} is outside {lo:g}..{hi:g}")
-    if doc["reflex"]["arm_height_m"] <= doc["reflex"]["cut_height_m"]:
+
+
+def _check_reflex_and_settle(doc: dict[str, Any], source: str) -> None:
+    """The relations between reflex and settle settings that each range alone cannot hold."""
+    reflex, settle = doc["reflex"], doc["settle"]
+    if reflex["arm_height_m"] <= reflex["cut_height_m"]:
         raise ConfigError(source, "reflex.arm_height_m", "must be above reflex.cut_height_m")
-    if doc["reflex"]["impact_threshold_mps2"] < IMPACT_MIN_MPS2:
+    if reflex["impact_threshold_mps2"] < IMPACT_MIN_MPS2:
         raise ConfigError(
             source,
             "reflex.impact_threshold_mps2",
-            f"{doc['reflex']['impact_threshold_mps2']!r} is below {IMPACT_MIN_MPS2:.2f} (2 g): the filtered "
+            f"{reflex['impact_threshold_mps2']!r} is below {IMPACT_MIN_MPS2:.2f} (2 g): the filtered "
             "accelerometer reads about 1 g at the cut, so a lower threshold fires in the air "
             "(docs/onboard-script.md)",
         )
-    if doc["reflex"]["reverse_max_ms"] < doc["reflex"]["reverse_thrust_ms"]:
+    if reflex["reverse_max_ms"] < reflex["reverse_thrust_ms"]:
         raise ConfigError(source, "reflex.reverse_max_ms", "must not be below reflex.reverse_thrust_ms")
-    if doc["settle"]["slide_speed_mps"] < doc["settle"]["still_speed_mps"]:
+    if settle["slide_speed_mps"] < settle["still_speed_mps"]:
         raise ConfigError(source, "settle.slide_speed_mps", "must not be below settle.still_speed_mps")
-    if doc["reflex"]["refresh_s"] * 1000 >= doc["reflex"]["validity_ms"]:
+    if reflex["refresh_s"] * 1000 >= reflex["validity_ms"]:
         raise ConfigError(source, "reflex.refresh_s", "must be shorter than reflex.validity_ms")
-    _validate_slope(doc["slope"], source)
-    rc = doc.get("rc_presets", {})
+
+
+def _is_number_in(v: object, lo: float, hi: float) -> bool:
+    """Whether ``v`` is a number (not a bool) within lo..hi."""
+    return not isinstance(v, bool) and isinstance(v, (int, float)) and lo <= v <= hi
+
+
+def _rc_preset(item: object, i: int, source: str) -> RcPreset:
+    """One entry of rc_presets.presets: its keys, PWM band, torques, name and optional angle."""
+    name = f"rc_presets.presets[{i}]"
+    if (
+        not isinstance(item, dict)
+        or not set(RC_PRESET_LIMITS) <= set(item)
+        or not set(item) <= set(RC_PRESET_LIMITS) | set(RC_PRESET_OPTIONAL)
+    ):
+        raise ConfigError(
+            source,
+            name,
+            f"expected the keys {', '.join(RC_PRESET_LIMITS)} and optionally {', '.join(RC_PRESET_OPTIONAL)}",
+        )
+    for k, (lo, hi) in RC_PRESET_LIMITS.items():
+        v = item[k]
+        if not _is_number_in(v, lo, hi):
+            raise ConfigError(source, f"{name}.{k}", f"expected a number in {lo:g}..{hi:g}, got {v!r}")
+    if item["min_us"] >= item["max_us"]:
+        raise ConfigError(source, f"{name}.min_us", "must be below max_us")
+    label = item.get("name", f"preset {i + 1}")
+    if not isinstance(label, str) or not label.strip() or len(label) > 20:
+        raise ConfigError(source, f"{name}.name", f"expected a name of 1..20 characters, got {label!r}")
+    angle = item.get("angle_up_deg")
+    lo, hi = RC_ANGLE_LIMITS
+    if angle is not None and not _is_number_in(angle, lo, hi):
+        raise ConfigError(
+            source, f"{name}.angle_up_deg", f"expected null or a number in {lo:g}..{hi:g}, got {angle!r}"
+        )
+    return RcPreset(
+        **{k: float(item[k]) for k in RC_PRESET_LIMITS},
+        name=label.strip(),
+        angle_up_deg=None if angle is None else float(angle),
+    )
+
+
+def _rc_presets(rc: dict[str, Any], source: str) -> tuple[RcPreset, ...]:
+    """The pilot's preset switch: its flag, each preset, and PWM bands that do not overlap."""
     if not isinstance(rc.get("enabled"), bool):
         raise ConfigError(source, "rc_presets.enabled", "expected true or false")
     items = rc.get("presets")
     if not isinstance(items, list):
         raise ConfigError(source, "rc_presets.presets", "expected a list")
-    presets = []
-    for i, item in enumerate(items):
-        name = f"rc_presets.presets[{i}]"
-        if (
-            not isinstance(item, dict)
-            or not set(RC_PRESET_LIMITS) <= set(item)
-            or not set(item) <= set(RC_PRESET_LIMITS) | set(RC_PRESET_OPTIONAL)
-        ):
-            raise ConfigError(
-                source,
-                name,
-                f"expected the keys {', '.join(RC_PRESET_LIMITS)} "
-                f"and optionally {', '.join(RC_PRESET_OPTIONAL)}",
-            )
-        for k, (lo, hi) in RC_PRESET_LIMITS.items():
-            v = item[k]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi):
-                raise ConfigError(source, f"{name}.{k}", f"expected a number in {lo:g}..{hi:g}, got {v!r}")
-        if item["min_us"] >= item["max_us"]:
-            raise ConfigError(source, f"{name}.min_us", "must be below max_us")
-        label = item.get("name", f"preset {i + 1}")
-        if not isinstance(label, str) or not label.strip() or len(label) > 20:
-            raise ConfigError(source, f"{name}.name", f"expected a name of 1..20 characters, got {label!r}")
-        angle = item.get("angle_up_deg")
-        lo, hi = RC_ANGLE_LIMITS
-        if angle is not None and (
-            isinstance(angle, bool) or not isinstance(angle, (int, float)) or not (lo <= angle <= hi)
-        ):
-            raise ConfigError(
-                source, f"{name}.angle_up_deg", f"expected null or a number in {lo:g}..{hi:g}, got {angle!r}"
-            )
-        presets.append(
-            RcPreset(
-                **{k: float(item[k]) for k in RC_PRESET_LIMITS},
-                name=label.strip(),
-                angle_up_deg=None if angle is None else float(angle),
-            )
-        )
+    presets = [_rc_preset(item, i, source) for i, item in enumerate(items)]
     if rc["enabled"] and not presets:
         raise ConfigError(source, "rc_presets.presets", "enabled but empty")
     ordered = sorted(presets, key=lambda p: p.min_us)
@@ -313,3 +322,13 @@ def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
         if b.min_us < a.max_us:
             raise ConfigError(source, "rc_presets.presets", "PWM bands overlap")
     return tuple(presets)
+
+
+def _validate(doc: Any, source: str) -> tuple[RcPreset, ...]:
+    """Check the whole document, section by section; the pilot's presets, read."""
+    if not isinstance(doc, dict):
+        raise ConfigError(source, "(top level)", "expected a mapping of sections")
+    _check_limits(doc, source)
+    _check_reflex_and_settle(doc, source)
+    _validate_slope(doc["slope"], source)
+    return _rc_presets(doc.get("rc_presets", {}), source)

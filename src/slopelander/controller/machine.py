@@ -27,7 +27,7 @@ from slopelander.controller.states.preset import Preset
 from slopelander.controller.states.ready import Ready
 from slopelander.controller.states.reset import Reset
 from slopelander.controller.states.reverse import Reverse
-from slopelander.controller.states.settled import Settled
+from slopelander.controller.states.settled import AIR_MARGIN_M, Settled
 from slopelander.controller.states.takeoff import Takeoff
 
 log = logging.getLogger("slopelander.controller")
@@ -103,15 +103,20 @@ class Machine:
     def held_on_the_roof(self, inp: Inputs) -> bool:
         """Whether this landing has met the roof (an impact, or the script's landing sequence
         reported after the cut) and the script still holds the motors of an armed vehicle, or has
-        gone silent there (it may hold them still; SETTLED judges a silent script as one, with the
-        forced disarm at rest: ``Settled.without_script``, not LOITER on the roof). The
+        gone silent there with the range not reading it in the air (it may hold them still;
+        SETTLED judges a silent script as one, with the forced disarm at rest:
+        ``Settled.without_script``, not LOITER on the roof). The
         script's own RVT or HOLD is that evidence too: a vehicle that came down while the link was
         out is on the roof before any state of this machine marked an impact. It is asked outside
         a step too (the runner's interrupt and time-out), so it notes the contact in ``inp``
         itself."""
         self._note_contact(inp)
         met = self.ctx.marks.get("impact") is not None
-        held = not inp.script_present or inp.script_state in MOTORS_HELD
+        if inp.script_present:
+            held = inp.script_state in MOTORS_HELD
+        else:  # silent: on the roof unless the range reads it in the air (as SETTLED judges it)
+            cut = self.ctx.cfg["reflex.cut_height_m"]
+            held = not (inp.range_valid and inp.range_m > cut + AIR_MARGIN_M)
         return self._started and met and inp.armed and held
 
     def _note_contact(self, inp: Inputs) -> None:

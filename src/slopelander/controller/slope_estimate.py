@@ -427,6 +427,42 @@ def walk_gradient_se(t: np.ndarray, x: np.ndarray, w: np.ndarray, walk: float) -
     return walk * math.sqrt(float((gaps * after[1:] ** 2).sum()))
 
 
+def _line_coverage_refusal(
+    n: int, baseline_m: float, behind: float, ahead: float, st: EstimateSettings
+) -> str | None:
+    """Why ``n`` points spanning ``baseline_m`` (``behind`` and ``ahead`` of the spot, m) are too
+    few or too short a stretch to fit the slope from, or None."""
+    if n < st.min_points:
+        return f"{LACK}: {n} points, {st.min_points} needed"
+    if baseline_m < st.min_baseline_m:
+        return f"{LACK}: the points span {baseline_m:.2f} m, {st.min_baseline_m:g} m needed"
+    if min(behind, ahead) < st.min_side_m:
+        side = "south" if behind < ahead else "north"
+        return (
+            f"{LACK}: surface seen only {min(behind, ahead):.2f} m {side} of the spot "
+            f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
+        )
+    return None
+
+
+def _line_jackknife_deg(t: np.ndarray, x: np.ndarray, h: np.ndarray, baseline_m: float) -> float:
+    """The slope's block jackknife error (deg) in time order, leaving out each block that still
+    leaves a quarter of the baseline; inf with fewer than 3 such fits."""
+    order = np.argsort(t)
+    leave = []
+    for b in np.array_split(order, JACKKNIFE_BLOCKS):
+        keep = np.ones(x.size, bool)
+        keep[b] = False
+        if np.ptp(x[keep]) > 0.25 * baseline_m and keep.sum() >= 2:
+            leave.append(_deg(fit_line(x[keep], h[keep]).gradient))
+    k = len(leave)
+    return (
+        math.sqrt((k - 1) / k * float(np.sum((np.array(leave) - np.mean(leave)) ** 2)))
+        if k >= 3
+        else math.inf
+    )
+
+
 def estimate(
     points: list[tuple[float, float, float]], spot_x_m: float, settings: EstimateSettings | None = None
 ) -> SlopeEstimate:
@@ -449,18 +485,8 @@ def estimate(
     est.baseline_m = float(x.max() - x.min())
     behind, ahead = spot_x_m - float(x.min()), float(x.max()) - spot_x_m
     est.points = [(float(a), float(b), float(c), 1.0) for a, b, c in near]
-    if len(near) < st.min_points:
-        est.refusal = f"{LACK}: {len(near)} points, {st.min_points} needed"
-        return est
-    if est.baseline_m < st.min_baseline_m:
-        est.refusal = f"{LACK}: the points span {est.baseline_m:.2f} m, {st.min_baseline_m:g} m needed"
-        return est
-    if min(behind, ahead) < st.min_side_m:
-        side = "south" if behind < ahead else "north"
-        est.refusal = (
-            f"{LACK}: surface seen only {min(behind, ahead):.2f} m {side} of the spot "
-            f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
-        )
+    est.refusal = _line_coverage_refusal(len(near), est.baseline_m, behind, ahead, st)
+    if est.refusal is not None:
         return est
     fit = fit_line(x, h)
     est.points = [
@@ -478,11 +504,7 @@ def estimate(
         )
         return est
     # the two sides of the spot: one plane has one slope (a ridge or a gutter under the path does not)
-    sides = []
-    for m in (x < spot_x_m, x >= spot_x_m):
-        if np.count_nonzero(m) >= max(5, st.min_points // 4) and np.ptp(x[m]) >= 0.5 * st.min_side_m:
-            f = fit_line(x[m], h[m])
-            sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
+    sides = _side_slopes(x, h, (x < spot_x_m, x >= spot_x_m), st)
     if len(sides) == 2:
         est.sides_deg = (sides[0][0], sides[1][0])
         diff = abs(sides[0][0] - sides[1][0])
@@ -493,21 +515,7 @@ def estimate(
                 f"{sides[1][0]:.1f} deg north of it (a ridge or an edge under the path)"
             )
             return est
-    # block jackknife in time order
-    order = np.argsort(t)
-    blocks = np.array_split(order, JACKKNIFE_BLOCKS)
-    leave = []
-    for b in blocks:
-        keep = np.ones(x.size, bool)
-        keep[b] = False
-        if np.ptp(x[keep]) > 0.25 * est.baseline_m and keep.sum() >= 2:
-            leave.append(_deg(fit_line(x[keep], h[keep]).gradient))
-    k = len(leave)
-    jack = (
-        math.sqrt((k - 1) / k * float(np.sum((np.array(leave) - np.mean(leave)) ** 2)))
-        if k >= 3
-        else math.inf
-    )
+    jack = _line_jackknife_deg(t, x, h, est.baseline_m)
     walk = _deg_se(fit.gradient, walk_gradient_se(t, x, fit.weights, st.height_walk_m))
     stat = max(jack, math.hypot(_deg_se(fit.gradient, fit.gradient_se), walk))
     att = math.sin(math.radians(slope)) ** 2 * st.attitude_error_deg
@@ -790,6 +798,116 @@ class PlaneEstimate:
         return est
 
 
+def _coverage_refusal(
+    dirs: list[float],
+    proj: list[np.ndarray],
+    legs: list[np.ndarray],
+    extents: tuple[float, ...],
+    st: EstimateSettings,
+) -> str | None:
+    """Why the points do not see enough of the surface along each direction (the baseline, and
+    both sides of the spot), or None."""
+    for d, p, m, ext in zip(dirs, proj, legs, extents, strict=True):
+        if ext < st.min_baseline_m:
+            return (
+                f"{LACK}: the points span {ext:.2f} m along {d:.0f} deg ({st.min_baseline_m:g} m needed "
+                "two ways: the slope across the pass is unseen)"
+            )
+        behind, ahead = -float(p[m].min()), float(p[m].max())
+        if min(behind, ahead) < st.min_side_m:
+            toward = d if ahead < behind else d + 180.0
+            return (
+                f"{LACK}: surface seen only {min(behind, ahead):.2f} m toward {az_text(toward)} of the spot "
+                f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
+            )
+    return None
+
+
+def _own_runs(legs: list[np.ndarray], far: np.ndarray, groups: np.ndarray) -> list[np.ndarray]:
+    """Each leg's own points: the run of its own clear of the crossing, with its stretch near the
+    spot (a slow height wander offsets one leg from the other, so each side is fitted from one)."""
+    own = []
+    for k, m in enumerate(legs):
+        clear = m & far & ~legs[1 - k]
+        label = np.bincount(groups[clear]).argmax() if clear.any() else -1
+        own.append(m & (groups == label))
+    return own
+
+
+def _side_slopes(
+    p: np.ndarray, h: np.ndarray, sides: tuple[np.ndarray, np.ndarray], st: EstimateSettings
+) -> list[tuple[float, float]]:
+    """The slope (deg) and its standard error of the heights ``h`` along ``p`` before and beyond
+    the spot (the two masks ``sides``), for each side seen well enough to fit a line."""
+    out = []
+    for side in sides:
+        if np.count_nonzero(side) >= max(5, st.min_points // 4) and np.ptp(p[side]) >= 0.5 * st.min_side_m:
+            f = fit_line(p[side], h[side])
+            out.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
+    return out
+
+
+def _one_plane_refusal(
+    est: PlaneEstimate,
+    dirs: list[float],
+    axes: list[np.ndarray],
+    proj: list[np.ndarray],
+    own: list[np.ndarray],
+    xy: np.ndarray,
+    h: np.ndarray,
+) -> str | None:
+    """Why the two sides of the spot are not one plane along some direction (a ridge or an edge
+    under the path), or None; keeps in ``est.sides_deg`` the two sides that differ most."""
+    g = np.array(est.gradient)
+    for d, ax, p, m in zip(dirs, axes, proj, own, strict=True):
+        across = np.array([-ax[1], ax[0]])
+        hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
+        sides = _side_slopes(p, hh, (m & (p < 0), m & (p >= 0)), est.settings)
+        if len(sides) != 2:
+            continue
+        diff = abs(sides[0][0] - sides[1][0])
+        allowed = 3.0 * math.hypot(sides[0][1], sides[1][1]) + est.settings.plane_tolerance_deg
+        if est.sides_deg is None or diff > abs(est.sides_deg[0] - est.sides_deg[1]):
+            est.sides_deg = (sides[0][0], sides[1][0])
+        if diff > allowed:
+            return (
+                f"the surface is not one plane: toward {az_text(d)} it falls "
+                f"{sides[0][0]:.1f} deg before the spot and {sides[1][0]:.1f} deg beyond it "
+                "(a ridge or an edge under the path)"
+            )
+    return None
+
+
+def _jackknife_cov(
+    t: np.ndarray,
+    ne: tuple[np.ndarray, np.ndarray],
+    h: np.ndarray,
+    groups: np.ndarray,
+    proj: list[np.ndarray],
+    legs: list[np.ndarray],
+    extents: tuple[float, ...],
+) -> np.ndarray | None:
+    """The gradient's covariance from the block jackknife in time order, leaving out each block
+    that still leaves every leg a quarter of its extent; None with fewer than 3 such fits."""
+    dn, de = ne
+    order = np.argsort(t)
+    leave = []
+    for b in np.array_split(order, JACKKNIFE_BLOCKS):
+        keep = np.ones(t.size, bool)
+        keep[b] = False
+        if keep.sum() >= 3 and all(
+            np.ptp(p[keep & m]) > 0.25 * ext
+            for p, m, ext in zip(proj, legs, extents, strict=True)
+            if (keep & m).any()
+        ):
+            leave.append(fit_plane(dn[keep], de[keep], h[keep], groups[keep]).gradient)
+    k = len(leave)
+    if k < 3:
+        return None
+    d = np.array(leave) - np.mean(leave, axis=0)
+    return (k - 1) / k * (d.T @ d)
+
+
 def estimate_plane(
     points: list[tuple[float, float, float, float]],
     spot_ne: tuple[float, float],
@@ -829,21 +947,9 @@ def estimate_plane(
     proj = [xy @ ax for ax in axes]
     legs = [np.abs(xy @ _unit(d + 90.0)) <= LEG_BAND_M for d in dirs]
     est.extents_m = tuple(float(np.ptp(p[m])) for p, m in zip(proj, legs, strict=True))
-    for d, p, m, ext in zip(dirs, proj, legs, est.extents_m, strict=True):
-        if ext < st.min_baseline_m:
-            est.refusal = (
-                f"{LACK}: the points span {ext:.2f} m along {d:.0f} deg ({st.min_baseline_m:g} m needed "
-                "two ways: the slope across the pass is unseen)"
-            )
-            return est
-        behind, ahead = -float(p[m].min()), float(p[m].max())
-        if min(behind, ahead) < st.min_side_m:
-            toward = d if ahead < behind else d + 180.0
-            est.refusal = (
-                f"{LACK}: surface seen only {min(behind, ahead):.2f} m toward {az_text(toward)} of the spot "
-                f"({st.min_side_m:g} m needed; an edge or a gutter there?)"
-            )
-            return est
+    est.refusal = _coverage_refusal(dirs, proj, legs, est.extents_m, st)
+    if est.refusal is not None:
+        return est
     far = np.hypot(dn, de) >= max(0.1, 0.5 * st.min_side_m)
     groups = _leg_labels(t, [m & far for m in legs])
     fit = fit_plane(dn, de, h, groups)
@@ -863,53 +969,14 @@ def estimate_plane(
             f"({st.min_inlier_fraction:.0%} needed): the surface under the pass is not flat"
         )
         return est
-    # the two sides of the spot along each direction, from that leg's points alone (a slow height
-    # wander offsets one leg from the other): one plane has one slope there
-    g = np.array(fit.gradient)
-    own = []  # each leg's points: the run of its own clear of the crossing, with its stretch near the spot
-    for k, m in enumerate(legs):
-        clear = m & far & ~legs[1 - k]
-        label = np.bincount(groups[clear]).argmax() if clear.any() else -1
-        own.append(m & (groups == label))
-    for d, ax, p, m in zip(dirs, axes, proj, own, strict=True):
-        across = np.array([-ax[1], ax[0]])
-        hh = h - float(g @ across) * (xy @ across)  # the heights less the slope across
-        sides = []
-        for side in (m & (p < 0), m & (p >= 0)):
-            if (
-                np.count_nonzero(side) >= max(5, st.min_points // 4)
-                and np.ptp(p[side]) >= 0.5 * st.min_side_m
-            ):
-                f = fit_line(p[side], hh[side])
-                sides.append((_deg(f.gradient), _deg_se(f.gradient, f.gradient_se)))
-        if len(sides) == 2:
-            diff = abs(sides[0][0] - sides[1][0])
-            allowed = 3.0 * math.hypot(sides[0][1], sides[1][1]) + st.plane_tolerance_deg
-            if est.sides_deg is None or diff > abs(est.sides_deg[0] - est.sides_deg[1]):
-                est.sides_deg = (sides[0][0], sides[1][0])
-            if diff > allowed:
-                est.refusal = (
-                    f"the surface is not one plane: toward {az_text(d)} it falls "
-                    f"{sides[0][0]:.1f} deg before the spot and {sides[1][0]:.1f} deg beyond it "
-                    "(a ridge or an edge under the path)"
-                )
-                return est
-    # block jackknife in time order
-    order = np.argsort(t)
-    leave = []
-    for b in np.array_split(order, JACKKNIFE_BLOCKS):
-        keep = np.ones(t.size, bool)
-        keep[b] = False
-        if keep.sum() >= 3 and all(
-            np.ptp(p[keep & m]) > 0.25 * ext
-            for p, m, ext in zip(proj, legs, est.extents_m, strict=True)
-            if (keep & m).any()
-        ):
-            leave.append(fit_plane(dn[keep], de[keep], h[keep], groups[keep]).gradient)
-    k = len(leave)
-    if k >= 3:
-        d = np.array(leave) - np.mean(leave, axis=0)
-        est.cov_jack = (k - 1) / k * (d.T @ d)
+    # the two sides of the spot along each direction, from that leg's points alone: one plane has
+    # one slope there
+    est.refusal = _one_plane_refusal(est, dirs, axes, proj, _own_runs(legs, far, groups), xy, h)
+    if est.refusal is not None:
+        return est
+    cov = _jackknife_cov(t, (dn, de), h, groups, proj, legs, est.extents_m)
+    if cov is not None:
+        est.cov_jack = cov
     return est
 
 

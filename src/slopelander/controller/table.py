@@ -19,6 +19,7 @@ Only numpy, pyyaml and the standard library are imported here: this runs on the 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -214,12 +215,12 @@ def _bracket(axis: str, grid: np.ndarray, value: float) -> tuple[int, int, float
 
 
 # -- validation -------------------------------------------------------------------------------
-def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    def fail(field: str, why: str) -> TableError:
-        return TableError(path, field, why)
+Fail = Callable[[str, str], TableError]
+"""Builds the error naming the table's file, from the field and the reason."""
 
-    if not isinstance(doc, dict):
-        raise fail("<file>", "must be a YAML mapping")
+
+def _check_schema(doc: dict[str, Any], fail: Fail) -> None:
+    """The schema names a lookup table, of the version this loader reads."""
     schema = doc.get("schema")
     if not isinstance(schema, str) or "/" not in schema:
         raise fail("schema", f"missing or malformed (expected '{SCHEMA}')")
@@ -228,6 +229,10 @@ def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[
         raise fail("schema", f"'{schema}' is not a lookup table (expected '{SCHEMA}')")
     if version != SCHEMA_VERSION:
         raise fail("schema", f"version {version} is not supported (this loader reads {SCHEMA_VERSION})")
+
+
+def _model_parameters(doc: dict[str, Any], fail: Fail) -> dict[str, Any]:
+    """The parameters of the model that made the table (its effects must be listed too)."""
     model = doc.get("model")
     if not isinstance(model, dict):
         raise fail("model", "missing: a table must say which model produced it")
@@ -235,6 +240,11 @@ def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[
         raise fail("model.parameters", "missing or empty")
     if not isinstance(model.get("effects"), list):
         raise fail("model.effects", "missing or not a list")
+    return model["parameters"]
+
+
+def _grid(doc: dict[str, Any], fail: Fail) -> tuple[np.ndarray, np.ndarray]:
+    """The slope (deg) and speed (m/s) axes: each at least two numbers, strictly increasing."""
     axes = doc.get("axes")
     if not isinstance(axes, dict):
         raise fail("axes", "missing (needs slope_deg and speed)")
@@ -247,8 +257,11 @@ def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[
             k = int(np.flatnonzero(np.diff(g) <= 0)[0])
             raise fail(f"axes.{ax}", f"must increase strictly (entry {k + 1} = {g[k + 1]:g} after {g[k]:g})")
         grids.append(g)
-    slopes, speeds = grids
-    shape = (slopes.size, speeds.size)
+    return grids[0], grids[1]
+
+
+def _cell_arrays(doc: dict[str, Any], shape: tuple[int, int], fail: Fail) -> dict[str, np.ndarray]:
+    """Every required cell field, one value per (slope, speed); outcomes by their known names."""
     cells_doc = doc.get("cells")
     if not isinstance(cells_doc, dict):
         raise fail("cells", "missing")
@@ -272,7 +285,19 @@ def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[
     if bad:
         raise fail("cells.outcome", f"unknown outcome {bad[0]!r}; known: {', '.join(OUTCOMES)}")
     cells["outcome"] = cells["outcome"].astype(str)
-    angle_limits = _angle_limits(model["parameters"])
+    return cells
+
+
+def _check_cell_limits(
+    cells: dict[str, np.ndarray],
+    grid: tuple[np.ndarray, np.ndarray],
+    parameters: dict[str, Any],
+    fail: Fail,
+) -> None:
+    """Torques, leg angles (within the model's joint range) and margins each in range; the first
+    cell outside is named by its slope and speed."""
+    slopes, speeds = grid
+    angle_limits = _angle_limits(parameters)
     limits = {
         "tau_up": TORQUE_LIMITS,
         "tau_down": TORQUE_LIMITS,
@@ -289,6 +314,21 @@ def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[
                 f"cells.{f}",
                 f"{a[i, j]:g} at slope {slopes[i]:g} deg, speed {speeds[j]:g} m/s is outside {lo:g}..{hi:g}",
             )
+
+
+def _validate(doc: Any, path: str | None) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Check a table document part by part: its grid and its cells, as arrays."""
+
+    def fail(field: str, why: str) -> TableError:
+        return TableError(path, field, why)
+
+    if not isinstance(doc, dict):
+        raise fail("<file>", "must be a YAML mapping")
+    _check_schema(doc, fail)
+    parameters = _model_parameters(doc, fail)
+    slopes, speeds = _grid(doc, fail)
+    cells = _cell_arrays(doc, (slopes.size, speeds.size), fail)
+    _check_cell_limits(cells, (slopes, speeds), parameters, fail)
     return slopes, speeds, cells
 
 

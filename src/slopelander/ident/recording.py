@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import reprlib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -207,9 +208,8 @@ def _json_line(text: str, key: str) -> int | None:
     return None
 
 
-def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None, str, dict[str, Any]]:
-    """Conditions, observed outcome, source note and extra metadata of one JSON sidecar."""
-    path = Path(path)
+def _read_json(path: Path) -> tuple[str, dict[str, Any]]:
+    """The sidecar's text and its JSON object, of our schema."""
     try:
         text = path.read_text()
     except OSError as exc:
@@ -224,7 +224,12 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
         raise RecordingError(
             path, _json_line(text, "schema") or 1, "schema", f"must be '{SCHEMA}', got {doc.get('schema')!r}"
         )
-    raw = doc.get("conditions")
+    return text, doc
+
+
+def _read_landing(path: Path, text: str, raw: object) -> LandingConditions:
+    """The ``conditions`` object: known numeric conditions, slope and speed given, each in the
+    model's range."""
     if not isinstance(raw, dict):
         raise RecordingError(path, _json_line(text, "conditions"), "conditions", "missing or not an object")
     known = {f.name for f in fields(LandingConditions)}
@@ -238,6 +243,10 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
             )
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise RecordingError(path, _json_line(text, key), f"conditions.{key}", f"{v!r} is not a number")
+        if isinstance(v, int) and not -1e308 < v < 1e308:
+            raise RecordingError(
+                path, _json_line(text, key), f"conditions.{key}", f"{reprlib.repr(v)} is beyond any float"
+            )
     for key in ("slope_deg", "speed"):
         if key not in raw:
             raise RecordingError(path, _json_line(text, "conditions"), f"conditions.{key}", "missing")
@@ -247,52 +256,94 @@ def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None
     except ConditionError as exc:
         why = str(exc).split(": ", 1)[-1]
         raise RecordingError(path, _json_line(text, exc.field), f"conditions.{exc.field}", why) from None
-    outcome = doc.get("outcome")
-    if outcome is not None:
-        if outcome not in OUTCOME_NAMES:
-            raise RecordingError(
-                path,
-                _json_line(text, "outcome"),
-                "outcome",
-                f"unknown outcome {outcome!r}; known: {', '.join(OUTCOME_NAMES)}",
-            )
-        outcome = OUTCOME_NAMES[outcome]
-    meta = doc.get("meta") or {}
+    return cond
+
+
+def _read_outcome(path: Path, text: str, outcome: object) -> Outcome | None:
+    """The observed outcome by its lower-case name, or None when the drop has none."""
+    if outcome is None:
+        return None
+    if not isinstance(outcome, str) or outcome not in OUTCOME_NAMES:
+        raise RecordingError(
+            path,
+            _json_line(text, "outcome"),
+            "outcome",
+            f"unknown outcome {outcome!r}; known: {', '.join(OUTCOME_NAMES)}",
+        )
+    return OUTCOME_NAMES[outcome]
+
+
+def _savgol_rates_ok(rates: dict[str, Any]) -> bool:
+    """Whether Savitzky-Golay rates say a window, polynomial order and frame spacing that fit."""
+    win, order, dt = rates.get("window"), rates.get("polyorder"), rates.get("dt")
+    return bool(
+        isinstance(win, int)
+        and isinstance(order, int)
+        and not isinstance(win, bool)
+        and not isinstance(order, bool)
+        and isinstance(dt, (int, float))
+        and not isinstance(dt, bool)
+        and win >= 3
+        and win % 2
+        and 1 <= order < win
+        and 0 < dt < 1e308
+    )
+
+
+def _other_rates_ok(rates: object) -> bool:
+    """Whether rates not from Savitzky-Golay are measured, or least-squares slopes over an odd window."""
+    win = rates.get("window") if isinstance(rates, dict) else None
+    return bool(
+        isinstance(rates, dict)
+        and rates.get("method") in ("lsq_slope", "measured")
+        and (rates.get("method") == "measured" or (isinstance(win, int) and win >= 3 and win % 2))
+    )
+
+
+def _read_meta(path: Path, text: str, meta: object) -> dict[str, Any]:
+    """The ``meta`` object (empty when absent); its ``rates`` say how the rate columns were made
+    (load_drop checks the frames against them), so they are checked here."""
+    meta = {} if meta is None else meta
     if not isinstance(meta, dict):
         raise RecordingError(path, _json_line(text, "meta"), "meta", "must be an object")
     rates = meta.get("rates")
     if isinstance(rates, dict) and rates.get("method") == "savgol":
-        win, order, dt = rates.get("window"), rates.get("polyorder"), rates.get("dt")
-        if not (
-            isinstance(win, int)
-            and isinstance(order, int)
-            and isinstance(dt, (int, float))
-            and win >= 3
-            and win % 2
-            and 1 <= order < win
-            and dt > 0
-        ):
+        if not _savgol_rates_ok(rates):
             raise RecordingError(
                 path,
                 _json_line(text, "rates"),
                 "meta.rates",
                 '"savgol" needs "window" (odd, >= 3), "polyorder" (1..window-1) and "dt" (s, > 0)',
             )
-    elif rates is not None:
-        win = rates.get("window") if isinstance(rates, dict) else None
-        ok = (
-            isinstance(rates, dict)
-            and rates.get("method") in ("lsq_slope", "measured")
-            and (rates.get("method") == "measured" or (isinstance(win, int) and win >= 3 and win % 2))
+    elif rates is not None and not _other_rates_ok(rates):
+        raise RecordingError(
+            path,
+            _json_line(text, "rates"),
+            "meta.rates",
+            'must be {"method": "measured"} or {"method": "lsq_slope", "window": odd number >= 3}',
         )
-        if not ok:
-            raise RecordingError(
-                path,
-                _json_line(text, "rates"),
-                "meta.rates",
-                'must be {"method": "measured"} or {"method": "lsq_slope", "window": odd number >= 3}',
-            )
-    return cond, outcome, str(doc.get("source", "")), meta
+    return meta
+
+
+def _read_source(path: Path, text: str, source: object) -> str:
+    """The free-text note of where the data came from ("" when absent)."""
+    if source is None:
+        return ""
+    if not isinstance(source, str):
+        raise RecordingError(
+            path, _json_line(text, "source"), "source", f"must be text, got {reprlib.repr(source)}"
+        )
+    return source
+
+
+def read_conditions(path: str | Path) -> tuple[LandingConditions, Outcome | None, str, dict[str, Any]]:
+    """Conditions, observed outcome, source note and extra metadata of one JSON sidecar."""
+    path = Path(path)
+    text, doc = _read_json(path)
+    cond = _read_landing(path, text, doc.get("conditions"))
+    outcome = _read_outcome(path, text, doc.get("outcome"))
+    meta = _read_meta(path, text, doc.get("meta"))
+    return cond, outcome, _read_source(path, text, doc.get("source")), meta
 
 
 def load_drop(csv_path: str | Path) -> Drop:

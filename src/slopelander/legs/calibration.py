@@ -152,13 +152,8 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
     return parse_calibration(doc, name)
 
 
-def parse_calibration(doc: object, name: str) -> Calibration:
-    """Check a loaded document; every problem names the file and the field."""
-    if not isinstance(doc, dict):
-        raise CalibrationError(name, "(file)", "expected a mapping at the top level")
-    provenance = doc.get("provenance")
-    if provenance not in PROVENANCES:
-        raise CalibrationError(name, "provenance", f"must be one of {', '.join(PROVENANCES)}")
+def _check_units(doc: dict, name: str) -> None:
+    """The file says its units, and they are the ones the curves are read in (mA, N*m)."""
     units = doc.get("units")
     if not isinstance(units, dict):
         raise CalibrationError(name, "units", "missing (need current: mA, torque: N*m)")
@@ -166,44 +161,71 @@ def parse_calibration(doc: object, name: str) -> Calibration:
         raise CalibrationError(name, "units.current", "must be mA")
     if units.get("torque") not in TORQUE_UNITS:
         raise CalibrationError(name, "units.torque", "must be N*m")
+
+
+def _leg_curve(entry: object, where: str, name: str, seen: dict[int, LegCurve]) -> tuple[int, LegCurve]:
+    """One leg's entry: a leg index not ``seen`` yet and its curve, current strictly rising and
+    torque non-negative, never falling, rising somewhere."""
+    if not isinstance(entry, dict):
+        raise CalibrationError(name, where, "must be a mapping")
+    leg = entry.get("leg")
+    if not isinstance(leg, int) or not 0 <= leg < N_LEGS or leg in seen:
+        raise CalibrationError(name, f"{where}.leg", f"must be a new index 0..{N_LEGS - 1}")
+    current = _numbers(entry.get("current_ma"), name, f"{where}.current_ma")
+    torque = _numbers(entry.get("torque_nm"), name, f"{where}.torque_nm")
+    if len(current) != len(torque):
+        raise CalibrationError(name, f"{where}.torque_nm", "must have as many points as current_ma")
+    _check_order(current, name, f"{where}.current_ma", strict=True)
+    _check_order(torque, name, f"{where}.torque_nm", strict=False)
+    if torque[0] < 0:
+        raise CalibrationError(name, f"{where}.torque_nm", "must not be negative")
+    if torque[-1] <= torque[0]:
+        raise CalibrationError(name, f"{where}.torque_nm", "must rise somewhere")
+    return leg, LegCurve(current, torque)
+
+
+def _angle_range(doc: dict, name: str) -> tuple[float, float]:
+    """The leg angles (deg) the curve holds for: the protocol's whole range unless the file narrows it."""
+    if "angle_range_deg" not in doc:
+        return PROTOCOL_ANGLE_RANGE_DEG
+    pair = _numbers(doc["angle_range_deg"], name, "angle_range_deg")
+    lo, hi = pair[0], pair[-1]
+    if len(pair) != 2 or not (PROTOCOL_ANGLE_RANGE_DEG[0] <= lo < hi <= PROTOCOL_ANGLE_RANGE_DEG[1]):
+        raise CalibrationError(
+            name, "angle_range_deg", "must be [low, high] with 0 <= low < high <= 37.5 (deg)"
+        )
+    return lo, hi
+
+
+def _board_id(doc: dict, name: str) -> str | None:
+    """The board the curve was measured on (16 hex digits, lower case), or None when not named."""
+    board_id = doc.get("board_id")
+    if board_id is None:
+        return None
+    if not isinstance(board_id, str) or len(board_id) != 16 or not _is_hex(board_id):
+        raise CalibrationError(
+            name, "board_id", "must be the board's id, 16 hex digits (legs status prints it)"
+        )
+    return board_id.lower()
+
+
+def parse_calibration(doc: object, name: str) -> Calibration:
+    """Check a loaded document; every problem names the file and the field."""
+    if not isinstance(doc, dict):
+        raise CalibrationError(name, "(file)", "expected a mapping at the top level")
+    provenance = doc.get("provenance")
+    if provenance not in PROVENANCES:
+        raise CalibrationError(name, "provenance", f"must be one of {', '.join(PROVENANCES)}")
+    _check_units(doc, name)
     legs = doc.get("legs")
     if not isinstance(legs, list) or len(legs) != N_LEGS:
         raise CalibrationError(name, "legs", f"must be a list of {N_LEGS} legs")
     curves: dict[int, LegCurve] = {}
     for i, entry in enumerate(legs):
-        where = f"legs[{i}]"
-        if not isinstance(entry, dict):
-            raise CalibrationError(name, where, "must be a mapping")
-        leg = entry.get("leg")
-        if not isinstance(leg, int) or not 0 <= leg < N_LEGS or leg in curves:
-            raise CalibrationError(name, f"{where}.leg", f"must be a new index 0..{N_LEGS - 1}")
-        current = _numbers(entry.get("current_ma"), name, f"{where}.current_ma")
-        torque = _numbers(entry.get("torque_nm"), name, f"{where}.torque_nm")
-        if len(current) != len(torque):
-            raise CalibrationError(name, f"{where}.torque_nm", "must have as many points as current_ma")
-        _check_order(current, name, f"{where}.current_ma", strict=True)
-        _check_order(torque, name, f"{where}.torque_nm", strict=False)
-        if torque[0] < 0:
-            raise CalibrationError(name, f"{where}.torque_nm", "must not be negative")
-        if torque[-1] <= torque[0]:
-            raise CalibrationError(name, f"{where}.torque_nm", "must rise somewhere")
-        curves[leg] = LegCurve(current, torque)
-    angles = PROTOCOL_ANGLE_RANGE_DEG
-    if "angle_range_deg" in doc:
-        pair = _numbers(doc["angle_range_deg"], name, "angle_range_deg")
-        lo, hi = pair[0], pair[-1]
-        if len(pair) != 2 or not (PROTOCOL_ANGLE_RANGE_DEG[0] <= lo < hi <= PROTOCOL_ANGLE_RANGE_DEG[1]):
-            raise CalibrationError(
-                name, "angle_range_deg", "must be [low, high] with 0 <= low < high <= 37.5 (deg)"
-            )
-        angles = (lo, hi)
-    board_id = doc.get("board_id")
-    if board_id is not None:
-        if not isinstance(board_id, str) or len(board_id) != 16 or not _is_hex(board_id):
-            raise CalibrationError(
-                name, "board_id", "must be the board's id, 16 hex digits (legs status prints it)"
-            )
-        board_id = board_id.lower()
+        leg, curve = _leg_curve(entry, f"legs[{i}]", name, curves)
+        curves[leg] = curve
+    angles = _angle_range(doc, name)
+    board_id = _board_id(doc, name)
     return Calibration(tuple(curves[i] for i in range(N_LEGS)), provenance, name, angles, board_id)
 
 

@@ -157,17 +157,16 @@ def load_scenario(path: Path | None) -> Scenario:
     return scenario_from_dict(data or {}, src)
 
 
-def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
-    if not isinstance(data, dict):
-        raise ScenarioError(f"{src}: the top level must be a mapping")
-    unknown = set(data) - TOP_KEYS
-    if unknown:
-        raise ScenarioError(f"{src}: unknown field(s) {sorted(unknown)}; known: {sorted(TOP_KEYS)}")
-    s = Scenario()
+def _read_seed(s: Scenario, data: dict, src: str) -> None:
+    """The seed every random draw of the run comes from: a non-negative integer."""
     if "seed" in data:
         if not isinstance(data["seed"], int) or isinstance(data["seed"], bool) or data["seed"] < 0:
             raise ScenarioError(f"{src}: seed must be a non-negative integer, got {data['seed']!r}")
         s.seed = data["seed"]
+
+
+def _read_world(s: Scenario, data: dict, src: str) -> None:
+    """The roof (slope, edge, height, ridge, length, fall direction) and where the vehicle starts."""
     s.slope_deg = _num(src, "slope_deg", data.get("slope_deg", s.slope_deg), 0.0, 60.0)
     s.roof_x = _num(src, "roof_x", data.get("roof_x", s.roof_x), 0.5, 1000.0)
     s.roof_z = _num(src, "roof_z", data.get("roof_z", s.roof_z), -10.0, 100.0)
@@ -190,6 +189,10 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
             f"{src}: ridge 'gable' needs a roof falling north (fall_azimuth_deg 0), "
             f"got fall_azimuth_deg {data['fall_azimuth_deg']!r}"
         )
+
+
+def _read_rangefinder(s: Scenario, data: dict, src: str) -> None:
+    """The rangefinder's beam: its width, which return it reports, and where edges drop it out."""
     beam = data.get("rangefinder", {})
     if not isinstance(beam, dict) or set(beam) - {"beam_deg", "return", "edge_dropout_m"}:
         raise ScenarioError(f"{src}: rangefinder must be a mapping with beam_deg, return, edge_dropout_m")
@@ -202,54 +205,73 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
     s.edge_dropout_m = _num(
         src, "rangefinder.edge_dropout_m", beam.get("edge_dropout_m", s.edge_dropout_m), 0.001, 100.0
     )
+
+
+def _read_noise(s: Scenario, data: dict, src: str) -> None:
+    """The sensors' 1-sigma noise (SI): accelerometer, gyro, range."""
     noise = data.get("noise", {})
     if not isinstance(noise, dict) or set(noise) - {"accel", "gyro", "range"}:
         raise ScenarioError(f"{src}: noise must be a mapping with accel, gyro, range (1-sigma, SI)")
     s.accel_noise = _num(src, "noise.accel", noise.get("accel", s.accel_noise), 0.0, 50.0)
     s.gyro_noise = _num(src, "noise.gyro", noise.get("gyro", s.gyro_noise), 0.0, 10.0)
     s.range_noise = _num(src, "noise.range", noise.get("range", s.range_noise), 0.0, 5.0)
+
+
+def _rc_event(ev: object, where: str, src: str, last: float) -> tuple[float, dict[int, int]]:
+    """One change of the pilot's sticks: its time (s, not before the ``last`` one's) and the new
+    PWM of each channel named."""
+    if not isinstance(ev, dict) or set(ev) != {"t", "channels"} or not isinstance(ev["channels"], dict):
+        raise ScenarioError(f"{src}: {where} must be {{t: s, channels: {{1: pwm, ...}}}}")
+    t = _num(src, f"{where}.t", ev["t"], 0.0, 1e6)
+    if t < last:
+        raise ScenarioError(f"{src}: {where}.t = {t} goes back in time")
+    chans = {}
+    for ch, pwm in ev["channels"].items():
+        if not isinstance(ch, int) or not 1 <= ch <= 16:
+            raise ScenarioError(f"{src}: {where}.channels: channel {ch!r} must be 1..16")
+        chans[ch] = int(_num(src, f"{where}.channels.{ch}", pwm, 800, 2200))
+    return t, chans
+
+
+def _read_rc(s: Scenario, data: dict, src: str) -> None:
+    """The pilot's RC inputs over time, in time order."""
     rc = data.get("rc", [])
     if not isinstance(rc, list):
         raise ScenarioError(f"{src}: rc must be a list of {{t: s, channels: {{1: pwm, ...}}}}")
     last = -1.0
     for i, ev in enumerate(rc):
-        where = f"rc[{i}]"
-        if not isinstance(ev, dict) or set(ev) != {"t", "channels"} or not isinstance(ev["channels"], dict):
-            raise ScenarioError(f"{src}: {where} must be {{t: s, channels: {{1: pwm, ...}}}}")
-        t = _num(src, f"{where}.t", ev["t"], 0.0, 1e6)
-        if t < last:
-            raise ScenarioError(f"{src}: {where}.t = {t} goes back in time")
+        t, chans = _rc_event(ev, f"rc[{i}]", src, last)
         last = t
-        chans = {}
-        for ch, pwm in ev["channels"].items():
-            if not isinstance(ch, int) or not 1 <= ch <= 16:
-                raise ScenarioError(f"{src}: {where}.channels: channel {ch!r} must be 1..16")
-            chans[ch] = int(_num(src, f"{where}.channels.{ch}", pwm, 800, 2200))
         s.rc.append((t, chans))
+
+
+def _fault(f: object, where: str, src: str) -> Fault:
+    """One sensor or script fault: its kind, when it starts and ends (s), and its value."""
+    if (
+        not isinstance(f, dict)
+        or not {"kind", "start", "end"} <= set(f)
+        or set(f) - {"kind", "start", "end", "value"}
+    ):
+        raise ScenarioError(f"{src}: {where} needs kind, start, end (s) and optionally value")
+    if f["kind"] not in FAULT_KINDS:
+        raise ScenarioError(f"{src}: {where}.kind {f['kind']!r} unknown; one of {FAULT_KINDS}")
+    start = _num(src, f"{where}.start", f["start"], 0.0, 1e6)
+    end = _num(src, f"{where}.end", f["end"], start, 1e6)
+    value = _num(src, f"{where}.value", f.get("value", 0.0), -1e4, 1e4)
+    return Fault(f["kind"], start, end, value)
+
+
+def _read_faults(s: Scenario, data: dict, src: str) -> None:
+    """The faults list, each one checked."""
     faults = data.get("faults", [])
     if not isinstance(faults, list):
         raise ScenarioError(f"{src}: faults must be a list")
     for i, f in enumerate(faults):
-        where = f"faults[{i}]"
-        if (
-            not isinstance(f, dict)
-            or not {"kind", "start", "end"} <= set(f)
-            or set(f) - {"kind", "start", "end", "value"}
-        ):
-            raise ScenarioError(f"{src}: {where} needs kind, start, end (s) and optionally value")
-        if f["kind"] not in FAULT_KINDS:
-            raise ScenarioError(f"{src}: {where}.kind {f['kind']!r} unknown; one of {FAULT_KINDS}")
-        start = _num(src, f"{where}.start", f["start"], 0.0, 1e6)
-        end = _num(src, f"{where}.end", f["end"], start, 1e6)
-        value = _num(src, f"{where}.value", f.get("value", 0.0), -1e4, 1e4)
-        s.faults.append(Fault(f["kind"], start, end, value))
-    if "wind" in data:
-        s.wind = wind_from_dict(
-            data["wind"],
-            s.seed,
-            lambda name, v, lo, hi: _num(src, name, v, lo, hi),
-            lambda msg: ScenarioError(f"{src}: {msg}"),
-        )
+        s.faults.append(_fault(f, f"faults[{i}]", src))
+
+
+def _read_model_params(s: Scenario, data: dict, src: str) -> None:
+    """Model parameters over the defaults, checked by building the model with them."""
     mp = data.get("model_params", {})
     if not isinstance(mp, dict):
         raise ScenarioError(f"{src}: model_params must be a mapping of model parameter names to values")
@@ -259,4 +281,28 @@ def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
         s.model()
     except Exception as exc:  # the model's own validation names the parameter
         raise ScenarioError(f"{src}: model_params: {exc}") from None
+
+
+def scenario_from_dict(data: object, src: str = "scenario") -> Scenario:
+    """A scenario from its parsed YAML, checked section by section; errors name ``src`` and the field."""
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{src}: the top level must be a mapping")
+    unknown = set(data) - TOP_KEYS
+    if unknown:
+        raise ScenarioError(f"{src}: unknown field(s) {sorted(unknown)}; known: {sorted(TOP_KEYS)}")
+    s = Scenario()
+    _read_seed(s, data, src)
+    _read_world(s, data, src)
+    _read_rangefinder(s, data, src)
+    _read_noise(s, data, src)
+    _read_rc(s, data, src)
+    _read_faults(s, data, src)
+    if "wind" in data:
+        s.wind = wind_from_dict(
+            data["wind"],
+            s.seed,
+            lambda name, v, lo, hi: _num(src, name, v, lo, hi),
+            lambda msg: ScenarioError(f"{src}: {msg}"),
+        )
+    _read_model_params(s, data, src)
     return s

@@ -118,6 +118,12 @@ class Settled(State):
             said.add(key)
             ctx.act.statustext(text)
 
+    @staticmethod
+    def _sliding(cfg, drift: float | None, moved: float | None) -> bool:
+        """Sliding: faster than ``settle.slide_speed_mps`` and further than ``settle.slide_m``."""
+        fast = drift is not None and drift > cfg["settle.slide_speed_mps"]
+        return fast and moved is not None and moved > cfg["settle.slide_m"]
+
     def step(self, ctx: Context, inp: Inputs):
         cfg = ctx.cfg
         if not inp.armed:
@@ -132,6 +138,14 @@ class Settled(State):
             # DISARM_RETRY_S (it disarms once the vehicle has been still for a second)
             ctx.marks.setdefault("disarm_asked", "script fault, motors held")
             self._say_once(ctx, "fault", "SL script fault: motors held, disarm once still")
+            # a slide is said as any held slide is (the pilot's to judge; found by the soak on
+            # ArduCopter: a 47 deg roof, 1.04 m/s for minutes, the script refusing the disarm
+            # while moving and nobody told it slid)
+            drift, moved = _drift(ctx, inp), _moved(ctx, inp)
+            if self._sliding(cfg, drift, moved):
+                self._say_once(
+                    ctx, "slide", f"sliding at {drift:.2f} m/s, {moved:.2f} m: motors held (script fault)"
+                )
             request_disarm(ctx, inp)
             return None
         if inp.takeoff_request:
@@ -152,8 +166,7 @@ class Settled(State):
         if "disarm_asked" in ctx.marks:  # asked: the motors stay held until the HEARTBEAT says so
             request_disarm(ctx, inp)
             return None
-        fast = drift is not None and drift > cfg["settle.slide_speed_mps"]
-        if fast and moved is not None and moved > cfg["settle.slide_m"]:
+        if self._sliding(cfg, drift, moved):
             ctx.marks.pop("still_since", None)
             self._say_once(
                 ctx, "slide", f"sliding at {drift:.2f} m/s, {moved:.2f} m: motors held, not disarmed"

@@ -14,8 +14,10 @@ import contextlib
 import io
 import math
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -182,16 +184,106 @@ def _text(value) -> str:
     return str(value).rstrip("\x00")
 
 
+@dataclass
+class _DataflashRows:
+    """The rows of each series as a DataFlash log's messages are read, before they become Series."""
+
+    imu: list[tuple] = field(default_factory=list)
+    att: list[tuple] = field(default_factory=list)
+    ang: list[tuple] = field(default_factory=list)
+    ekf: list[tuple] = field(default_factory=list)
+    ekf2: list[tuple] = field(default_factory=list)
+    rng: list[tuple] = field(default_factory=list)
+    out: list[tuple] = field(default_factory=list)
+    states: list[tuple] = field(default_factory=list)
+    texts: list[tuple[float, str]] = field(default_factory=list)
+    arm: list[tuple[float, bool]] = field(default_factory=list)
+    ev: list[tuple[float, bool]] = field(default_factory=list)
+    sample_hz: list[float] = field(default_factory=list)
+
+
+def _df_imu(rows: _DataflashRows, m: Any, t: float) -> None:
+    """The first IMU (as RAW_IMU in a tlog), and its sample rate when logged."""
+    if getattr(m, "I", 0) != 0:
+        return
+    rows.imu.append((t, m.GyrX, m.GyrY, m.GyrZ, m.AccX, m.AccY, m.AccZ))
+    ahz = getattr(m, "AHz", None)
+    if ahz:
+        rows.sample_hz.append(float(ahz))
+
+
+def _df_attitude(rows: _DataflashRows, m: Any, t: float) -> None:
+    """ATT or ANG (the fast attitude): roll, pitch, yaw in radians."""
+    row = (t, math.radians(m.Roll), math.radians(m.Pitch), math.radians(m.Yaw))
+    (rows.att if m.get_type() == "ATT" else rows.ang).append(row)
+
+
+def _df_ekf(rows: _DataflashRows, m: Any, t: float) -> None:
+    """The first EKF core's velocity, position and attitude (XKF1, or NKF1 of the older EKF)."""
+    if getattr(m, "C", 0) != 0:
+        return
+    angles = (math.radians(m.Roll), math.radians(m.Pitch), math.radians(m.Yaw))
+    (rows.ekf if m.get_type() == "XKF1" else rows.ekf2).append(
+        (t, m.VN, m.VE, m.VD, m.PN, m.PE, m.PD, *angles)
+    )
+
+
+def _df_range(rows: _DataflashRows, m: Any, t: float) -> None:
+    """The downward rangefinder's distance and whether its status was good."""
+    if getattr(m, "Orient", DOWNWARD) != DOWNWARD:
+        return
+    rows.rng.append((t, m.Dist, 1.0 if getattr(m, "Stat", RANGE_GOOD) == RANGE_GOOD else 0.0))
+
+
+def _df_outputs(rows: _DataflashRows, m: Any, t: float) -> None:
+    """The four motors' outputs."""
+    rows.out.append((t, m.C1, m.C2, m.C3, m.C4))
+
+
+def _df_named_value(rows: _DataflashRows, m: Any, t: float) -> None:
+    """The on-board script's state, announced as SL_STATE."""
+    if _text(m.Name) == "SL_STATE":
+        rows.states.append((t, m.Value))
+
+
+def _df_text(rows: _DataflashRows, m: Any, t: float) -> None:
+    """A text message of the autopilot's."""
+    rows.texts.append((t, _text(m.Message)))
+
+
+def _df_arm(rows: _DataflashRows, m: Any, t: float) -> None:
+    """An arming state change."""
+    rows.arm.append((t, bool(m.ArmState)))
+
+
+def _df_event(rows: _DataflashRows, m: Any, t: float) -> None:
+    """LogEvent ARMED or DISARMED: the arming changes of older firmware."""
+    if m.Id in (10, 11):
+        rows.ev.append((t, m.Id == 10))
+
+
+_DF_ROWS: dict[str, Callable[[_DataflashRows, Any, float], None]] = {
+    "IMU": _df_imu,
+    "ATT": _df_attitude,
+    "ANG": _df_attitude,
+    "XKF1": _df_ekf,
+    "NKF1": _df_ekf,
+    "RFND": _df_range,
+    "RCOU": _df_outputs,
+    "NVF": _df_named_value,
+    "MSG": _df_text,
+    "ARM": _df_arm,
+    "EV": _df_event,
+}
+"""What each DataFlash message adds to the rows (PARM: DFReader keeps the parameters itself)."""
+
+
 def _read_dataflash(path: Path) -> FlightLog:
     from pymavlink import DFReader
 
     r = DFReader.DFReader_binary(str(path))
     truncated = _dataflash_tail(r)
-    imu, att, ang, ekf, ekf2, rng, out, states = [], [], [], [], [], [], [], []
-    texts: list[tuple[float, str]] = []
-    arm_rows: list[tuple[float, bool]] = []
-    ev_rows: list[tuple[float, bool]] = []
-    sample_hz: list[float] = []
+    rows = _DataflashRows()
     while True:
         m = r.recv_match(type=_DF_TYPES)
         if m is None:
@@ -199,53 +291,26 @@ def _read_dataflash(path: Path) -> FlightLog:
         kind = m.get_type()
         if kind == "PARM":
             continue  # DFReader keeps them in r.params
-        t = m.TimeUS * 1e-6
-        if kind == "IMU":
-            if getattr(m, "I", 0) != 0:
-                continue  # the first IMU, as RAW_IMU in a tlog
-            imu.append((t, m.GyrX, m.GyrY, m.GyrZ, m.AccX, m.AccY, m.AccZ))
-            ahz = getattr(m, "AHz", None)
-            if ahz:
-                sample_hz.append(float(ahz))
-        elif kind in ("ATT", "ANG"):
-            row = (t, math.radians(m.Roll), math.radians(m.Pitch), math.radians(m.Yaw))
-            (att if kind == "ATT" else ang).append(row)
-        elif kind in ("XKF1", "NKF1"):
-            if getattr(m, "C", 0) != 0:
-                continue  # the first core
-            angles = (math.radians(m.Roll), math.radians(m.Pitch), math.radians(m.Yaw))
-            (ekf if kind == "XKF1" else ekf2).append((t, m.VN, m.VE, m.VD, m.PN, m.PE, m.PD, *angles))
-        elif kind == "RFND":
-            if getattr(m, "Orient", DOWNWARD) != DOWNWARD:
-                continue
-            rng.append((t, m.Dist, 1.0 if getattr(m, "Stat", RANGE_GOOD) == RANGE_GOOD else 0.0))
-        elif kind == "RCOU":
-            out.append((t, m.C1, m.C2, m.C3, m.C4))
-        elif kind == "NVF":
-            if _text(m.Name) == "SL_STATE":
-                states.append((t, m.Value))
-        elif kind == "MSG":
-            texts.append((t, _text(m.Message)))
-        elif kind == "ARM":
-            arm_rows.append((t, bool(m.ArmState)))
-        elif kind == "EV" and m.Id in (10, 11):  # LogEvent ARMED, DISARMED (older firmware)
-            ev_rows.append((t, m.Id == 10))
+        _DF_ROWS[kind](rows, m, m.TimeUS * 1e-6)
     # the attitude at the higher rate: ANG (loop rate with LOG_BITMASK's fast attitude) or ATT
-    attitude = Series.of(ang, "ANG", 3) if len(ang) > len(att) else Series.of(att, "ATT", 3)
+    attitude = (
+        Series.of(rows.ang, "ANG", 3) if len(rows.ang) > len(rows.att) else Series.of(rows.att, "ATT", 3)
+    )
     params = {str(k): float(v) for k, v in r.params.items() if isinstance(v, (int, float))}
-    filters = _filters(params, float(np.median(sample_hz)) if sample_hz else None, "the log's parameters")
+    sample_hz = float(np.median(rows.sample_hz)) if rows.sample_hz else None
+    filters = _filters(params, sample_hz, "the log's parameters")
     r.close()
     return FlightLog(
         path=path,
         kind=DATAFLASH,
-        imu=Series.of(imu, "IMU[0]", 6),
+        imu=Series.of(rows.imu, "IMU[0]", 6),
         attitude=attitude,
-        ekf=Series.of(ekf, "XKF1", 9) if ekf else Series.of(ekf2, "NKF1", 9),
-        ranges=Series.of(rng, "RFND", 2),
-        outputs=Series.of(out, "RCOU", 4),
-        states=Series.of(states, "NVF SL_STATE", 1),
-        texts=texts,
-        armed=_changes(arm_rows or ev_rows),
+        ekf=Series.of(rows.ekf, "XKF1", 9) if rows.ekf else Series.of(rows.ekf2, "NKF1", 9),
+        ranges=Series.of(rows.rng, "RFND", 2),
+        outputs=Series.of(rows.out, "RCOU", 4),
+        states=Series.of(rows.states, "NVF SL_STATE", 1),
+        texts=rows.texts,
+        armed=_changes(rows.arm or rows.ev),
         params=params,
         filters=filters,
         truncated=truncated,

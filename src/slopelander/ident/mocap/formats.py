@@ -201,9 +201,21 @@ def _numbers(path: Path, take: str, rows: list[tuple[int, list[str]]], names: li
     return out
 
 
-def read_vicon_csv(path: Path) -> Take:
-    take = path.stem
-    lines = list(csv.reader(path.read_text(encoding="utf-8-sig", errors="replace").splitlines()))
+def _csv_lines(path: Path) -> list[list[str]]:
+    """The file's rows as CSV cells (a byte-order mark dropped, bad bytes replaced)."""
+    try:
+        text = path.read_text(encoding="utf-8-sig", errors="replace")
+    except OSError as exc:
+        raise MocapError(path, path.stem, "<file>", f"cannot read: {exc.strerror}") from None
+    lines = text.splitlines()
+    try:
+        return list(csv.reader(lines))
+    except csv.Error as exc:  # e.g. a cell longer than the csv module's field limit
+        raise MocapError(path, path.stem, "<file>", f"not a CSV file ({exc})") from None
+
+
+def _vicon_section(path: Path, take: str, lines: list[list[str]]) -> int:
+    """Index of the 'Trajectories' row, with the four header rows under it."""
     start = next((i for i, r in enumerate(lines) if r and r[0].strip() == "Trajectories"), None)
     if start is None:
         raise MocapError(
@@ -211,13 +223,16 @@ def read_vicon_csv(path: Path) -> Take:
         )
     if len(lines) < start + 5:
         raise MocapError(path, take, "Trajectories", "the section ends before its header rows")
-    rate = _rate(path, take, f"line {start + 2} (frame rate)", (lines[start + 1] or [""])[0])
-    names_row, cols_row, units_row = lines[start + 2], lines[start + 3], lines[start + 4]
+    return start
+
+
+def _vicon_labels(path: Path, take: str, start: int, names_row: list[str], cols_row: list[str]) -> list[str]:
+    """The marker names over each X,Y,Z triple after 'Frame,Sub Frame' (Nexus 2 layout)."""
     if [c.strip() for c in cols_row[:2]] != ["Frame", "Sub Frame"]:
         raise MocapError(
             path, take, f"line {start + 4}", "expected 'Frame,Sub Frame,X,Y,Z,...' (Nexus 2 layout)"
         )
-    labels, cols = [], []
+    labels = []
     for j in range(2, len(cols_row), 3):
         name = names_row[j].strip() if j < len(names_row) else ""
         if not name or [c.strip() for c in cols_row[j : j + 3]] != ["X", "Y", "Z"]:
@@ -225,7 +240,11 @@ def read_vicon_csv(path: Path) -> Take:
                 path, take, f"line {start + 3}, column {j + 1}", "expected a marker name over X,Y,Z"
             )
         labels.append(name)
-        cols.append(j)
+    return labels
+
+
+def _vicon_unit(path: Path, take: str, start: int, units_row: list[str]) -> str:
+    """The one length unit the units row gives every column."""
     units = {u.strip().lower() for u in units_row[2:] if u.strip()}
     if not units:
         raise MocapError(
@@ -233,14 +252,30 @@ def read_vicon_csv(path: Path) -> Take:
         )
     if len(units) > 1 or next(iter(units)) not in LENGTH_UNITS:
         raise MocapError(path, take, f"line {start + 5} (units)", f"unknown or mixed units {sorted(units)}")
-    unit = next(iter(units))
+    return next(iter(units))
+
+
+def _vicon_rows(path: Path, take: str, lines: list[list[str]], first: int) -> list[tuple[int, list[str]]]:
+    """The section's frame rows (line number, cells) from ``first`` to the blank line that ends it."""
     rows = []
-    for i in range(start + 5, len(lines)):
+    for i in range(first, len(lines)):
         if not lines[i] or not any(c.strip() for c in lines[i]):
             break  # a blank line ends the section
         rows.append((i + 1, lines[i]))
     if not rows:
         raise MocapError(path, take, "Trajectories", "no frames")
+    return rows
+
+
+def read_vicon_csv(path: Path) -> Take:
+    take = path.stem
+    lines = _csv_lines(path)
+    start = _vicon_section(path, take, lines)
+    rate = _rate(path, take, f"line {start + 2} (frame rate)", (lines[start + 1] or [""])[0])
+    names_row, cols_row, units_row = lines[start + 2], lines[start + 3], lines[start + 4]
+    labels = _vicon_labels(path, take, start, names_row, cols_row)
+    unit = _vicon_unit(path, take, start, units_row)
+    rows = _vicon_rows(path, take, lines, start + 5)
     names = ["Frame", "Sub Frame"] + [f"{lab} {a}" for lab in labels for a in "XYZ"]
     data = _numbers(path, take, rows, names, 2 + 3 * len(labels))
     xyz = data[:, 2:].reshape(len(rows), len(labels), 3) * LENGTH_UNITS[unit]
@@ -248,10 +283,13 @@ def read_vicon_csv(path: Path) -> Take:
 
 
 # -- OptiTrack Motive CSV --------------------------------------------------------------------
-def read_motive_csv(path: Path) -> Take:
-    take = path.stem
-    lines = list(csv.reader(path.read_text(encoding="utf-8-sig", errors="replace").splitlines()))
-    head = lines[0]
+def _cell(row: list[str], j: int) -> str:
+    """Cell ``j`` of a header row, stripped; empty past the row's end."""
+    return row[j].strip() if j < len(row) else ""
+
+
+def _motive_meta(path: Path, take: str, head: list[str]) -> tuple[dict[str, str], str, float, float]:
+    """Motive's key/value first line; the take's name, its rate (Hz) and metres per length unit."""
     meta = {head[i].strip(): head[i + 1].strip() for i in range(0, len(head) - 1, 2)}
     take = meta.get("Take Name") or take
     if "Export Frame Rate" not in meta:
@@ -269,71 +307,111 @@ def read_motive_csv(path: Path) -> Take:
         raise MocapError(
             path, take, "Length Units", f"unknown unit '{unit}'; accepted: Meters, Centimeters, Millimeters"
         )
-    scale = _MOTIVE_UNITS[unit]
+    return meta, take, rate, _MOTIVE_UNITS[unit]
+
+
+def _motive_layout(
+    path: Path, take: str, lines: list[list[str]]
+) -> tuple[list[str], list[str], list[str], list[str], list[tuple[int, list[str]]]]:
+    """Motive's header rows (Type, Name, the property row, the axes row) and the frame rows
+    (line number, cells) under them."""
     hdr = next((i for i, r in enumerate(lines) if r and r[0].strip() == "Frame"), None)
     if hdr is None or hdr < 4:
         raise MocapError(path, take, "Frame", "no 'Frame,Time (Seconds),...' row under the Type/Name/ID rows")
     kinds = {r[1].strip(): r for r in lines[1:hdr] if len(r) > 1 and r[1].strip() in ("Type", "Name", "ID")}
     if "Type" not in kinds or "Name" not in kinds:
         raise MocapError(path, take, "Type", "no 'Type' and 'Name' rows above the data (Motive layout 1.2x)")
-    types, names, props, axes = kinds["Type"], kinds["Name"], lines[hdr - 1], lines[hdr]
     rows = [
         (i + 1, lines[i]) for i in range(hdr + 1, len(lines)) if lines[i] and any(c.strip() for c in lines[i])
     ]
     if not rows:
         raise MocapError(path, take, "Frame", "no frames")
-    width = len(axes)
-    colnames = [
-        f"{names[j] if j < len(names) else ''} {props[j] if j < len(props) else ''} {axes[j]}".strip()
-        for j in range(width)
-    ]
-    data = _numbers(path, take, rows, colnames, width)
+    return kinds["Type"], kinds["Name"], lines[hdr - 1], lines[hdr], rows
 
-    def cell(row: list[str], j: int) -> str:
-        return row[j].strip() if j < len(row) else ""
 
-    markers: dict[str, list[int]] = {}
+def _motive_columns(
+    types: list[str], names: list[str], props: list[str], axes: list[str]
+) -> tuple[dict[str, list[tuple[str, int]]], dict[str, dict[str, int]]]:
+    """Which columns hold each marker's position (axis, column), and each rigid body's columns
+    by ``property:axis`` (``Rotation:X``, ``Mean Marker Error:``)."""
+    markers: dict[str, list[tuple[str, int]]] = {}
     bodies: dict[str, dict[str, int]] = {}
-    for j in range(2, width):
-        kind, name, prop, ax = cell(types, j), cell(names, j), cell(props, j), axes[j].strip()
+    for j in range(2, len(axes)):
+        kind, name, prop, ax = _cell(types, j), _cell(names, j), _cell(props, j), axes[j].strip()
         if kind == "Marker" and prop == "Position":
-            markers.setdefault(name, []).append(j)
+            markers.setdefault(name, []).append((ax, j))
         elif kind == "Rigid Body":
             bodies.setdefault(name, {})[f"{prop}:{ax}"] = j
-    labels = tuple(markers)
-    xyz = (
-        np.stack([data[:, markers[m]] for m in labels], axis=1) * scale
-        if labels
-        else np.zeros((len(rows), 0, 3))
-    )
+    return markers, bodies
+
+
+def _motive_marker_xyz(path: Path, take: str, name: str, cols: list[tuple[str, int]]) -> list[int]:
+    """The X, Y and Z columns of one marker's position, in that order: exactly one of each."""
+    found = [ax for ax, _ in cols]
+    if sorted(found) != ["X", "Y", "Z"]:
+        raise MocapError(
+            path,
+            take,
+            f"{name} Position",
+            f"expected one X, Y and Z column, found {len(found)} ({', '.join(a or '?' for a in found)})",
+        )
+    by_axis = dict(cols)
+    return [by_axis[a] for a in "XYZ"]
+
+
+_MOTIVE_BODY = (
+    "Rotation:X",
+    "Rotation:Y",
+    "Rotation:Z",
+    "Rotation:W",
+    "Position:X",
+    "Position:Y",
+    "Position:Z",
+)
+"""The columns a solved rigid body needs: its quaternion (x, y, z, w), then its position."""
+
+
+def _motive_bodies(
+    bodies: dict[str, dict[str, int]], data: np.ndarray, scale: float, rotation: str
+) -> tuple[dict[str, RigidBody], dict[str, str]]:
+    """The rigid bodies Motive solved, and those that cannot be used with the reason (a
+    markers file that asks for one of those is refused with it)."""
     solved = {}
     unusable: dict[str, str] = {}
     for name, c in bodies.items():
-        need = [
-            "Rotation:X",
-            "Rotation:Y",
-            "Rotation:Z",
-            "Rotation:W",
-            "Position:X",
-            "Position:Y",
-            "Position:Z",
-        ]
-        if any(k not in c for k in need):  # usable only if the markers file asks for it
-            kind = meta.get("Rotation Type", "Quaternion")
+        if any(k not in c for k in _MOTIVE_BODY):
             unusable[name] = (
-                f"its rotation is exported as '{kind}': export quaternions (Rotation Type: Quaternion)"
-                if kind != "Quaternion"
+                f"its rotation is exported as '{rotation}': export quaternions (Rotation Type: Quaternion)"
+                if rotation != "Quaternion"
                 else "it lacks Rotation X,Y,Z,W or Position X,Y,Z columns"
             )
             continue
         err = (
             data[:, c["Mean Marker Error:"]] * scale
             if "Mean Marker Error:" in c
-            else np.full(len(rows), np.nan)
+            else np.full(len(data), np.nan)
         )
         solved[name] = RigidBody(
-            data[:, [c[k] for k in need[4:]]] * scale, data[:, [c[k] for k in need[:4]]], err
+            data[:, [c[k] for k in _MOTIVE_BODY[4:]]] * scale, data[:, [c[k] for k in _MOTIVE_BODY[:4]]], err
         )
+    return solved, unusable
+
+
+def read_motive_csv(path: Path) -> Take:
+    lines = _csv_lines(path)
+    meta, take, rate, scale = _motive_meta(path, path.stem, lines[0] if lines else [])
+    types, names, props, axes, rows = _motive_layout(path, take, lines)
+    width = len(axes)
+    colnames = [
+        f"{names[j] if j < len(names) else ''} {props[j] if j < len(props) else ''} {axes[j]}".strip()
+        for j in range(width)
+    ]
+    markers, bodies = _motive_columns(types, names, props, axes)
+    labels = tuple(markers)
+    xyz_cols = [_motive_marker_xyz(path, take, m, markers[m]) for m in labels]
+    data = _numbers(path, take, rows, colnames, width)
+    xyz = np.stack([data[:, c] for c in xyz_cols], axis=1) * scale if labels else np.zeros((len(rows), 0, 3))
+    solved, unusable = _motive_bodies(bodies, data, scale, meta.get("Rotation Type", "Quaternion"))
     return Take(
         path,
         take,
@@ -348,12 +426,8 @@ def read_motive_csv(path: Path) -> Take:
 
 
 # -- Qualisys TSV ----------------------------------------------------------------------------
-def read_qualisys_tsv(path: Path) -> Take:
-    take = path.stem
-    try:
-        lines = path.read_text(encoding="utf-8-sig", errors="replace").splitlines()
-    except OSError as exc:
-        raise MocapError(path, take, "<file>", f"cannot read: {exc.strerror}") from None
+def _qualisys_header(lines: list[str]) -> tuple[dict[str, list[str]], int]:
+    """QTM's KEY<tab>values lines, and the index of the first line after them."""
     meta: dict[str, list[str]] = {}
     i = 0
     while i < len(lines):
@@ -363,6 +437,66 @@ def read_qualisys_tsv(path: Path) -> Take:
             break
         meta[key] = [c.strip() for c in cells[1:]]
         i += 1
+    return meta, i
+
+
+def _qualisys_lead(lines: list[str], i: int) -> tuple[int, int]:
+    """How many columns (Frame, Time) come before the markers', and the first frame line: QTM
+    2019 and later write a column header row, older versions none."""
+    if i < len(lines) and lines[i].split("\t")[0].strip() == "Frame":
+        cols = [c.strip() for c in lines[i].split("\t")]
+        return (2 if len(cols) > 1 and cols[1] == "Time" else 1), i + 1
+    return 0, i
+
+
+def _qualisys_labels(path: Path, take: str, names: list[str]) -> tuple[str, ...]:
+    """The marker names, in the order of their X, Y, Z columns; an empty name between two
+    others would shift every column after it."""
+    while names and not names[-1]:
+        names = names[:-1]
+    if "" in names:
+        raise MocapError(
+            path,
+            take,
+            "MARKER_NAMES",
+            f"marker {names.index('') + 1} has no name (an empty cell between names)",
+        )
+    return tuple(names)
+
+
+def _qualisys_columns(
+    path: Path, take: str, lines: list[str], first: int, lead: int, labels: tuple[str, ...]
+) -> None:
+    """The column header row (QTM 2019 and later), when there is one, must name each marker's
+    X, Y, Z in the order MARKER_NAMES gives."""
+    if lead == 0:
+        return
+    found = [c.strip() for c in lines[first - 1].split("\t")][lead:]
+    while found and not found[-1]:
+        found.pop()
+    expected = [f"{m} {a}" for m in labels for a in "XYZ"]
+    if found != expected:
+        k = next(
+            (k for k, (f, e) in enumerate(zip(found, expected, strict=False)) if f != e),
+            min(len(found), len(expected)),
+        )
+        got = repr(found[k]) if k < len(found) else "nothing"
+        want = repr(expected[k]) if k < len(expected) else "no more columns"
+        raise MocapError(
+            path,
+            take,
+            f"line {first}, column {lead + k + 1}",
+            f"expected {want} (MARKER_NAMES, three columns X, Y, Z each), found {got}",
+        )
+
+
+def read_qualisys_tsv(path: Path) -> Take:
+    take = path.stem
+    try:
+        lines = path.read_text(encoding="utf-8-sig", errors="replace").splitlines()
+    except OSError as exc:
+        raise MocapError(path, take, "<file>", f"cannot read: {exc.strerror}") from None
+    meta, i = _qualisys_header(lines)
     if "FREQUENCY" not in meta or "MARKER_NAMES" not in meta:
         raise MocapError(
             path,
@@ -371,12 +505,9 @@ def read_qualisys_tsv(path: Path) -> Take:
             "missing: not a Qualisys TSV 3D export (header KEY<tab>value lines)",
         )
     rate = _rate(path, take, "FREQUENCY", (meta["FREQUENCY"] or [""])[0])
-    labels = tuple(m for m in meta["MARKER_NAMES"] if m)
-    lead = 0
-    if i < len(lines) and lines[i].split("\t")[0].strip() == "Frame":
-        cols = [c.strip() for c in lines[i].split("\t")]
-        lead = 2 if len(cols) > 1 and cols[1] == "Time" else 1
-        i += 1
+    labels = _qualisys_labels(path, take, meta["MARKER_NAMES"])
+    lead, i = _qualisys_lead(lines, i)
+    _qualisys_columns(path, take, lines, i, lead, labels)
     rows = [(k + 1, lines[k].split("\t")) for k in range(i, len(lines)) if lines[k].strip()]
     if not rows:
         raise MocapError(path, take, "<data>", "no frames")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import math
+import reprlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -97,11 +98,36 @@ def _err(path: Path, fieldname: str, why: str) -> MocapError:
 
 
 def _number(path: Path, name: str, v: object, lo: float = -math.inf, hi: float = math.inf) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise _err(path, name, f"{v!r} is not a number")
-    if not lo <= v <= hi:
-        raise _err(path, name, f"{v:g} must lie within {lo:g}..{hi:g}")
-    return float(v)
+    try:
+        x = math.nan if isinstance(v, bool) or not isinstance(v, (int, float)) else float(v)
+    except OverflowError:  # an integer beyond any float
+        x = math.nan
+    if not math.isfinite(x):
+        raise _err(path, name, f"{reprlib.repr(v)} is not a number")
+    if not lo <= x <= hi:
+        raise _err(path, name, f"{x:g} must lie within {lo:g}..{hi:g}")
+    return x
+
+
+def _whole(path: Path, name: str, v: object, lo: int, hi: int) -> int:
+    """A whole number in lo..hi (a fraction is refused, not rounded)."""
+    if _number(path, name, v, lo, hi) != int(v):  # type: ignore[call-overload]
+        raise _err(path, name, f"{v!r} is not a whole number")
+    return int(v)  # type: ignore[call-overload]
+
+
+def _name(path: Path, name: str, v: object) -> str:
+    """A marker's or rigid body's name: text or a number as YAML reads it, never a list or mapping."""
+    if isinstance(v, bool) or not isinstance(v, (str, int, float)) or not str(v).strip():
+        raise _err(path, name, f"{v!r} is not a name")
+    return str(v).strip()
+
+
+def _mapping(path: Path, name: str, v: object, what: str) -> dict:
+    """A section that must be a mapping; ``what`` says what it holds."""
+    if not isinstance(v, dict):
+        raise _err(path, name, f"must be a mapping {what}, got {v!r}")
+    return v
 
 
 def _keys(path: Path, where: str, doc: dict, known: set[str]) -> None:
@@ -129,7 +155,7 @@ def _conditions(path: Path, where: str, doc: object) -> dict[str, Any]:
     if doc is None:
         return {}
     if not isinstance(doc, dict):
-        raise _err(path, where, "must be a mapping of condition: value")
+        raise _err(path, where, f"must be a mapping of condition: value, got {doc!r}")
     out: dict[str, Any] = {}
     for k, v in doc.items():
         if k in MEASURED:
@@ -147,52 +173,91 @@ def _conditions(path: Path, where: str, doc: object) -> dict[str, Any]:
     return out
 
 
-def load_markerset(path: str | Path) -> MarkerSet:
-    """Read and check a markers file (docs/import.md)."""
+_TOP_KEYS = {
+    "schema",
+    "units",
+    "body",
+    "roof",
+    "feet",
+    "up_axis",
+    "latency_s",
+    "rates",
+    "planarity",
+    "keep",
+    "conditions",
+    "takes",
+}
+
+
+def _read_yaml(path: Path) -> dict:
+    """The file's YAML mapping; a file that cannot be read or parsed is named with its line."""
     import yaml
 
-    path = Path(path)
     try:
         doc = yaml.safe_load(path.read_text())
     except OSError as exc:
         raise _err(path, "<file>", f"cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise _err(path, "<file>", f"not a text file (byte {exc.start}: {exc.reason})") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else "<yaml>"
         raise _err(path, where, f"not valid YAML: {getattr(exc, 'problem', exc)}") from None
     if not isinstance(doc, dict):
         raise _err(path, "<yaml>", "must be a mapping")
-    _keys(
-        path,
-        "",
-        doc,
-        {
-            "schema",
-            "units",
-            "body",
-            "roof",
-            "feet",
-            "up_axis",
-            "latency_s",
-            "rates",
-            "planarity",
-            "keep",
-            "conditions",
-            "takes",
-        },
-    )
+    return doc
+
+
+def _length_scale(path: Path, doc: dict) -> float:
+    """Metres per unit of the file's lengths, once the schema is known to be ours."""
     if doc.get("schema") != SCHEMA:
         raise _err(path, "schema", f"must be '{SCHEMA}', got {doc.get('schema')!r}")
     units = doc.get("units")
-    if units not in _UNITS:
+    if not isinstance(units, str) or units not in _UNITS:
         raise _err(
             path, "units", f"{units!r}: say the unit of this file's lengths, one of {', '.join(_UNITS)}"
         )
-    s = _UNITS[units]
+    return _UNITS[units]
 
+
+def _rigid_body(path: Path, body_doc: dict, s: float) -> RigidBodySpec:
+    """The rigid body the capture software solved, its centre of mass and its axes."""
+    if "markers" in body_doc:
+        raise _err(path, "body", "give either markers or rigid_body, not both")
+    rigid = RigidBodySpec(
+        _name(path, "body.rigid_body", body_doc["rigid_body"]),
+        _vector(path, "body.centre_of_mass", body_doc.get("centre_of_mass", [0, 0, 0]), s),
+        _axis(path, "body.forward", body_doc.get("forward", "+X")),
+        _axis(path, "body.up", body_doc.get("up", "+Z")),
+    )
+    if rigid.forward.strip("+-") == rigid.up.strip("+-"):
+        raise _err(path, "body.up", f"the same axis as body.forward ({rigid.forward})")
+    return rigid
+
+
+def _body_markers(path: Path, raw: object, s: float) -> dict[str, np.ndarray]:
+    """The cluster's markers in the body frame (m): at least 3, not on one line, so that the
+    pose can be found from them."""
+    if not isinstance(raw, dict) or len(raw) < 3:
+        raise _err(path, "body.markers", "need at least 3 markers: name: [x, y, z] in the body frame")
+    body = {
+        _name(path, "body.markers", name): _vector(path, f"body.markers.{name}", v, s)
+        for name, v in raw.items()
+    }
+    pts = np.array(list(body.values()))
+    sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
+    if sv[1] < 1e-3 * max(sv[0], 1e-12) or sv[0] < 1e-3:
+        raise _err(path, "body.markers", "the markers lie on one line: their pose cannot be found")
+    return body
+
+
+def _body(path: Path, doc: dict, s: float) -> tuple[dict[str, np.ndarray], RigidBodySpec | None, float]:
+    """The ``body`` section: the cluster's markers or the solved rigid body, and how far (m) a
+    marker may stray from the cluster's shape."""
     body_doc = doc.get("body")
-    if not isinstance(body_doc, dict):
+    if body_doc is None:
         raise _err(path, "body", "missing: name the body's markers (or its rigid body)")
+    _mapping(path, "body", body_doc, "{markers: {name: [x, y, z]}} or {rigid_body: name}")
     _keys(
         path,
         "body.",
@@ -202,94 +267,109 @@ def load_markerset(path: str | Path) -> MarkerSet:
     body: dict[str, np.ndarray] = {}
     rigid = None
     if "rigid_body" in body_doc:
-        if "markers" in body_doc:
-            raise _err(path, "body", "give either markers or rigid_body, not both")
-        rigid = RigidBodySpec(
-            str(body_doc["rigid_body"]),
-            _vector(path, "body.centre_of_mass", body_doc.get("centre_of_mass", [0, 0, 0]), s),
-            _axis(path, "body.forward", body_doc.get("forward", "+X")),
-            _axis(path, "body.up", body_doc.get("up", "+Z")),
-        )
-        if rigid.forward.strip("+-") == rigid.up.strip("+-"):
-            raise _err(path, "body.up", f"the same axis as body.forward ({rigid.forward})")
+        rigid = _rigid_body(path, body_doc, s)
     else:
-        raw = body_doc.get("markers")
-        if not isinstance(raw, dict) or len(raw) < 3:
-            raise _err(path, "body.markers", "need at least 3 markers: name: [x, y, z] in the body frame")
-        for name, v in raw.items():
-            body[str(name)] = _vector(path, f"body.markers.{name}", v, s)
-        pts = np.array(list(body.values()))
-        sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
-        if sv[1] < 1e-3 * max(sv[0], 1e-12) or sv[0] < 1e-3:
-            raise _err(path, "body.markers", "the markers lie on one line: their pose cannot be found")
+        body = _body_markers(path, body_doc.get("markers"), s)
     tol = _number(path, "body.rigid_tolerance", body_doc.get("rigid_tolerance", 0.005 / s), 0.0) * s
+    return body, rigid, tol
 
+
+def _roof_plane(path: Path, p: object, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """A roof given as a plane: a point on it (m) and its unit normal, in the capture's axes."""
+    if not isinstance(p, dict) or set(p) != {"point", "normal"}:
+        raise _err(path, "roof.plane", "must be {point: [x, y, z], normal: [x, y, z]} in the capture's axes")
+    n = _vector(path, "roof.plane.normal", p["normal"], 1.0)
+    if np.linalg.norm(n) < 1e-9:
+        raise _err(path, "roof.plane.normal", "is zero")
+    return _vector(path, "roof.plane.point", p["point"], s), n / np.linalg.norm(n)
+
+
+def _roof(
+    path: Path, doc: dict, s: float
+) -> tuple[tuple[str, ...], float, tuple[np.ndarray, np.ndarray] | None]:
+    """The ``roof`` section: its markers (or its plane) and the markers' height above the surface (m)."""
     roof_doc = doc.get("roof")
-    if not isinstance(roof_doc, dict):
+    if roof_doc is None:
         raise _err(path, "roof", "missing: name the roof's markers (or give its plane)")
+    _mapping(path, "roof", roof_doc, "{markers: [...]} or {plane: {point, normal}}")
     _keys(path, "roof.", roof_doc, {"markers", "plane", "marker_height"})
     roof_height = _number(path, "roof.marker_height", roof_doc.get("marker_height", 0.0), 0.0) * s
-    roof: tuple[str, ...] = ()
-    plane = None
     if "markers" in roof_doc:
         raw = roof_doc["markers"]
         if not isinstance(raw, list) or len(raw) < 3:
             raise _err(path, "roof.markers", "need a list of at least 3 markers on the surface")
-        roof = tuple(str(m) for m in raw)
-    elif "plane" in roof_doc:
-        p = roof_doc["plane"]
-        if not isinstance(p, dict) or set(p) != {"point", "normal"}:
-            raise _err(
-                path, "roof.plane", "must be {point: [x, y, z], normal: [x, y, z]} in the capture's axes"
-            )
-        n = _vector(path, "roof.plane.normal", p["normal"], 1.0)
-        if np.linalg.norm(n) < 1e-9:
-            raise _err(path, "roof.plane.normal", "is zero")
-        plane = (_vector(path, "roof.plane.point", p["point"], s), n / np.linalg.norm(n))
-    else:
-        raise _err(path, "roof", "give markers: [...] or plane: {point, normal}")
+        return tuple(_name(path, f"roof.markers[{i}]", m) for i, m in enumerate(raw)), roof_height, None
+    if "plane" in roof_doc:
+        return (), roof_height, _roof_plane(path, roof_doc["plane"], s)
+    raise _err(path, "roof", "give markers: [...] or plane: {point, normal}")
 
+
+def _feet(path: Path, doc: dict, s: float, others: set[str]) -> tuple[tuple[str, ...], float]:
+    """The optional ``feet`` section: the foot markers (none of the body's or roof's ``others``)
+    and their height above the roof (m) when a foot touches."""
     feet_doc = doc.get("feet")
-    feet: tuple[str, ...] = ()
-    foot_height = 0.0
-    if feet_doc is not None:
-        if not isinstance(feet_doc, dict):
-            raise _err(path, "feet", "must be {markers: [...], marker_height: h}")
-        _keys(path, "feet.", feet_doc, {"markers", "marker_height"})
-        raw = feet_doc.get("markers")
-        if not isinstance(raw, list) or not raw:
-            raise _err(path, "feet.markers", "need a list of the markers on the feet (one or more)")
-        feet = tuple(str(m) for m in raw)
-        clash = [m for m in feet if m in body or m in roof]
-        if clash:
-            raise _err(path, "feet.markers", f"{', '.join(clash)} is also a body or roof marker")
-        if "marker_height" not in feet_doc:
-            raise _err(
-                path,
-                "feet.marker_height",
-                "missing: the height of a foot marker's centre above the roof when its foot touches",
-            )
-        foot_height = _number(path, "feet.marker_height", feet_doc["marker_height"], 0.0) * s
+    if feet_doc is None:
+        return (), 0.0
+    if not isinstance(feet_doc, dict):
+        raise _err(path, "feet", f"must be {{markers: [...], marker_height: h}}, got {feet_doc!r}")
+    _keys(path, "feet.", feet_doc, {"markers", "marker_height"})
+    raw = feet_doc.get("markers")
+    if not isinstance(raw, list) or not raw:
+        raise _err(path, "feet.markers", "need a list of the markers on the feet (one or more)")
+    feet = tuple(_name(path, f"feet.markers[{i}]", m) for i, m in enumerate(raw))
+    clash = [m for m in feet if m in others]
+    if clash:
+        raise _err(path, "feet.markers", f"{', '.join(clash)} is also a body or roof marker")
+    if "marker_height" not in feet_doc:
+        raise _err(
+            path,
+            "feet.marker_height",
+            "missing: the height of a foot marker's centre above the roof when its foot touches",
+        )
+    return feet, _number(path, "feet.marker_height", feet_doc["marker_height"], 0.0) * s
 
-    up_axis = _axis(path, "up_axis", doc["up_axis"]) if "up_axis" in doc else None
-    rates = doc.get("rates") or {}
-    _keys(path, "rates.", rates, {"window_s", "polyorder"})
-    plan = doc.get("planarity") or {}
-    _keys(path, "planarity.", plan, {"lateral", "yaw_deg", "roll_deg"})
-    keep = doc.get("keep") or {}
-    _keys(path, "keep.", keep, {"before_s", "after_s"})
 
+def _section(path: Path, doc: dict, name: str, known: set[str]) -> dict:
+    """An optional section of settings (empty when absent), refusing keys it does not know."""
+    section = doc.get(name)
+    if section is None:
+        return {}
+    _mapping(path, name, section, f"of {', '.join(sorted(known))}")
+    _keys(path, f"{name}.", section, known)
+    return section
+
+
+def _takes(path: Path, doc: dict) -> tuple[dict[str, dict[str, Any]], Path | None]:
+    """Each take's conditions, from the file itself or from the CSV table it names (returned too)."""
     takes_doc = doc.get("takes")
-    takes: dict[str, dict[str, Any]] = {}
-    table = None
     if isinstance(takes_doc, str):
         table = path.parent / takes_doc
-        takes = _takes_table(table)
-    elif isinstance(takes_doc, dict):
-        for name, entry in takes_doc.items():
-            takes[str(name)] = _conditions(path, f"takes.{name}", entry)
-    elif takes_doc is not None:
-        raise _err(path, "takes", "a mapping take: {conditions} or the name of a CSV table")
+        return _takes_table(table), table
+    if isinstance(takes_doc, dict):
+        return {
+            str(name): _conditions(path, f"takes.{name}", entry) for name, entry in takes_doc.items()
+        }, None
+    if takes_doc is not None:
+        raise _err(
+            path, "takes", f"a mapping take: {{conditions}} or the name of a CSV table, got {takes_doc!r}"
+        )
+    return {}, None
+
+
+def load_markerset(path: str | Path) -> MarkerSet:
+    """Read and check a markers file (docs/import.md)."""
+    path = Path(path)
+    doc = _read_yaml(path)
+    _keys(path, "", doc, _TOP_KEYS)
+    s = _length_scale(path, doc)
+    body, rigid, tol = _body(path, doc, s)
+    roof, roof_height, plane = _roof(path, doc, s)
+    feet, foot_height = _feet(path, doc, s, set(body) | set(roof))
+    up_axis = _axis(path, "up_axis", doc["up_axis"]) if "up_axis" in doc else None
+    rates = _section(path, doc, "rates", {"window_s", "polyorder"})
+    plan = _section(path, doc, "planarity", {"lateral", "yaw_deg", "roll_deg"})
+    keep = _section(path, doc, "keep", {"before_s", "after_s"})
+    takes, table = _takes(path, doc)
     return MarkerSet(
         path,
         body,
@@ -301,7 +381,7 @@ def load_markerset(path: str | Path) -> MarkerSet:
         up_axis,
         _number(path, "latency_s", doc.get("latency_s", 0.0), 0.0, 1.0),
         _number(path, "rates.window_s", rates.get("window_s", 0.03), 0.0, 1.0),
-        int(_number(path, "rates.polyorder", rates.get("polyorder", 2), 1, 5)),
+        _whole(path, "rates.polyorder", rates.get("polyorder", 2), 1, 5),
         _number(path, "planarity.lateral", plan.get("lateral", 0.02 / s), 0.0) * s,
         _number(path, "planarity.yaw_deg", plan.get("yaw_deg", 5.0), 0.0, 180.0),
         _number(path, "planarity.roll_deg", plan.get("roll_deg", 5.0), 0.0, 180.0),
@@ -321,6 +401,8 @@ def _takes_table(path: Path) -> dict[str, dict[str, Any]]:
         rows = list(csv.reader(path.read_text().splitlines()))
     except OSError as exc:
         raise _err(path, "<file>", f"cannot read: {exc.strerror}") from None
+    except (ValueError, csv.Error) as exc:  # a NUL in the name, bytes that are not text, a huge cell
+        raise _err(path, "<file>", f"cannot read as a CSV table: {exc}") from None
     if not rows or not rows[0] or rows[0][0].strip() != "take":
         raise _err(path, "line 1", "the first column must be 'take' (the take's file name)")
     head = [c.strip() for c in rows[0]]
