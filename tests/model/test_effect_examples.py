@@ -6,10 +6,19 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 
-from slopelander.model import LandingConditions, Outcome, ParameterError, load_effects, simulate
+from slopelander.model import (
+    LandingConditions,
+    Outcome,
+    ParameterError,
+    UserEffect,
+    load_effects,
+    simulate,
+    state,
+)
 from slopelander.model import layout as lay
 from slopelander.model.stepper import Stepper
 
@@ -137,3 +146,103 @@ def test_eq3_as_a_user_effect_is_the_built_in(model):
     assert np.array_equal(a.raw[:, : lay.S_DUSER], b.raw[:, : lay.S_DUSER])
     without = simulate(c, model.without("downhill_torque_growth"), full_horizon=False)
     assert not np.array_equal(a.states, without.states)  # the factor does act here
+
+
+@numba.njit
+def _leg_push(t, st, ctx, up, out):
+    """A torque on both legs, half their set torque: toward compression, then extension, then
+    compression again (the joints' friction holds each)."""
+    f = -0.5
+    if 0.15 <= t < 0.35:
+        f = 0.5
+    for leg in range(2):
+        out[3 + leg] += f * state.torque_setting(ctx, leg)
+
+
+LEG_PUSH = UserEffect("leg_push", "a scheduled torque on the legs", force=_leg_push)
+
+
+def _joint_angles_after_phases(model):
+    """In the air (no contact), the friction joint's angle (deg) and the lash of leg C at the
+    end of each phase of _leg_push."""
+    s = Stepper(model, slope_deg=0.0)
+    s.set_leg_angles(20.0, 20.0)
+    s.place(height=5.0)
+    out = []
+    for until in (0.15, 0.35, 0.55):
+        while s.t < until - 1e-9:
+            s.step(1e-3, 0.0, 0.0)
+        out.append((math.degrees(s.st[lay.S_QE]), s.st[lay.S_MEM]))
+    return out
+
+
+def test_backlash_gap_is_taken_up_and_crossed_again_on_each_reversal(model):
+    """Half the set torque never moves a joint of the base model, whichever way it pushes. With
+    a 3 deg lead-screw gap the joint crosses the gap freely each time the push reverses, and
+    holds again on the far flank, its memory going from the flank it started on (1) to the
+    other (0) and back; the leg, moving freely across the gap, strikes the flank and slips the
+    joint a little further (a third of a degree)."""
+    effect = _effect("backlash")
+    base = _joint_angles_after_phases(model.with_user_effect(LEG_PUSH))
+    lash = _joint_angles_after_phases(model.with_user_effect(LEG_PUSH).with_user_effect(effect))
+    assert [a for a, _ in base] == [20.0, 20.0, 20.0]
+    # the first push, toward compression: the gap taken up on the compression flank
+    assert 3.0 <= 20.0 - lash[0][0] < 3.6 and lash[0][1] == 0.0
+    # reversed to extension: across the gap to the extension flank
+    assert 3.0 <= lash[1][0] - lash[0][0] < 3.6 and lash[1][1] == 1.0
+    # and back
+    assert 3.0 <= lash[1][0] - lash[2][0] < 3.6 and lash[2][1] == 0.0
+
+
+def test_backlash_in_a_landing_and_at_its_neutral_value(model):
+    """At impact the screws rest on the extension flank: the joints first cross the gap, so the
+    legs compress further, and the memory records the gap taken up. At backlash_deg = 0 the
+    landing is the base model's to the last bit, memory aside."""
+    effect = _effect("backlash")
+    c = LandingConditions(slope_deg=20.0, speed=2.0, tau_up=1.7, tau_down=1.7)
+    base = simulate(c, model, full_horizon=False)
+    off = simulate(c, model.with_user_effect(effect).with_params(backlash_deg=0.0), full_horizon=False)
+    assert np.array_equal(off.raw[:, : lay.S_MEM], base.raw[:, : lay.S_MEM])
+    assert (off.effect_state("lash_C") == 1.0).all()  # untouched at the neutral value
+    on = simulate(c, model.with_user_effect(effect), full_horizon=False)
+    down = on.effect_state("lash_D")
+    assert down[0] == 1.0 and down.min() == 0.0  # taken up on the compression flank
+    assert on.result.compression_down > base.result.compression_down
+    with pytest.raises(Exception, match="no user effect of this model declares a state 'gap'"):
+        on.effect_state("gap")
+
+
+def test_round_pads_touch_when_their_surface_meets_the_ground(model):
+    """A ball of 4 cm on each tip: falling at 1 m/s from 10 cm (tips), the contact starts when
+    the balls meet the ground, 4 cm early, not when the tips do; at rest the tips stand a pad's
+    reach above the ground; at pad_radius = 0 a landing is the base model's to the last bit."""
+    effect = _effect("round_pads")
+    g = model.params["gravity"]
+    for radius in (0.0, 0.04):
+        s = Stepper(model.with_user_effect(effect).with_params(pad_radius=radius), slope_deg=0.0)
+        s.place(height=0.1, vz=-1.0)
+        while s.st[lay.S_TIMP] < 0.0:
+            s.step(1e-4, 0.0, 0.0)
+        fall = 0.1 - radius
+        expected = (-1.0 + math.sqrt(1.0 + 2.0 * g * fall)) / g
+        assert s.st[lay.S_TIMP] == pytest.approx(expected, abs=3e-4)
+    # at rest on level ground, each ball's bottom pressed in as a tip would be
+    rest = {}
+    for radius, inset in ((0.0, 0.0), (0.04, 0.0), (0.04, 1.0)):
+        m = model.with_user_effect(effect).with_params(pad_radius=radius, pad_inset=inset)
+        s = Stepper(m, slope_deg=0.0)
+        s.place(height=0.05)
+        for _ in range(1500):
+            s.step(1e-3, 0.0, 0.0)
+        assert abs(s.body().vz) < 1e-4
+        rest[radius, inset] = s.clearance(), math.radians(90.0) - s.leg_angles_deg()[0] * math.pi / 180
+    depth = -rest[0.0, 0.0][0]
+    assert rest[0.04, 0.0][0] == pytest.approx(0.04 - depth, abs=2e-4)
+    clearance, angle = rest[0.04, 1.0]
+    assert clearance == pytest.approx(0.04 * (1.0 - math.cos(angle)) - depth, abs=3e-4)
+    c = LandingConditions(slope_deg=25.0, speed=2.0)
+    base = simulate(c, model, full_horizon=False)
+    off = simulate(c, model.with_user_effect(effect).with_params(pad_radius=0.0), full_horizon=False)
+    assert np.array_equal(off.raw, base.raw)
+    on = simulate(c, model.with_user_effect(effect).with_params(pad_radius=0.02), full_horizon=False)
+    assert on.result.outcome != Outcome.FLIP and not np.array_equal(on.states, base.states)

@@ -175,6 +175,7 @@ def test_state_layout_tiles_the_state_vector() -> None:
         "S_SLIP": k.N_POINTS,
         "S_QED": 2,
         "S_NPEAK": 1,
+        "S_MEM": layout.N_MEMORY,
     }
     starts = _constants("S_")
     assert set(starts) == set(widths), set(starts) ^ set(widths)
@@ -193,6 +194,8 @@ def test_context_layout_tiles_the_context_vector() -> None:
         "C_FEXT": 3,
         "C_KG": 1,
         "C_BG": 1,
+        "C_MEM": 1,
+        "C_JLOAD": 1,
     }
     starts = _constants("C_")
     assert set(starts) == set(widths), set(starts) ^ set(widths)

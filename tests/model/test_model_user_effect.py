@@ -159,3 +159,68 @@ def test_seam_limits_and_return_types(tmp_path, model):
     base = simulate(c, model, full_horizon=False).result
     loose = simulate(c, model.with_user_effect(free), full_horizon=False).result
     assert loose.compression_down > base.compression_down + 0.2
+
+
+STATE_MISTAKES = textwrap.dedent(
+    """
+    import numba
+    from slopelander.model.effects import EffectState, UserEffect
+
+
+    @numba.njit
+    def keep(t, st, ctx, up, h):
+        return
+
+
+    @numba.njit
+    def one_number(t, st, ctx, up, leg, angle):
+        return 0.01
+
+
+    @numba.njit
+    def pad(t, st, ctx, up, leg, angle):
+        return 0.01, 0.0
+
+
+    A = UserEffect("mem_a", "memory", update=keep, states={"level": EffectState(0.0, "1")})
+    B = UserEffect("mem_b", "memory too", update=keep, states={"level": (1.0, "1")})
+    BIG = UserEffect("mem_big", "much memory", update=keep, states={f"s{i}": (0.0, "1") for i in range(5)})
+    BIG2 = UserEffect("mem_big2", "more memory", update=keep, states={f"t{i}": (0.0, "1") for i in range(5)})
+    FLAT = UserEffect("flat_pad", "one number", contact_geometry=one_number)
+    PAD_A = UserEffect("pad_a", "a pad", contact_geometry=pad)
+    PAD_B = UserEffect("pad_b", "another pad", contact_geometry=pad)
+    EFFECTS = [A, B, BIG, BIG2, FLAT, PAD_A, PAD_B]
+    """
+)
+
+
+def test_states_and_contact_geometry_mistakes_are_named(tmp_path, model):
+    """Memory and contact-geometry declarations are checked like parameters: names unique over
+    the model, initial values numbers, at most 8 states in a model, one contact geometry, and
+    a geometry law must return (reach, along)."""
+    import numba
+
+    from slopelander.model.effects import EffectState, UserEffect
+
+    path = tmp_path / "states.py"
+    path.write_text(STATE_MISTAKES)
+    a, b, big, big2, flat, pad_a, pad_b = load_effects(path)
+    with pytest.raises(EffectError, match="'mem_a' and 'mem_b' both declare 'level'"):
+        model.with_user_effect(a).with_user_effect(b)
+    with pytest.raises(EffectError, match="declare 10 states together; a model holds 8"):
+        model.with_user_effect(big).with_user_effect(big2)
+    with pytest.raises(EffectError, match="'pad_a', 'pad_b' each set the contact geometry"):
+        model.with_user_effect(pad_a).with_user_effect(pad_b)
+    with pytest.raises(EffectError, match=r"'flat_pad'.*contact_geometry it must return a tuple \(reach m"):
+        simulate(LandingConditions(), model.with_user_effect(flat))
+
+    @numba.njit
+    def keep(t, st, ctx, up, h):
+        return
+
+    with pytest.raises(EffectError, match="state 'x': initial value 'one' is not a number"):
+        UserEffect("bad", "", update=keep, states={"x": EffectState("one", "1")})
+    with pytest.raises(EffectError, match="'gain' is both a parameter and a state"):
+        UserEffect("bad", "", update=keep, parameters={"gain": (0.5, "1")}, states={"gain": (0.0, "1")})
+    with pytest.raises(EffectError, match="state 'ground_damping' has the name of a built-in parameter"):
+        UserEffect("bad", "", update=keep, states={"ground_damping": (0.0, "1")})

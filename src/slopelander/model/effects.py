@@ -4,8 +4,9 @@ A model is the base physics (three rigid bodies, gravity, feet on a spring-dampe
 plus a list of effects. Built-in effects are switches of the compiled integrator. A user's
 own effect is a :class:`UserEffect` in a Python file of theirs: one or more ``numba.njit``
 functions plugged into the integrator's seams (the joint's torque law, the foot's friction
-law, the contact's normal law, forces at named points, generalised forces) and the
-parameters they read, each declared with unit, bounds and provenance::
+law, the contact's normal law, where a foot meets the ground, forces at named points,
+generalised forces, a per-step update of its memory) and the parameters they read, each
+declared with unit, bounds and provenance, and any states (memory) it carries::
 
     # my_effects.py
     import numba
@@ -65,6 +66,13 @@ def check_effect_names(names: Iterable[object], source: str | None = None) -> No
     for a, b in _EXCLUSIVE:
         if a in names and b in names:
             raise EffectError(f"{where}effects: {a!r} and {b!r} are alternatives; choose one")
+    if "paper_downhill_growth" in names and not {"downhill_torque_growth", "downhill_friction_growth"} & set(
+        names
+    ):
+        raise EffectError(
+            f"{where}effects: 'paper_downhill_growth' says which leg eqs. 3 and 4 act on; add "
+            "'downhill_torque_growth' or 'downhill_friction_growth' (or both)"
+        )
     if "rigid_gear" in names:
         clash = [n for n in _RIGID_EXCLUDES if n in names]
         if clash:
@@ -147,6 +155,39 @@ def _as_parameter(effect: str, name: str, spec: object) -> EffectParameter:
 
 
 @dataclass(frozen=True)
+class EffectState:
+    """A user effect's memory: a number the integrator carries in its state vector from step
+    to step (saved with the state, restored when a step is redone), starting at ``value`` in
+    every landing. The effect's functions read it with ``state.memory(st, ctx, i)`` and write it
+    with ``state.set_memory(st, ctx, i, value)``, ``i`` in the order declared."""
+
+    value: float
+    unit: str
+    note: str = ""
+
+
+def _as_state(effect: str, name: str, spec: object) -> EffectState:
+    where = f"user effect {effect!r}: state {name!r}"
+    if isinstance(spec, tuple) and 2 <= len(spec) <= 3:
+        spec = EffectState(*spec)  # type: ignore[arg-type]
+    if not isinstance(spec, EffectState):
+        raise EffectError(f"{where} must be EffectState(value, unit[, note]) or a tuple (value, unit)")
+    if not name.isidentifier():
+        raise EffectError(f"user effect {effect!r}: state name {name!r} must be an identifier")
+    if name in PARAMETER_NAMES:
+        raise EffectError(f"{where} has the name of a built-in parameter")
+    try:
+        value = float(spec.value)
+    except (TypeError, ValueError):
+        raise EffectError(f"{where}: initial value {spec.value!r} is not a number") from None
+    if not math.isfinite(value):
+        raise EffectError(f"{where}: initial value must be finite")
+    if not isinstance(spec.unit, str):
+        raise EffectError(f"{where}: unit must be a string")
+    return EffectState(value, spec.unit, str(spec.note))
+
+
+@dataclass(frozen=True)
 class UserEffect:
     """An effect written by a user: compiled functions at one or more seams, and parameters.
 
@@ -162,6 +203,10 @@ class UserEffect:
     joint_torque: Callable | None = None
     foot_friction: Callable | None = None
     normal_force: Callable | None = None
+    contact_geometry: Callable | None = None
+    update: Callable | None = None
+    states: dict[str, EffectState] = field(default_factory=dict)
+    """Memory the integrator carries for this effect (name -> :class:`EffectState`)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -182,6 +227,17 @@ class UserEffect:
             raise EffectError(f"user effect {self.name!r}: parameters must be a dict name -> EffectParameter")
         params = {str(n): _as_parameter(self.name, str(n), spec) for n, spec in self.parameters.items()}
         object.__setattr__(self, "parameters", params)
+        if not isinstance(self.states, dict):
+            raise EffectError(f"user effect {self.name!r}: states must be a dict name -> EffectState")
+        states = {str(n): _as_state(self.name, str(n), spec) for n, spec in self.states.items()}
+        clash = sorted(set(states) & set(params))
+        if clash:
+            raise EffectError(f"user effect {self.name!r}: {clash[0]!r} is both a parameter and a state")
+        if len(states) > k.N_MEMORY:
+            raise EffectError(
+                f"user effect {self.name!r} declares {len(states)} states; a model holds {k.N_MEMORY}"
+            )
+        object.__setattr__(self, "states", states)
 
     def seams(self) -> dict[str, Callable]:
         """The seams this effect plugs into, and its function at each."""
@@ -189,6 +245,10 @@ class UserEffect:
 
     def values(self) -> np.ndarray:
         return np.array([p.value for p in self.parameters.values()], dtype=np.float64)
+
+    def state_values(self) -> np.ndarray:
+        """The states' initial values, in the order declared."""
+        return np.array([s.value for s in self.states.values()], dtype=np.float64)
 
     def with_values(self, provenance: str = "identified", **changes: float) -> UserEffect:
         """A copy with some parameter values replaced (checked against their bounds)."""
@@ -219,6 +279,16 @@ class UserEffect:
                 }
                 for n, p in self.parameters.items()
             },
+            **(
+                {
+                    "states": {
+                        n: {"initial": s.value, "unit": s.unit, **({"note": s.note} if s.note else {})}
+                        for n, s in self.states.items()
+                    }
+                }
+                if self.states
+                else {}
+            ),
         }
 
 
@@ -266,10 +336,37 @@ def check_user_effects(effects: Sequence[UserEffect]) -> None:
             if n in seen:
                 raise EffectError(f"user effects {seen[n]!r} and {e.name!r} both declare parameter {n!r}")
             seen[n] = e.name
-    laws = [e.name for e in effects if e.normal_force is not None]
-    if len(laws) > 1:
-        names = ", ".join(map(repr, laws))
-        raise EffectError(f"user effects {names} each set the normal-force law; keep one")
+    states: dict[str, str] = {}
+    for e in effects:
+        for n in e.states:
+            if n in seen or n in states:
+                other = seen.get(n) or states[n]
+                raise EffectError(f"user effects {other!r} and {e.name!r} both declare {n!r}")
+            states[n] = e.name
+    if len(states) > k.N_MEMORY:
+        raise EffectError(
+            f"the user effects declare {len(states)} states together; a model holds {k.N_MEMORY}"
+        )
+    for seam, what in (("normal_force", "normal-force law"), ("contact_geometry", "contact geometry")):
+        laws = [e.name for e in effects if getattr(e, seam) is not None]
+        if len(laws) > 1:
+            names = ", ".join(map(repr, laws))
+            raise EffectError(f"user effects {names} each set the {what}; keep one")
+
+
+def memory_values(effects: Sequence[UserEffect]) -> np.ndarray:
+    """The user effects' states' initial values in one array, in the order the integrator
+    holds them (from ``layout.S_MEM``)."""
+    return np.concatenate([e.state_values() for e in effects] + [np.zeros(0)])
+
+
+def memory_slots(effects: Sequence[UserEffect]) -> dict[str, int]:
+    """Each user effect state's index in the state vector, by name."""
+    out: dict[str, int] = {}
+    for e in effects:
+        for n in e.states:
+            out[n] = k.S_MEM + len(out)
+    return out
 
 
 def user_parameter_values(effects: Sequence[UserEffect]) -> np.ndarray:

@@ -21,11 +21,13 @@ Why this shape (``docs/model.md`` has the full account):
 * A step is a sequence of stages, each a small compiled function (:func:`_substep` lists
   them): forces at the start, the joints' law, the contacts with the feet's friction law, the
   implicit solve, the forces it applied, the integration. Where an effect has a law (the
-  joint's torque, the foot's friction, the ground's normal force, extra forces), the stage runs
-  the built-in law and then the laws plugged into that seam, passed in as first-class compiled
+  joint's torque, the foot's friction, the ground's normal force, extra forces, where a foot
+  meets the ground, its memory's update after the step), the stage runs the built-in law and
+  then the laws plugged into that seam, passed in as first-class compiled
   functions (the seam table, :mod:`slopelander.model.seams`): one compiled integrator serves
   every model with user effects and every candidate of a diagnosis, and a model without them
-  runs its own compiled copy, in which no seam is looked at.
+  runs its own compiled copy, in which no seam is looked at. User effects' memory lives at the
+  end of the state vector (``S_MEM``); that copy neither saves nor restores it.
 
 Coordinates: x downhill-positive horizontal, z up, angles counter-clockwise positive.
 Q = (x, z, pitch, q_C, q_D); q_C is the left (-x) leg's angle below the body plane, q_D the
@@ -46,7 +48,9 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     C_COS,
     C_DOWN,
     C_FEXT,
+    C_JLOAD,
     C_KG,
+    C_MEM,
     C_QINIT,
     C_SIN,
     C_TAU,
@@ -61,6 +65,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     F_FLEX,
     F_IMPLICIT_K,
     F_MU_GROWTH,
+    F_PAPER_GROWTH,
     F_REGULARISED,
     F_REV_DELAY,
     F_RIGID,
@@ -70,6 +75,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     F_TAU_GROWTH,
     IMPACT_SPEED,
     MAX_ACTIVE_SET_ITERATIONS,
+    MEMORY_ROW,
     N_CTX,
     N_FLAGS,
     N_FORCE_POINTS,
@@ -125,6 +131,7 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     S_FF,
     S_FT,
     S_JM,
+    S_MEM,
     S_NF,
     S_NPEAK,
     S_PMAX,
@@ -144,12 +151,15 @@ from slopelander.model.layout import (  # noqa: F401 - re-exported: the layout's
     S_W,
     S_WAIT,
     S_X0,
+    SEAM_CONTACT_GEOMETRY,
     SEAM_FOOT_FRICTION,
     SEAM_FORCE,
     SEAM_JOINT_TORQUE,
     SEAM_NORMAL_FORCE,
     SEAM_POINT_FORCE,
+    SEAM_ROW,
     SEAM_SLOTS,
+    SEAM_UPDATE,
     STICK_SPEED,
     WORKSPACE,
 )
@@ -187,8 +197,8 @@ def _load_seams_impl(w, sx):
         return lambda w, sx: None
 
     def impl(w, sx):
-        for i in range(N_SEAMS):
-            for j in range(1 + 2 * SEAM_SLOTS):
+        for i in range(N_SEAMS + 1):
+            for j in range(SEAM_ROW):
                 w.seams[i, j] = sx[1][i, j]
 
     return impl
@@ -219,10 +229,92 @@ def _has_normal_law(sx, w):
 
 
 @njit(cache=True, inline="always")
-def _params(sx, w, seam, k):
-    """The user parameters the k-th law of a seam reads."""
-    a = w.seams[seam, 1 + 2 * k]
-    return sx[2][a : a + w.seams[seam, 2 + 2 * k]]
+def _params(sx, w, seam, k, ctx):
+    """The user parameters the k-th law of a seam reads; its effect's memory is told in
+    ``ctx[C_MEM]`` (what ``state.memory`` reads)."""
+    ctx[C_MEM] = w.seams[seam, 3 + 3 * k]
+    a = w.seams[seam, 1 + 3 * k]
+    return sx[2][a : a + w.seams[seam, 2 + 3 * k]]
+
+
+def saved_state(sx):
+    """How much of the state a step that may be redone saves: the built-in model's part
+    without user effects (their memory is never touched), the whole state with them."""
+    raise NotImplementedError
+
+
+@overload(saved_state, jit_options={"cache": True})
+def _saved_state(sx):
+    if _is_none(sx):
+        return lambda sx: S_MEM
+    return lambda sx: N_STATE
+
+
+def has_contact_geometry(sx, w):
+    """Whether a user's contact geometry moves the feet's contact points (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(has_contact_geometry, jit_options={"cache": True})
+def _has_contact_geometry(sx, w):
+    if _is_none(sx):
+        return lambda sx, w: False
+    return lambda sx, w: w.seams[SEAM_CONTACT_GEOMETRY, 0] > 0
+
+
+def seam_contact_geometry(sx, w, t, st, ctx, leg, angle):
+    """(reach, along) of the one contact geometry a model may set (compiled code only, and
+    only where :func:`has_contact_geometry`)."""
+    raise NotImplementedError
+
+
+@overload(seam_contact_geometry, jit_options={"cache": True})
+def _seam_contact_geometry(sx, w, t, st, ctx, leg, angle):
+    if _is_none(sx):
+        return lambda sx, w, t, st, ctx, leg, angle: (0.0, 0.0)
+
+    def impl(sx, w, t, st, ctx, leg, angle):
+        law = sx[0][SEAM_CONTACT_GEOMETRY][0]
+        return law(t, st[:], ctx[:], _params(sx, w, SEAM_CONTACT_GEOMETRY, 0, ctx), leg, angle)
+
+    return impl
+
+
+def seam_update(sx, w, t, st, ctx, h):
+    """Run the update seam's functions after a step (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(seam_update, jit_options={"cache": True})
+def _seam_update(sx, w, t, st, ctx, h):
+    if _is_none(sx):
+        return lambda sx, w, t, st, ctx, h: None
+
+    def impl(sx, w, t, st, ctx, h):
+        laws = sx[0][SEAM_UPDATE]
+        for k in range(SEAM_SLOTS):
+            if k < w.seams[SEAM_UPDATE, 0]:
+                laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_UPDATE, k, ctx), h)
+
+    return impl
+
+
+def start_memory(sx, w, st):
+    """Set the user effects' memory in ``st`` to its initial values (compiled code only)."""
+    raise NotImplementedError
+
+
+@overload(start_memory, jit_options={"cache": True})
+def _start_memory(sx, w, st):
+    if _is_none(sx):
+        return lambda sx, w, st: None
+
+    def impl(sx, w, st):
+        a = w.seams[MEMORY_ROW, 1]
+        for i in range(w.seams[MEMORY_ROW, 0]):
+            st[S_MEM + i] = sx[2][a + i]
+
+    return impl
 
 
 def seam_force(sx, w, t, st, ctx, out):
@@ -239,7 +331,7 @@ def _seam_force(sx, w, t, st, ctx, out):
         laws = sx[0][SEAM_FORCE]
         for k in range(SEAM_SLOTS):
             if k < w.seams[SEAM_FORCE, 0]:
-                laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_FORCE, k), out[:])
+                laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_FORCE, k, ctx), out[:])
 
     return impl
 
@@ -258,7 +350,7 @@ def _seam_point_force(sx, w, t, st, ctx, out):
         laws = sx[0][SEAM_POINT_FORCE]
         for k in range(SEAM_SLOTS):
             if k < w.seams[SEAM_POINT_FORCE, 0]:
-                laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_POINT_FORCE, k), out)
+                laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_POINT_FORCE, k, ctx), out)
 
     return impl
 
@@ -274,10 +366,13 @@ def _seam_joint_torque(sx, w, t, st, ctx, leg, angle, rate, tau):
         return lambda sx, w, t, st, ctx, leg, angle, rate, tau: tau
 
     def impl(sx, w, t, st, ctx, leg, angle, rate, tau):
+        rigid, flex, _, _, q_zone, ke, _, kq, bq, _ = _joint_constants(w.p, w.fl)
+        ctx[C_JLOAD] = _joint_load(st, w, leg, rigid, flex, q_zone, ke, kq, bq)
         laws = sx[0][SEAM_JOINT_TORQUE]
         for k in range(SEAM_SLOTS):
             if k < w.seams[SEAM_JOINT_TORQUE, 0]:
-                tau = laws[k](t, st[:], ctx[:], _params(sx, w, SEAM_JOINT_TORQUE, k), leg, angle, rate, tau)
+                up = _params(sx, w, SEAM_JOINT_TORQUE, k, ctx)
+                tau = laws[k](t, st[:], ctx[:], up, leg, angle, rate, tau)
         return tau
 
     return impl
@@ -297,7 +392,7 @@ def _seam_foot_friction(sx, w, t, st, ctx, leg, slip_speed, normal_force, mu):
         laws = sx[0][SEAM_FOOT_FRICTION]
         for k in range(SEAM_SLOTS):
             if k < w.seams[SEAM_FOOT_FRICTION, 0]:
-                up = _params(sx, w, SEAM_FOOT_FRICTION, k)
+                up = _params(sx, w, SEAM_FOOT_FRICTION, k, ctx)
                 mu = laws[k](t, st[:], ctx[:], up, leg, slip_speed, normal_force, mu)
         return mu
 
@@ -317,7 +412,7 @@ def _seam_normal_force(sx, w, t, st, ctx, point, depth, rate):
 
     def impl(sx, w, t, st, ctx, point, depth, rate):
         law = sx[0][SEAM_NORMAL_FORCE][0]
-        return law(t, st[:], ctx[:], _params(sx, w, SEAM_NORMAL_FORCE, 0), point, depth, rate)
+        return law(t, st[:], ctx[:], _params(sx, w, SEAM_NORMAL_FORCE, 0, ctx), point, depth, rate)
 
     return impl
 
@@ -575,10 +670,16 @@ def _step(w, h, u0, u1, sx):
             _substep(w, h / REFINE, u0, u1, sx)
         return
     backup = w.backup
-    for i in range(N_STATE):
+    # without user effects their memory is never touched: the built-in model's part is saved
+    # (numba prunes the branch on the argument's None at compile time)
+    if sx is None:  # noqa: SIM108
+        n = S_MEM
+    else:
+        n = N_STATE
+    for i in range(n):
         backup[i] = st[i]
     if _substep(w, h, u0, u1, sx) > 0:
-        for i in range(N_STATE):
+        for i in range(n):
             st[i] = backup[i]
         st[S_REFINE] = REFINE_WINDOW - 1
         for _ in range(REFINE):
@@ -598,13 +699,57 @@ def _substep(w, h, u0, u1, sx):
     """
     p, fl, ctx, st = w.p, w.fl, w.ctx, w.st
     w.pitch_cos, w.pitch_sin = kinematics(p, st, w.M, w.f, w.pts, w.vel, w.J)
+    if sx is not None:  # noqa: SIM102 - (pruned at compile time without user effects)
+        if has_contact_geometry(sx, w):
+            contact_points(sx, w, p, st, ctx, h)
     user_forces = _applied_forces(p, fl, ctx, st, w, sx)
     _joint_law(p, fl, ctx, st, h, w, sx)
     began = _contacts(p, fl, ctx, st, w, sx)
     _solve(p, fl, st, h, w, sx)
     _contact_forces(p, fl, ctx, st, h, w, sx, user_forces)
     _integrate(p, fl, st, h, u0, u1, w)
+    if sx is not None:
+        seam_update(sx, w, st[S_T], st, ctx, h)
     return began
+
+
+@njit(cache=True)
+def contact_points(sx, w, p, st, ctx, h):
+    """Move the feet's contact points (``pts``, ``vel``, ``J`` rows 0 and 1) from the legs'
+    tips to where a user's contact geometry says each foot touches: ``reach`` beyond the tip
+    toward the surface and ``along`` it. The point is carried by the leg (a point of a rigid
+    pad), so its velocity and Jacobian gain the leg's rotation about the tip; every later
+    stage (depth, slip, forces, energy) then sees the pad's point, not the tip.
+
+    A pad that turns while stuck rolls: the point where it touches moves along the surface
+    (by d along / d angle per radian) while the pad's material there does not slip (it moves
+    by ``reach`` per radian about the tip), so a stuck foot's anchor moves by the difference
+    over the step ``h`` (0: no step, the geometry alone)."""
+    pts, vel, J = w.pts, w.vel, w.J
+    nx, nz, tx, tz, _ = _surface(ctx)
+    c, s = w.pitch_cos, w.pitch_sin
+    t = st[S_T]
+    for j in range(2):
+        qi = 3 + j
+        _, _, ux, uz, _, _ = _leg_geometry(p, j, st[S_Q + qi])
+        uwx, uwz = _rot(c, s, ux, uz)
+        angle = math.atan2(tx * uwx + tz * uwz, -(nx * uwx + nz * uwz))
+        reach, along = seam_contact_geometry(sx, w, t, st, ctx, j, angle)
+        rx = -reach * nx + along * tx
+        rz = -reach * nz + along * tz
+        sg = 1.0 if j == 0 else -1.0  # the leg's world rate: pitch rate + q_C', pitch rate - q_D'
+        om = st[S_V + 2] + sg * st[S_V + qi]  # (= the rate of the contact angle)
+        if h > 0.0 and st[S_CM + j] == 1.0 and om != 0.0:
+            _, along2 = seam_contact_geometry(sx, w, t, st, ctx, j, angle + 1e-6)
+            st[S_ANC + j] += h * om * ((along2 - along) / 1e-6 - reach)
+        pts[j, 0] += rx
+        pts[j, 1] += rz
+        vel[j, 0] -= om * rz
+        vel[j, 1] += om * rx
+        J[j, 0, 2] -= rz
+        J[j, 1, 2] += rx
+        J[j, 0, qi] -= sg * rz
+        J[j, 1, qi] += sg * rx
 
 
 @njit(cache=True, inline="always")
@@ -676,11 +821,20 @@ def _applied_forces(p, fl, ctx, st, w, sx):
 
 
 @njit(cache=True, inline="always")
-def joint_torque_law(p, fl, st, leg, tau):
+def _grows(flag, ctx, leg):
+    """Whether eq. 3 or 4, switched on with ``flag`` (its effect's flag value), acts on this
+    leg: 1, on either by its physical condition; 2 (``paper_downhill_growth``, set by
+    Model.flags), on the downhill leg alone (level ground: either)."""
+    return flag == 1 or leg == ctx[C_DOWN] or ctx[C_SIN] == 0.0
+
+
+@njit(cache=True, inline="always")
+def joint_torque_law(p, fl, ctx, st, leg, tau):
     """The built-in slip torque of a leg's friction joint: its preset, grown by eq. 3 on the
     leg whose foot is pushed outward (its friction points inward): on a slope the downhill
-    leg, on level ground both; no switch at 0 deg."""
-    if fl[F_TAU_GROWTH] != 0:
+    leg, on level ground both; no switch at 0 deg (``paper_downhill_growth``: the downhill
+    leg only)."""
+    if fl[F_TAU_GROWTH] != 0 and _grows(fl[F_TAU_GROWTH], ctx, leg):
         tau *= 1.0 + p[P_FTAU] * max(0.0, (1.0 if leg == 0 else -1.0) * st[S_FT + leg])
     return tau
 
@@ -702,13 +856,14 @@ def _joint_law(p, fl, ctx, st, h, w, sx):
             A0[a, b] = M[a, b]
     for j in range(2):
         zone[j] = 0.0
-        lam[j] = 0.0
         qi = 3 + j
-        tj = joint_torque_law(p, fl, st, j, ctx[C_TAU + j])
+        tj = joint_torque_law(p, fl, ctx, st, j, ctx[C_TAU + j])
         if n_torque > 0:
             # the leg's rate (a smooth state): the joint's own rate from the last step would
-            # feed a speed-dependent law back into the joint's stick-slip switching
+            # feed a speed-dependent law back into the joint's stick-slip switching; the law
+            # may read the leg's load on the joint, from the last step's constraint torque
             tj = max(0.0, seam_joint_torque(sx, w, t, st, ctx, j, st[S_QE + j], st[S_V + qi], tj))
+        lam[j] = 0.0
         tau[j] = tj
         if rigid:
             continue
@@ -746,6 +901,24 @@ def _joint_law(p, fl, ctx, st, h, w, sx):
         for b in range(5):
             acc += M[a, b] * st[S_V + b]
         r0[a] = acc + h * f[a]
+
+
+@njit(cache=True, inline="always")
+def _joint_load(st, w, j, rigid, flex, q_zone, ke, kq, bq):
+    """The torque leg j puts on its friction joint at the start of the step (planar N*m, +
+    toward extension), for a joint-torque law (``state.joint_load``): with leg flex its
+    spring-damper's, else while stuck the constraint torque of the last step, while slipping
+    the torque it slips under; the end-of-travel spring's push included."""
+    if rigid:
+        return 0.0
+    qE = st[S_QE + j]
+    eot = ke * (q_zone - qE) if qE < q_zone else 0.0
+    if flex:
+        return kq * (st[S_Q + 3 + j] - qE) + bq * st[S_V + 3 + j] + eot
+    m = st[S_JM + j]
+    if m == 0.0:
+        return -w.lam[j] + eot
+    return m * w.tau[j]
 
 
 @njit(cache=True, inline="always")
@@ -817,20 +990,20 @@ def _contacts(p, fl, ctx, st, w, sx):
                 st[S_ANC + i] = s0[i]
         else:
             st[S_CM + i] = 0.0
-        mu[i] = friction_coefficient(p, fl, tx, tz, vel, i, sd0[i], active[i] != 0, mus)
+        mu[i] = friction_coefficient(p, fl, ctx, tx, tz, vel, i, sd0[i], active[i] != 0, mus)
         if friction_laws and i < 2 and active[i]:
             mu[i] = max(0.0, seam_foot_friction(sx, w, t, st, ctx, i, dsg * sd0[i], max(N0, 0.0), mu[i]))
     return began
 
 
 @njit(cache=True, inline="always")
-def friction_coefficient(p, fl, tx, tz, vel, i, slip, touching, mu_s):
+def friction_coefficient(p, fl, ctx, tx, tz, vel, i, slip, touching, mu_s):
     """The built-in sliding friction coefficient of contact point i: mu_k; on a foot grown by
     eq. 4 with its leg's joint moving outward along the surface (downhill for the downhill
-    leg, as the paper; it only raises friction); then velocity weakening (Stribeck) while
-    touching."""
+    leg, as the paper; it only raises friction; ``paper_downhill_growth``: the downhill leg
+    only); then velocity weakening (Stribeck) while touching."""
     mu = p[P_MUK]
-    if i < 2 and fl[F_MU_GROWTH] != 0:
+    if i < 2 and fl[F_MU_GROWTH] != 0 and _grows(fl[F_MU_GROWTH], ctx, i):
         vj = (-1.0 if i == 0 else 1.0) * (tx * vel[2 + i, 0] + tz * vel[2 + i, 1])
         mu *= max(1.0, 1.0 + p[P_FMU] * vj)
     if fl[F_STRIBECK] != 0 and touching:
@@ -1297,6 +1470,32 @@ def init_landing(p, fl, cond, st, ctx, ws):
 
 
 @njit(cache=True, inline="always")
+def _start_user(sx, w, p, fl, ctx, st):
+    """What user effects change at the start of a landing (``st`` just made by init_landing):
+    their memory starts at its initial values, and with a contact geometry the vehicle is
+    lifted until the lowest contact point just touches (the feet's pads, not their tips)."""
+    start_memory(sx, w, st)
+    if has_contact_geometry(sx, w):
+        w.pitch_cos, w.pitch_sin = kinematics(p, st, w.M, w.f, w.pts, w.vel, w.J)
+        contact_points(sx, w, p, st, ctx, 0.0)
+        dmin = 1e300
+        for i in range(N_POINTS):
+            d = ctx[C_SIN] * w.pts[i, 0] + ctx[C_COS] * w.pts[i, 1]
+            if d < dmin:
+                dmin = d
+        st[S_Q + 1] -= dmin / ctx[C_COS]
+
+
+@njit(cache=True)
+def start_user_effects(p, fl, ctx, st, ws, sx):
+    """:func:`_start_user` for a state made by :func:`init_landing` outside a landing run (the
+    stepper's ``start_landing``)."""
+    w = ws[0]
+    _load_seams(w, sx)
+    _start_user(sx, w, p, fl, ctx, st)
+
+
+@njit(cache=True, inline="always")
 def _at_rest(st, crit):
     if abs(st[S_V]) > crit[R_SPEED] or abs(st[S_V + 1]) > crit[R_SPEED]:
         return False
@@ -1417,8 +1616,9 @@ def _run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res, 
     ctx0 = np.zeros(N_CTX)
     init_landing(p, fl, cond, st0, ctx0, ws)
     w = ws[0]
-    _load(w, p, fl, ctx0, st0)
     _load_seams(w, sx)
+    _start_user(sx, w, p, fl, ctx0, st0)
+    _load(w, p, fl, ctx0, st0)
     st, ctx = w.st, w.ctx
     n_rec = 0
     if rec_every > 0 and rec.shape[0] > 0:
@@ -1499,7 +1699,9 @@ def mechanical_energy(p, fl, ctx, st, ws, sx, out):
     w = ws[0]
     _load_seams(w, sx)
     M, pts = w.M, w.pts
-    kinematics(p, st, M, w.f, pts, w.vel, w.J)
+    w.pitch_cos, w.pitch_sin = kinematics(p, st, M, w.f, pts, w.vel, w.J)
+    if has_contact_geometry(sx, w):
+        contact_points(sx, w, p, st, ctx, 0.0)
     normal_law = has_normal_law(sx, w)
     ke = 0.0
     for a in range(5):

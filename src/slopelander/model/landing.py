@@ -26,6 +26,7 @@ from slopelander.model.effects import (
     check_effect_names,
     check_user_effects,
     flags_for,
+    memory_slots,
 )
 from slopelander.model.outcome import RESULT_DTYPE, RESULT_FIELDS, Outcome, OutcomeCriteria
 from slopelander.model.parameters import ModelParams
@@ -73,7 +74,13 @@ class Model:
 
     def rigid(self) -> Model:
         """The stock F450: the same vehicle with its joints locked (no shock absorbers)."""
-        drop = {"leg_flex", "end_of_travel", "downhill_torque_growth", "downhill_friction_growth"}
+        drop = {
+            "leg_flex",
+            "end_of_travel",
+            "downhill_torque_growth",
+            "downhill_friction_growth",
+            "paper_downhill_growth",
+        }
         kept = tuple(e for e in self.effects if e not in drop)
         return replace(self, effects=(*kept, "rigid_gear") if "rigid_gear" not in kept else kept)
 
@@ -123,6 +130,9 @@ class Model:
     def flags(self) -> np.ndarray:
         fl = flags_for(self.effects)
         fl[k.F_IMPLICIT_K] = 1 if self.implicit_springs else 0
+        if fl[k.F_PAPER_GROWTH]:  # eqs. 3 and 4 read the switch from their own flag's value
+            fl[k.F_TAU_GROWTH] *= 2
+            fl[k.F_MU_GROWTH] *= 2
         return fl
 
     def criteria_array(self) -> np.ndarray:
@@ -244,6 +254,14 @@ class Trajectory:
     @property
     def _max_abs_pitch_deg(self) -> float:
         return float(np.degrees(np.abs(self.raw[:, k.S_Q + 2]).max())) if len(self.raw) else 0.0
+
+    def effect_state(self, name: str) -> np.ndarray:
+        """A user effect's state (its memory, by the name it declares) at every sample."""
+        slots = memory_slots(self.model.user_effects)
+        if name not in slots:
+            known = ", ".join(slots) or "none"
+            raise EffectError(f"no user effect of this model declares a state {name!r} (states: {known})")
+        return self.raw[:, slots[name]].copy()
 
     @property
     def peak_foot_load(self) -> float:

@@ -73,7 +73,8 @@ F_REV_DELAY = 7
 F_RIGID = 8
 F_IMPLICIT_K = 9  # solver setting, not an effect: springs implicit (stable) or explicit (symplectic)
 F_STRIBECK = 10
-N_FLAGS = 11
+F_PAPER_GROWTH = 11  # eqs. 3 and 4 on the downhill leg only (the paper's text), not by condition
+N_FLAGS = 12
 
 # --- context: the surface and the leg settings (may change between steps) ----------------
 C_SIN = 0  # sin(slope)
@@ -84,7 +85,10 @@ C_QINIT = 5  # 5, 6: leg angle the compression is measured from (rad)
 C_FEXT = 7  # 7, 8, 9: force on the body at its centre (N: world x, z; N*m: pitch), e.g. wind
 C_KG = 10  # the ground's stiffness at the contact point a normal-force law is asked about (N/m)
 C_BG = 11  # and its damping (N*s/m): set by the integrator just before it calls the law
-N_CTX = 12
+C_MEM = 12  # where the called user effect's memory starts (offset from S_MEM): set before each call
+C_JLOAD = 13  # the torque the leg puts on the friction joint a joint-torque law is asked about
+#             (planar N*m, + toward extension), set just before it calls the law
+N_CTX = 14
 
 # --- state vector layout ------------------------------------------------------------------
 S_Q = 0  # 0..4 generalised coordinates
@@ -115,7 +119,9 @@ S_DUSER = 65  # energy taken out by user effects' forces (J): minus their work
 S_SLIP = 66  # 66..71 speed along the surface per contact point, downhill-positive (m/s), last step
 S_QED = 72  # 72, 73 friction-joint angular rate of leg C, D (rad/s), last step
 S_NPEAK = 74  # largest normal force on either foot so far (N)
-N_STATE = 75
+S_MEM = 75  # 75..82 user effects' memory (their declared states, all effects of a model in turn)
+N_MEMORY = 8
+N_STATE = 83
 
 D_JOINT, D_FLEX, D_EOT, D_GROUND, D_FOOT, D_ROTOR = range(6)
 N_POINTS = 6  # contact points: feet C, D; joints C, D; rotor hubs 1, 2
@@ -176,6 +182,13 @@ BUILTIN_EFFECTS: dict[str, Effect] = {
             F_MU_GROWTH,
         ),
         Effect(
+            "paper_downhill_growth",
+            "eqs. 3 and 4 on the downhill leg only, as the paper's text reads (level ground: both "
+            "legs by their condition); without it each leg grows by its physical condition",
+            (),
+            F_PAPER_GROWTH,
+        ),
+        Effect(
             "foot_stiction",
             "feet stick (tangential spring-damper) until |F_t| > mu_s N, then slide with mu_k",
             ("friction_static", "stiction_stiffness", "stiction_damping"),
@@ -227,13 +240,31 @@ SEAMS: dict[str, str] = {
     "friction coefficient of the leg's foot; mu is the built-in value",
     "normal_force": "normal_force(t, st, ctx, up, point, depth, rate) -> (force, stiffness, "
     "damping): the contact's normal force law and its derivatives",
+    "contact_geometry": "contact_geometry(t, st, ctx, up, leg, angle) -> (reach, along): where the "
+    "foot touches: reach (m) beyond the leg's tip toward the surface, along (m) the surface "
+    "(+x side), for the leg at angle (rad) from the surface's inward normal",
+    "update": "update(t, st, ctx, up, h): once per step after it, update the effect's memory "
+    "(state.memory / state.set_memory)",
 }
 
 
 SEAM_INDEX: dict[str, int] = {name: i for i, name in enumerate(SEAMS)}
 SEAM_SLOTS = 4  # laws one seam can take in one model
-SEAM_FORCE, SEAM_POINT_FORCE, SEAM_JOINT_TORQUE, SEAM_FOOT_FRICTION, SEAM_NORMAL_FORCE = range(5)
+(
+    SEAM_FORCE,
+    SEAM_POINT_FORCE,
+    SEAM_JOINT_TORQUE,
+    SEAM_FOOT_FRICTION,
+    SEAM_NORMAL_FORCE,
+    SEAM_CONTACT_GEOMETRY,
+    SEAM_UPDATE,
+) = range(7)
 N_SEAMS = len(SEAMS)
+# a seam table's slots: one row per seam, [laws in use, then per law: the offset and count of
+# its parameters in ``up``, the offset of its effect's memory in the state (from S_MEM)]; one
+# more row, MEMORY_ROW, holds [memory slots in use, offset of their initial values in ``up``]
+SEAM_ROW = 1 + 3 * SEAM_SLOTS
+MEMORY_ROW = N_SEAMS
 
 
 # --- the integrator's scratch workspace ---------------------------------------------------
@@ -246,8 +277,12 @@ WORKSPACE = np.dtype(
         ("p", np.float64, len(PARAMETER_NAMES)),  # parameters
         ("fl", np.int64, N_FLAGS),  # effect switches
         ("ctx", np.float64, N_CTX),  # context
+        # (the pads keep st and the step's arrays after the seam table at the offsets within a
+        # cache line they had before the state and the table grew)
+        ("pad_st", np.float64, 5),
         ("st", np.float64, N_STATE),  # state
-        ("seams", np.int64, (N_SEAMS, 1 + 2 * SEAM_SLOTS)),  # a seam table's slots (seams.py)
+        ("seams", np.int64, (N_SEAMS + 1, SEAM_ROW)),  # a seam table's slots (seams.py)
+        ("pad_step", np.float64, 5),
         # kinematics at the start of the step
         ("pitch_cos", np.float64),  # cosine of the pitch
         ("pitch_sin", np.float64),  # and its sine

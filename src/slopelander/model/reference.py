@@ -81,6 +81,11 @@ class ReferenceLanding:
         dsg = 1.0 if sa >= 0.0 else -1.0
         self.downhill = dsg * self.tv
         self.down = int(self.ctx[k.C_DOWN])
+        # the legs eqs. 3 and 4 act on, with each leg's outward sign along the surface tangent:
+        # both by their condition, or the downhill one alone (the paper's reading; level: both)
+        self._growing = [(0, -1.0), (1, 1.0)]
+        if fl[k.F_PAPER_GROWTH] and sa != 0.0:
+            self._growing = [self._growing[self.down]]
         self.modes = _Modes(np.zeros(k.N_POINTS), np.zeros(k.N_POINTS), np.zeros(2))
         self.t_impact: float | None = None
         self.touched = False
@@ -140,7 +145,7 @@ class ReferenceLanding:
         Ft = np.zeros(k.N_POINTS)
         mu = np.full(k.N_POINTS, p[k.P_MUK])
         if self.fl[k.F_MU_GROWTH]:  # eq. 4 per leg: its joint's speed outward along the surface
-            for j, out in ((0, -1.0), (1, 1.0)):
+            for j, out in self._growing:
                 mu[j] *= max(1.0, 1.0 + p[k.P_FMU] * out * (vel[2 + j] @ self.tv))
         if self.fl[k.F_STRIBECK]:
             weak = np.exp(-((np.abs(sd) / p[k.P_VSTR]) ** p[k.P_DSTR]))
@@ -161,7 +166,7 @@ class ReferenceLanding:
         # joints
         tau = self.ctx[k.C_TAU : k.C_TAU + 2].copy()
         if self.fl[k.F_TAU_GROWTH]:  # eq. 3 per leg: its foot's friction pointing inward
-            for j, inward in ((0, 1.0), (1, -1.0)):
+            for j, inward in ((j, -out) for j, out in self._growing):
                 tau[j] *= 1.0 + p[k.P_FTAU] * max(0.0, inward * Ft[j])
         tau = self._joint_torque(t, V, tau)
         qEd = np.zeros(2)

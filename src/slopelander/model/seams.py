@@ -3,8 +3,11 @@
 Each seam (``layout.SEAMS``) has one function type. The integrator takes, besides its arrays,
 one more argument: the *seam table* ``(laws, slots, up)``, where ``laws`` holds per seam a
 tuple of :data:`SLOTS` first-class compiled functions of that type, ``slots`` (int array,
-one row per seam) says how many are in use and which slice of ``up`` (the user parameters)
-each reads. The integrator calls a seam's laws in turn after the built-in law of that stage.
+one row per seam, ``layout.SEAM_ROW`` wide) says how many are in use, which slice of ``up``
+(the user parameters) each reads and where its effect's memory starts in the state; its last
+row (``layout.MEMORY_ROW``) says how many memory slots the effects use and where their initial
+values sit in ``up`` (after the parameters). The integrator calls a seam's laws in turn after
+the built-in law of that stage.
 
 Because the functions are typed by their signature alone (numba's first-class function
 type), one compiled integrator serves every model with user effects: a user's, and every
@@ -27,7 +30,7 @@ from numba.core.types import WrapperAddressProtocol
 from numba.experimental.function_type import _get_wrapper_address
 
 from slopelander.model.effects import EffectError, UserEffect, check_user_effects
-from slopelander.model.layout import SEAM_INDEX, SEAM_SLOTS, SEAMS
+from slopelander.model.layout import MEMORY_ROW, SEAM_INDEX, SEAM_ROW, SEAM_SLOTS, SEAMS
 from slopelander.model.usercode import check_types
 
 SLOTS = SEAM_SLOTS
@@ -46,6 +49,8 @@ SIGNATURES = {
     "joint_torque": _F(_F, _A1, _A1, _A1, _I, _F, _F, _F),
     "foot_friction": _F(_F, _A1, _A1, _A1, _I, _F, _F, _F),
     "normal_force": types.UniTuple(_F, 3)(_F, _A1, _A1, _A1, _I, _F, _F),
+    "contact_geometry": types.UniTuple(_F, 2)(_F, _A1, _A1, _A1, _I, _F),
+    "update": types.none(_F, _A1, _A1, _A1, _F),
 }
 assert tuple(SIGNATURES) == tuple(SEAMS) == tuple(SEAM_INDEX)
 
@@ -68,12 +73,26 @@ def no_normal_law(t, st, ctx, up, point, depth, rate):  # pragma: no cover - com
     return 0.0, 0.0, 0.0
 
 
+@njit(cache=True)
+def no_geometry(t, st, ctx, up, leg, angle):  # pragma: no cover - compiled
+    """An empty contact-geometry slot (never called: the foot touches at its tip)."""
+    return 0.0, 0.0
+
+
+@njit(cache=True)
+def no_update(t, st, ctx, up, h):  # pragma: no cover - compiled
+    """An empty update slot (never called: the slot count excludes it)."""
+    return
+
+
 _EMPTY = {
     "force": no_force,
     "point_force": no_force,
     "joint_torque": no_law,
     "foot_friction": no_law,
     "normal_force": no_normal_law,
+    "contact_geometry": no_geometry,
+    "update": no_update,
 }
 
 
@@ -126,6 +145,21 @@ def _adapted(fn, seam: str):
             fn(t, st, ctx, up, out)
 
         return hook
+    if seam == "update":
+
+        @njit
+        def update(t, st, ctx, up, h):  # pragma: no cover - compiled
+            fn(t, st, ctx, up, h)
+
+        return update
+    if seam == "contact_geometry":
+
+        @njit
+        def geometry(t, st, ctx, up, leg, angle):  # pragma: no cover - compiled
+            a, b = fn(t, st, ctx, up, leg, angle)
+            return float(a), float(b)
+
+        return geometry
     if seam == "normal_force":
 
         @njit
@@ -161,7 +195,7 @@ def seam_table(effects: Sequence[UserEffect]) -> tuple | None:
         laws, slots = hit[1], hit[2].copy()
     else:
         laws, slots = _laws_and_slots(effects)
-    up = np.concatenate([e.values() for e in effects] + [np.zeros(1)])
+    up = np.concatenate([e.values() for e in effects] + [e.state_values() for e in effects] + [np.zeros(1)])
     return laws, slots, up
 
 
@@ -173,9 +207,10 @@ _TABLES_MAX = 256
 
 def _laws_and_slots(effects: Sequence[UserEffect]) -> tuple[tuple, np.ndarray]:
     check_user_effects(effects)
-    slots = np.zeros((len(SEAMS), 1 + 2 * SLOTS), dtype=np.int64)
+    slots = np.zeros((len(SEAMS) + 1, SEAM_ROW), dtype=np.int64)
     funcs: dict[str, list] = {s: [] for s in SEAMS}
     offset = 0
+    memory = 0
     for e in effects:
         n = len(e.parameters)
         seams = e.seams()
@@ -189,11 +224,16 @@ def _laws_and_slots(effects: Sequence[UserEffect]) -> tuple[tuple, np.ndarray]:
                     f"user effect {e.name!r}: more than {SLOTS} effects plug into the {seam} seam; "
                     "combine some into one"
                 )
-            row[1 + 2 * used] = offset
-            row[2 + 2 * used] = n
+            row[1 + 3 * used] = offset
+            row[2 + 3 * used] = n
+            row[3 + 3 * used] = memory
             row[0] = used + 1
             funcs[seam].append(law(fn, seam))
         offset += n
+        memory += len(e.states)
+    # the memory row: how many states, and where their initial values follow the parameters in up
+    slots[MEMORY_ROW, 0] = memory
+    slots[MEMORY_ROW, 1] = offset
     laws = tuple(tuple(funcs[s] + [law(_EMPTY[s], s)] * (SLOTS - len(funcs[s]))) for s in SEAMS)
     for row in laws:
         for one in row:

@@ -177,3 +177,25 @@ def ground_stiffness(ctx):
 def ground_damping(ctx):
     """The model's ground damping (N*s/m) at the point a normal-force law is called for."""
     return ctx[lay.C_BG]
+
+
+@njit(cache=True)
+def memory(st, ctx, i):
+    """The calling effect's ``i``-th state (its memory, in the order its ``states`` declare
+    them): what its functions left there, or the initial value."""
+    return st[lay.S_MEM + int(ctx[lay.C_MEM]) + i]
+
+
+@njit(cache=True)
+def set_memory(st, ctx, i, value):
+    """Set the calling effect's ``i``-th state; the integrator carries it to the next step
+    (write it from the effect's ``update``, which runs once per step after the step)."""
+    st[lay.S_MEM + int(ctx[lay.C_MEM]) + i] = value
+
+
+@njit(cache=True)
+def joint_load(ctx):
+    """In a joint-torque law: the torque the leg puts on the friction joint at the start of the
+    step (planar N*m, positive pushing it toward extension, negative toward compression); its
+    sign says which way the joint would slip. Set by the integrator just before it calls the law."""
+    return ctx[lay.C_JLOAD]

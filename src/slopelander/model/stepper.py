@@ -15,6 +15,7 @@ import numpy as np
 from slopelander.model import kernel as k
 from slopelander.model.conditions import CONDITION_FIELDS, ConditionError, LandingConditions
 from slopelander.model.dispatch import call, entry
+from slopelander.model.effects import memory_values
 from slopelander.model.landing import Model
 from slopelander.model.usercode import compiling_notice
 
@@ -85,7 +86,13 @@ class Stepper:
         self.st[k.S_DIR] = 1.0
         self.st[k.S_DIR + 1] = 1.0
         self.st[k.S_TIMP] = -1.0
+        self._start_memory()
         self.place(height=1.0)
+
+    def _start_memory(self) -> None:
+        """The user effects' memory at its initial values."""
+        init = memory_values(self.model.user_effects)
+        self.st[k.S_MEM : k.S_MEM + len(init)] = init
 
     # -- set-up ------------------------------------------------------------------------------
     @property
@@ -158,6 +165,8 @@ class Stepper:
         conditions.validate(p.angle_min_deg, p.angle_max_deg)
         row = np.array([getattr(conditions, n) for n in CONDITION_FIELDS], dtype=np.float64)
         k.init_landing(self._p, self._fl, row, self.st, self.ctx, self._ws)
+        if self._sx is not None:  # memory at its start; the feet's pads (if any) just touching
+            k.start_user_effects(self._p, self._fl, self.ctx, self.st, self._ws, self._sx)
         self.slope_deg = conditions.slope_deg
 
     def set_slope(self, slope_deg: float, shift_x: float = 0.0, shift_z: float = 0.0) -> None:

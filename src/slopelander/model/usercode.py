@@ -33,18 +33,20 @@ def _signatures():
         "joint_torque": (f, arr, arr, arr, i, f, f, f),
         "foot_friction": (f, arr, arr, arr, i, f, f, f),
         "normal_force": (f, arr, arr, arr, i, f, f),
+        "contact_geometry": (f, arr, arr, arr, i, f),
+        "update": (f, arr, arr, arr, f),
     }
 
 
 def _returns_ok(seam: str, ret) -> bool:
     from numba import types
 
-    if seam in ("force", "point_force"):
+    if seam in ("force", "point_force", "update"):
         return True
-    if seam == "normal_force":
+    if seam in ("normal_force", "contact_geometry"):
         return (
             isinstance(ret, types.BaseTuple)
-            and len(ret) == 3
+            and len(ret) == (3 if seam == "normal_force" else 2)
             and all(isinstance(r, types.Number) for r in ret)
         )
     return isinstance(ret, types.Number)
@@ -54,6 +56,7 @@ _RETURNS = {
     "joint_torque": "a number (the slip torque, N*m)",
     "foot_friction": "a number (the friction coefficient)",
     "normal_force": "a tuple (force N, stiffness N/m, damping N*s/m)",
+    "contact_geometry": "a tuple (reach m, along m)",
 }
 
 
