@@ -28,7 +28,7 @@ def compare(folder: Path, *args: str) -> subprocess.CompletedProcess:
     )
 
 
-def refused(r: subprocess.CompletedProcess, folder: Path, name: str, *words: str) -> str:
+def assert_refused(r: subprocess.CompletedProcess, folder: Path, name: str, *words: str) -> str:
     assert r.returncode == 1, r.stdout + r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1, r.stderr
@@ -69,19 +69,20 @@ def moment(kind: str, value: float) -> float:
 def test_a_file_that_is_no_log(tmp_path) -> None:
     (tmp_path / "notes.bin").write_text("take-off 12:03, landing 12:05\n")
     r = compare(tmp_path, "notes.bin")
-    refused(r, tmp_path, "notes.bin", "not a DataFlash log or a MAVLink telemetry log")
+    assert_refused(r, tmp_path, "notes.bin", "not a DataFlash log or a MAVLink telemetry log")
 
 
 def test_an_empty_file(tmp_path) -> None:
     (tmp_path / "flight.bin").write_bytes(b"")
-    refused(compare(tmp_path, "flight.bin"), tmp_path, "flight.bin", "the file is empty")
+    assert_refused(compare(tmp_path, "flight.bin"), tmp_path, "flight.bin", "the file is empty")
 
 
 def test_a_log_cut_short_in_the_landing(tmp_path) -> None:
     rvt = moment("NVF", 12.0)
     end = next(b for m, a, b in messages(EXAMPLE) if getattr(m, "TimeUS", 0) * 1e-6 > rvt + 0.1)
     (tmp_path / "cut.bin").write_bytes(EXAMPLE.read_bytes()[: end + 7])  # into the next message
-    line = refused(compare(tmp_path, "cut.bin"), tmp_path, "cut.bin", "landing 1: the log holds only 0.1")
+    r = compare(tmp_path, "cut.bin")
+    line = assert_refused(r, tmp_path, "cut.bin", "landing 1: the log holds only 0.1")
     assert "s after first contact" in line and "the file ends inside its last message" in line
 
 
@@ -89,20 +90,20 @@ def test_a_log_cut_short_before_its_landing(tmp_path) -> None:
     cut = moment("NVF", 11.0)
     start = next(a for m, a, _ in messages(EXAMPLE) if getattr(m, "TimeUS", 0) * 1e-6 >= cut)
     (tmp_path / "early.bin").write_bytes(EXAMPLE.read_bytes()[: start + 5])
-    line = refused(compare(tmp_path, "early.bin"), tmp_path, "early.bin", "no landing in this log")
+    line = assert_refused(compare(tmp_path, "early.bin"), tmp_path, "early.bin", "no landing in this log")
     assert "states seen: 0, 10" in line and "the file ends inside its last message" in line
 
 
 def test_a_complete_log_with_no_landing(tmp_path) -> None:
     cut = moment("NVF", 11.0)
     rewrite(tmp_path / "hover.bin", lambda m: getattr(m, "TimeUS", 0) * 1e-6 < cut)
-    line = refused(compare(tmp_path, "hover.bin"), tmp_path, "hover.bin", "no landing in this log")
+    line = assert_refused(compare(tmp_path, "hover.bin"), tmp_path, "hover.bin", "no landing in this log")
     assert "never went from the cut (11)" in line and "ends inside" not in line
 
 
 def test_a_log_without_the_companions_messages_asks_for_the_torques(tmp_path) -> None:
     rewrite(tmp_path / "quiet.bin", lambda m: not (m.get_type() == "MSG" and "SRC=" in m.Message))
-    refused(
+    assert_refused(
         compare(tmp_path, "quiet.bin"),
         tmp_path,
         "quiet.bin",
@@ -116,12 +117,12 @@ def test_a_log_without_the_companions_messages_asks_for_the_torques(tmp_path) ->
 
 def test_a_log_without_the_rangefinder_asks_for_the_slope(tmp_path) -> None:
     rewrite(tmp_path / "blind.bin", lambda m: m.get_type() != "RFND")
-    line = refused(compare(tmp_path, "blind.bin"), tmp_path, "blind.bin", "--slope DEG")
+    line = assert_refused(compare(tmp_path, "blind.bin"), tmp_path, "blind.bin", "--slope DEG")
     assert "the roof well enough to measure its slope" in line
 
 
 def test_a_landing_the_log_does_not_have(tmp_path) -> None:
-    refused(compare(tmp_path, str(EXAMPLE), "--landing", "2"), tmp_path, str(EXAMPLE), "1 landing(s)")
+    assert_refused(compare(tmp_path, str(EXAMPLE), "--landing", "2"), tmp_path, str(EXAMPLE), "1 landing(s)")
 
 
 def test_log_options_on_a_dataset_folder(tmp_path) -> None:

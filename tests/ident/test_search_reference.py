@@ -108,15 +108,15 @@ def _plain(x):
     return json.loads(json.dumps(x, default=lambda v: v.item() if isinstance(v, np.generic) else str(v)))
 
 
-def _same(a, b, where: str = "") -> None:
+def assert_same(a, b, where: str = "") -> None:
     if isinstance(a, dict):
         assert set(a) == set(b), f"{where}: keys {sorted(a)} != {sorted(b)}"
         for k in a:
-            _same(a[k], b[k], f"{where}.{k}")
+            assert_same(a[k], b[k], f"{where}.{k}")
     elif isinstance(a, list):
         assert len(a) == len(b), f"{where}: {len(a)} items != {len(b)}"
         for i, (x, y) in enumerate(zip(a, b, strict=True)):
-            _same(x, y, f"{where}[{i}]")
+            assert_same(x, y, f"{where}[{i}]")
     elif isinstance(a, float) and isinstance(b, float) and math.isnan(a):
         assert math.isnan(b), f"{where}: nan != {b!r}"
     else:
@@ -126,7 +126,7 @@ def _same(a, b, where: str = "") -> None:
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_the_default_search_is_the_reference_bit_for_bit(case):
     want = json.loads(REFERENCE.read_text())[case]
-    _same(_plain(CASES[case]()), want, case)
+    assert_same(_plain(CASES[case]()), want, case)
 
 
 if __name__ == "__main__":
