@@ -622,7 +622,7 @@ def test_a_late_older_message_does_not_replace_a_newer_one(pair):
         ([(1300, 0.0)], None),  # none near it: not level
     ],
 )
-def test_the_take_off_judges_a_range_reading_by_the_attitude_of_its_own_moment(pair, sent, want):
+def test_a_range_reading_is_judged_by_the_attitude_of_its_own_moment(pair, sent, want):
     """The rangefinder looks along the body; a level attitude from after a tilted reading must not
     make that reading a height (it loosened the legs 0.6-0.7 m above the roof under link noise)."""
     from slopelander.controller.config import load_config
@@ -637,10 +637,10 @@ def test_the_take_off_judges_a_range_reading_by_the_attitude_of_its_own_moment(p
     for ms, roll in sent:
         peer.conn.mav.attitude_send(ms, roll, 0.0, 0.0, 0.0, 0.0, 0.0)
     settle(link, peer)
-    assert lander.inputs().tilt_deg is None  # read in TAKEOFF only: not looked up before
-    lander.machine = Machine(lander.ctx, None, "TAKEOFF")
-    tilt = lander.inputs().tilt_deg
-    assert tilt == (None if want is None else pytest.approx(want, abs=0.05))
+    for state in ("TAKEOFF", "SETTLED"):  # the take-off's clear height, SETTLED's "in the air"
+        lander.machine = Machine(lander.ctx, None, state)
+        tilt = lander.inputs().tilt_deg
+        assert tilt == (None if want is None else pytest.approx(want, abs=0.05)), state
 
 
 def test_a_streams_rate_counts_from_when_the_autopilot_took_the_request(pair):

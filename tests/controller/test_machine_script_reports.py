@@ -8,13 +8,15 @@ was sent again."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
 from slopelander.controller.script_contract import ScriptState as S
 from slopelander.controller.script_rules import RULES, reading, script_move
-from slopelander.controller.states.settled import DISARM_RETRY_S
+from slopelander.controller.states.settled import AIR_MARGIN_M, BEAM_TILT_DEG, DISARM_RETRY_S
 from tests.controller.test_machine import OK, make, run_to
 
 CUT_M = 0.3  # reflex.cut_height_m, the shipped setting
@@ -128,6 +130,50 @@ def test_a_dead_script_on_the_roof_is_forced_only_still_and_low():
     m.step(replace(last, t=last.t + 0.02, range_m=CUT_M + 0.35))
     assert m.name == "ABORTED" and "in the air" in m.history[-1]["reason"]
     assert ("hold", 0.3) in act.calls and ("set_mode", "LOITER") in act.calls
+
+
+@pytest.mark.parametrize(
+    ("range_m", "tilt_deg", "end"),
+    [
+        (0.66, 47.0, "SETTLED"),  # ArduCopter: slid and pitched up on a 20 deg roof, 0.45 m vertically
+        (0.66, 5.0, "ABORTED"),  # the same reading from a level body: in the air
+        (0.66, None, "ABORTED"),  # the tilt unknown: the range alone, as before
+        (2.0, 65.0, "SETTLED"),  # tipped past 60 deg: the beam says nothing of the ground below
+    ],
+)
+def test_a_dead_script_judges_the_air_by_the_beams_vertical_share(range_m, tilt_deg, end):
+    """The range along a tilted body is not a height: SETTLED judges a silent script's vehicle as
+    the script judges "left the roof", by ``range * cos(tilt)`` and only within 60 deg of level.
+    Before, a vehicle pitched 47 deg up on the roof read 0.66 m and was handed to LOITER."""
+    m, act, _ = make()
+    t = run_to(m, "SETTLED")
+    inp = replace(OK, t=t + 0.02, range_m=range_m, tilt_deg=tilt_deg, script_present=False, speed_mps=0.3)
+    steps(m, inp, 0.5)
+    assert m.name == end, m.history[-1]
+    assert (("set_mode", "LOITER") in act.calls) is (end == "ABORTED")
+
+
+def test_the_companions_left_the_roof_figures_are_the_scripts():
+    """SETTLED's margin and tilt bound mirror the script's LEAVE table (firmware_params/scripts)."""
+    lua = (Path(__file__).parents[2] / "firmware_params" / "scripts" / "slopelander.lua").read_text()
+    leave = re.search(r"^local LEAVE = \{([^}]*)\}", lua, re.M)
+    assert leave, "the script's LEAVE table"
+    fields = dict(re.findall(r"(\w+) = ([\d.]+)", leave.group(1)))
+    assert float(fields["MARGIN_M"]) == AIR_MARGIN_M
+    assert float(fields["TILT_DEG"]) == BEAM_TILT_DEG
+
+
+def test_a_dead_script_tipped_over_and_still_is_forced_to_disarm():
+    """Lying past 60 deg from level and still, the vehicle cannot be hovering: the forced disarm,
+    whatever the beam reads along the roof; upright at the same reading it is only asked."""
+    for tilt_deg, forced in ((70.0, True), (20.0, False)):
+        m, act, _ = make()
+        t = run_to(m, "SETTLED")
+        inp = replace(OK, t=t + 0.02, range_m=0.55, tilt_deg=tilt_deg, script_present=False, speed_mps=0.0)
+        steps(m, inp, 1.5)
+        assert m.name == "SETTLED", m.history[-1]
+        assert ("disarm_forced" in act.names()) is forced, tilt_deg
+        assert "disarm_on_ground" in act.names()
 
 
 def test_a_script_dead_in_the_fall_after_a_false_cut_hands_the_vehicle_to_the_autopilot():

@@ -122,6 +122,16 @@ def test_the_watcher_needs_the_window_and_the_samples():
         assert w.feed(t, 2.0, None if t == 0.3 else 0.5) is None
 
 
+def test_a_reading_held_at_the_cut_height_is_the_scripts_to_cut_on():
+    """A reading held at or below the cut height (0.30 m) while the vehicle descends is not judged
+    stuck: the script cuts on it once it lasts. One a centimetre above the cut is."""
+    cfg = load_config()
+    for value, stuck in ((0.15, False), (0.30, False), (0.31, True)):
+        w = StuckRange(cfg)
+        said = [w.feed(0.05 * k, value, 0.5) for k in range(14)]
+        assert (said[-1] is not None) is stuck, (value, said)
+
+
 @pytest.mark.parametrize(
     ("key", "value"),
     [("stuck_window_s", 0.1), ("stuck_window_s", 5.0), ("stuck_fraction", 0.0), ("stuck_fraction", 1.0),

@@ -27,7 +27,7 @@ from slopelander.controller.states.preset import Preset
 from slopelander.controller.states.ready import Ready
 from slopelander.controller.states.reset import Reset
 from slopelander.controller.states.reverse import Reverse
-from slopelander.controller.states.settled import AIR_MARGIN_M, Settled
+from slopelander.controller.states.settled import Settled, reads_in_the_air
 from slopelander.controller.states.takeoff import Takeoff
 
 log = logging.getLogger("slopelander.controller")
@@ -115,8 +115,7 @@ class Machine:
         if inp.script_present:
             held = inp.script_state in MOTORS_HELD
         else:  # silent: on the roof unless the range reads it in the air (as SETTLED judges it)
-            cut = self.ctx.cfg["reflex.cut_height_m"]
-            held = not (inp.range_valid and inp.range_m > cut + AIR_MARGIN_M)
+            held = not reads_in_the_air(self.ctx.cfg, inp)
         return self._started and met and inp.armed and held
 
     def _note_contact(self, inp: Inputs) -> None:

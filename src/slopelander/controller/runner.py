@@ -153,7 +153,7 @@ class Lander:
             if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
                 speed = position = climb = None
         tilt = None
-        if ds is not None and self.machine.name == "TAKEOFF":  # only TAKEOFF reads it
+        if ds is not None:  # TAKEOFF's clear height, SETTLED's "in the air" and "down"
             # the body's tilt at the reading's own moment: the beam looks along the body, and a
             # newer attitude says nothing of an older reading (found by the soak under link noise)
             tilt = tilt_at(ln.near("ATTITUDE", ds.time_boot_ms / 1000.0, cfg["takeoff.attitude_window_s"]))

@@ -10,6 +10,12 @@ descent is stuck. The spread (highest less lowest), not the decrease, is compare
 or with the vehicle drifting along the slope the reading moves either way, and a moving reading is
 not a stuck one. Judged only while the vehicle reports descending at least half the commanded rate
 (``descent.rate_mps``): hovering (ARMED waiting for the script) the range has no reason to move.
+Nor when every reading of the window lies at or below the cut height (``reflex.cut_height_m``):
+the script cuts on such a reading once it has lasted (its RESEED_MS, 0.6 s: a low reading that
+lasts is a real change of the ground, or a false cut the script's missed-impact rule then
+handles), and an abort racing that cut would ask LOITER of a vehicle whose motors are stopping
+(found on ArduCopter: a reading held at 0.15 m, 1.3 m over the roof, aborted 0.05 s before the
+script's cut).
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ class StuckRange:
         self.fraction = float(cfg["range.stuck_fraction"])
         self.min_samples = int(cfg["range.stuck_min_samples"])
         self.min_descent_mps = MIN_DESCENT_SHARE * float(cfg["descent.rate_mps"])
+        self.cut_m = float(cfg["reflex.cut_height_m"])
         #: (reading's time, range m, reported descent m/s) per distinct reading
         self.samples: deque[tuple[float, float, float]] = deque()
 
@@ -52,7 +59,10 @@ class StuckRange:
         expected = sum(a[2] * (b[0] - a[0]) for a, b in itertools.pairwise(s))
         if expected < self.min_descent_mps * span:
             return None
-        moved = max(r for _, r, _ in s) - min(r for _, r, _ in s)
+        highest = max(r for _, r, _ in s)
+        if highest <= self.cut_m:
+            return None  # at the cut height: the script's to cut on, not stuck above it
+        moved = highest - min(r for _, r, _ in s)
         if moved < self.fraction * expected:
             return (
                 f"range stuck: {moved:.2f} m of change over {span:.2f} s "

@@ -70,7 +70,7 @@ class Inputs:
     #: the vehicle's position (m, north-east-down) from the same message; None when unknown
     position_m: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
     #: the body's largest tilt from level (deg) by the ATTITUDEs stamped near the range reading's
-    #: own moment; None when none was (and outside TAKEOFF, the one state that reads it)
+    #: own moment; None when none was (TAKEOFF and SETTLED read it with the range)
     tilt_deg: float | None = 0.0
     #: the vehicle's heading (deg from north, clockwise; the newest ATTITUDE yaw); None: unknown
     heading_deg: float | None = None

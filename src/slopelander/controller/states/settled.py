@@ -6,6 +6,7 @@ not a disarm made (ArduCopter refuses a ground station's before its land detecto
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from slopelander.controller.script_contract import state_name
 from slopelander.controller.script_rules import GONE, LET_GO, reading
@@ -77,6 +78,43 @@ def request_ground_disarm(ctx: Context, inp: Inputs, forced: bool = False) -> No
 #: a range this far above the cut height (m) says the vehicle is in the air, not on the roof: the
 #: script's own margin for "left the roof" (LEAVE.MARGIN_M: the beam tilted by a touchdown's pivot)
 AIR_MARGIN_M = 0.3
+#: the script's LEAVE.TILT_DEG: tilted further from level, the beam (along the body's down axis)
+#: meets the roof at a grazing angle or misses it, so its range says nothing of the ground below,
+#: and the autopilot could not fly such a vehicle, only spin its motors up on the roof
+BEAM_TILT_DEG = 60.0
+
+
+def beam_height(inp: Inputs) -> float | None:
+    """The height (m) the range gives as the script judges "left the roof": the beam's vertical
+    share, ``range * cos(tilt)`` (the range alone when the tilt is unknown); None when the range
+    is not valid or the body is tilted past :data:`BEAM_TILT_DEG`. Found on ArduCopter: a dead
+    script's vehicle slid and pitched 47 deg up on a 20 deg roof, its beam reading 0.66 m along
+    the roof (0.45 m vertically), and the range alone called it in the air: LOITER on the roof."""
+    if not inp.range_valid:
+        return None
+    if inp.tilt_deg is None:
+        return inp.range_m
+    if not inp.tilt_deg <= BEAM_TILT_DEG:  # also NaN
+        return None
+    return inp.range_m * math.cos(math.radians(inp.tilt_deg))
+
+
+def reads_in_the_air(cfg: Any, inp: Inputs) -> bool:
+    """The range says the vehicle is in the air: its :func:`beam_height` over the cut height plus
+    :data:`AIR_MARGIN_M` (the script's "left the roof" less its falling test: here the mixer may
+    be flying the vehicle, which then reads 1 g like one on the roof)."""
+    h = beam_height(inp)
+    return h is not None and h > cfg["reflex.cut_height_m"] + AIR_MARGIN_M
+
+
+def reads_down(cfg: Any, inp: Inputs) -> bool:
+    """The range says the vehicle is down: its :func:`beam_height` at or below the cut height
+    (where the reflex itself would have cut), or the body tilted past :data:`BEAM_TILT_DEG` (no
+    vehicle hovers so; one lying on its side reads the roof at a grazing angle, or nothing)."""
+    if inp.tilt_deg is not None and inp.tilt_deg > BEAM_TILT_DEG:
+        return True
+    h = beam_height(inp)
+    return h is not None and h <= cfg["reflex.cut_height_m"]
 
 
 class Settled(State):
@@ -194,22 +232,23 @@ class Settled(State):
     def without_script(self, ctx: Context, inp: Inputs, script: str):
         """After the cut with no script holding the motors (silent: dead, its overrides lapsed
         within 250 ms; FAULT: failed, or its faulted hold released by the emergency stop): the
-        autopilot's mixer has the motors. The range decides. Above the cut height plus
+        autopilot's mixer has the motors. The range decides, as the script reads it (the beam's
+        vertical share, :func:`beam_height`). Above the cut height plus
         :data:`AIR_MARGIN_M` the vehicle is in the air (a false cut, or the mixer lifted it): the
         landing is aborted, the autopilot flies (climb setpoint, LOITER). Otherwise it is on the
         roof: the companion's unforced disarm every :data:`DISARM_RETRY_S`, and once the vehicle has
-        read still for ``settle.still_s`` with the range at or below the cut height (where the
-        reflex itself would have cut) the forced one, as the script would have disarmed it."""
+        read still for ``settle.still_s`` and down (:func:`reads_down`: at or below the cut height,
+        where the reflex itself would have cut, or tipped past :data:`BEAM_TILT_DEG`) the forced
+        one, as the script would have disarmed it."""
         cfg, what = ctx.cfg, script.lower()
-        cut = cfg["reflex.cut_height_m"]
-        if inp.range_valid and inp.range_m > cut + AIR_MARGIN_M:
-            high = f"range {inp.range_m:.2f} m"
+        if reads_in_the_air(cfg, inp):
+            tilt = "" if inp.tilt_deg is None else f", tilt {inp.tilt_deg:.0f} deg"
+            high = f"range {inp.range_m:.2f} m{tilt}"
             return ("ABORTED", f"on-board script {what}, {high}: in the air, the autopilot flies")
         ctx.marks.setdefault("disarm_asked", f"on-board script {what}: the companion's own disarm")
         self._say_once(ctx, "gone", f"SL script {what} on the roof: disarming")
         request_ground_disarm(ctx, inp)
-        low = inp.range_valid and inp.range_m <= cut
-        if still(cfg, inp) and low:
+        if still(cfg, inp) and reads_down(cfg, inp):
             since = ctx.marks.setdefault("gone_still_since", inp.t)
             if inp.t - since >= cfg["settle.still_s"]:
                 request_ground_disarm(ctx, inp, forced=True)
