@@ -177,17 +177,28 @@ def test_checks_refuse(change, why):
     assert "descend" not in act.names()
 
 
-# failsafes.md, one row at a time: (state, failure) -> (next state, what must have been sent)
+# failsafes.md, one row at a time: (state, failure) -> (next state, what must have been sent; an
+# abort from the descent asks LOITER after its 1 m rise)
 ROWS = [
     ("DESCEND", {"link_ok": False}, "LINK_LOST", []),
     ("ARMED", {"link_ok": False}, "LINK_LOST", []),
     ("CUT", {"link_ok": False}, "LINK_LOST", []),
-    ("DESCEND", {"range_ok": False}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
-    ("ARMED", {"range_ok": False}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
+    ("DESCEND", {"range_ok": False}, "ABORTED", ["hold", "reflex_abort", "release", "hold", "set_mode"]),
+    ("ARMED", {"range_ok": False}, "ABORTED", ["hold", "reflex_abort", "release", "hold", "set_mode"]),
     ("CUT", {"range_ok": False}, "CUT", []),
-    ("ARMED", {"legs_fault": "board silent"}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
+    (
+        "ARMED",
+        {"legs_fault": "board silent"},
+        "ABORTED",
+        ["hold", "reflex_abort", "release", "hold", "set_mode"],
+    ),
     ("CUT", {"legs_fault": "board silent"}, "CUT", []),
-    ("DESCEND", {"script_present": False}, "ABORTED", ["hold", "set_mode", "reflex_abort", "release"]),
+    (
+        "DESCEND",
+        {"script_present": False},
+        "ABORTED",
+        ["hold", "reflex_abort", "release", "hold", "set_mode"],
+    ),
     ("ARMED", {"mode": "LOITER"}, "ABORTED", ["reflex_abort", "release"]),
     ("DESCEND", {"estop": True}, "ESTOP", ["reflex_abort"]),
     ("REVERSE", {"estop": True}, "ESTOP", ["reflex_abort"]),
@@ -213,10 +224,33 @@ def test_failsafe_row(state, failure, expect, sent):
     inp = replace(OK, **{**fields, **failure})
     m.step(inp)
     assert m.name == expect
+    if expect == "ABORTED" and "set_mode" in sent:  # from the descent: LOITER after the rise
+        rise_to_loiter(m, act, inp)
     new = [c[0] for c in act.calls[before:] if c[0] not in ("statustext", "descend")]
     assert new == sent
     if expect == "ABORTED" and "set_mode" in sent:
         assert ("set_mode", "LOITER") in act.calls
+
+
+def rise_to_loiter(m, act, inp, rate_mps: float = 0.5, stops: bool = True) -> float:
+    """Step an abort from the descent while the vehicle climbs at ``rate_mps`` (its position
+    rising; once the hold setpoint is sent, at rest if ``stops``) until LOITER is asked; the
+    height it rose (m). Fails past the rise's bound."""
+    from slopelander.controller.states.aborted import RISE_M, RISE_MAX_S, STOP_MAX_S
+
+    assert ("set_mode", "LOITER") not in act.calls, "LOITER asked before the rise"
+    x, y, z = inp.position_m
+    risen, rate, held = 0.0, rate_mps, None
+    for k in range(1, round((RISE_MAX_S + STOP_MAX_S + 0.2) / 0.02)):
+        risen += rate * 0.02
+        m.step(replace(inp, t=inp.t + 0.02 * k, position_m=(x, y, z - risen), climb_mps=rate))
+        if held is None and ("hold", 0.0) in act.calls:
+            held, rate = risen, (0.0 if stops else rate)
+        if ("set_mode", "LOITER") in act.calls:
+            if rate_mps > 0.0:  # risen the full height, stopped by the hold setpoint first
+                assert held is not None and held >= RISE_M - 1e-9, (held, risen)
+            return risen
+    raise AssertionError("no LOITER within the rise's bound")
 
 
 # LANDED with the vehicle armed again (a pilot's arm, a late HEARTBEAT): the script accepts a
@@ -254,12 +288,12 @@ def test_an_abort_in_the_air_stops_the_descent_first_and_keeps_the_reflex_until_
     m.step(inp)
     assert m.name == "ABORTED"
     sent = [c for c in act.calls[before:] if c[0] != "statustext"]
-    assert sent[0] == ("hold", 0.3) and sent[1] == ("set_mode", "LOITER")
+    assert sent[0] == ("hold", 0.3) and "set_mode" not in act.names()  # LOITER after the rise
     # still descending: the reflex stays armed (not let go), the climb is re-sent
     for k in range(1, 20):
         m.step(replace(inp, t=inp.t + 0.02 * k))
     assert "reflex_abort" not in act.names() and m.ctx.marks["abort_pending"]
-    assert ("descend", -0.3) in act.calls
+    assert ("descend", -0.5) in act.calls
     # the roof came anyway: the reflex cut it, and the landing goes on
     m2, act2, _ = make()
     t2 = run_to(m2, "ARMED")
@@ -274,6 +308,61 @@ def test_an_abort_in_the_air_stops_the_descent_first_and_keeps_the_reflex_until_
         m.step(replace(inp, t=t3 + 0.02 * k, climb_mps=0.2))
     assert act.names()[-2:] == ["reflex_abort", "release"] or {"reflex_abort", "release"} <= set(act.names())
     assert not m.ctx.marks["abort_pending"]
+
+
+@pytest.mark.parametrize("state", ["DESCEND", "ARMED", "CUT"])
+def test_an_abort_from_the_descent_climbs_before_loiter(state):
+    """LOITER holds the height it is given: an abort close over the roof (a soak on ArduCopter left
+    a vehicle hovering armed 0.17 m over it, its range stuck at 0.34 m) first climbs 1 m at
+    0.5 m/s in GUIDED, holds, and LOITER is asked once the climb has stopped."""
+    m, act, _ = make()
+    t = run_to(m, state)
+    inp = replace(OK, t=t + 0.02, range_m=0.34, script_state={"CUT": 11}.get(state, 10))
+    m.transition("ABORTED", "test: abort low", inp)
+    assert m.name == "ABORTED"
+    assert ("hold", 0.3) in act.calls and "set_mode" not in act.names()
+    rise_to_loiter(m, act, inp)
+    assert ("descend", -0.5) in act.calls
+
+
+def test_an_abort_from_the_descent_rises_within_its_bounds():
+    """The rise ends in LOITER after RISE_MAX_S when the vehicle does not climb, at once when the
+    position is lost, STOP_MAX_S after the hold setpoint when the climb does not stop, and is
+    left alone (no LOITER) when the pilot or autopilot changes mode."""
+    from slopelander.controller.states.aborted import RISE_MAX_S, STOP_MAX_S
+
+    m, act, _ = make()
+    inp = replace(OK, t=run_to(m, "ARMED") + 0.02, script_state=10)
+    m.transition("ABORTED", "test", inp)
+    assert rise_to_loiter(m, act, inp, rate_mps=0.0) == 0.0
+    asked = next(c for c in m.history if c["to"] == "ABORTED")["t"]
+    assert act.calls.count(("set_mode", "LOITER")) == 1
+    assert m.ctx.marks["loiter_asks"][1] - asked == pytest.approx(RISE_MAX_S, abs=0.03)
+    m, act, _ = make()
+    inp = replace(OK, t=run_to(m, "ARMED") + 0.02, script_state=10)
+    m.transition("ABORTED", "test", inp)
+    m.step(replace(inp, t=inp.t + 0.02, position_m=None))
+    assert ("set_mode", "LOITER") in act.calls
+    m, act, _ = make()  # a climb that does not stop on the hold setpoint: LOITER after STOP_MAX_S
+    inp = replace(OK, t=run_to(m, "ARMED") + 0.02, script_state=10)
+    m.transition("ABORTED", "test", inp)
+    assert rise_to_loiter(m, act, inp, stops=False) == pytest.approx(1.0 + 0.5 * STOP_MAX_S, abs=0.03)
+    m, act, _ = make()
+    inp = replace(OK, t=run_to(m, "ARMED") + 0.02, script_state=10)
+    m.transition("ABORTED", "test", inp)
+    for k in range(1, 300):
+        m.step(replace(inp, t=inp.t + 0.02 * k, mode="ALT_HOLD"))
+    assert "set_mode" not in act.names()
+
+
+def test_an_abort_before_the_descent_asks_loiter_at_once():
+    """From LEGS_WAIT (hovering at the approach height) LOITER is asked with the climb setpoint."""
+    m, act, _ = make()
+    m.step(replace(OK, t=0.02, legs_ready=False))
+    assert m.name == "LEGS_WAIT"
+    m.transition("ABORTED", "test", replace(OK, t=0.04, legs_ready=False))
+    first = [c for c in act.calls if c[0] in ("hold", "set_mode")][:2]
+    assert first == [("hold", 0.3), ("set_mode", "LOITER")]
 
 
 def test_link_back_after_loss_aborts_to_loiter():
@@ -892,7 +981,7 @@ def test_the_descent_below_the_arm_height_waits_for_the_scripts_reflex():
     assert m2.name == "ABORTED" and "reflex not armed" in m2.history[-1]["reason"]
     armed_at = next(i for i, c in enumerate(act2.calls) if c[0] == "reflex_arm")
     descents = [c[1] for c in act2.calls[armed_at:] if c[0] == "descend"]
-    assert descents and all(v == 0.0 for v in descents), descents  # never descended unconfirmed
+    assert descents and all(v <= 0.0 for v in descents), descents  # never descended unconfirmed
 
 
 def test_an_abort_after_contact_keeps_the_motors_held_on_the_roof():

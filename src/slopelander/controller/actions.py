@@ -210,8 +210,9 @@ class MavActions:
 
     def disarm_forced(self) -> None:
         """The companion's forced disarm (param 2 = 21196: no land-detector check), for a vehicle
-        on the roof whose script is dead or failed, read still and at or below the cut height
-        (states/settled.py, ``Settled.without_script``): what the script would have done."""
+        on the roof whose script is dead or failed, read still and down (at or below the cut
+        height, or tipped over: states/settled.py, ``Settled.without_script``): what the script
+        would have done."""
         self._cmd("disarm_forced", mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, FORCE_DISARM)
 
     def takeoff(self, height_m: float) -> None:

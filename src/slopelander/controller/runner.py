@@ -24,6 +24,7 @@ from slopelander.controller.machine import Machine
 from slopelander.controller.pilot_switch import APPLY_IN, WAIT_AGAIN, PresetSwitch
 from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.slope_estimate import SlopeEstimate
+from slopelander.controller.states.aborted import Aborted
 from slopelander.controller.states.base import Context, Inputs
 from slopelander.legs.errors import LegBoardError
 
@@ -48,9 +49,10 @@ RECONNECT_IN = ("LANDED", "READY", "ABORTED", "ESTOP")
 #: the reconnect's handshake, local seconds (the autopilot's clock is not read meanwhile)
 HANDSHAKE_S = 0.5
 #: local seconds a run that reached ABORTED goes on polling while the abort is still holding the
-#: reflex (states/aborted.py: until the vehicle climbs or holds), so the loop does not end with
-#: the reflex armed and nobody refreshing the climb setpoint
-ABORT_SETTLE_S = 5.0
+#: reflex (states/aborted.py: until the vehicle climbs or holds) or climbing before LOITER
+#: (``Aborted.rising``), so the loop does not end with the reflex armed and nobody refreshing the
+#: climb setpoint; more than the rise's own bound (``RISE_MAX_S``, vehicle time)
+ABORT_SETTLE_S = 8.0
 
 
 def tilt_at(attitudes: list) -> float | None:
@@ -341,6 +343,13 @@ class Lander:
             time.sleep(0.01)
         return True
 
+    def _ended(self, name: str) -> str:
+        """The run ends in ``name``: an abort still climbing before LOITER (``Aborted.rising``)
+        asks LOITER now, so the vehicle is never left on a GUIDED setpoint nobody renews."""
+        if name == "ABORTED" and Aborted.rising(self.ctx):
+            Aborted.ask_loiter(self.ctx, self.inputs())
+        return name
+
     def run(
         self,
         timeout_s: float,
@@ -369,10 +378,11 @@ class Lander:
             started = time.monotonic()
             name = self.poll()
             if self.machine._started and name in until:
-                pending = name == "ABORTED" and self.ctx.marks.get("abort_pending")
+                holding = self.ctx.marks.get("abort_pending") or Aborted.rising(self.ctx)
+                pending = name == "ABORTED" and holding
                 aborted_at = aborted_at if aborted_at is not None else time.monotonic()
                 if not pending or time.monotonic() - aborted_at > ABORT_SETTLE_S:
-                    return name
+                    return self._ended(name)
             else:
                 aborted_at = None
             if stop is not None and stop():
@@ -380,7 +390,7 @@ class Lander:
             if interrupts is not None and interrupts() > handled:
                 handled = interrupts()
                 if self.interrupt(handled):
-                    return self.machine.name if self.machine._started else "ABORTED"
+                    return self._ended(self.machine.name) if self.machine._started else "ABORTED"
             if self.link.monotonic() - t0 > timeout_s:
                 self.machine.transition(
                     "ABORTED", f"landing not finished within {timeout_s:g} s", self.inputs()

@@ -18,6 +18,18 @@ NOT_DESCENDING_MPS = 0.05
 HOLDING_S = 0.3
 #: the script's states the abort keeps as they are until the vehicle climbs or holds
 KEEP_UNTIL_HOLDING = frozenset({ScriptState.ARMED}) | STOPS_DESCENT
+#: the states an abort may come from close over the roof: the vehicle climbs first, LOITER after
+NEAR_THE_ROOF = frozenset({"DESCEND", "ARMED", "CUT"})
+#: how far (m, by LOCAL_POSITION_NED) such an abort climbs before LOITER is asked, at RISE_MPS ...
+RISE_M = 1.0
+RISE_MPS = 0.5
+#: ... or for at most this long (vehicle s), whichever comes first
+RISE_MAX_S = 4.0
+#: the rise ends with a hold setpoint, and LOITER is asked once the climb has slowed under this
+#: (m/s) or after STOP_MAX_S: LOITER takes a vehicle at rest, not one still climbing (taken at
+#: 0.5 m/s the simulated vehicle overshot and sank back at 0.11 m/s)
+STOPPED_MPS = 0.1
+STOP_MAX_S = 1.0
 
 
 class Aborted(State):
@@ -36,15 +48,24 @@ class Aborted(State):
     LOITER is asked for again every ``REASK_S`` while the autopilot still reports GUIDED and
     armed: one mode command and its retries can all be lost (the link just back from a cut, seen
     in a loaded suite, 2026-11-27). A mode other than GUIDED is the pilot's (or the autopilot's own
-    failsafe) and is left alone: the reflex is let go at once."""
+    failsafe) and is left alone: the reflex is let go at once.
+
+    An abort from the descent (:data:`NEAR_THE_ROOF`) climbs :data:`RISE_M` in GUIDED before
+    LOITER is asked (at most :data:`RISE_MAX_S`): LOITER holds the height it is given, and a 200-
+    landing soak on ArduCopter left a vehicle whose range stuck at 0.34 m hovering armed 0.17 m
+    over the roof. From the states before the descent the vehicle hovers at its approach height
+    and LOITER is asked at once."""
 
     name = "ABORTED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         if inp.armed and inp.mode == "GUIDED":
             ctx.act.hold(CLIMB_MPS)
-            ctx.act.set_mode("LOITER")
-            ctx.marks["loiter_asks"] = (1, inp.t)
+            if ctx.previous in NEAR_THE_ROOF and inp.position_m is not None:
+                ctx.marks["abort_rise_from"] = (-inp.position_m[2], inp.t)
+                ctx.marks["loiter_asks"] = (0, inp.t)
+            else:
+                self.ask_loiter(ctx, inp)
             # a reflex to keep, or the script's own climb (its reflex lapsed, or it failed in the
             # descent: ABORT would end that climb), until the vehicle climbs or holds
             if inp.script_present and inp.script_state in KEEP_UNTIL_HOLDING:
@@ -53,6 +74,43 @@ class Aborted(State):
                 return None
         self._let_go(ctx)
         return None
+
+    @staticmethod
+    def ask_loiter(ctx: Context, inp: Inputs) -> None:
+        """LOITER asked (again every ``REASK_S`` while GUIDED); the rise, if any, is over."""
+        ctx.marks.pop("abort_rise_from", None)
+        ctx.marks.pop("abort_rise_stop", None)
+        ctx.act.set_mode("LOITER")
+        ctx.marks["loiter_asks"] = (1, inp.t)
+
+    @staticmethod
+    def rising(ctx: Context) -> bool:
+        """Whether the climb before LOITER is still under way (the runner keeps stepping)."""
+        return "abort_rise_from" in ctx.marks
+
+    def _rise(self, ctx: Context, inp: Inputs) -> None:
+        """The climb before LOITER: re-sent at the descent's rate while GUIDED and armed; once
+        risen :data:`RISE_M` a hold setpoint, and LOITER when the climb has stopped (or after
+        :data:`STOP_MAX_S`); LOITER at once after :data:`RISE_MAX_S` or when the position is lost."""
+        if not inp.armed or inp.mode != "GUIDED":  # the pilot's or the autopilot's: left alone
+            ctx.marks.pop("abort_rise_from", None)
+            return
+        alt0, t0 = ctx.marks["abort_rise_from"]
+        pos = inp.position_m
+        stop_at = ctx.marks.get("abort_rise_stop")
+        if stop_at is not None:  # risen: the hold setpoint is sent, LOITER once at rest
+            slowed = inp.climb_mps is None or abs(inp.climb_mps) <= STOPPED_MPS
+            if slowed or inp.t - stop_at >= STOP_MAX_S:
+                self.ask_loiter(ctx, inp)
+            return
+        if pos is None or inp.t - t0 >= RISE_MAX_S:
+            self.ask_loiter(ctx, inp)
+            return
+        if -pos[2] - alt0 >= RISE_M:
+            ctx.act.hold(0.0)
+            ctx.marks["abort_rise_stop"] = inp.t
+            return
+        ctx.act.descend(-RISE_MPS)
 
     @staticmethod
     def _let_go(ctx: Context) -> None:
@@ -66,6 +124,8 @@ class Aborted(State):
             move = self._hold_until_safe(ctx, inp)
             if move is not None:
                 return move
+        if "abort_rise_from" in m:
+            self._rise(ctx, inp)
         asks, last = m.get("loiter_asks", (0, inp.t))
         if asks and inp.armed and inp.mode == "GUIDED" and inp.t - last >= REASK_S:
             ctx.act.set_mode("LOITER")
@@ -85,7 +145,8 @@ class Aborted(State):
         # re-sent at the descent's rate while GUIDED; the reflex is not refreshed (the reason for the
         # abort may be the range it cuts on): it stays armed for what is left of its validity
         # (``reflex.validity_ms``), more than the climb takes to show
-        ctx.act.descend(-CLIMB_MPS)
+        if "abort_rise_from" not in m:  # the rise before LOITER sends its own, faster
+            ctx.act.descend(-CLIMB_MPS)
         rising = inp.climb_mps is not None and inp.climb_mps >= -NOT_DESCENDING_MPS
         if not rising:
             m["abort_holding_since"] = None

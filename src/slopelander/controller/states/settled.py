@@ -107,11 +107,19 @@ def reads_in_the_air(cfg: Any, inp: Inputs) -> bool:
     return h is not None and h > cfg["reflex.cut_height_m"] + AIR_MARGIN_M
 
 
+#: a vehicle read still (speed and accelerometer, :func:`still`) tilted this far from level is
+#: resting on something: hovering so, its thrust would push it sideways at g * tan(tilt) (5.7 m/s^2
+#: at 30 deg) and it would not read still. Found on ArduCopter: a dead script's vehicle came to rest
+#: pitched 47 deg on a 20 deg roof, its beam's vertical share 0.45 m, over the 0.36 m cut height,
+#: and was never disarmed while the mixer drove its motors on the roof.
+RESTING_TILT_DEG = 30.0
+
+
 def reads_down(cfg: Any, inp: Inputs) -> bool:
-    """The range says the vehicle is down: its :func:`beam_height` at or below the cut height
-    (where the reflex itself would have cut), or the body tilted past :data:`BEAM_TILT_DEG` (no
-    vehicle hovers so; one lying on its side reads the roof at a grazing angle, or nothing)."""
-    if inp.tilt_deg is not None and inp.tilt_deg > BEAM_TILT_DEG:
+    """The vehicle, once read still, is down: the range's :func:`beam_height` at or below the cut
+    height (where the reflex itself would have cut), or the body tilted past
+    :data:`RESTING_TILT_DEG` (no still vehicle hovers so)."""
+    if inp.tilt_deg is not None and inp.tilt_deg > RESTING_TILT_DEG:
         return True
     h = beam_height(inp)
     return h is not None and h <= cfg["reflex.cut_height_m"]
@@ -238,8 +246,8 @@ class Settled(State):
         landing is aborted, the autopilot flies (climb setpoint, LOITER). Otherwise it is on the
         roof: the companion's unforced disarm every :data:`DISARM_RETRY_S`, and once the vehicle has
         read still for ``settle.still_s`` and down (:func:`reads_down`: at or below the cut height,
-        where the reflex itself would have cut, or tipped past :data:`BEAM_TILT_DEG`) the forced
-        one, as the script would have disarmed it."""
+        where the reflex itself would have cut, or tilted past :data:`RESTING_TILT_DEG`) the
+        forced one, as the script would have disarmed it."""
         cfg, what = ctx.cfg, script.lower()
         if reads_in_the_air(cfg, inp):
             tilt = "" if inp.tilt_deg is None else f", tilt {inp.tilt_deg:.0f} deg"
