@@ -13,6 +13,7 @@ so the simulated legs work across the namespace unchanged.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -111,14 +112,18 @@ class ArduCopterProcess:
             b.close()
         if self.proc.poll() is None:
             self.proc.terminate()
-            try:
-                out, _ = self.proc.communicate(timeout=timeout)
-                self.summary = next(
-                    (ln for ln in out.splitlines() if ln.startswith("arducopter stopped")), ""
-                )
-            except Exception:  # a stuck pod is killed, whatever went wrong
-                self.proc.kill()
-                self.proc.wait()
+        try:  # a pod that already ended has its summary in its output too
+            out, _ = self.proc.communicate(timeout=timeout)
+            self.summary = next(
+                (ln for ln in (out or "").splitlines() if ln.startswith("arducopter stopped")), ""
+            )
+        except Exception:  # a stuck pod is killed, whatever went wrong
+            self.proc.kill()
+            self.proc.wait()
+        if not self.summary:  # killed, or its output lost: the pod also wrote the physics' summary
+            with contextlib.suppress(OSError):
+                kept = (self.folder / "physics-summary.txt").read_text().splitlines()
+                self.summary = f"arducopter stopped status={self.proc.returncode} {kept[0]}" if kept else ""
         if self.keep_log is not None:
             try:
                 self.copy_log(self.keep_log)

@@ -51,8 +51,13 @@ class Vehicle:
         self.stepper, self.world = start_on_ground(scenario)
         self.judge = LandingJudge(self.stepper)  # each landing's record, as the model judges it
         b = self.stepper.body()
+        # the EKF origin, where the vehicle started: LOCAL_POSITION_NED and local targets count from it
         self.home = self.world.to_world(b.x, b.z)  # world frame: it stays put when the surface switches
         self.home_ne = self.world.ne(self.home[0])  # (north, east): it stays put when the vehicle turns
+        # ArduCopter's home, which the take-off's "above home" and RTL count from: where the vehicle
+        # last armed (AP_Arming_Copter::arm, ArduCopter/AP_Arming_Copter.cpp: home reset to the
+        # current location at each arming unless locked); the origin does not move with it
+        self.arm_home, self.arm_home_ne = self.home, self.home_ne
         p = self.stepper.model.params
         mass = p["body_mass"] + 2 * p["leg_mass"]
         self.fc = FlightControl(mass, p["body_inertia"], p["rotor_arm"], p["gravity"], p["rotor_thrust_max"])
@@ -135,6 +140,8 @@ class Vehicle:
             self.statustext(why, mavlink.MAV_SEVERITY_CRITICAL)
             return False
         self.armed = True
+        b = self._world_body()
+        self.arm_home, self.arm_home_ne = (b.x, b.z), self.world.ne(b.x)
         self.fc.reset()
         self.land.set_landed(True)
         self.statustext("Arming motors", mavlink.MAV_SEVERITY_INFO)
@@ -155,7 +162,7 @@ class Vehicle:
     def takeoff(self, height_m: float, param3: float = 0.0) -> bool:
         """MAV_CMD_NAV_TAKEOFF as ArduCopter takes it (arducopter_rules.takeoff); False: refused."""
         b = self._world_body()
-        above_home = b.z - self.home[1]
+        above_home = b.z - self.arm_home[1]
         ok = self.range_alt.healthy
         t = rules.takeoff(
             self.mode,
@@ -171,7 +178,7 @@ class Vehicle:
         )
         if t is None:
             return False
-        z = (b.z - self.range_alt.alt_m + t.height_m) if t.above_terrain else self.home[1] + t.height_m
+        z = (b.z - self.range_alt.alt_m + t.height_m) if t.above_terrain else self.arm_home[1] + t.height_m
         self.target = Target(x=b.x, z=z)
         self.target_is_velocity = False
         self.heading_target = None
@@ -378,7 +385,7 @@ class Vehicle:
                 self.target = t = Target(x=b.x, z=b.z)
             return t
         if m == modes.RTL:
-            hx, hz = self.world.slice_x(*self.home_ne), self.home[1]
+            hx, hz = self.world.slice_x(*self.arm_home_ne), self.arm_home[1]
             alt = max(self.params["RTL_ALT"] / 100.0, 0.0)
             if abs(b.x - hx) > 0.3:
                 return Target(x=hx, z=max(b.z, hz + alt))
