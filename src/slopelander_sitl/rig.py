@@ -563,8 +563,24 @@ class Rig:
             arm_in_guided(L, self.poll, force=force)
         except TimeoutError as exc:
             raise RigError(str(exc)) from None
-        self.wait_command(L.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, height_m), "take-off")
+        # the command's altitude is above home, which arming moves to where the vehicle armed
+        # (AP_Arming_Copter::arm; the simulated vehicle alike): from the height above the pad
+        # (LOCAL_POSITION_NED, from the origin) and the height above home (GLOBAL_POSITION_INT's,
+        # newer than the arm)
+        armed_at = self.now
+        self.fly_until(lambda: self._above_home(newer_than=armed_at) is not None, 2.0, "report home")
+        above_home = self._above_home(newer_than=armed_at)
+        target = height_m - self.height() + above_home
+        self.wait_command(L.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, target), "take-off")
         self.fly_until(lambda: self.height() > height_m - 0.3, 30.0, "climb")
+
+    def _above_home(self, newer_than: float) -> float | None:
+        """GLOBAL_POSITION_INT's height above home (m), when one stamped after ``newer_than``
+        (vehicle s) has come."""
+        gp = self.link.last.get("GLOBAL_POSITION_INT")
+        if gp is None or gp.time_boot_ms / 1000.0 <= newer_than:
+            return None
+        return gp.relative_alt / 1000.0
 
     def goto(self, x: float, z: float, vehicle_s: float = 30.0, tol: float = 0.15) -> None:
         """Fly to world (x, z up) in GUIDED and stop there."""

@@ -1151,3 +1151,29 @@ def test_an_abort_asks_for_loiter_again_while_the_autopilot_stays_in_guided():
     m.step(replace(OK, t=t + 30 * REASK_S, mode="STABILIZE", legs_ready=False))  # the pilot's
     m.step(replace(OK, t=t + 40 * REASK_S, armed=False, legs_ready=False))
     assert asks() == TELL_AFTER + 2
+
+
+@pytest.mark.parametrize(
+    ("armed", "above_home", "want"),
+    [(False, 3.0, 1.6), (True, 3.0, 4.6), (True, None, 1.6), (True, -0.4, 1.2)],
+)
+def test_the_take_off_altitude_counts_from_home(armed, above_home, want):
+    """NAV_TAKEOFF's altitude is above home (the parameter files' WPNAV_RFND_USE 0), home being
+    where ArduCopter last armed: a disarmed vehicle the take-off arms climbs 1.6 m from here; an
+    armed one adds its height above home (GLOBAL_POSITION_INT), or on a roof 3 m above the pad it
+    armed on the command was "downwards" and refused."""
+    m, act, _ = make(start="LANDED")
+    m.step(replace(OK, t=0.02, armed=armed, above_home_m=above_home, script_state=13 if armed else 0))
+    m.step(
+        replace(
+            OK,
+            t=0.04,
+            armed=armed,
+            above_home_m=above_home,
+            takeoff_request=True,
+            script_state=13 if armed else 0,
+        )
+    )
+    assert m.name == "TAKEOFF", m.history
+    sent = [c for c in act.calls if c[0] == "takeoff"]
+    assert sent and sent[0][1] == pytest.approx(want), sent

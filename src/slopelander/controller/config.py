@@ -44,6 +44,7 @@ LIMITS: dict[str, tuple[float, float, bool]] = {
     "link.attitude_hz": (1, 200, False),
     "link.rc_hz": (1, 50, False),
     "link.servo_hz": (1, 200, False),
+    "link.home_alt_hz": (1, 50, False),
     "link.heartbeat_hz": (1, 10, False),
     "descent.rate_mps": (0.1, 3.0, False),
     "descent.resend_hz": (5, 50, False),

@@ -159,6 +159,10 @@ class Lander:
             # the body's tilt at the reading's own moment: the beam looks along the body, and a
             # newer attitude says nothing of an older reading (found by the soak under link noise)
             tilt = tilt_at(ln.near("ATTITUDE", ds.time_boot_ms / 1000.0, cfg["takeoff.attitude_window_s"]))
+        gp = ln.last.get("GLOBAL_POSITION_INT")
+        above_home = None
+        if gp is not None and ln.age(gp.time_boot_ms / 1000.0) <= cfg["settle.velocity_max_age_s"]:
+            above_home = gp.relative_alt / 1000.0
         att = ln.last.get("ATTITUDE")
         heading = math.degrees(att.yaw) % 360.0 if att is not None and math.isfinite(att.yaw) else None
         op = self.act.leg_op
@@ -199,6 +203,7 @@ class Lander:
             position_m=position,
             tilt_deg=tilt,
             heading_deg=heading,
+            above_home_m=above_home,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,
             slope_measured=self.slope_estimate,

@@ -34,7 +34,8 @@ from slopelander.errors import SlopelanderError
 #: settings key of its rate. The impact detector reads RAW_IMU, the cut and the slope read
 #: DISTANCE_SENSOR, rest and slide are told from LOCAL_POSITION_NED, a range is a height only with
 #: the ATTITUDE it was taken at, the pilot's preset switch is on RC_CHANNELS, the motors' outputs
-#: (SERVO_OUTPUT_RAW) are the log's evidence of the cut and the reverse thrust, and HEARTBEAT
+#: (SERVO_OUTPUT_RAW) are the log's evidence of the cut and the reverse thrust, a take-off's
+#: target is a height above home (GLOBAL_POSITION_INT's relative altitude), and HEARTBEAT
 #: faster than ArduPilot's 1 Hz keeps a slowed simulation from reading as a lost link.
 STREAMS: tuple[tuple[str, str], ...] = (
     ("HEARTBEAT", "link.heartbeat_hz"),
@@ -44,6 +45,7 @@ STREAMS: tuple[tuple[str, str], ...] = (
     ("ATTITUDE", "link.attitude_hz"),
     ("RC_CHANNELS", "link.rc_hz"),
     ("SERVO_OUTPUT_RAW", "link.servo_hz"),
+    ("GLOBAL_POSITION_INT", "link.home_alt_hz"),
 )
 #: what a session decodes: the landing's messages and the motors' outputs for the log
 SESSION_MESSAGES = LANDING_MESSAGES | {"SERVO_OUTPUT_RAW"}

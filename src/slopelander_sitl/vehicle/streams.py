@@ -90,18 +90,19 @@ def _local_position(v: Vehicle):
 
 
 def _global_position(v: Vehicle):
-    """GLOBAL_POSITION_INT on the flat earth around home (SIM_OPOS_*)."""
+    """GLOBAL_POSITION_INT on the flat earth around the origin (SIM_OPOS_*); the relative altitude
+    above home, which arming resets (``Vehicle.arm_home``), as ArduCopter's ``relative_alt``."""
     b = v._world_body()
     n, e, vn, ve = _ne(v, b)
     lat0 = v.params["SIM_OPOS_LAT"]
     lat = lat0 + math.degrees(n / EARTH_RADIUS_M)
     lng = v.params["SIM_OPOS_LNG"] + math.degrees(e / (EARTH_RADIUS_M * math.cos(math.radians(lat0))))
-    rel = b.z - v.home[1]
+    rel = b.z - v.arm_home[1]
     return M.MAVLink_global_position_int_message(
         int(v.t * 1000),
         round(lat * 1e7),
         round(lng * 1e7),
-        round((v.params["SIM_OPOS_ALT"] + rel) * 1000),
+        round((v.params["SIM_OPOS_ALT"] + b.z - v.home[1]) * 1000),
         round(rel * 1000),
         round(vn * 100),
         round(ve * 100),

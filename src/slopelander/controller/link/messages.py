@@ -30,6 +30,7 @@ LANDING_MESSAGES = frozenset(
         "LOCAL_POSITION_NED",
         "ATTITUDE",
         "RC_CHANNELS",
+        "GLOBAL_POSITION_INT",
     }
 )
 #: messages every one of which a reader needs, not only the newest (the impact detector reads every
@@ -48,6 +49,7 @@ USEC_FIELDS = {
     "DISTANCE_SENSOR": "time_boot_ms",
     "NAMED_VALUE_FLOAT": "time_boot_ms",
     "RC_CHANNELS": "time_boot_ms",
+    "GLOBAL_POSITION_INT": "time_boot_ms",
 }
 
 

@@ -74,6 +74,8 @@ class Inputs:
     tilt_deg: float | None = 0.0
     #: the vehicle's heading (deg from north, clockwise; the newest ATTITUDE yaw); None: unknown
     heading_deg: float | None = None
+    #: height above home (m; GLOBAL_POSITION_INT's relative altitude, fresh); None: unknown
+    above_home_m: float | None = None
     impact: bool = False
     takeoff_request: bool = False
     #: the slope measured before the landing (controller/slope_estimate.py) and how far the

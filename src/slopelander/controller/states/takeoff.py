@@ -42,6 +42,19 @@ ARM_WAIT_S = 10.0
 ARM_RETRY_S = 1.0
 
 
+def takeoff_altitude(ctx: Context, inp: Inputs) -> float:
+    """The NAV_TAKEOFF altitude (m): a climb of twice ``takeoff.clear_height_m`` over where the
+    vehicle is. ArduCopter takes it above home (the parameter files' ``WPNAV_RFND_USE 0``), and
+    home is where the vehicle last armed (AP_Arming_Copter::arm): a disarmed vehicle, armed by the
+    take-off, is at home; an armed one (a take-off from the held landing) adds its height above
+    home (GLOBAL_POSITION_INT), without which a roof higher than the climb over the pad it armed on
+    made the command "downwards" and refused."""
+    climb = ctx.cfg["takeoff.clear_height_m"] * 2
+    if inp.armed and inp.above_home_m is not None and math.isfinite(inp.above_home_m):
+        return climb + inp.above_home_m
+    return climb
+
+
 def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> float:
     """The height (m) of the body over the slope below it that a reading of ``range_m`` along a body
     tilted ``tilt_deg`` from level guarantees. The tilt is taken downhill, where the beam reads
@@ -113,7 +126,7 @@ class Takeoff(State):
             return FAULT_REFUSAL  # nothing armed or released: see Landed
         ctx.act.release_for_takeoff()  # a held, armed vehicle is given back only level enough
         ctx.marks.pop("impact", None)  # the landing is over: the next one meets its roof anew
-        ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+        ctx.act.takeoff(takeoff_altitude(ctx, inp))
         ctx.marks["takeoff_range"] = None  # (t, m) of the last believed reading
         ctx.marks["takeoff_disagree"] = None  # since when readings disagree with it
         ctx.marks["takeoff_clear"] = None  # since when the believed range is clear
@@ -178,7 +191,7 @@ class Takeoff(State):
                 )
             if ctx.act.refused("arm") and inp.t - m.get("takeoff_sent", -1.0) >= ARM_RETRY_S:
                 m["takeoff_sent"] = inp.t  # refused (a stick up, a pre-arm check): ask again
-                ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+                ctx.act.takeoff(takeoff_altitude(ctx, inp))
             # the readings below still seed the chain: the ground, before any spike
         rose = self._rose(ctx, inp)
         if inp.t - ctx.entered_at > GIVE_UP_S:
@@ -210,7 +223,7 @@ class Takeoff(State):
             # on a lossy link the take-off can arrive before the arm (or the mode) and be refused
             # (found by the soak: armed on the roof, never climbing): send it again, armed now
             m["takeoff_sent"] = inp.t
-            ctx.act.takeoff(ctx.cfg["takeoff.clear_height_m"] * 2)
+            ctx.act.takeoff(takeoff_altitude(ctx, inp))
         last = m.get("takeoff_range")
         # a stale or invalid reading must never loosen the legs on the ground (nor one beyond the
         # sensor's reach: a vehicle that climbs out of it first ends by GIVE_UP_S, legs clamped)
