@@ -85,7 +85,8 @@ def injected_script(folder: Path) -> Path:
 
 
 def set_param(rig: Rig, name: str, value: float) -> None:
-    """PARAM_SET, until the autopilot's PARAM_VALUE says it holds the value."""
+    """PARAM_SET, until the autopilot's PARAM_VALUE says it holds the value (as a float32: 0.6 comes
+    back as 0.60000002)."""
     mav = rig.link.conn.mav
     seen: list[float] = []
 
@@ -100,7 +101,8 @@ def set_param(rig: Rig, name: str, value: float) -> None:
             rig.info.system, rig.info.component, name.encode(), value, mavutil.mavlink.MAV_PARAM_TYPE_REAL32
         )
 
-    rig.fly_until(lambda: value in seen, 5.0, f"set {name} to {value:g}", send=send)
+    held = lambda: any(abs(v - value) < 1e-6 for v in seen)  # noqa: E731
+    rig.fly_until(held, 5.0, f"set {name} to {value:g}", send=send)
 
 
 SLOPE_DEG = 20.0

@@ -29,6 +29,7 @@ from pymavlink import mavutil
 from slopelander_sitl.guided import arm_in_guided
 from slopelander_sitl.rig import TRACK_MESSAGES, Rig, config
 from tests.flights.conftest import autopilot_available
+from tests.flights.test_flight_edges import set_param
 
 ON_ARDUCOPTER = [pytest.mark.xdist_group("arducopter"), pytest.mark.timeout(1200)]
 
@@ -36,26 +37,6 @@ GUIDED, RTL, LAND = 4, 6, 9
 SLOPE_DEG = 20.0
 TAKEOFF_M = 2.0  # within the rangefinder's 3 m: the stock rule takes it above terrain
 CUT_RANGE_M = 0.6  # the rangefinder's maximum once off the pad: out of range above it
-
-
-def set_param(rig: Rig, name: str, value: float) -> None:
-    """PARAM_SET until the autopilot's PARAM_VALUE says it holds the value (as a float32)."""
-    seen: list[float] = []
-    rig.link.add_listener(
-        lambda m: (
-            m.get_type() == "PARAM_VALUE" and m.param_id.rstrip("\x00") == name and seen.append(m.param_value)
-        )
-    )
-    mav = rig.link.conn.mav
-
-    def send() -> None:
-        mav.param_set_send(
-            rig.info.system, rig.info.component, name.encode(), value, mavutil.mavlink.MAV_PARAM_TYPE_REAL32
-        )
-
-    rig.fly_until(
-        lambda: any(abs(v - value) < 1e-6 for v in seen), 5.0, f"set {name} to {value:g}", send=send
-    )
 
 
 def _parm(name: str) -> float:
