@@ -636,6 +636,26 @@ class Soak:
         contact = rig.track.contact(t0)
         row["contact"] = None if contact is None else {k: round(v, 3) for k, v in contact.items()}
         row["stops"] = [round(t, 3) for t in rig.track.event_times("EV_STOP", t0)][:5]
+        if row["unsafe"] and self.a.log is not None:
+            row["trace"] = str(self.write_trace(row["i"], t0, history))
+
+    def write_trace(self, i: int, t0: float, history: list[dict]) -> Path:
+        """What the companion and the physics saw of an unsafe landing, beside the log
+        (``<log>-trace-<i>.json``): the vehicle's reports since ``t0`` (position, pitch, range,
+        motor outputs, the script's states and events, status texts), the physics' true height
+        over the roof on ArduCopter, and the landing's transitions with their reasons. Enough to
+        read the landing afterwards; the rig keeps only the last half minute of its vehicle."""
+        tr = self.rig.track
+        series = ("pos", "pitch", "ranges", "servo", "script")
+        keep = {name: [p for p in getattr(tr, name) if p[0] >= t0] for name in series}
+        keep["events"] = [e for e in tr.events if e[1] >= t0]
+        keep["statustext"] = tr.statustext[-60:]
+        keep["history"] = history
+        keep["slope_deg"] = self.rig.slope_deg
+        keep["clearance"] = [(round(t, 3), round(self.clearance(t), 3)) for t, *_ in keep["pos"][::5]]
+        dest = Path(f"{self.a.log.with_suffix('')}-trace-{i}.json")
+        dest.write_text(json.dumps(keep, default=str))
+        return dest
 
     def fly_killed(self, row: dict, p, cfg, target: str) -> dict:
         """The landing flown by a companion process of its own, killed (SIGKILL) in ``target``;

@@ -306,8 +306,11 @@ class Rig:
         extra_endpoints: list[str] | None = None,
         arducopter_speedup: float = ARDUCOPTER_SPEEDUP,
         out=None,
+        arducopter_params: dict | None = None,
     ) -> None:
-        """``arducopter_speedup``: ArduCopter's ``--speedup``, the most it runs ahead of real time.
+        """``arducopter_params``: parameters ArduCopter boots with over the project's parameter file
+        (a test of a setting read at boot only). ``arducopter_speedup``: ArduCopter's
+        ``--speedup``, the most it runs ahead of real time.
         It is lock-stepped with the physics, and the physics holds it while the companion is more
         than 0.25 s of vehicle time behind and keeps it to real time within 1.6 m of the ground while
         the script may be timing something (``slopelander_sitl.json_physics.companion_gate``): the
@@ -353,6 +356,7 @@ class Rig:
                     script=script,
                     speedup=arducopter_speedup,
                     keep_log=None if out is None else Path(out) / "flight.bin",
+                    params=arducopter_params,
                 )
             else:
                 self.vehicle = start_vehicle(

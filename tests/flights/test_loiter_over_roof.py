@@ -1,0 +1,78 @@
+"""LOITER over a steep roof holds its altitude: surface tracking is off in the parameter files.
+
+The ArduPilot rule (ArduCopter/surface_tracking.cpp, ``SurfaceTracking``; ``SURFTRAK_MODE``, read
+once at boot in ``Copter::init_ardupilot``): with the stock ``SURFTRAK_MODE`` 1, LOITER and
+ALT_HOLD hold a height over the surface the downward rangefinder measures, moving the position
+controller's altitude target with it. A vehicle taking off from a steep roof drifts downhill (its
+tilted thrust pushes it along the slope), and the roof below it falls away as it goes. A soak of
+200 landings on ArduCopter ended twice armed on the roof with the motors running: the pilot (or the
+companion after a take-off it could not confirm) switched to LOITER over a 37-39 deg roof, and
+LOITER, its stick centred, flew the vehicle back onto the roof. Flown here: landed on a 39 deg
+roof, a take-off, LOITER once the vehicle is 1 m over the roof. Stock: its target sinks (the
+dataflash log's CTUN shows a desired height over the surface below zero) and it meets the roof
+within seconds; shipped (``SURFTRAK_MODE`` 0): it holds its altitude over the roof.
+"""
+
+from __future__ import annotations
+
+import pytest
+from pymavlink import mavutil
+
+from slopelander_sitl.guided import arm_in_guided
+from slopelander_sitl.rig import Rig, config
+from tests.flights.conftest import autopilot_available
+from tests.flights.test_takeoff_target import ON_ARDUCOPTER, _parm
+
+LOITER = 5
+SLOPE_DEG = 39.0
+TAKEOFF_M = 2.4  # over where it armed: the companion's take-off asks twice the clear height
+CLEAR_M = 1.0  # over the roof when the pilot switches to LOITER
+WATCH_S = 6.0
+THROTTLE_CENTRED = {"rc": [{"t": 0.0, "channels": {3: 1500}}]}  # LOITER's "hold" stick
+
+
+@pytest.mark.parametrize(
+    "surftrak", [pytest.param("shipped", marks=ON_ARDUCOPTER), pytest.param(1, marks=ON_ARDUCOPTER)]
+)
+def test_loiter_after_a_take_off_from_a_steep_roof_holds_over_it(surftrak) -> None:
+    """Landed on a 39 deg roof, armed again, a 2.4 m take-off; LOITER (stick centred) once the
+    vehicle is 1 m over the roof, watched 6 s. Shipped: never lower than 0.3 m over the roof and
+    back to 0.8 m or more at the end; stock surface tracking: down to the roof."""
+    autopilot_available("ardupilot")
+    cfg = config()
+    boot = None if surftrak == "shipped" else {"SURFTRAK_MODE": surftrak}
+    with Rig(
+        slope_deg=SLOPE_DEG, seed=5, autopilot="ardupilot", scenario=THROTTLE_CENTRED, arducopter_params=boot
+    ) as rig:
+        p, _ = rig.plan(cfg)
+        rig.take_off(3.0)
+        rig.go_over_roof(1.5)
+        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=1.0)
+        assert flight.end == "LANDED" and not rig.armed(), flight.history[-3:]
+        arm_in_guided(rig.link, rig.poll)
+
+        def over_roof() -> float:
+            x = rig.track.pos[-1][1]
+            return rig.height() - rig.surface_z(x)
+
+        rig.wait_command(
+            rig.link.command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, TAKEOFF_M), "take-off"
+        )
+        rig.fly_until(lambda: over_roof() >= CLEAR_M, 15.0, f"rise {CLEAR_M:g} m over the roof")
+        rig.wait_command(rig.link.command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, 1, LOITER), "LOITER")
+        heights = []
+        end = rig.now + WATCH_S
+        while rig.now < end:
+            rig.wait(0.1)
+            heights.append(over_roof())
+        mode = rig.mode()
+    low, last = min(heights), heights[-1]
+    print(
+        f"SURFTRAK_MODE {surftrak}: LOITER lowest {low:.2f} m over the roof, last {last:.2f} m, mode {mode}"
+    )
+    if surftrak == "shipped":
+        assert _parm("SURFTRAK_MODE") == 0
+        assert mode == LOITER
+        assert low > 0.3 and last >= 0.8, (low, last)
+    else:  # the stock setting: the rule the parameter files avoid, seen on this binary
+        assert low < 0.3, (low, last)
