@@ -142,3 +142,54 @@ def test_search_settings_out_of_range_are_refused_before_any_work(model):
     for bad in ({"cma_evals": -1}, {"ls_evals": 2.5}, {"ls_evals": True}, {"workers": 0}):
         with pytest.raises(FitError, match=next(iter(bad))):
             Identifier(model, ["friction_kinetic"], **bad).fit(drops)
+
+
+def test_the_jackknife_covariance_is_tukeys_over_the_refits():
+    """(n - 1) / n times the summed squared deviations of the leave-one-out estimates, with
+    Student's t on n - 1 degrees of freedom; a single refit cannot give one."""
+    from scipy.stats import t as student
+
+    from slopelander.ident.fit import jackknife
+
+    refits = [np.array([0.50, 0.20]), np.array([0.52, 0.21]), np.array([0.47, 0.19]), np.array([0.51, 0.20])]
+    cov, q = jackknife(refits)
+    # column 0 by hand: mean 0.50, deviations 0, 0.02, -0.03, 0.01: (3 / 4) * 0.0014
+    assert cov[0, 0] == pytest.approx(0.00105)
+    assert cov[0, 1] == pytest.approx(3 / 4 * (0 * 0 + 0.02 * 0.01 + -0.03 * -0.01 + 0.01 * 0))
+    assert q == pytest.approx(student.ppf(0.975, 3))
+    with pytest.raises(FitError, match="two drops"):
+        jackknife(refits[:1])
+
+
+def test_jackknife_intervals_come_from_refits_that_each_leave_one_drop_out(model):
+    """The jackknife's half-widths are the spread of refits made without each drop in turn:
+    asked for at the fit (``intervals="jackknife"``) or after it (``jackknife_ci95``), the same."""
+    truth = model.with_params(friction_kinetic=0.65)
+    drops = synthesize(truth, paper_drops(4, seed=4), NoiseModel(), seed=3, duration=0.4)
+    kw = dict(cma_evals=30, ls_evals=8, workers=1)
+    plain = Identifier(model, ["friction_kinetic"], **kw).fit(drops)
+    jack = Identifier(model, ["friction_kinetic"], intervals="jackknife", **kw).fit(drops)
+    assert jack.result_.values == plain.result_.values  # the same search; only the intervals differ
+    half = jack.result_.ci95["friction_kinetic"]
+    assert np.isfinite(half) and half > 0
+    assert plain.jackknife_ci95(drops)["friction_kinetic"] == pytest.approx(half, rel=1e-9)
+    # by hand: each drop left out, refitted from the optimum
+    from slopelander.ident.fit import _leave_one_out, jackknife
+
+    prob = Problem(model, drops, plain.result_.params, plain.result_.ranges)
+    refits = _leave_one_out(plain, prob, plain.result_.u)
+    assert len(refits) == 4 and len({float(u[0]) for u in refits}) > 1  # each refit its own answer
+    cov, q = jackknife(refits)
+    p = plain.result_.params[0]
+    assert half == pytest.approx(q * np.sqrt(cov[0, 0]) * p.slope(float(plain.result_.u[0])), rel=1e-9)
+
+
+def test_jackknife_intervals_refuse_what_cannot_make_them(model):
+    drops = synthesize(model, paper_drops(2, seed=0), NoiseModel(), duration=0.2)
+    with pytest.raises(FitError, match="at least 3 drops"):
+        Identifier(model, ["friction_kinetic"], intervals="jackknife").fit(drops)
+    three = synthesize(model, paper_drops(3, seed=0), NoiseModel(), duration=0.2)
+    with pytest.raises(FitError, match="ls_evals 0"):
+        Identifier(model, ["friction_kinetic"], intervals="jackknife", ls_evals=0).fit(three)
+    with pytest.raises(FitError, match="intervals must be one of sandwich, jackknife"):
+        Identifier(model, ["friction_kinetic"], intervals="bootstrap").fit(three)

@@ -10,6 +10,7 @@ from slopelander.commands.ident_options import (
     IdentCliError,
     ProgressBar,
     add_dataset_argument,
+    add_intervals_option,
     add_model_options,
     add_search_options,
     build_model,
@@ -64,6 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--json", type=Path, metavar="FILE", help="also write the verdict and its evidence as JSON"
     )
+    add_intervals_option(p, "a named candidate's values (its refit on every drop)")
     add_model_options(p, "analysed")
     add_search_options(
         p,
@@ -102,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
             refit_evals=args.refit_evals,
             folds=args.folds,
             refit_from_centre=args.refit_from_centre,
+            final_intervals=args.intervals,
             **settings,
             progress=bar,
         )

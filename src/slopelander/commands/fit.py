@@ -9,6 +9,7 @@ from slopelander.commands.ident_options import (
     IdentCliError,
     ProgressBar,
     add_dataset_argument,
+    add_intervals_option,
     add_model_options,
     add_search_options,
     build_model,
@@ -43,6 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="model",
         help="where the search begins: the analysed model's values (default) or the centre of the bounds",
     )
+    add_intervals_option(p, "each fit")
     add_model_options(p, "analysed")
     add_search_options(
         p,
@@ -73,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
             progress=bar,
             restarts=args.restarts,
             from_centre=args.start == "centre",
+            intervals=args.intervals,
         )
         ident.fit_params()  # an unknown name or bounds fail here, before any drop is simulated
         sf = fit_subsets(ident, drops, repeats=repeats, seed=seed)

@@ -161,6 +161,18 @@ def add_search_options(p: argparse.ArgumentParser, repeats: int, repeats_help: s
     g.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def add_intervals_option(p: argparse.ArgumentParser, what: str) -> None:
+    """``--intervals``: how the 95 % intervals of ``what`` are made (docs/ident.md)."""
+    p.add_argument(
+        "--intervals",
+        choices=("sandwich", "jackknife"),
+        default="sandwich",
+        help=f"95 %% intervals of {what}: sandwich (over drops, from the Jacobian at the optimum; "
+        "cheap, often too narrow) or jackknife (one least-squares refit per drop left out: "
+        "--ls-evals each, honest where the sandwich is not)",
+    )
+
+
 def fit_spec(items: list[str] | None) -> tuple[list[str] | None, dict[str, tuple[float, float]]]:
     if items is None:
         return None, {}

@@ -30,6 +30,7 @@ from slopelander.ident.evidence import (
 )
 from slopelander.ident.fit import (
     DEFAULT_BOUNDS,
+    INTERVALS,
     PAPER_SEVEN,
     FitError,
     FitParam,
@@ -241,7 +242,11 @@ class Diagnosis:
                     f"{k} = {self.final.values[k]:.4g} +- {self.final.ci95[k]:.2g}"
                     for k in m.candidate.params
                 )
-                vals += f" (refitted on all {len(self.drops)} drops; 95 % intervals over drops)"
+                how = {
+                    "sandwich": "over drops",
+                    "jackknife": "by the jackknife, one drop left out at a time",
+                }[self.final.intervals]
+                vals += f" (refitted on all {len(self.drops)} drops; 95 % intervals {how})"
             return (
                 f"missing: {m.candidate.name} (held-out NRMSE {self.base_validation:.4f} -> "
                 f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % lower; {self.evidence(m)}; {vals})"
@@ -379,6 +384,7 @@ class Diagnosis:
                 "name": m.candidate.name,
                 "values": {k: float(self.final.values[k]) for k in m.candidate.params},
                 "ci95": {k: float(self.final.ci95[k]) for k in m.candidate.params},
+                "intervals": self.final.intervals,
             }
         return out
 
@@ -708,9 +714,9 @@ def _test(
     return test
 
 
-def _final(cf: CrossFit, m: CandidateResult) -> FitResult:
+def _final(cf: CrossFit, m: CandidateResult, intervals: str = "sandwich") -> FitResult:
     """The missing candidate refitted on every drop, from the groups' mean: the decision used
-    held-out drops, the estimate uses them all."""
+    held-out drops, the estimate uses them all; its intervals of the kind ``intervals``."""
     mean = {p.name: float(np.mean([f.values[p.name] for f in m.fits])) for p in m.fits[0].params}
     one = cf.refit.with_(
         model=m.candidate.add_to(cf.model),
@@ -720,6 +726,7 @@ def _final(cf: CrossFit, m: CandidateResult) -> FitResult:
         also=[f.values for f in m.fits],
         sigma=0.1,
         starts=None,
+        intervals=intervals,
     )
     return one.fit(cf.drops).result_  # type: ignore[return-value]
 
@@ -738,6 +745,7 @@ def diagnose(
     refit_from_centre: bool = False,
     alpha: float = ALPHA,
     stall: int | None = STALL,
+    final_intervals: str = "sandwich",
     **search: object,
 ) -> Diagnosis:
     """Find the effect ``model`` is missing to explain ``drops``.
@@ -752,11 +760,15 @@ def diagnose(
     mimic the missing effect); ``alpha``: the test's level; ``stall``: a CMA-ES search (the
     default optimizer, or a :class:`~slopelander.ident.optimizers.CMA` given without its own
     ``stall``) stops after this many generations without a lower cost (None: every search runs
-    its whole budget, as before 2026-12-06). ``search``: the base fit's settings,
+    its whole budget, as before 2026-12-06). ``final_intervals``: the kind of 95 % interval of
+    a named candidate's refit on every drop (``"jackknife"``: one least-squares refit per drop
+    left out, :func:`slopelander.ident.fit.jackknife`). ``search``: the base fit's settings,
     those of an :class:`~slopelander.ident.fit.Identifier` (``seed``, ``cma_evals`` 400,
     ``ls_evals`` 20, ``optimizer``, ``workers``, ``client``, ``progress``); ``seed`` also seeds
     the splits, the test and the noise floor.
     """
+    if final_intervals not in INTERVALS:
+        raise FitError(f"final_intervals must be one of {', '.join(INTERVALS)}, not {final_intervals!r}")
     bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
     base_params = resolve_params(model, names, bounds)
     cands = candidates_for(model, user_effects)
@@ -801,7 +813,7 @@ def diagnose(
     results.sort(key=lambda r: (not r.fits, -d.gain(r) if r.fits else -r.screening))
     m = d.missing
     if m is not None:
-        d.final = m.final = _final(cf, m)
+        d.final = m.final = _final(cf, m, final_intervals)
     return d
 
 
