@@ -905,7 +905,7 @@ def test_without_a_measured_roof_a_downhill_drift_is_no_climb_and_a_refused_disa
     ],
 )
 def test_rise_over_roof_follows_the_plane(heading, move, expect):
-    from slopelander.controller.states.takeoff import rise_over_roof
+    from slopelander.controller.roof import rise_over_roof
 
     start = (5.0, 5.0, 1.0)
     now = tuple(a + b for a, b in zip(start, move, strict=True))

@@ -7,6 +7,7 @@ the script never cut and the vehicle met the roof at 0.46 m/s under power."""
 
 from __future__ import annotations
 
+import math
 import random
 import re
 from dataclasses import replace
@@ -22,10 +23,13 @@ STEP_DT = 0.02
 NOISE_M = 0.005  # the simulated vehicle's range noise (slopelander_sitl scenario: range_noise)
 
 
-def fly(m, height, until_s, descent_mps=0.5, stuck_from=None, ground=None, seed=1, script=None):
-    """Step the machine from DESCEND: the vehicle descends at ``descent_mps`` (reported and true);
-    the range reads the height over ``ground(t)`` (default flat) in cm with noise, held from
-    ``stuck_from`` (s) on. Returns the last input."""
+def fly(
+    m, height, until_s, descent_mps=0.5, stuck_from=None, ground=None, seed=1, script=None, drift_mps=0.0
+):
+    """Step the machine from DESCEND: the vehicle descends at ``descent_mps`` (reported and true)
+    and moves north (its heading, 0 deg) at ``drift_mps``, both in LOCAL_POSITION_NED; the range
+    reads the height over ``ground(t)`` (default flat) in cm with noise, held from ``stuck_from``
+    (s) on. Returns the last input."""
     rnd = random.Random(seed)
     t, reading, reading_t, stuck = 0.0, None, None, None
     inp = OK
@@ -44,7 +48,16 @@ def fly(m, height, until_s, descent_mps=0.5, stuck_from=None, ground=None, seed=
         if m.name == "ARMED" and reading <= 0.3:
             s = 11
         stamp = 100.0 + reading_t
-        inp = replace(OK, t=100.0 + t, range_m=reading, range_t=stamp, climb_mps=-descent_mps, script_state=s)
+        inp = replace(
+            OK,
+            t=100.0 + t,
+            range_m=reading,
+            range_t=stamp,
+            climb_mps=-descent_mps,
+            script_state=s,
+            position_m=(drift_mps * t, 0.0, -h),
+            heading_deg=0.0,
+        )
         m.step(inp)
     return inp
 
@@ -87,11 +100,50 @@ def test_a_range_stuck_in_the_descent_aborts_in_the_air(stuck_from, where):
     assert m.name == "ABORTED", m.history
     assert m.history[-2]["to"] == where
     reason = m.history[-1]["reason"]
-    assert re.match(r"range stuck: 0\.0\d m of change over 0\.6\d s while the vehicle descended 0\.3", reason)
+    assert re.match(r"range stuck: 0\.0\d m of change over 0\.6\d s while the vehicle came 0\.3\d m", reason)
     assert last.t - 100.0 - stuck_from <= 0.6 + 0.1  # at most the window and a sample
     assert ("hold", 0.3) in act.calls
     rise_to_loiter(m, act, last)  # climbs 1 m before LOITER
     assert "CUT" not in [h["to"] for h in m.history]
+
+
+SLOPE_DEG = 44.0
+
+
+def roof_falling_under(drift_mps):
+    """The roof's height under a vehicle drifting downhill (north, which it faces) at ``drift_mps``
+    over a ``SLOPE_DEG`` roof: it falls by the drift times the slope's tangent."""
+    return lambda t: -drift_mps * t * math.tan(math.radians(SLOPE_DEG))
+
+
+def at_descend_over(slope_deg):
+    m, act = at_descend()
+    m.ctx.slope_deg = slope_deg
+    return m, act
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_descent_drifting_downhill_is_not_a_stuck_range(seed):
+    """Found by the outdoor campaign on ArduCopter: descending 0.5 m/s while drifting downhill
+    0.4 m/s over a 44 deg roof, the range falls only 0.11 m/s (0.07 m per 0.6 s window) as the roof
+    falls away under the vehicle; judged against the descent alone that was "stuck" (5 of 15
+    landings aborted). Judged against the approach to the roof, it is a descent to the cut."""
+    m, _ = at_descend_over(SLOPE_DEG)
+    fly(m, 1.6, 30.0, drift_mps=0.4, ground=roof_falling_under(0.4), seed=seed)
+    assert m.name == "CUT", m.history
+    # the same flight judged as before (the roof unknown): aborted, the old false alarm
+    m, _ = at_descend_over(None)
+    fly(m, 1.6, 30.0, drift_mps=0.4, ground=roof_falling_under(0.4), seed=seed)
+    assert m.name == "ABORTED" and "range stuck" in m.history[-1]["reason"], m.history[-1]
+
+
+def test_a_range_stuck_while_drifting_downhill_still_aborts():
+    """Drifting downhill 0.2 m/s over the 44 deg roof the vehicle still comes 0.31 m/s nearer it:
+    a reading that holds still from 2.6 m is stuck, and the reason counts the approach."""
+    m, _ = at_descend_over(SLOPE_DEG)
+    fly(m, 3.0, 10.0, drift_mps=0.2, ground=roof_falling_under(0.2), stuck_from=0.8)
+    assert m.name == "ABORTED", m.history
+    assert re.match(r"range stuck: 0\.0\d m .* came 0\.1\d m nearer the roof", m.history[-1]["reason"])
 
 
 def test_a_hover_with_a_stuck_range_is_not_judged():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from slopelander.controller.roof import rise_over_roof, roof_plane
 from slopelander.controller.script_rules import FAULT_REFUSAL, faulted
 from slopelander.controller.states.base import Context, Inputs, State, hand_to_loiter
 
@@ -68,39 +69,11 @@ def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> floa
     return range_m * c / math.cos(a)
 
 
-def rise_over_roof(
-    start: tuple[float, float, float],
-    now: tuple[float, float, float],
-    slope_deg: float | None,
-    heading_deg: float | None,
-    cross_deg: float | None = None,
-) -> float:
-    """How far (m) the vehicle rose over the roof plane through the spot it took off from, by
-    LOCAL_POSITION_NED (north-east-down) and the roof: ``slope_deg`` along ``heading_deg`` (deg
-    from north; positive: falling the way the vehicle faces, as it lands) and ``cross_deg`` across
-    it (positive: falling to the right). Leaving a slope the tilted body is pushed downhill and
-    the roof falls away below it: on ArduCopter a take-off from a 35 deg roof drifted 3.4 m
-    downhill and ended 0.85 m *lower* than it began, 1.5 m over the roof. Without a slope or a
-    heading only the height itself counts (a drift uphill would otherwise be credited)."""
-    dn, de, dd = (b - a for a, b in zip(start, now, strict=True))
-    rise = -dd  # NED: up is a smaller z
-    if slope_deg is None or heading_deg is None:
-        return rise
-    h = math.radians(heading_deg)
-    along = dn * math.cos(h) + de * math.sin(h)  # the way the vehicle faces
-    right = -dn * math.sin(h) + de * math.cos(h)
-    fall = along * math.tan(math.radians(slope_deg)) + right * math.tan(math.radians(cross_deg or 0.0))
-    return rise + fall if math.isfinite(fall) else rise
-
-
 def roof_of(ctx: Context, inp: Inputs) -> tuple[float | None, float | None, float | None]:
-    """The roof the take-off leaves: (slope along the heading, heading, cross-slope), deg. The
-    survey's plane when there is one; else the landing's slope along the heading the vehicle had
-    when the take-off began (it lands facing the way the roof falls); else unknown."""
-    est = inp.slope_measured
-    if getattr(est, "heading_deg", None) is not None and getattr(est, "slope_deg", None) is not None:
-        return est.slope_deg, est.heading_deg, getattr(est, "cross_deg", None)
-    return ctx.slope_deg, ctx.marks.get("takeoff_heading"), None
+    """The roof the take-off leaves (:func:`~slopelander.controller.roof.roof_plane`): the
+    survey's plane, else the landing's slope along the heading the vehicle had when the take-off
+    began (it lands facing the way the roof falls); else unknown."""
+    return roof_plane(inp.slope_measured, ctx.slope_deg, ctx.marks.get("takeoff_heading"))
 
 
 class Takeoff(State):
