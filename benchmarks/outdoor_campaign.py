@@ -189,7 +189,9 @@ def main() -> None:
                     op = rig.legs.start_angles({0: p.angle_up_deg, 1: p.angle_up_deg, 2: p.angle_down_deg,
                                                 3: p.angle_down_deg})  # fmt: skip
                     rig.fly_until(lambda op=op: op.done, 30.0, "set the leg angles")
-                lander = Lander(rig.link, cfg, (p.tau_up, p.tau_down), legs=rig.legs)
+                # the landing's slope, as `slopelander land --slope` gives it
+                lander = Lander(rig.link, cfg, (p.tau_up, p.tau_down), legs=rig.legs,
+                                slope_deg=round(planar, 2))  # fmt: skip
                 drifting(lander, vx)
                 f = rig.land((p.tau_up, p.tau_down), cfg, lander=lander, timeout_s=90.0 if real else 60.0,
                              rest_s=2.0)  # fmt: skip

@@ -195,3 +195,63 @@ def test_the_stuck_range_settings_are_bounded(tmp_path, key, value):
     path.write_text(f"range:\n  {key}: {value}\n")
     with pytest.raises(ConfigError, match=f"range.{key}"):
         load_config(path)
+
+
+def test_a_reading_is_the_height_its_beam_means_over_the_roof():
+    """The beam along a body pitched over a steep roof meets it further off: the stuck-range rule
+    takes each reading as the height over the roof it means (found by the outdoor campaign on
+    ArduCopter: pitching 0.9 -> 5.7 deg nose-up over a 43.3 deg roof falling ahead, the reading
+    held 1.53 -> 1.48 m while the vehicle came 0.19 m nearer; as heights, 1.51 -> 1.33 m)."""
+    from slopelander.controller.roof import beam_direction, height_from_beam
+
+    before = height_from_beam(1.53, beam_direction(0.0, math.radians(0.9), 0.0), 43.3, 0.0)
+    after = height_from_beam(1.48, beam_direction(0.0, math.radians(5.7), 0.0), 43.3, 0.0)
+    assert before == pytest.approx(1.507, abs=0.002) and after == pytest.approx(1.334, abs=0.002)
+    # against a ray cast to the plane: any attitude, any roof, any heading
+    rnd = random.Random(4)
+    for _ in range(200):
+        roll, pitch = math.radians(rnd.uniform(-25, 25)), math.radians(rnd.uniform(-25, 25))
+        yaw = math.radians(rnd.uniform(0, 360))
+        slope, heading, cross = rnd.uniform(0, 50), rnd.uniform(0, 360), rnd.uniform(-15, 15)
+        h = rnd.uniform(0.3, 3.0)
+        b = beam_direction(roll, pitch, yaw)
+        # the roof's depth below the vehicle, metres north and east of it (NED: down positive)
+        hh, ts, tc = math.radians(heading), math.tan(math.radians(slope)), math.tan(math.radians(cross))
+
+        def depth(n, e, hh=hh, ts=ts, tc=tc, h=h):
+            along = n * math.cos(hh) + e * math.sin(hh)
+            right = -n * math.sin(hh) + e * math.cos(hh)
+            return h + along * ts + right * tc
+
+        lo, hi = 0.0, 50.0  # bisect the range where the beam's depth meets the roof's
+        for _ in range(100):
+            r = (lo + hi) / 2
+            lo, hi = (r, hi) if r * b[2] < depth(r * b[0], r * b[1]) else (lo, r)
+        if hi >= 49.0:
+            continue  # the beam runs along or away from the roof: no reading
+        assert height_from_beam(hi, b, slope, heading, cross) == pytest.approx(h, rel=1e-6)
+
+
+def test_a_pitching_descent_over_a_steep_roof_is_not_a_stuck_range():
+    """The campaign's landing: 0.5 m/s down over the 43.3 deg roof, drifting 0.22 m/s downhill,
+    while the nose rises 0.8 deg per 0.1 s: the vehicle comes 0.18 m nearer the roof in 0.6 s and
+    the range read along the beam moves 0.04 m. Taken as heights along the beam, a descent; taken
+    as it is, "stuck"."""
+    from slopelander.controller.roof import beam_direction, height_from_beam
+
+    def run(with_beam):
+        cfg = load_config()
+        w = StuckRange(cfg)
+        why = None
+        for k in range(13):  # 0.6 s at 20 Hz
+            t = 0.05 * k
+            up, north = 1.6 - 0.5 * t, 0.22 * t
+            h = up + north * math.tan(math.radians(43.3))  # the roof falls away ahead
+            b = beam_direction(0.0, math.radians(0.9 + 8.0 * t), 0.0)
+            r = round(h / height_from_beam(1.0, b, 43.3, 0.0), 2)  # what the beam reads
+            pos = (north, 0.0, -up)
+            why = w.feed(t, r, 0.5, pos, (43.3, 0.0, None), b if with_beam else None) or why
+        return why
+
+    assert run(with_beam=True) is None
+    assert run(with_beam=False) is not None and "range stuck" in run(with_beam=False)

@@ -46,3 +46,35 @@ def roof_plane(
     if heading is not None and slope is not None:
         return slope, heading, getattr(measured, "cross_deg", None)
     return slope_deg, heading_deg, None
+
+
+def beam_direction(roll: float, pitch: float, yaw: float) -> tuple[float, float, float]:
+    """The downward rangefinder's beam (the body's z axis) as a unit vector north-east-down, from
+    ATTITUDE's roll, pitch and yaw (rad; ArduPilot's Z-Y-X Euler angles)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return (cr * sp * cy + sr * sy, cr * sp * sy - sr * cy, cr * cp)
+
+
+def height_from_beam(
+    range_m: float,
+    beam: tuple[float, float, float],
+    slope_deg: float | None,
+    heading_deg: float | None,
+    cross_deg: float | None = None,
+) -> float:
+    """The vertical height (m) over the roof plane below the vehicle that a reading of
+    ``range_m`` along ``beam`` (:func:`beam_direction`) means, for the roof of
+    :func:`roof_plane` (unknown: level). The plane's depth grows by ``a`` per metre north and ``b``
+    per metre east; the beam meets it after ``range = height / (b_d - a b_n - b b_e)``. Over a
+    steep roof the body's pitch moves the reading a lot: nose up 5 deg over a 43 deg roof falling
+    ahead, a reading of 1.48 m is 1.33 m of height, level it would be 1.48 m."""
+    a = b = 0.0
+    if slope_deg is not None and heading_deg is not None:
+        h = math.radians(heading_deg)
+        ts, tc = math.tan(math.radians(slope_deg)), math.tan(math.radians(cross_deg or 0.0))
+        a = ts * math.cos(h) - tc * math.sin(h)
+        b = ts * math.sin(h) + tc * math.cos(h)
+    bn, be, bd = beam
+    return range_m * (bd - a * bn - b * be)

@@ -22,6 +22,7 @@ from slopelander.controller.impact import ImpactDetector, raw_imu_accel
 from slopelander.controller.link import Link, mavlink
 from slopelander.controller.machine import Machine
 from slopelander.controller.pilot_switch import APPLY_IN, WAIT_AGAIN, PresetSwitch
+from slopelander.controller.roof import beam_direction
 from slopelander.controller.script_contract import ScriptState
 from slopelander.controller.slope_estimate import SlopeEstimate
 from slopelander.controller.states.aborted import Aborted
@@ -66,6 +67,16 @@ def tilt_at(attitudes: list) -> float | None:
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, c))))
         worst = tilt if worst is None else max(worst, tilt)
     return worst
+
+
+def beam_at(attitudes: list, t_s: float) -> tuple[float, float, float] | None:
+    """The rangefinder's beam (north-east-down) by the ATTITUDE of ``attitudes`` stamped nearest
+    vehicle time ``t_s``; None when there is none or its angles are not finite."""
+    if not attitudes:
+        return None
+    att = min(attitudes, key=lambda a: abs(a.time_boot_ms / 1000.0 - t_s))
+    angles = (att.roll, att.pitch, att.yaw)
+    return beam_direction(*angles) if all(math.isfinite(x) for x in angles) else None
 
 
 class Lander:
@@ -154,11 +165,14 @@ class Lander:
             climb = -pos.vz
             if not (math.isfinite(speed) and all(math.isfinite(v) for v in position)):
                 speed = position = climb = None
-        tilt = None
+        tilt = beam = None
         if ds is not None:  # TAKEOFF's clear height, SETTLED's "in the air" and "down"
             # the body's tilt at the reading's own moment: the beam looks along the body, and a
             # newer attitude says nothing of an older reading (found by the soak under link noise)
-            tilt = tilt_at(ln.near("ATTITUDE", ds.time_boot_ms / 1000.0, cfg["takeoff.attitude_window_s"]))
+            t_ds = ds.time_boot_ms / 1000.0
+            near = ln.near("ATTITUDE", t_ds, cfg["takeoff.attitude_window_s"])
+            tilt = tilt_at(near)
+            beam = beam_at(near, t_ds)
         gp = ln.last.get("GLOBAL_POSITION_INT")
         above_home = None
         if gp is not None and ln.age(gp.time_boot_ms / 1000.0) <= cfg["settle.velocity_max_age_s"]:
@@ -203,6 +217,7 @@ class Lander:
             position_m=position,
             tilt_deg=tilt,
             heading_deg=heading,
+            beam_ned=beam,
             above_home_m=above_home,
             impact=self.detector.impact is not None,
             takeoff_request=self.takeoff_request,

@@ -12,8 +12,12 @@ roof's fall under it as it moves (LOCAL_POSITION_NED and the roof plane the land
 fall slower than it descends, by the drift times the slope's tangent: the outdoor campaign on
 ArduCopter (drifts of up to 0.4 m/s over 25-45 deg roofs) aborted 5 of 15 landings "range stuck"
 on a range that moved 0.04-0.08 m in 0.6 s, as the roof's fall said it would, while the vehicle
-descended 0.15-0.31 m. The spread (highest less lowest), not the decrease, is compared: over a
-roof edge the reading moves either way, and a moving reading is not a stuck one. Judged only
+descended 0.15-0.31 m. And each reading is taken as the height over the roof it means along the
+beam at that moment (:func:`~slopelander.controller.roof.height_from_beam`, the ATTITUDE nearest
+the reading): over a 43 deg roof the body pitching 5 deg nose-up lengthened the beam by 0.14 m
+while the vehicle came 0.19 m nearer, in the same campaign. The spread (highest less lowest),
+not the decrease, is compared: over a roof edge the reading moves either way, and a moving
+reading is not a stuck one. Judged only
 while the vehicle reports descending, and approaching the roof, at least half the commanded rate
 (``descent.rate_mps``): hovering (ARMED waiting for the script), or drifting downhill as fast as
 it descends, the range has no reason to move.
@@ -31,7 +35,7 @@ import itertools
 from collections import deque
 from typing import Any
 
-from slopelander.controller.roof import rise_over_roof, roof_plane
+from slopelander.controller.roof import height_from_beam, rise_over_roof, roof_plane
 
 #: judged only while the reported descent averages at least this share of the commanded rate
 MIN_DESCENT_SHARE = 0.5
@@ -46,8 +50,9 @@ class StuckRange:
         self.min_samples = int(cfg["range.stuck_min_samples"])
         self.min_descent_mps = MIN_DESCENT_SHARE * float(cfg["descent.rate_mps"])
         self.cut_m = float(cfg["reflex.cut_height_m"])
-        #: (reading's time, range m, reported descent m/s, position NED m or None) per reading
-        self.samples: deque[tuple[float, float, float, Any]] = deque()
+        #: (reading's time, range m, reported descent m/s, position NED m or None, height over the
+        #: roof the reading means m) per reading
+        self.samples: deque[tuple[float, float, float, Any, float]] = deque()
 
     def feed(
         self,
@@ -56,19 +61,21 @@ class StuckRange:
         descent_mps: float | None,
         position_m: tuple[float, float, float] | None = None,
         roof: tuple[float | None, float | None, float | None] = (None, None, None),
+        beam: tuple[float, float, float] | None = None,
     ) -> str | None:
         """One step: the reading's own time, the reading (None: not valid), the descent (m/s,
-        down) and the position (m, north-east-down) the vehicle reports (None: unknown), and the
-        roof (:func:`~slopelander.controller.roof.roof_plane`). A missing reading or descent
-        starts over. Without a position or the roof's slope and heading, the approach is the
-        descent alone."""
+        down) and the position (m, north-east-down) the vehicle reports (None: unknown), the roof
+        (:func:`~slopelander.controller.roof.roof_plane`) and the beam at the reading (None: the
+        reading is taken as it is). A missing reading or descent starts over. Without a position
+        or the roof's slope and heading, the approach is the descent alone."""
         if range_t is None or range_m is None or descent_mps is None:
             self.samples.clear()
             return None
         s = self.samples
         if s and range_t <= s[-1][0]:
             return None  # the same reading again (or an older one): no new sample
-        s.append((range_t, range_m, descent_mps, position_m))
+        height = range_m if beam is None else height_from_beam(range_m, beam, *roof)
+        s.append((range_t, range_m, descent_mps, position_m, height))
         while len(s) >= 2 and s[1][0] <= range_t - self.window_s:
             s.popleft()  # the oldest kept is the last one at or before the window's start
         span = range_t - s[0][0]
@@ -84,10 +91,9 @@ class StuckRange:
             expected = -rise_over_roof(first, last, *roof)  # the approach to the roof below
             if expected < self.min_descent_mps * span:
                 return None  # drifting downhill about as fast as it descends: no reason to move
-        highest = max(x[1] for x in s)
-        if highest <= self.cut_m:
+        if max(x[1] for x in s) <= self.cut_m:
             return None  # at the cut height: the script's to cut on, not stuck above it
-        moved = highest - min(x[1] for x in s)
+        moved = max(x[4] for x in s) - min(x[4] for x in s)
         if moved < self.fraction * expected:
             return (
                 f"range stuck: {moved:.2f} m of change over {span:.2f} s "
@@ -105,4 +111,5 @@ def range_stuck(ctx: Any, inp: Any) -> str | None:
     descent = -inp.climb_mps if inp.climb_mps is not None else None
     stamp = inp.range_t if inp.range_t is not None else inp.t
     roof = roof_plane(inp.slope_measured, ctx.slope_deg, inp.heading_deg)
-    return watch.feed(stamp, inp.range_m if inp.range_valid else None, descent, inp.position_m, roof)
+    reading = inp.range_m if inp.range_valid else None
+    return watch.feed(stamp, reading, descent, inp.position_m, roof, inp.beam_ned)

@@ -74,6 +74,9 @@ class Inputs:
     tilt_deg: float | None = 0.0
     #: the vehicle's heading (deg from north, clockwise; the newest ATTITUDE yaw); None: unknown
     heading_deg: float | None = None
+    #: the rangefinder's beam (unit vector north-east-down) by the ATTITUDE nearest the range
+    #: reading's own moment (controller/roof.py ``beam_direction``); None: unknown
+    beam_ned: tuple[float, float, float] | None = None
     #: height above home (m; GLOBAL_POSITION_INT's relative altitude, fresh); None: unknown
     above_home_m: float | None = None
     impact: bool = False
