@@ -1177,3 +1177,26 @@ def test_the_take_off_altitude_counts_from_home(armed, above_home, want):
     assert m.name == "TAKEOFF", m.history
     sent = [c for c in act.calls if c[0] == "takeoff"]
     assert sent and sent[0][1] == pytest.approx(want), sent
+
+
+@pytest.mark.parametrize("state", ["PRESET", "LEGS_WAIT", "CHECKS"])
+def test_a_vehicle_near_the_roof_before_the_descent_aborts_and_climbs(state):
+    """Before the descent the vehicle hovers at its approach height. Found by the soak on
+    ArduCopter: with its altitude estimate 0.8 m high, a vehicle hovered 0.5 m over the roof while
+    the legs were set, sank, and met it under power in LEGS_WAIT. A range within the cut height
+    (0.30 m) plus 0.3 m of the roof there aborts, and the abort climbs 1 m before LOITER as one
+    from the descent does; at 0.61 m the legs are still awaited."""
+    if state != "CHECKS":  # (CHECKS itself refuses legs that are not ready)
+        m, _, _ = make(start=state)
+        m.step(replace(OK, t=0.02, range_m=0.61, legs_ready=False))
+        assert m.name == "LEGS_WAIT", m.history[-1]
+    m, act, _ = make(start=state)
+    low = replace(OK, t=0.02, range_m=0.45, legs_ready=False)
+    m.step(low)
+    assert m.name == "ABORTED", m.history[-1]
+    assert m.history[-1]["reason"].endswith(
+        "too near the roof before the descent: range 0.45 m (0.45 m vertically, under 0.60 m)"
+    )
+    assert ("hold", 0.3) in act.calls and "set_mode" not in act.names()
+    rise_to_loiter(m, act, low)
+    assert ("descend", -0.5) in act.calls  # the climb

@@ -32,6 +32,13 @@ STOPPED_MPS = 0.1
 STOP_MAX_S = 1.0
 
 
+def abort_rising(ctx: Context, why: str) -> tuple[str, str]:
+    """The transition to ABORTED from a state before the descent, climbing :data:`RISE_M` first as
+    from the descent: the vehicle was found near the roof there."""
+    ctx.marks["abort_rise"] = True
+    return ("ABORTED", why)
+
+
 class Aborted(State):
     """The descent is stopped first, then the autopilot is asked to hold position in LOITER; the
     on-board reflex stays armed until the vehicle is known to be climbing or holding (the autopilot
@@ -54,14 +61,15 @@ class Aborted(State):
     LOITER is asked (at most :data:`RISE_MAX_S`): LOITER holds the height it is given, and a 200-
     landing soak on ArduCopter left a vehicle whose range stuck at 0.34 m hovering armed 0.17 m
     over the roof. From the states before the descent the vehicle hovers at its approach height
-    and LOITER is asked at once."""
+    and LOITER is asked at once, unless it was found near the roof there (:func:`abort_rising`)."""
 
     name = "ABORTED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
         if inp.armed and inp.mode == "GUIDED":
             ctx.act.hold(CLIMB_MPS)
-            if ctx.previous in NEAR_THE_ROOF and inp.position_m is not None:
+            near = ctx.previous in NEAR_THE_ROOF or ctx.marks.pop("abort_rise", False)
+            if near and inp.position_m is not None:
                 ctx.marks["abort_rise_from"] = (-inp.position_m[2], inp.t)
                 ctx.marks["loiter_asks"] = (0, inp.t)
             else:

@@ -5,7 +5,9 @@ from __future__ import annotations
 from slopelander.controller.link import stream_refusal
 from slopelander.controller.script_rules import FAULT_REFUSAL, faulted
 from slopelander.controller.slope_estimate import pilot_refusal
+from slopelander.controller.states.aborted import abort_rising
 from slopelander.controller.states.base import SCRIPT_CONTRACT, Context, Inputs, State
+from slopelander.controller.states.settled import reads_near_the_roof
 
 
 def refusal(inp: Inputs) -> str | None:
@@ -81,6 +83,9 @@ class Checks(State):
     name = "CHECKS"
 
     def step(self, ctx: Context, inp: Inputs):
+        low = reads_near_the_roof(ctx.cfg, inp)
+        if low is not None:
+            return abort_rising(ctx, f"check failed: {low}")
         why = refusal(inp) or angle_refusal(ctx, inp) or downhill_refusal(ctx, inp) or slope_refusal(ctx, inp)
         # the streams the landing reads deliver at least link.min_delivered_fraction of their rate
         why = why or stream_refusal(getattr(ctx.act, "link", None), ctx.cfg["link.min_delivered_fraction"])

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from slopelander.controller.states.aborted import abort_rising
 from slopelander.controller.states.base import Context, Inputs, State
+from slopelander.controller.states.settled import reads_near_the_roof
 
 
 class Preset(State):
@@ -25,4 +27,7 @@ class Preset(State):
         return None
 
     def step(self, ctx: Context, inp: Inputs):
+        low = reads_near_the_roof(ctx.cfg, inp)
+        if low is not None:
+            return abort_rising(ctx, low)
         return ("LEGS_WAIT", f"legs commanded to {ctx.preset[0]:.2f}/{ctx.preset[1]:.2f} N*m")

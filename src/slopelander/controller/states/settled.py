@@ -107,6 +107,22 @@ def reads_in_the_air(cfg: Any, inp: Inputs) -> bool:
     return h is not None and h > cfg["reflex.cut_height_m"] + AIR_MARGIN_M
 
 
+def reads_near_the_roof(cfg: Any, inp: Inputs) -> str | None:
+    """Before the descent (PRESET, LEGS_WAIT, CHECKS) the vehicle hovers at its approach height;
+    its :func:`beam_height` within the cut height plus :data:`AIR_MARGIN_M` of the roof says it is
+    not there: why, or None. Found by the soak on ArduCopter: a vehicle whose altitude estimate
+    ran 0.8 m high hovered 0.5 m over the roof while the legs were set, sank, and met the roof
+    under power in LEGS_WAIT, its range reading 0.45 -> 0.34 m all the while."""
+    h = beam_height(inp)
+    limit = cfg["reflex.cut_height_m"] + AIR_MARGIN_M
+    if h is None or h > limit:
+        return None
+    return (
+        f"too near the roof before the descent: range {inp.range_m:.2f} m "
+        f"({h:.2f} m vertically, under {limit:.2f} m)"
+    )
+
+
 #: a vehicle read still (speed and accelerometer, :func:`still`) tilted this far from level is
 #: resting on something: hovering so, its thrust would push it sideways at g * tan(tilt) (5.7 m/s^2
 #: at 30 deg) and it would not read still. Found on ArduCopter: a dead script's vehicle came to rest
