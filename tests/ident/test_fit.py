@@ -193,3 +193,13 @@ def test_jackknife_intervals_refuse_what_cannot_make_them(model):
         Identifier(model, ["friction_kinetic"], intervals="jackknife", ls_evals=0).fit(three)
     with pytest.raises(FitError, match="intervals must be one of sandwich, jackknife"):
         Identifier(model, ["friction_kinetic"], intervals="bootstrap").fit(three)
+
+
+def test_a_jackknife_whose_refits_never_moved_says_its_intervals_understate(model):
+    """With one least-squares evaluation per refit no refit can leave the fit's optimum: every
+    leave-one-out estimate is the fit itself, the spread is zero, and the fit says so."""
+    drops = synthesize(model, paper_drops(4, seed=4), NoiseModel(), seed=3, duration=0.3)
+    r = Identifier(model, ["friction_kinetic"], intervals="jackknife", cma_evals=10, ls_evals=1, workers=1)
+    res = r.fit(drops).result_
+    assert res.ci95["friction_kinetic"] == 0.0
+    assert any(w.startswith("jackknife: 4 of 4 refits") for w in res.warnings), res.warnings

@@ -729,10 +729,18 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
         u = polish.run(task.best_u, task.best_cost, ident.ls_evals)
         r, J = polish.fun(u), polish.jac(u)
         values = dict(zip([p.name for p in params], prob.values(u), strict=True))
-        cov = None
+        cov, stuck = None, []
         if ident.intervals == "jackknife":
-            cov = jackknife(_leave_one_out(ident, prob, u))
+            refits = _leave_one_out(ident, prob, u)
+            cov = jackknife(refits)
+            stuck = [k for k, v in enumerate(refits) if np.array_equal(v, u)]
         ci, warns = identifiability(params, J, u, r, values, prob.groups(), cov)
+        if 2 * len(stuck) >= len(prob.drops):
+            warns.append(
+                f"jackknife: {len(stuck)} of {len(prob.drops)} refits without one drop ended where the "
+                "fit did (the least-squares polish found nothing lower on this piecewise cost): the "
+                "intervals understate the spread; more --ls-evals, or compare with the sandwich"
+            )
         nfev = ev.nfev
     return _result(
         ident,
