@@ -1622,7 +1622,8 @@ def _run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res, 
     st, ctx = w.st, w.ctx
     n_rec = 0
     if rec_every > 0 and rec.shape[0] > 0:
-        rec[0, :] = st0
+        for j in range(N_STATE):  # a loop, not a slice: numba's slice assignment compiles a
+            rec[0, j] = st0[j]  # shape-mismatch message (string formatting: 2 s of the first run)
         n_rec = 1
     settled = False
     frozen = False
@@ -1640,7 +1641,8 @@ def _run_landing(p, fl, cond, h, crit, stop_at_settle, rec_every, rec, sx, res, 
         _step(w, h, u, u, sx)
         k += 1
         if rec_every > 0 and k % rec_every == 0 and n_rec < rec.shape[0]:
-            rec[n_rec, :] = st[:]
+            for j in range(N_STATE):
+                rec[n_rec, j] = st[j]
             n_rec += 1
         if frozen:
             if st[S_T] - max(st[S_TIMP], 0.0) >= horizon:
