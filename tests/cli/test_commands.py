@@ -75,6 +75,7 @@ CONCEPTS: dict[str, tuple[str, set[str]]] = {
     "the global search's budget": ("--cma-evals", SEARCH),
     "the local search's budget": ("--ls-evals", SEARCH),
     "the global search method": ("--optimizer", SEARCH),
+    "how the 95 % intervals are made": ("--intervals", {"fit", "diagnose"}),
     "the grid's slope step": ("--slope-step", SWEEP),
     "the grid's speed step": ("--speed-step", SWEEP),
     "continuous torques": ("--refine", SWEEP),
