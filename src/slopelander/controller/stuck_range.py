@@ -68,31 +68,15 @@ class StuckRange:
         (:func:`~slopelander.controller.roof.roof_plane`) and the beam at the reading (None: the
         reading is taken as it is). A missing reading or descent starts over. Without a position
         or the roof's slope and heading, the approach is the descent alone."""
-        if range_t is None or range_m is None or descent_mps is None:
-            self.samples.clear()
+        if not self._add(range_t, range_m, descent_mps, position_m, roof, beam):
             return None
         s = self.samples
-        if s and range_t <= s[-1][0]:
-            return None  # the same reading again (or an older one): no new sample
-        height = range_m if beam is None else height_from_beam(range_m, beam, *roof)
-        s.append((range_t, range_m, descent_mps, position_m, height))
-        while len(s) >= 2 and s[1][0] <= range_t - self.window_s:
-            s.popleft()  # the oldest kept is the last one at or before the window's start
-        span = range_t - s[0][0]
+        span = s[-1][0] - s[0][0]
         if span < self.window_s or len(s) < self.min_samples:
             return None
-        # the descent over the span, step by step (the earlier sample's reported speed)
-        descent = sum(a[2] * (b[0] - a[0]) for a, b in itertools.pairwise(s))
-        if descent < self.min_descent_mps * span:
-            return None
-        expected = descent
-        first, last = s[0][3], s[-1][3]
-        if first is not None and last is not None and roof[0] is not None and roof[1] is not None:
-            expected = -rise_over_roof(first, last, *roof)  # the approach to the roof below
-            if expected < self.min_descent_mps * span:
-                return None  # drifting downhill about as fast as it descends: no reason to move
-        if max(x[1] for x in s) <= self.cut_m:
-            return None  # at the cut height: the script's to cut on, not stuck above it
+        expected = self._approach(roof, span)
+        if expected is None or max(x[1] for x in s) <= self.cut_m:
+            return None  # not approaching; or at the cut height: the script's to cut on
         moved = max(x[4] for x in s) - min(x[4] for x in s)
         if moved < self.fraction * expected:
             return (
@@ -100,6 +84,37 @@ class StuckRange:
                 f"while the vehicle came {expected:.2f} m nearer the roof"
             )
         return None
+
+    def _add(self, range_t, range_m, descent_mps, position_m, roof, beam) -> bool:
+        """Keep a new distinct reading (and forget those before the window); False when there is
+        none (a missing reading or descent also starts over)."""
+        s = self.samples
+        if range_t is None or range_m is None or descent_mps is None:
+            s.clear()
+            return False
+        if s and range_t <= s[-1][0]:
+            return False  # the same reading again (or an older one): no new sample
+        height = range_m if beam is None else height_from_beam(range_m, beam, *roof)
+        s.append((range_t, range_m, descent_mps, position_m, height))
+        while len(s) >= 2 and s[1][0] <= range_t - self.window_s:
+            s.popleft()  # the oldest kept is the last one at or before the window's start
+        return True
+
+    def _approach(self, roof, span: float) -> float | None:
+        """How much nearer the roof the vehicle came over the window (m), or None when it did not
+        descend, or approach, at least the judged share of the commanded rate: the descent
+        reported step by step (the earlier sample's speed), less the roof's fall under it when
+        its position and the roof's slope and heading are known."""
+        s = self.samples
+        descent = sum(a[2] * (b[0] - a[0]) for a, b in itertools.pairwise(s))
+        least = self.min_descent_mps * span
+        if descent < least:
+            return None
+        first, last = s[0][3], s[-1][3]
+        if first is None or last is None or roof[0] is None or roof[1] is None:
+            return descent
+        approach = -rise_over_roof(first, last, *roof)
+        return approach if approach >= least else None  # drifting downhill as fast: no reason
 
 
 def range_stuck(ctx: Any, inp: Any) -> str | None:
