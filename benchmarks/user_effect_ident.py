@@ -7,8 +7,11 @@ rotor_spin_down.py), with the base model fitting k_g's damping and the leg's fle
 --fit-mu-k also mu_k. The joint and foot laws are shown on the steeper half of the paper's
 spread (8 drops), the normal force and the point force on the whole spread (10 drops).
 
+With ``--intervals jackknife`` the named candidate's intervals are the leave-one-drop-out
+jackknife's; the last line says whether the printed interval holds the hidden value.
+
 Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction,normal_force,point_force}
-       [--seed 1] [--fit-mu-k]
+       [--seed 1] [--fit-mu-k] [--intervals sandwich|jackknife]
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ def main() -> None:
     ap.add_argument("seam", choices=sorted(HIDDEN))
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--fit-mu-k", action="store_true", help="fit friction_kinetic with the base parameters")
+    ap.add_argument("--intervals", choices=("sandwich", "jackknife"), default="sandwich")
     args = ap.parse_args()
     effects = {n: load_effects(p)[0] for n, p in FILES.items()}
     base = Model.default().without("downhill_torque_growth", "downhill_friction_growth")
@@ -67,6 +71,7 @@ def main() -> None:
         cma_evals=150,
         refit_evals=100,
         ls_evals=10,
+        final_intervals=args.intervals,
     )
     print(
         f"hidden: {name} {param} = {value}; seed {args.seed}; base fits {', '.join(names)}; "
@@ -74,6 +79,11 @@ def main() -> None:
     )
     print(d.table())
     print(d.verdict())
+    m = d.missing
+    if m is not None and d.final is not None and param in d.final.values:
+        v, half = d.final.values[param], d.final.ci95[param]
+        held = "holds" if abs(v - value) <= half else "misses"
+        print(f"{args.intervals}: {param} = {v:.4g} +- {half:.2g}; the hidden {value:g} {held}")
 
 
 if __name__ == "__main__":
