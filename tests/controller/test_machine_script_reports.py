@@ -139,12 +139,16 @@ def test_a_dead_script_on_the_roof_is_forced_only_still_and_low():
         (0.66, 5.0, "ABORTED"),  # the same reading from a level body: in the air
         (0.66, None, "ABORTED"),  # the tilt unknown: the range alone, as before
         (2.0, 65.0, "SETTLED"),  # tipped past 60 deg: the beam says nothing of the ground below
+        (1.26, 60.0, "SETTLED"),  # ArduCopter: lying at 60 deg on a 35 deg roof, 0.63 m vertically
+        (1.26, 31.0, "SETTLED"),  # past 30 deg no vehicle hovers: lying on the roof
+        (1.26, 29.0, "ABORTED"),  # within 30 deg, 1.10 m vertically: in the air
     ],
 )
 def test_a_dead_script_judges_the_air_by_the_beams_vertical_share(range_m, tilt_deg, end):
     """The range along a tilted body is not a height: SETTLED judges a silent script's vehicle as
-    the script judges "left the roof", by ``range * cos(tilt)`` and only within 60 deg of level.
-    Before, a vehicle pitched 47 deg up on the roof read 0.66 m and was handed to LOITER."""
+    the script judges "left the roof", by ``range * cos(tilt)`` and only within 30 deg of level
+    (no vehicle hovers tilted further). Before, a vehicle pitched 47 deg up on the roof read
+    0.66 m, and one at 60 deg on a 35 deg roof 1.26 m, and each was handed to LOITER."""
     m, act, _ = make()
     t = run_to(m, "SETTLED")
     inp = replace(OK, t=t + 0.02, range_m=range_m, tilt_deg=tilt_deg, script_present=False, speed_mps=0.3)

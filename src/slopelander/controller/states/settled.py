@@ -102,7 +102,12 @@ def beam_height(inp: Inputs) -> float | None:
 def reads_in_the_air(cfg: Any, inp: Inputs) -> bool:
     """The range says the vehicle is in the air: its :func:`beam_height` over the cut height plus
     :data:`AIR_MARGIN_M` (the script's "left the roof" less its falling test: here the mixer may
-    be flying the vehicle, which then reads 1 g like one on the roof)."""
+    be flying the vehicle, which then reads 1 g like one on the roof), with the body within
+    :data:`RESTING_TILT_DEG` of level: no vehicle hovers tilted further, and one lying so on a
+    roof reads along it (found on ArduCopter: a dead script's vehicle at 60 deg on a 35 deg roof,
+    its beam 1.26 m, 0.63 m vertically, was handed to LOITER)."""
+    if inp.tilt_deg is not None and inp.tilt_deg > RESTING_TILT_DEG:
+        return False
     h = beam_height(inp)
     return h is not None and h > cfg["reflex.cut_height_m"] + AIR_MARGIN_M
 
