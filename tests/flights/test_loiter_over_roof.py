@@ -18,10 +18,9 @@ from __future__ import annotations
 import pytest
 from pymavlink import mavutil
 
-from slopelander_sitl.guided import arm_in_guided
 from slopelander_sitl.rig import Rig, config
 from tests.flights.conftest import autopilot_available
-from tests.flights.test_takeoff_target import ON_ARDUCOPTER, _parm
+from tests.flights.test_takeoff_target import ON_ARDUCOPTER, _parm, land_then_arm_again, over_roof
 
 LOITER = 5
 SLOPE_DEG = 39.0
@@ -44,27 +43,18 @@ def test_loiter_after_a_take_off_from_a_steep_roof_holds_over_it(surftrak) -> No
     with Rig(
         slope_deg=SLOPE_DEG, seed=5, autopilot="ardupilot", scenario=THROTTLE_CENTRED, arducopter_params=boot
     ) as rig:
-        p, _ = rig.plan(cfg)
-        rig.take_off(3.0)
-        rig.go_over_roof(1.5)
-        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=1.0)
-        assert flight.end == "LANDED" and not rig.armed(), flight.history[-3:]
-        arm_in_guided(rig.link, rig.poll)
-
-        def over_roof() -> float:
-            x = rig.track.pos[-1][1]
-            return rig.height() - rig.surface_z(x)
+        land_then_arm_again(rig, cfg)
 
         rig.wait_command(
             rig.link.command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, TAKEOFF_M), "take-off"
         )
-        rig.fly_until(lambda: over_roof() >= CLEAR_M, 15.0, f"rise {CLEAR_M:g} m over the roof")
+        rig.fly_until(lambda: over_roof(rig) >= CLEAR_M, 15.0, f"rise {CLEAR_M:g} m over the roof")
         rig.wait_command(rig.link.command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, 1, LOITER), "LOITER")
         heights = []
         end = rig.now + WATCH_S
         while rig.now < end:
             rig.wait(0.1)
-            heights.append(over_roof())
+            heights.append(over_roof(rig))
         mode = rig.mode()
     low, last = min(heights), heights[-1]
     print(

@@ -85,6 +85,22 @@ def test_a_take_off_whose_rangefinder_fails_climbs_on(rfnd_use) -> None:
         assert terrain and mode in (RTL, LAND), (mode, said)
 
 
+def land_then_arm_again(rig: Rig, cfg) -> None:
+    """A landing by the companion on the rig's roof, ended disarmed there, then armed again in
+    GUIDED where it lies: the start of a take-off from the roof."""
+    p, _ = rig.plan(cfg)
+    rig.take_off(3.0)
+    rig.go_over_roof(1.5)
+    flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=1.0)
+    assert flight.end == "LANDED" and not rig.armed(), flight.history[-3:]
+    arm_in_guided(rig.link, rig.poll)
+
+
+def over_roof(rig: Rig) -> float:
+    """The vehicle's height (m) over the roof below it, by its reported position."""
+    return rig.height() - rig.surface_z(rig.track.pos[-1][1])
+
+
 ROOF_OVER_PAD_M = 0.5  # slopelander_sitl.rig.ROOF_Z_M: a flat roof this much above the pad
 RETAKEOFF_M = 1.0
 
@@ -96,19 +112,12 @@ def test_a_take_off_after_arming_on_the_roof_climbs_above_where_it_armed(autopil
     (slopelander_sitl/vehicle/vehicle.py ``arm_home``), and this holds the two together."""
     cfg = config()
     with Rig(slope_deg=0.0, seed=78, autopilot=autopilot) as rig:
-        p, _ = rig.plan(cfg)
-        rig.take_off(3.0)
-        rig.go_over_roof(1.5)
-        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=1.0)
-        assert flight.end == "LANDED" and not rig.armed(), flight.history[-3:]
-        arm_in_guided(rig.link, rig.poll)
-        x = rig.track.pos[-1][1]
-        rested = rig.height() - rig.surface_z(x)
+        land_then_arm_again(rig, cfg)
+        rested = over_roof(rig)
         rig.wait_command(
             rig.link.command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, RETAKEOFF_M), "take-off"
         )
         rig.wait(8.0)
-        x = rig.track.pos[-1][1]
-        over = rig.height() - rig.surface_z(x)
+        over = over_roof(rig)
     print(f"{autopilot}: at rest {rested:.2f} m, after the take-off {over:.2f} m over the roof")
     assert over - rested == pytest.approx(RETAKEOFF_M, abs=0.25), (rested, over)
