@@ -14,7 +14,7 @@
 
 -- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
 -- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
-local VERSION = 6 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 7 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
 --    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
@@ -32,6 +32,8 @@ local VERSION = 6 -- 2: a refresh during RVT sets its duration (the companion en
 -- 6: a cut with no impact by the bound whose vehicle still falls freely (a low reading that
 --    lasted: the cut was made high) keeps the cut for up to MS.FALL_WAIT and reverses on the
 --    impact, instead of HOLD in the air.
+-- 7: ARMED cuts on the descent reckoned from the last trusted reading when no reading has agreed
+--    with it for RECKON.AFTER_MS within RECKON.WINDOW_M of the cut height (a dropout, a spike).
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
@@ -87,10 +89,19 @@ local MAX_RATE_MPS = 3.0 -- ...plus this much per second since it (a fast descen
 -- after this long too. Found by the soak: a 0.2-0.5 s low spike was followed reading by reading
 -- and cut the motors 1.07 m above the roof.
 local RESEED_MS = 600
+-- The cut reckoned on the descent: ARMED with the last trusted reading (on the chain) within
+-- WINDOW_M above the cut height and no reading agreeing with it for AFTER_MS (three 20 Hz samples:
+-- a dropout, or a spike the chain sets aside as a glitch), the height is that reading less the
+-- autopilot's descent (EKF down velocity) since it; at or below the cut height, CUT. Found by the
+-- soak on ArduCopter (23bea36): a dropout 0.35 m over the roof, and a 0.47 s high spike through
+-- the cut, each met the roof under power. A reading beyond the sensor's maximum (the beam past a
+-- roof's edge) is evidence, not silence: no reckoning then. A reckoned cut is near the ground for
+-- the impact rule until a trusted reading says otherwise. Only while descending at MIN_MPS or more:
+-- a vehicle holding height stays off the roof, and one reading at the cut height never cuts.
+local RECKON = { AFTER_MS = 150, WINDOW_M = 0.30, MIN_MPS = 0.2 }
 -- the missed-impact bound: the fall from the cut height at the descent speed, plus the rotors'
 -- spin-down (twice the model's 50 ms time constant) and one range sample to judge by
-local THRUST_DECAY_MS = 100
-local RANGE_PERIOD_MS = 50
+MS.THRUST_DECAY, MS.RANGE_PERIOD = 100, 50
 -- A cut whose bound passes with the range at or below the cut height but the vehicle still
 -- falling freely (the accelerometer under LEAVE.FALL_SUPPORT: nothing carries it) was made higher
 -- than the range said: a low reading that lasted past RESEED_MS (something under the beam, a stuck
@@ -326,7 +337,7 @@ end
 -- the free fall from the cut height at the descent speed, plus spin-down and a range sample (ms)
 local function missed_impact_ms(cut_m, descent_mps)
   local fall_s = (math.sqrt(descent_mps ^ 2 + 2 * GRAVITY * cut_m) - descent_mps) / GRAVITY
-  return math.floor(fall_s * 1000 + THRUST_DECAY_MS + RANGE_PERIOD_MS + 0.5)
+  return math.floor(fall_s * 1000 + MS.THRUST_DECAY + MS.RANGE_PERIOD + 0.5)
 end
 
 -- the actuator command: release, stop, reverse at N %
@@ -518,6 +529,26 @@ local function follow_chain(t)
   return d
 end
 
+-- the height reckoned from the chain's last trusted reading and the descent since (RECKON), or
+-- nil when the rule does not apply: a recent reading, one far above the cut height, a young chain
+-- begun low, a reading beyond the sensor, or no velocity estimate
+function RECKON.height(t, cut_m)
+  if chain.d == nil or chain.d > cut_m + RECKON.WINDOW_M or t - chain.at < RECKON.AFTER_MS then return nil end
+  if chain.seed_d <= cut_m and chain.at - chain.seed_ms < RESEED_MS then return nil end
+  if rangefinder:status_orient(DOWN) == RF.HIGH then return nil end
+  ---@type Vector3f_ud|nil
+  local v = ahrs:get_velocity_NED()
+  if v == nil or v:z() < RECKON.MIN_MPS then return nil end
+  return chain.d - v:z() * (t - chain.at) / 1000
+end
+
+-- whether the ground is within the cut height for the impact rule: the newest sample says so, or
+-- the cut was reckoned and no trusted reading since it says farther
+function RECKON.near()
+  if last_d ~= nil and last_d <= reflex.cut_m then return true end
+  return reflex.reckoned == true and not (chain.at > entered_ms and chain.d > reflex.cut_m)
+end
+
 -- the reflex: cut on a trusted range at or below the cut height, reverse at impact; ``d`` is
 -- this update's sample on the chain (nil: none, untrusted, or a glitch)
 local function run_reflex(t, fresh, d)
@@ -527,6 +558,13 @@ local function run_reflex(t, fresh, d)
       local how = stop_descent(t)
       reflex = nil
       enter(climb_until and CLIMB or IDLE, t, "reflex validity lapsed, " .. how)
+      return
+    end
+    local h = RECKON.height(t, reflex.cut_m)
+    if h ~= nil and h <= reflex.cut_m then
+      local why = string.format("range lost %d ms: reckoned cut at %.2f m", t - chain.at, h)
+      far_count, floor_a, reflex.reckoned = 0, nil, true
+      enter(CUT, t, why)
       return
     end
     if not fresh then return end -- only a new sample says anything new
@@ -542,7 +580,7 @@ local function run_reflex(t, fresh, d)
     end
   elseif state == CUT then
     -- reverse thrust only on the ground: an impact with the range at or below the cut height
-    local near = last_d ~= nil and last_d <= reflex.cut_m
+    local near = RECKON.near()
     local a = ins:get_accel(0):length()
     if floor_a == nil or a < floor_a then floor_a = a end
     local threshold = reflex.impact
@@ -552,7 +590,7 @@ local function run_reflex(t, fresh, d)
     if near and a > threshold then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
-      local far = last_d ~= nil and last_d > reflex.cut_m
+      local far = not near
       -- judged once, at the bound: the range near and the vehicle still falling freely means
       -- the cut came higher than the range said; the impact is then watched for (MS.FALL_WAIT),
       -- also while the contact lifts the filtered reading through LEAVE.FALL_SUPPORT

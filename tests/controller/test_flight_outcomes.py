@@ -102,7 +102,7 @@ def ensure_airborne(rig: Rig) -> None:
 #: SETTLED, armed, motors held, the pilot told, until the rig ends the hold: slopelander_sitl.rig.HELD_S)
 ROOF45_TIMEOUT_S = 45.0
 #: the model's rotor time constant (model/default_parameters.yaml, rotor_time_constant) and the
-#: script's spin-down allowance, two of them (slopelander.lua THRUST_DECAY_MS)
+#: script's spin-down allowance, two of them (slopelander.lua MS.THRUST_DECAY)
 ROTOR_TAU_S = 0.05
 SPIN_DOWN_S = 2 * ROTOR_TAU_S
 

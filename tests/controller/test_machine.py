@@ -162,7 +162,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 5.0}, "v5, v6 needed"),  # contract 6 waits on a cut still falling at its bound
+        ({"script_version": 6.0}, "v6, v7 needed"),  # contract 7 cuts through a dropout at the cut height
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),

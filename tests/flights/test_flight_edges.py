@@ -228,3 +228,47 @@ def test_a_script_failed_in_the_armed_descent_stops_the_landing_in_the_air(autop
     assert "CUT" not in [h["to"] for h in flight.history], ctx
     assert any("fault in ARMED, climbing" in t for t in texts), ctx
     assert armed and mode == LOITER and over > 1.0, ctx
+
+
+# ------------------------------------------------------------------ a dropout at the cut height
+#: the rangefinder loses its returns at and below this reading (m), just above the 0.30 m cut,
+#: from this vehicle time (s) on: after the take-off (ArduCopter refuses to arm on a silent sensor)
+DROPOUT_BELOW_M = 0.35
+DROPOUT_FROM_S = 70.0
+
+
+def test_a_rangefinder_dropout_just_above_the_cut_height_still_cuts_before_the_roof(autopilot: str) -> None:
+    """The soak's landing 5 (ArduCopter, 23bea36): the range went silent in ARMED 0.35 m over the
+    roof and the descent met it under power, as the script cut only on a reading. The script now
+    reckons the height on the autopilot's descent from its last reading (contract 7): the motors
+    stop before the feet touch, the impact is reversed with no range, and the landing ends
+    disarmed."""
+    dropout = {"kind": "rangefinder_dropout", "start": DROPOUT_FROM_S, "end": 1e5, "below_m": DROPOUT_BELOW_M}
+    scenario = {"faults": [dropout]}
+    cfg = config()
+    with Rig(slope_deg=20.0, seed=75, autopilot=autopilot, scenario=scenario) as rig:
+        p, _ = rig.plan(cfg)
+        rig.take_off(3.0)
+        if rig.now > DROPOUT_FROM_S:
+            pytest.fail(f"the take-off ended after the dropout began ({rig.now:.1f} s of vehicle time)")
+        rig.go_over_roof(HOVER_OVER_ROOF_M)
+        rig.set_legs(p.tau_up, p.tau_down)
+        rig.wait(max(0.0, DROPOUT_FROM_S - rig.now))
+        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=2.0)
+        armed = rig.armed()
+        texts = [str(t) for t in rig.link.statustext]
+    ctx = " | ".join([autopilot] + [f"{h['t']:.2f} {h['to']}: {h['reason']}" for h in flight.history])
+    ctx += " || " + " | ".join(texts[-10:])
+    print(ctx)
+    c = flight.contact
+    stops = flight.track.event_times("EV_STOP", flight.t_start)
+    rvt = flight.track.event_times("EV_RVT", flight.t_start)
+    print(f"motors stopped {stops[:1]}, contact {c}, reverse thrust {rvt[:1]}")
+    # the stand-in sends no DISTANCE_SENSOR without data, as ArduCopter (GCS_Common.cpp): the
+    # companion sees the range age, not an invalid reading
+    armed_t = flight.time_of("ARMED")
+    assert not [r for t, r in flight.track.ranges if t > armed_t and r < DROPOUT_BELOW_M - 0.03], ctx
+    assert any("reckoned" in t for t in texts), ctx  # the cut came from the reckoning, not a reading
+    assert c is not None and stops and stops[0] < c["t"], (stops, c, ctx)  # cut before the feet touch
+    assert rvt and 0 <= rvt[0] - c["t"] < 0.05, (rvt, c, ctx)
+    assert flight.end == "LANDED" and not armed, ctx

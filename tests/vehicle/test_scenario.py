@@ -90,6 +90,17 @@ def test_range_faults_are_deterministic_from_the_seed():
     assert a[650].status == 4 and abs(a[650].distance_m - 7.5) < 0.05
 
 
+def test_a_range_fault_below_a_height_acts_only_there():
+    s = scenario_from_dict({"faults": [{"kind": "rangefinder_dropout", "start": 0, "end": 99, "below_m": 0.35}]})
+    rng = np.random.default_rng(0)
+    assert s.range_fault(1.0, Range(0.5, 4, 100), rng).status == 4
+    assert s.range_fault(1.0, Range(0.3, 4, 100), rng).status == 1
+    with pytest.raises(ScenarioError, match="rangefinder faults only"):
+        scenario_from_dict({"faults": [{"kind": "imu_spike", "start": 0, "end": 1, "below_m": 0.35}]})
+    with pytest.raises(ScenarioError, match="below_m"):
+        scenario_from_dict({"faults": [{"kind": "rangefinder_dropout", "start": 0, "end": 1, "below_m": -1}]})
+
+
 def test_parm_file_errors_name_file_and_line(tmp_path):
     p = tmp_path / "x.parm"
     p.write_text("FRAME_CLASS 1\nMOT_PWM_MIN fast\n")

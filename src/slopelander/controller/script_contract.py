@@ -20,8 +20,9 @@ from slopelander.controller.link import CommandHandle, Link, LinkError
 #: SETUP, END_REVERSE, TAKEOFF_RELEASE and DISARM, 5 adds CLIMB, FAULT and FAULT_HELD, a disarm
 #: only after the vehicle has been still for :data:`STILL_S`, 6 keeps a cut whose vehicle still
 #: falls freely at the missed-impact bound for :data:`FALL_WAIT_S` (the companion's backstop
-#: counts on it)
-SCRIPT_CONTRACT = 6
+#: counts on it), 7 cuts on the descent reckoned from the last trusted reading through a dropout
+#: or a spike within 0.3 m of the cut height
+SCRIPT_CONTRACT = 7
 
 CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
 CMD_REFLEX = 31011  # MAV_CMD_USER_2

@@ -51,6 +51,9 @@ class Fault:
     start: float
     end: float
     value: float
+    #: a rangefinder fault acts only while the sensor's true reading is at or below this (m): a
+    #: sensor that loses its returns near the roof, at a height a flight test can name
+    below_m: float = math.inf
 
 
 @dataclass
@@ -119,7 +122,7 @@ class Scenario:
         if not self.faults:
             self._stuck = None
             return r
-        active = self._active(t, RANGE_FAULTS)
+        active = [f for f in self._active(t, RANGE_FAULTS) if not r.distance_m > f.below_m]
         if not any(f.kind == "rangefinder_stuck" for f in active):
             self._stuck = None
         for f in active:
@@ -250,15 +253,18 @@ def _fault(f: object, where: str, src: str) -> Fault:
     if (
         not isinstance(f, dict)
         or not {"kind", "start", "end"} <= set(f)
-        or set(f) - {"kind", "start", "end", "value"}
+        or set(f) - {"kind", "start", "end", "value", "below_m"}
     ):
-        raise ScenarioError(f"{src}: {where} needs kind, start, end (s) and optionally value")
+        raise ScenarioError(f"{src}: {where} needs kind, start, end (s) and optionally value, below_m")
     if f["kind"] not in FAULT_KINDS:
         raise ScenarioError(f"{src}: {where}.kind {f['kind']!r} unknown; one of {FAULT_KINDS}")
     start = _num(src, f"{where}.start", f["start"], 0.0, 1e6)
     end = _num(src, f"{where}.end", f["end"], start, 1e6)
     value = _num(src, f"{where}.value", f.get("value", 0.0), -1e4, 1e4)
-    return Fault(f["kind"], start, end, value)
+    if "below_m" in f and f["kind"] not in RANGE_FAULTS:
+        raise ScenarioError(f"{src}: {where}.below_m applies to rangefinder faults only")
+    below = _num(src, f"{where}.below_m", f["below_m"], 0.0, 100.0) if "below_m" in f else math.inf
+    return Fault(f["kind"], start, end, value, below)
 
 
 def _read_faults(s: Scenario, data: dict, src: str) -> None:

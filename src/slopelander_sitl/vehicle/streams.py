@@ -133,7 +133,12 @@ def _raw_imu(v: Vehicle):
 
 
 def _distance(v: Vehicle):
+    """None while the sensor has no data: ArduCopter sends no DISTANCE_SENSOR then
+    (GCS_MAVLINK::send_distance_sensor returns unless ``has_data()``, status neither NotConnected
+    nor NoData; libraries/GCS_MAVLink/GCS_Common.cpp). A companion sees the range age."""
     r = v.range
+    if r.status in (0, 1):
+        return None
     d = r.distance_m if math.isfinite(r.distance_m) else v.range_max
     cm = max(0, min(65535, round(d * 100)))
     # MAVLink signal_quality: 0 unknown, 1 invalid, 2..100 (ArduPilot maps its pct this way)
@@ -224,7 +229,9 @@ class Streams:
 
     def send_now(self, v: Vehicle, msgid: int, chan: int | None = None) -> None:
         """One message now, on link ``chan`` (the one that asked; None: every link)."""
-        v.links.send(self.SENDERS[msgid](v), chan)
+        msg = self.SENDERS[msgid](v)
+        if msg is not None:
+            v.links.send(msg, chan)
 
     def send_due(self, v: Vehicle) -> None:
         now = v.t
@@ -233,9 +240,10 @@ class Streams:
             for msgid, iv in intervals.items():
                 nt = next_t.get(msgid, now)
                 if now + 1e-9 >= nt:
-                    msg = built.get(msgid)
-                    if msg is None:
-                        msg = built[msgid] = self.SENDERS[msgid](v)
-                    v.links.send(msg, chan)
+                    if msgid not in built:
+                        built[msgid] = self.SENDERS[msgid](v)
+                    msg = built[msgid]
+                    if msg is not None:  # nothing to say (a sensor without data)
+                        v.links.send(msg, chan)
                     nt = nt + iv if now - nt < iv else now + iv
                     next_t[msgid] = nt
