@@ -91,7 +91,9 @@ def test_range_faults_are_deterministic_from_the_seed():
 
 
 def test_a_range_fault_below_a_height_acts_only_there():
-    s = scenario_from_dict({"faults": [{"kind": "rangefinder_dropout", "start": 0, "end": 99, "below_m": 0.35}]})
+    s = scenario_from_dict(
+        {"faults": [{"kind": "rangefinder_dropout", "start": 0, "end": 99, "below_m": 0.35}]}
+    )
     rng = np.random.default_rng(0)
     assert s.range_fault(1.0, Range(0.5, 4, 100), rng).status == 4
     assert s.range_fault(1.0, Range(0.3, 4, 100), rng).status == 1
