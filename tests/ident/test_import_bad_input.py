@@ -121,6 +121,16 @@ def test_a_take_that_ends_at_contact(lab):
     assert_refused(run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "too little data", "after contact")
 
 
+def test_a_rates_window_longer_than_the_take_after_contact(lab):
+    """A 1 s window over 0.5 s kept after contact: every rate would be a gap. Before, the take was
+    imported with no rate at all."""
+    text = (lab / "markers.yaml").read_text() + "rates: {window_s: 1.0, polyorder: 2}\n"
+    (lab / "markers.yaml").write_text(text)
+    assert_refused(
+        run_import(lab, "drop01.c3d"), lab, "drop01.c3d", "field 'rates.window_s'", "longer than the", "kept"
+    )
+
+
 def test_a_take_that_starts_on_the_roof(lab):
     tk = read_take(lab / "drop01.c3d")
     write_c3d(lab / "drop01.c3d", list(tk.labels), tk.xyz[int(0.2 * tk.rate) :], tk.rate)
@@ -263,6 +273,30 @@ def test_a_motive_marker_with_other_than_three_position_columns(tmp_path, edit, 
         read_take(path)
     msg = str(err.value)
     assert str(path) in msg and "take 'take'" in msg and f"field '{field}'" in msg and words in msg, msg
+
+
+def test_two_motive_markers_of_one_name_are_refused_not_merged(tmp_path):
+    """Before, the second one's columns made 6 'found' axes; now the message says what happened."""
+    path = tmp_path / "take.csv"
+    motive_csv(path, ["A", "A"], np.arange(60, dtype=float).reshape(10, 2, 3), 100.0)
+    with pytest.raises(
+        MocapError, match=r"field 'A Position'.*2 markers are named 'A' \(columns 3, 4, 5, 6, 7, 8\)"
+    ):
+        read_take(path)
+
+
+def test_two_motive_rigid_bodies_of_one_name_are_unusable_not_the_last_one(tmp_path):
+    """Before, the second body's columns silently replaced the first's."""
+    path = tmp_path / "take.csv"
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (10, 1))
+    motive_csv(path, [], np.zeros((10, 0, 3)), 100.0, body=("quad", quat, np.zeros((10, 3))))
+    lines = path.read_text().splitlines()
+    rows = [r.split(",") for r in lines[2:]]
+    body = [j for j in range(len(rows[0])) if rows[0][j] == "Rigid Body"]
+    path.write_text("\n".join(lines[:2] + [",".join(r + [r[j] for j in body]) for r in rows]) + "\n")
+    tk = read_take(path)
+    assert "quad" not in tk.bodies
+    assert "two rigid bodies are named 'quad'" in tk.unusable["quad"], tk.unusable
 
 
 @pytest.mark.parametrize(

@@ -341,13 +341,25 @@ def _motive_columns(
         if kind == "Marker" and prop == "Position":
             markers.setdefault(name, []).append((ax, j))
         elif kind == "Rigid Body":
-            bodies.setdefault(name, {})[f"{prop}:{ax}"] = j
+            cols = bodies.setdefault(name, {})
+            key = f"{prop}:{ax}"
+            if key in cols:  # a second body of that name: neither can be told apart
+                cols[key + "#"] = j
+            cols[key] = j
     return markers, bodies
 
 
 def _motive_marker_xyz(path: Path, take: str, name: str, cols: list[tuple[str, int]]) -> list[int]:
     """The X, Y and Z columns of one marker's position, in that order: exactly one of each."""
     found = [ax for ax, _ in cols]
+    if len(found) > 3 and sorted(found) == sorted("XYZ" * (len(found) // 3)):
+        raise MocapError(
+            path,
+            take,
+            f"{name} Position",
+            f"{len(found) // 3} markers are named '{name}' (columns "
+            f"{', '.join(str(j + 1) for _, j in cols)}): give each its own label in Motive",
+        )
     if sorted(found) != ["X", "Y", "Z"]:
         raise MocapError(
             path,
@@ -379,6 +391,13 @@ def _motive_bodies(
     solved = {}
     unusable: dict[str, str] = {}
     for name, c in bodies.items():
+        twice = sorted(k[:-1] for k in c if k.endswith("#"))
+        if twice:
+            unusable[name] = (
+                f"two rigid bodies are named '{name}' in the file ({', '.join(twice)} twice): "
+                "give each asset its own name in Motive"
+            )
+            continue
         if any(k not in c for k in _MOTIVE_BODY):
             unusable[name] = (
                 f"its rotation is exported as '{rotation}': export quaternions (Rotation Type: Quaternion)"

@@ -550,6 +550,15 @@ def solve_take(c: Checked, ms: MarkerSet) -> Imported:
     gaps = ~np.isfinite(states_pos[:, 0])
     gap_share = _gap_share(take, tk, gaps)
     win = rate_filter.window_frames(ms.rate_window_s, rate, ms.rate_polyorder)
+    if win > int((tk >= 0).sum()):
+        raise MocapError(
+            take.path,
+            take.name,
+            "rates.window_s",
+            f"the rates' window ({win} frames, {win / rate:.3f} s at {rate:g} Hz) is longer than the "
+            f"{int((tk >= 0).sum())} frames kept after contact: no rate could be made; shorten "
+            "rates.window_s in the marker set",
+        )
     rates = rate_filter.savgol_rates(states_pos, dt, win, ms.rate_polyorder)
     states = np.column_stack([states_pos, rates])
 
