@@ -368,82 +368,110 @@ _TLOG_TYPES = [
 ]
 
 
+def _xyz(m, name: str) -> tuple:
+    return getattr(m, f"x{name}"), getattr(m, f"y{name}"), getattr(m, f"z{name}")
+
+
+def _raw_imu(m) -> tuple[float | None, tuple | None]:
+    g, a = 1e-3, GRAVITY * 1e-3  # mrad/s, milli-g
+    return m.time_usec * 1e-6, (m.xgyro * g, m.ygyro * g, m.zgyro * g, m.xacc * a, m.yacc * a, m.zacc * a)
+
+
+def _distance(m) -> tuple[float | None, tuple | None]:
+    if m.orientation != DOWNWARD:
+        return None, None
+    good = m.min_distance < m.current_distance < m.max_distance and m.signal_quality != 1
+    return m.time_boot_ms * 1e-3, (m.current_distance / 100.0, 1.0 if good else 0.0)
+
+
+def _servo(m) -> tuple[float | None, tuple | None]:
+    if getattr(m, "port", 0) != 0:
+        return None, None
+    return m.time_usec * 1e-6, (m.servo1_raw, m.servo2_raw, m.servo3_raw, m.servo4_raw)
+
+
+def _named(m) -> tuple[float | None, tuple | None]:
+    return m.time_boot_ms * 1e-3, ((m.value,) if _text(m.name) == "SL_STATE" else None)
+
+
+#: the timed messages a tlog is read for: message -> (the series it feeds, its reader giving the
+#: vehicle time (None: not this autopilot's sensor) and the row (None: nothing to keep))
+_TLOG_TIMED = {
+    "RAW_IMU": ("raw", _raw_imu),
+    "HIGHRES_IMU": (
+        "hi",
+        lambda m: (m.time_usec * 1e-6, (m.xgyro, m.ygyro, m.zgyro, m.xacc, m.yacc, m.zacc)),
+    ),
+    "ATTITUDE": ("att", lambda m: (m.time_boot_ms * 1e-3, (m.roll, m.pitch, m.yaw))),
+    "LOCAL_POSITION_NED": ("ekf", lambda m: (m.time_boot_ms * 1e-3, (m.vx, m.vy, m.vz, m.x, m.y, m.z))),
+    "DISTANCE_SENSOR": ("rng", _distance),
+    "SERVO_OUTPUT_RAW": ("out", _servo),
+    "NAMED_VALUE_FLOAT": ("states", _named),
+}
+
+
+class _TlogUntimed:
+    """What a tlog's untimed messages say, stamped with the newest vehicle time seen before them
+    (STATUSTEXT and HEARTBEAT carry none)."""
+
+    def __init__(self) -> None:
+        from pymavlink import mavutil
+
+        self.texts: list[tuple[float, str]] = []
+        self.armed: list[tuple[float, bool]] = []
+        self.params: dict[str, float] = {}
+        self._invalid = mavutil.mavlink.MAV_AUTOPILOT_INVALID
+        self._armed_flag = mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+
+    def add(self, kind: str, m, now: float) -> None:
+        if kind == "STATUSTEXT":
+            self.texts.append((now, _text(m.text)))
+        elif kind == "HEARTBEAT" and m.autopilot != self._invalid:
+            self.armed.append((now, bool(m.base_mode & self._armed_flag)))
+        elif kind == "PARAM_VALUE":
+            self.params[_text(m.param_id)] = float(m.param_value)
+
+
 def _read_tlog(path: Path) -> FlightLog:
     from pymavlink import mavutil
 
     conn = mavutil.mavlink_connection(str(path), dialect="ardupilotmega", robust_parsing=True)
-    raw, hi, att, ekf, rng, out, states = [], [], [], [], [], [], []
-    texts: list[tuple[float, str]] = []
-    armed: list[tuple[float, bool]] = []
-    params: dict[str, float] = {}
-    now = -math.inf  # the newest vehicle time seen: STATUSTEXT and HEARTBEAT carry none
-    invalid = mavutil.mavlink.MAV_AUTOPILOT_INVALID
-    armed_flag = mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    rows: dict[str, list[tuple]] = {bucket: [] for bucket, _ in _TLOG_TIMED.values()}
+    untimed = _TlogUntimed()
+    now = -math.inf  # the newest vehicle time seen
     try:
-        while True:
-            m = conn.recv_match(type=_TLOG_TYPES)
-            if m is None:
-                break
+        while (m := conn.recv_match(type=_TLOG_TYPES)) is not None:
             if m.get_srcComponent() != 1:  # the autopilot's own messages
                 continue
             kind = m.get_type()
-            if kind == "RAW_IMU":
-                t = m.time_usec * 1e-6
-                g, a = 1e-3, GRAVITY * 1e-3  # mrad/s, milli-g
-                raw.append((t, m.xgyro * g, m.ygyro * g, m.zgyro * g, m.xacc * a, m.yacc * a, m.zacc * a))
-            elif kind == "HIGHRES_IMU":
-                t = m.time_usec * 1e-6
-                hi.append((t, m.xgyro, m.ygyro, m.zgyro, m.xacc, m.yacc, m.zacc))
-            elif kind == "ATTITUDE":
-                t = m.time_boot_ms * 1e-3
-                att.append((t, m.roll, m.pitch, m.yaw))
-            elif kind == "LOCAL_POSITION_NED":
-                t = m.time_boot_ms * 1e-3
-                ekf.append((t, m.vx, m.vy, m.vz, m.x, m.y, m.z))
-            elif kind == "DISTANCE_SENSOR":
-                if m.orientation != DOWNWARD:
-                    continue
-                t = m.time_boot_ms * 1e-3
-                good = m.min_distance < m.current_distance < m.max_distance and m.signal_quality != 1
-                rng.append((t, m.current_distance / 100.0, 1.0 if good else 0.0))
-            elif kind == "SERVO_OUTPUT_RAW":
-                if getattr(m, "port", 0) != 0:
-                    continue
-                t = m.time_usec * 1e-6
-                out.append((t, m.servo1_raw, m.servo2_raw, m.servo3_raw, m.servo4_raw))
-            elif kind == "NAMED_VALUE_FLOAT":
-                t = m.time_boot_ms * 1e-3
-                if _text(m.name) == "SL_STATE":
-                    states.append((t, m.value))
-            elif kind == "STATUSTEXT":
-                texts.append((now, _text(m.text)))
+            if kind not in _TLOG_TIMED:
+                untimed.add(kind, m, now)
                 continue
-            elif kind == "HEARTBEAT":
-                if m.autopilot != invalid:
-                    armed.append((now, bool(m.base_mode & armed_flag)))
-                continue
-            elif kind == "PARAM_VALUE":
-                params[_text(m.param_id)] = float(m.param_value)
-                continue
-            now = max(now, t)
+            bucket, read = _TLOG_TIMED[kind]
+            t, row = read(m)
+            if row is not None:
+                rows[bucket].append((t, *row))
+            if t is not None:
+                now = max(now, t)
     finally:
         conn.close()
+    raw, hi = rows["raw"], rows["hi"]
     imu = Series.of(hi, "HIGHRES_IMU", 6) if len(hi) > len(raw) else Series.of(raw, "RAW_IMU", 6)
-    attitude = Series.of(att, "ATTITUDE", 3)
-    where = "the log's PARAM_VALUE messages"
+    attitude = Series.of(rows["att"], "ATTITUDE", 3)
+    params = untimed.params
     return FlightLog(
         path=path,
         kind=TLOG,
         imu=imu,
         attitude=attitude,
-        ekf=_with_attitude(Series.of(ekf, "LOCAL_POSITION_NED", 6), attitude),
-        ranges=Series.of(rng, "DISTANCE_SENSOR", 2),
-        outputs=Series.of(out, "SERVO_OUTPUT_RAW", 4),
-        states=Series.of(states, "NAMED_VALUE_FLOAT SL_STATE", 1),
-        texts=[(t, s) for t, s in texts if math.isfinite(t)],
-        armed=_changes([(t, v) for t, v in armed if math.isfinite(t)]),
+        ekf=_with_attitude(Series.of(rows["ekf"], "LOCAL_POSITION_NED", 6), attitude),
+        ranges=Series.of(rows["rng"], "DISTANCE_SENSOR", 2),
+        outputs=Series.of(rows["out"], "SERVO_OUTPUT_RAW", 4),
+        states=Series.of(rows["states"], "NAMED_VALUE_FLOAT SL_STATE", 1),
+        texts=[(t, s) for t, s in untimed.texts if math.isfinite(t)],
+        armed=_changes([(t, v) for t, v in untimed.armed if math.isfinite(t)]),
         params=params,
-        filters=_filters(params, None, where),
+        filters=_filters(params, None, "the log's PARAM_VALUE messages"),
     )
 
 
