@@ -158,6 +158,25 @@ FALSE_RANGE_M = 0.15
 HOVER_OVER_ROOF_M = 1.5
 
 
+def land_from_over_the_roof(rig: Rig, p, cfg, land_at_s: float, fault: str, autopilot: str):
+    """Take off, hover over the roof with the legs set, land from vehicle time ``land_at_s`` (a
+    scenario fault is timed by it): the flight, whether still armed, the status texts and a
+    context line for the assertions."""
+    rig.take_off(3.0)
+    rig.go_over_roof(HOVER_OVER_ROOF_M)
+    rig.set_legs(p.tau_up, p.tau_down)
+    if rig.now > land_at_s:
+        pytest.fail(f"{fault}'s landing at {land_at_s:g} s of vehicle time already passed ({rig.now:.1f} s)")
+    rig.wait(land_at_s - rig.now)
+    flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=2.0)
+    armed = rig.armed()
+    texts = [str(t) for t in rig.link.statustext]
+    ctx = " | ".join([autopilot] + [f"{h['t']:.2f} {h['to']}: {h['reason']}" for h in flight.history])
+    ctx += " || " + " | ".join(texts[-10:])
+    print(ctx)
+    return flight, armed, texts, ctx
+
+
 def test_a_false_cut_low_keeps_the_motors_stopped_and_reverses_on_the_impact(autopilot: str) -> None:
     """A range reading low for a second, 1.8 m over a flat roof, cuts the motors about 1.3 m up.
     The vehicle falls freely past the script's missed-impact bound (0.35 s: the fall from the cut
@@ -175,18 +194,9 @@ def test_a_false_cut_low_keeps_the_motors_stopped_and_reverses_on_the_impact(aut
     }
     with Rig(slope_deg=0.0, seed=74, autopilot=autopilot, scenario=scenario) as rig:
         p, _ = rig.plan(cfg)
-        rig.take_off(3.0)
-        rig.go_over_roof(HOVER_OVER_ROOF_M)
-        rig.set_legs(p.tau_up, p.tau_down)
-        if rig.now > SPIKE_T - 1.0:
-            pytest.fail(f"the spike at {SPIKE_T:g} s of vehicle time already passed ({rig.now:.1f} s)")
-        rig.wait(SPIKE_T - 1.0 - rig.now)
-        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=2.0)
-        armed = rig.armed()
-        texts = [str(t) for t in rig.link.statustext]
-    ctx = " | ".join([autopilot] + [f"{h['t']:.2f} {h['to']}: {h['reason']}" for h in flight.history])
-    ctx += " || " + " | ".join(texts[-10:])
-    print(ctx)
+        flight, armed, texts, ctx = land_from_over_the_roof(
+            rig, p, cfg, SPIKE_T - 1.0, "the spike", autopilot
+        )
     cut = flight.time_of("CUT")
     c = flight.contact
     stops = flight.track.event_times("EV_STOP", flight.t_start)
@@ -248,18 +258,9 @@ def test_a_rangefinder_dropout_just_above_the_cut_height_still_cuts_before_the_r
     cfg = config()
     with Rig(slope_deg=20.0, seed=75, autopilot=autopilot, scenario=scenario) as rig:
         p, _ = rig.plan(cfg)
-        rig.take_off(3.0)
-        if rig.now > DROPOUT_FROM_S:
-            pytest.fail(f"the take-off ended after the dropout began ({rig.now:.1f} s of vehicle time)")
-        rig.go_over_roof(HOVER_OVER_ROOF_M)
-        rig.set_legs(p.tau_up, p.tau_down)
-        rig.wait(max(0.0, DROPOUT_FROM_S - rig.now))
-        flight = rig.land((p.tau_up, p.tau_down), cfg, timeout_s=60.0, rest_s=2.0)
-        armed = rig.armed()
-        texts = [str(t) for t in rig.link.statustext]
-    ctx = " | ".join([autopilot] + [f"{h['t']:.2f} {h['to']}: {h['reason']}" for h in flight.history])
-    ctx += " || " + " | ".join(texts[-10:])
-    print(ctx)
+        flight, armed, texts, ctx = land_from_over_the_roof(
+            rig, p, cfg, DROPOUT_FROM_S, "the dropout", autopilot
+        )
     c = flight.contact
     stops = flight.track.event_times("EV_STOP", flight.t_start)
     rvt = flight.track.event_times("EV_RVT", flight.t_start)
