@@ -14,7 +14,7 @@
 
 -- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
 -- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
-local VERSION = 7 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 8 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
 --    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
@@ -34,6 +34,8 @@ local VERSION = 7 -- 2: a refresh during RVT sets its duration (the companion en
 --    impact, instead of HOLD in the air.
 -- 7: ARMED cuts on the descent reckoned from the last trusted reading when no reading has agreed
 --    with it for RECKON.AFTER_MS within RECKON.WINDOW_M of the cut height (a dropout, a spike).
+-- 8: a reading that stopped moving (RECKON.STILL_M) is silence for the reckoning (a stuck sensor);
+--    the impact is a push up the body (IMPACT.UP): an accelerometer reading down is not the roof.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
@@ -64,7 +66,7 @@ local GRAVITY = 9.80665
 -- The filtered accelerometer reads the thrust over the mass, ~1 g, in the steady descent at the
 -- cut, and falls toward 0 g as the thrust decays: an impact threshold must lie well above 1 g.
 -- 2 g leaves a full g for the controller's corrections and the vibration left after the filter.
-local IMPACT_MIN = 2 * GRAVITY
+local IMPACT = { MIN = 2 * GRAVITY }
 -- After the cut the specific force only falls (the thrust decays, the vehicle falls freely) until
 -- something pushes on the vehicle: the threshold counts from the lowest reading since the cut,
 -- threshold - 1 g above it, never more than the threshold itself. A soft first contact (an uphill
@@ -78,6 +80,13 @@ local IMPACT_MIN = 2 * GRAVITY
 -- vibration the rule fired 2-8 ms after the cut, 27 cm above the roof (issue 40;
 -- tests/firmware/test_script_vibration.py). Before it, the 2 g rule (and the range) alone.
 local RISE_AFTER_MS = 50
+-- The roof pushes on the feet within its friction cone, and the legs carry that push to the body
+-- from below: on the steepest roof the feet hold (50 deg, mu 0.8: the cone reaches 89 deg from the
+-- vertical) the specific force still points up the body (FRD z < 0), as does the rotors' thrust.
+-- A reading pointing down the body is no contact: a 6 g, 40 ms accelerometer spike 0.09 s into
+-- the fall from the cut (soak at ea848b5, landing 143, 50 deg) fired reverse thrust 0.12 s before
+-- the feet met the roof. The impact needs the body-up share of the reading above this (m/s^2).
+IMPACT.UP = 0.0
 -- ArduCopter reads the rangefinder at 20 Hz (ArduCopter/Copter.cpp), this script every 2-10 ms:
 -- only a new sample (a new driver reading time) counts. Two distinct samples at or below the cut
 -- height: one low glitch cannot cut.
@@ -98,7 +107,11 @@ local RESEED_MS = 600
 -- roof's edge) is evidence, not silence: no reckoning then. A reckoned cut is near the ground for
 -- the impact rule until a trusted reading says otherwise. Only while descending at MIN_MPS or more:
 -- a vehicle holding height stays off the roof, and one reading at the cut height never cuts.
-local RECKON = { AFTER_MS = 150, WINDOW_M = 0.30, MIN_MPS = 0.2 }
+-- A reading that stops following the descent is silence too: readings within STILL_M of the last
+-- one that moved do not renew the reckoning (a sensor stuck 0.07 m above the cut height, after a
+-- spike, kept agreeing with the chain and met the roof under power: soak at ea848b5, landing 140).
+-- A true descent at MIN_MPS moves the reading 1 cm a 20 Hz sample; a stuck sensor repeats its value.
+local RECKON = { AFTER_MS = 150, WINDOW_M = 0.30, MIN_MPS = 0.2, STILL_M = 0.01 }
 -- the missed-impact bound: the fall from the cut height at the descent speed, plus the rotors'
 -- spin-down (twice the model's 50 ms time constant) and one range sample to judge by
 MS.THRUST_DECAY, MS.RANGE_PERIOD = 100, 50
@@ -160,8 +173,8 @@ local armed_cut_m = nil -- the cut height of the last accepted ARM (bounds a com
 local entered_ms = 0
 local below = 0
 -- the chain of trusted readings (follow_chain): the believed reading d, when (at), since when
--- readings disagree with it, and where and when the chain began
-local chain = { d = nil, at = 0, disagree = nil, seed_ms = 0, seed_d = 0 }
+-- readings disagree with it, where and when the chain began, and the last reading that moved
+local chain = { d = nil, at = 0, disagree = nil, seed_ms = 0, seed_d = 0, moved_d = 0, moved_at = 0 }
 local last_stamp = nil -- the driver's reading time of the newest sample seen
 local floor_a = nil -- the lowest filtered accel magnitude since the cut (m/s^2)
 local last_d = nil -- the newest sample's distance (0: too close, huge: too far), nil before any
@@ -366,7 +379,7 @@ end
 local function arm_reflex(p, t)
   local action = p[1]
   if bad(p[2], 0.10, 2.00) then return DENIED, "cut height out of 0.10..2.00 m" end
-  if bad(p[3], IMPACT_MIN, 200) then return DENIED, "impact threshold out of 19.6..200" end
+  if bad(p[3], IMPACT.MIN, 200) then return DENIED, "impact threshold out of 19.6..200" end
   if bad(p[4], 0, 100) then return DENIED, "thrust percent out of 0..100" end
   if bad(p[5], 0, 5000) then return DENIED, "reverse duration out of 0..5000 ms" end
   if bad(p[6], 100, 10000) then return DENIED, "validity out of 100..10000 ms" end
@@ -524,29 +537,30 @@ local function follow_chain(t)
     chain.d = nil -- a lasting change: a new chain, seen since the disagreement began
   end
   if chain.d == nil then chain.seed_ms, chain.seed_d = chain.disagree or t, d end
+  if chain.d == nil or math.abs(d - chain.moved_d) >= RECKON.STILL_M then chain.moved_d, chain.moved_at = d, t end
   chain.disagree = nil
   chain.d, chain.at = d, t
   return d
 end
 
--- the height reckoned from the chain's last trusted reading and the descent since (RECKON), or
--- nil when the rule does not apply: a recent reading, one far above the cut height, a young chain
--- begun low, a reading beyond the sensor, or no velocity estimate
+-- the height reckoned from the chain's last trusted reading that moved and the descent since
+-- (RECKON), or nil when the rule does not apply: a recent moving reading, one far above the cut
+-- height, a young chain begun low, a reading beyond the sensor, or no velocity estimate
 function RECKON.height(t, cut_m)
-  if chain.d == nil or chain.d > cut_m + RECKON.WINDOW_M or t - chain.at < RECKON.AFTER_MS then return nil end
+  if chain.d == nil or chain.d > cut_m + RECKON.WINDOW_M or t - chain.moved_at < RECKON.AFTER_MS then return nil end
   if chain.seed_d <= cut_m and chain.at - chain.seed_ms < RESEED_MS then return nil end
   if rangefinder:status_orient(DOWN) == RF.HIGH then return nil end
   ---@type Vector3f_ud|nil
   local v = ahrs:get_velocity_NED()
   if v == nil or v:z() < RECKON.MIN_MPS then return nil end
-  return chain.d - v:z() * (t - chain.at) / 1000
+  return chain.d - v:z() * (t - chain.moved_at) / 1000
 end
 
 -- whether the ground is within the cut height for the impact rule: the newest sample says so, or
--- the cut was reckoned and no trusted reading since it says farther
+-- the cut was reckoned and no trusted reading that moved since it says farther
 function RECKON.near()
   if last_d ~= nil and last_d <= reflex.cut_m then return true end
-  return reflex.reckoned == true and not (chain.at > entered_ms and chain.d > reflex.cut_m)
+  return reflex.reckoned == true and not (chain.moved_at > entered_ms and chain.d > reflex.cut_m)
 end
 
 -- the reflex: cut on a trusted range at or below the cut height, reverse at impact; ``d`` is
@@ -562,7 +576,7 @@ local function run_reflex(t, fresh, d)
     end
     local h = RECKON.height(t, reflex.cut_m)
     if h ~= nil and h <= reflex.cut_m then
-      local why = string.format("range lost %d ms: reckoned cut at %.2f m", t - chain.at, h)
+      local why = string.format("range lost %d ms: reckoned cut at %.2f m", t - chain.moved_at, h)
       far_count, floor_a, reflex.reckoned = 0, nil, true
       enter(CUT, t, why)
       return
@@ -581,13 +595,15 @@ local function run_reflex(t, fresh, d)
   elseif state == CUT then
     -- reverse thrust only on the ground: an impact with the range at or below the cut height
     local near = RECKON.near()
-    local a = ins:get_accel(0):length()
+    ---@type Vector3f_ud
+    local av = ins:get_accel(0)
+    local a = av:length()
     if floor_a == nil or a < floor_a then floor_a = a end
     local threshold = reflex.impact
     if t - entered_ms >= RISE_AFTER_MS then
       threshold = math.min(threshold, floor_a + reflex.impact - GRAVITY)
     end
-    if near and a > threshold then
+    if near and a > threshold and -av:z() > IMPACT.UP then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
       local far = not near

@@ -582,8 +582,8 @@ def test_an_impact_between_two_wakes_of_the_loop_is_detected(pair):
     found(link, peer)
     lander = Lander(link, load_config(), (0.8, 1.5), legs=None)
     lander.detector.arm_after_cut(0.5)
-    for i in range(6):  # free fall, one spike of 4 g, then free fall again, all in one batch
-        peer.conn.mav.raw_imu_send(1_000_000 + i * 5000, 0, 0, 4000 if i == 2 else 50, 0, 0, 0, 0, 0, 0)
+    for i in range(6):  # free fall, one contact of 4 g up the body, then free fall again, all in one batch
+        peer.conn.mav.raw_imu_send(1_000_000 + i * 5000, 0, 0, -4000 if i == 2 else -50, 0, 0, 0, 0, 0, 0)
     time.sleep(0.05)
     lander.poll()
     assert lander.detector.impact is not None

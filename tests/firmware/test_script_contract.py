@@ -67,8 +67,9 @@ def test_the_numbers_are_the_scripts() -> None:
     assert lua["MS_FALL_WAIT"] == script_contract.FALL_WAIT_S * 1000
     assert {a.name: a.value for a in Actuator} == {n[4:]: v for n, v in lua.items() if n.startswith("ACT_")}
     assert {a.name: a.value for a in Reflex} == {n[4:]: v for n, v in lua.items() if n.startswith("RFX_")}
-    assert "local IMPACT_MIN = 2 * GRAVITY" in src and lua["GRAVITY"] == script_contract.G
+    assert "local IMPACT = { MIN = 2 * GRAVITY }" in src and lua["GRAVITY"] == script_contract.G
     assert config.IMPACT_MIN_MPS2 == script_contract.IMPACT_MIN_MPS2
+    assert "IMPACT.UP = 0.0" in src and script_contract.IMPACT_UP_MPS2 == 0.0  # the companion's detector too
     assert 'string.unpack("<fffffffHBB"' in src and script_contract.REQUEST_PARAM == 7
 
 

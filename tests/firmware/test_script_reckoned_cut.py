@@ -163,3 +163,66 @@ def test_any_dropout_in_the_window_cuts_before_the_feet_and_not_above_the_cut_he
     # silence lasts AFTER_MS from the last good sample, taken at or above at_m
     assert cut[1] >= min(CUT_M, at_m - speed * (AFTER_MS + 5) / 1000) - 0.005
     assert cut[1] > 0.12
+
+
+def test_a_range_stuck_just_above_the_cut_height_cuts_on_the_reckoned_descent(bench: Bench) -> None:
+    """Soak landing 140 at ea848b5: after a spike the sensor read 0.70 m and stayed there (cut height
+    0.63 m that landing). Each stuck reading agreed with the chain and renewed it: no two-sample
+    cut, no reckoning, the feet met the roof under power. A reading that stops moving is silence
+    for the reckoning (contract 8)."""
+    bench.io.range = good(0.8)
+    arm(bench)
+    stuck_at = CUT_M + 0.07
+
+    def stuck(_t: int, h: float) -> RangeReading:
+        return good(h) if h > stuck_at else good(stuck_at)
+
+    trace = fly(bench, 0.8, 0.5, 1600, stuck)
+    cut = cut_of(trace)
+    assert cut is not None, "the descent met the roof under power"
+    assert CUT_M - 0.5 * (AFTER_MS + 60) / 1000 <= cut[1] <= CUT_M
+    # the stuck readings go on after the cut: they say nothing new, the impact is still taken
+    bench.io.accel_body = (0.0, 0.0, -45.0)
+    bench.run(5)
+    assert bench.io.state() == RVT
+
+
+def test_a_steady_reading_while_holding_height_cuts_nothing(bench: Bench) -> None:
+    """A vehicle that holds its height reads one value again and again: no descent, no reckoning."""
+    bench.io.range = good(CUT_M + 0.05)
+    arm(bench)
+    bench.io.velocity = (0.0, 0.0, 0.05)
+    bench.run(2000)
+    assert bench.io.state() == ARMED
+
+
+def test_a_slow_true_descent_reads_as_moving(bench: Bench) -> None:
+    """At the slowest descent the reckoning runs at (0.2 m/s), readings in whole centimetres still
+    move every sample: the cut comes from the readings, at the cut height, not from the reckoning."""
+    bench.io.range = good(0.6)
+    arm(bench)
+    trace = fly(bench, 0.6, 0.2, 3000, lambda _t, h: good(round(h, 2)))
+    cut = cut_of(trace)
+    assert cut is not None
+    assert not [x for x in bench.io.sl_texts() if "reckoned" in x]
+    assert CUT_M - 0.2 * 0.11 <= cut[1] <= CUT_M
+
+
+def test_an_accelerometer_spike_pointing_down_the_body_is_no_impact(bench: Bench) -> None:
+    """Soak landing 143 at ea848b5: a 6 g, 40 ms spike 0.09 s after the cut, the body falling toward
+    a 50 deg roof, fired reverse thrust 0.12 s before the feet met it. The roof can only push the
+    body up through its legs (contract 8); the same spike pointing up is still taken."""
+    bench.io.range = good(0.8)
+    arm(bench)
+    trace = fly(bench, 0.8, 0.5, 1600, lambda _t, h: good(max(h, 0.12)))
+    assert cut_of(trace) is not None
+    bench.io.accel_body = (0.0, 0.0, 0.0)  # falling freely
+    bench.run(90)
+    bench.io.accel_body = (0.0, 0.0, 60.0)  # the soak's spike: down the body
+    bench.run(40)
+    assert bench.io.state() == CUT
+    bench.io.accel_body = (0.0, 0.0, 0.0)
+    bench.run(30)
+    bench.io.accel_body = (8.0, 0.0, -40.0)  # the feet on the roof
+    bench.run(5)
+    assert bench.io.state() == RVT

@@ -8,8 +8,12 @@ the cut by the threshold less 1 g: once the thrust has decayed a soft first cont
 near the horizontal slips at a small foot force) is seen at about 1.2 g. Before the 50 ms the
 rotors' vibration is still there, and a trough followed by a crest read as a rise in the air
 (issue 40; tests/controller/test_impact_vibration.py), as in the script, which counts the rise
-from the same moment. Samples count only after the cut and only when newer than the previous one
-(a repeated or reordered packet never counts twice).
+from the same moment. And the sample must push up the body (its FRD z below
+``-IMPACT_UP_MPS2``): the roof pushes on the feet within its friction cone and the legs carry it to
+the body from below, so a reading pointing down the body is no contact (an accelerometer spike in
+the fall fired reverse thrust 0.12 s above a 50 deg roof in the soak). Samples count only after
+the cut and only when newer than the previous one (a repeated or reordered packet never counts
+twice).
 
 Latency budget from contact to the companion's decision (RAW_IMU at 200 Hz):
   autopilot 20 Hz low-pass filter (two-pole, INS_ACCEL_FILTER)                  ~ 8-10 ms to rise
@@ -28,7 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from slopelander.controller.script_contract import RISE_AFTER_S
+from slopelander.controller.script_contract import IMPACT_UP_MPS2, RISE_AFTER_S
 
 G = 9.80665
 
@@ -87,7 +91,7 @@ class ImpactDetector:
         threshold = self.threshold
         if t - self.cut_at >= RISE_AFTER_S:
             threshold = min(threshold, self.floor + self.threshold - G)
-        if a > threshold:
+        if a > threshold and -az > IMPACT_UP_MPS2:
             self.impact = Impact(t, a)
             return self.impact
         return None

@@ -21,8 +21,9 @@ from slopelander.controller.link import CommandHandle, Link, LinkError
 #: only after the vehicle has been still for :data:`STILL_S`, 6 keeps a cut whose vehicle still
 #: falls freely at the missed-impact bound for :data:`FALL_WAIT_S` (the companion's backstop
 #: counts on it), 7 cuts on the descent reckoned from the last trusted reading through a dropout
-#: or a spike within 0.3 m of the cut height
-SCRIPT_CONTRACT = 7
+#: or a spike within 0.3 m of the cut height, 8 reckons through a reading that stopped moving (a
+#: stuck sensor) and takes only a push up the body for the impact
+SCRIPT_CONTRACT = 8
 
 CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
 CMD_REFLEX = 31011  # MAV_CMD_USER_2
@@ -34,6 +35,8 @@ G = 9.80665
 #: the smallest impact threshold (m/s²): the filtered accelerometer reads ~1 g in the steady
 #: descent at the cut and less while the thrust decays; 2 g leaves a full g of margin
 IMPACT_MIN_MPS2 = 2 * G
+#: an impact pushes up the body: its specific force's body-up share (-z, FRD) above this (m/s²)
+IMPACT_UP_MPS2 = 0.0
 #: the tilt (deg) within which a take-off release is asked to find the vehicle (the script
 #: accepts bounds of 1..30): below ArduCopter's default ANGLE_MAX (30 deg), so the attitude
 #: controller that gets the motors back can hold the attitude it starts from

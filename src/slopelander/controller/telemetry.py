@@ -131,7 +131,8 @@ def first_contact_speed(
                 continue
             if a > G_MPS2 + POWERED_TOUCH_MPS2:  # a foot on the roof, the thrust still on or not
                 return k
-            if t >= after_cut and detector.feed(t, 0.0, 0.0, a) is not None:
+            # the log keeps magnitudes only: each is taken as pointing up the body
+            if t >= after_cut and detector.feed(t, 0.0, 0.0, -a) is not None:
                 return k
         return None
 
