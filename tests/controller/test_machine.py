@@ -162,7 +162,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 6.0}, "v6, v7 needed"),  # contract 7 cuts through a dropout at the cut height
+        ({"script_version": 7.0}, "v7, v8 needed"),  # contract 8 reckons through a stuck range
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),
@@ -1200,3 +1200,50 @@ def test_a_vehicle_near_the_roof_before_the_descent_aborts_and_climbs(state):
     assert ("hold", 0.3) in act.calls and "set_mode" not in act.names()
     rise_to_loiter(m, act, low)
     assert ("descend", -0.5) in act.calls  # the climb
+
+
+def _reset_with(heights: list[float], legs_ready: bool = True, dt: float = 0.05):
+    """RESET fed these ranges (a level body over a flat roof), one per ``dt``."""
+    m, act, _ = make()
+    run_to(m, "LANDED")
+    t = run_to(m, "RESET", base=replace(OK, legs_ready=False), t0=100.0)
+    for h in heights:
+        t += dt
+        m.step(replace(OK, t=t, range_m=h, legs_ready=legs_ready))
+        if m.name != "RESET":
+            break
+    return m, act, t
+
+
+def test_reset_climbs_back_when_the_vehicle_sinks_toward_the_roof():
+    """Soak landing 135: an upset height estimate sank the vehicle onto the roof while its legs
+    loosened. Under the clear height less 0.2 m the companion climbs, until it reads clear."""
+    sink = [1.2 - 0.05 * i for i in range(16)]  # 1.20 .. 0.45 m at 1 m/s
+    m, act, t = _reset_with(sink, legs_ready=False)
+    climbs = [c for c in act.calls if c == ("hold", 0.5)]
+    assert m.name == "RESET" and climbs, act.calls
+    assert any(c[0] == "statustext" and "climbing" in c[1] for c in act.calls)
+    m.step(replace(OK, t=t + 0.05, range_m=0.85, legs_ready=False))
+    assert act.calls[-1] == ("hold", 0.0)
+
+
+def test_reset_is_ready_only_once_the_height_is_held():
+    m, _, t = _reset_with([0.5] * 4 + [0.9] * 10, legs_ready=True)  # low, then 0.5 s clear
+    assert m.name == "RESET"
+    for _ in range(12):  # a further 0.6 s clear: held for HELD_S
+        t += 0.05
+        m.step(replace(OK, t=t, range_m=0.9, legs_ready=True))
+    assert m.name == "READY" and m.history[-1]["reason"].startswith("legs loosened")
+
+
+def test_reset_hands_a_height_never_held_to_loiter():
+    m, act, t = _reset_with([0.5], legs_ready=True)
+    timeout = m.ctx.cfg["legs.ready_timeout_s"]
+    m.step(replace(OK, t=t + timeout + 0.1, range_m=0.5, legs_ready=True))
+    assert m.name == "READY" and "not held" in m.history[-1]["reason"]
+    assert ("set_mode", "LOITER") in act.calls
+
+
+def test_reset_with_the_range_clear_sends_no_climb():
+    m, act, _ = _reset_with([1.6] * 30, legs_ready=True)
+    assert m.name == "READY" and ("hold", 0.5) not in act.calls
