@@ -41,6 +41,7 @@ class DemoResult:
     uphill_angle_deg: float | None  # the preset's (the table's), set on the board before the descent
     uphill_angle_measured_deg: float | None  # as the board reported it just before the cut
     expected_impact_mps: float
+    cut_height_m: float  # the landing's: the configured one, raised where the uphill foot touches above it
     impact_mps: float | None
     slide_m: float | None
     min_pitch_deg: float | None
@@ -168,9 +169,10 @@ def run_demo(
             "true_slope_deg": float(slope_deg),
         }
         files["slope estimate"] = str(out / "slope_estimate.json")
+        cut_m = session.landing_config(cfg, slope_deg, preset.angle_up_deg, say=False)["reflex.cut_height_m"]
         echo(
             f"landing: legs {up:.2f}/{down:.2f} N*m from the {preset.source}, descent "
-            f"{cfg['descent.rate_mps']:g} m/s, motors stopped at {cfg['reflex.cut_height_m']:g} m, "
+            f"{cfg['descent.rate_mps']:g} m/s, motors stopped at {cut_m:.2f} m, "
             f"reverse thrust {cfg['reflex.reverse_thrust_pct']:g} %"
         )
         # a measurement the estimator refused (a survey cut short on a loaded machine) is shown and
@@ -222,6 +224,7 @@ def run_demo(
         preset.angle_up_deg,
         angle_measured,
         expected,
+        cut_m,
         impact,
         slide,
         min_pitch,

@@ -14,12 +14,15 @@ import yaml
 from slopelander.controller.config import ConfigError, RcPreset, load_config
 from slopelander.controller.impact import G, ImpactDetector
 from slopelander.controller.landing import (
+    CUT_LATENCY_MAX_S,
+    FOOT_MARGIN_M,
     CutDynamics,
     LegGeometry,
     PresetError,
     choose_preset,
     contact_range,
     expected_impact_speed,
+    landing_cut_height,
     leg_geometry,
 )
 from slopelander.legs.calibration import load_calibration
@@ -122,6 +125,7 @@ def test_impact_only_after_cut_first_large_sample_once():
     assert d.feed(1.005, 0, 0, -0.5) is None  # free fall
     assert d.feed(1.005, 0, 0, -50.0) is None  # repeated timestamp is ignored
     assert d.feed(1.010, float("nan"), 0, 0) is None
+    assert d.feed(1.012, 0, 0, 60.0) is None  # 6 g down the body: a spike, not the roof pushing up
     hit = d.feed(1.015, 12.0, 0, -17.0)
     assert hit is not None and hit.t == 1.015 and hit.accel_mps2 == pytest.approx(math.hypot(12, 17))
     assert d.feed(1.020, 0, 0, -90.0) is None and d.impact == hit
@@ -223,6 +227,23 @@ def test_controller_modules_import_without_scipy_numba_matplotlib_model():
     assert float(out.stdout) == 0.5
 
 
+@pytest.mark.parametrize("slope_deg", [0.0, 10.0, 20.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0])
+@pytest.mark.parametrize("angle", [None, 18.0, 25.0, 37.5])
+def test_the_landing_cut_stops_the_motors_before_the_uphill_foot_touches(slope_deg, angle):
+    """The configured 0.30 m stands where the uphill foot touches well below it; on a steep roof
+    (or with the uphill leg low) the cut is raised so that the descent over the cut's longest
+    latency still ends above the foot's contact range."""
+    geom = leg_geometry()
+    h = landing_cut_height(0.3, 0.5, slope_deg, geom, angle)
+    touch = contact_range(slope_deg, geom, angle)
+    assert h >= 0.3
+    assert h - 0.5 * CUT_LATENCY_MAX_S > touch  # the motors stop before the foot meets the roof
+    if touch + 0.5 * CUT_LATENCY_MAX_S + FOOT_MARGIN_M <= 0.3:
+        assert h == 0.3  # not raised where it need not be
+    else:
+        assert h == pytest.approx(touch + 0.5 * CUT_LATENCY_MAX_S + FOOT_MARGIN_M, abs=1e-3)
+
+
 def test_the_landing_plan_uses_the_tables_uphill_angle_and_tells_the_pilot_when_needed():
     from slopelander.controller.landing import angle_instruction, cut_dynamics, plan_landing
     from slopelander.controller.table import DEFAULT_TABLE, LookupTable
@@ -233,9 +254,12 @@ def test_the_landing_plan_uses_the_tables_uphill_angle_and_tells_the_pilot_when_
     cut = cut_dynamics(0.02)
     preset, speed = plan_landing(0.5, 0.3, 35.0, geom, table, None, cal, cut)
     assert preset.angle_up_deg == pytest.approx(table.lookup(35.0, speed).angle_up_deg)
-    # the speed is the one for the table's angle, not for legs left at 37.5 deg
-    assert speed == pytest.approx(expected_impact_speed(0.5, 0.3, 35.0, geom, preset.angle_up_deg, cut))
-    assert speed != pytest.approx(expected_impact_speed(0.5, 0.3, 35.0, geom, None, cut))
+    # the speed is the one for the table's angle, not for legs left at 37.5 deg, from the landing's
+    # cut height: raised at 35 deg, where the uphill foot touches at a range of 0.28 m
+    h = landing_cut_height(0.3, 0.5, 35.0, geom, preset.angle_up_deg)
+    assert h > 0.3
+    assert speed == pytest.approx(expected_impact_speed(0.5, h, 35.0, geom, preset.angle_up_deg, cut))
+    assert speed != pytest.approx(expected_impact_speed(0.5, h, 35.0, geom, None, cut))
     todo = angle_instruction(preset.angle_up_deg, board_can_set=False)
     assert todo is not None and f"set the uphill legs to {preset.angle_up_deg:.1f} deg" in todo
     assert angle_instruction(preset.angle_up_deg, board_can_set=True) is None

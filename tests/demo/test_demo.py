@@ -12,7 +12,12 @@ import pytest
 from pymavlink import mavutil
 
 from slopelander.controller.config import load_config
-from slopelander.controller.landing import cut_dynamics, expected_impact_speed, leg_geometry
+from slopelander.controller.landing import (
+    cut_dynamics,
+    expected_impact_speed,
+    landing_cut_height,
+    leg_geometry,
+)
 from slopelander.controller.session import read_transitions as transitions
 from slopelander_sitl.vehicle.scenario import Scenario
 from slopelander_sitl.vehicle.script_io import RANGEFINDER_PERIOD_MS
@@ -120,7 +125,7 @@ def test_the_demo_lands_on_the_roof_takes_off_and_resets_the_legs(demo) -> None:
     slowest, fastest = (
         expected_impact_speed(
             flown,
-            CFG["reflex.cut_height_m"],
+            result["cut_height_m"],  # the landing's, raised on this 35 deg roof
             result["slope_deg"],
             leg_geometry(),
             result["uphill_angle_deg"],
@@ -135,6 +140,13 @@ def test_the_demo_lands_on_the_roof_takes_off_and_resets_the_legs(demo) -> None:
         tolerance,
     )
     assert result["slide_m"] < 1.0  # it stayed on the roof
+    assert result["cut_height_m"] == landing_cut_height(
+        CFG["reflex.cut_height_m"],
+        CFG["descent.rate_mps"],
+        result["slope_deg"],
+        leg_geometry(),
+        result["uphill_angle_deg"],
+    )
 
 
 def test_the_demo_sets_the_tables_uphill_angle_on_the_board(demo) -> None:

@@ -103,6 +103,30 @@ def test_pad_to_roof_lands_and_ends_disarmed(autopilot: str, slope_deg: float) -
     reversed_within_30ms(flight, ctx)
 
 
+def test_the_shipped_cut_height_is_raised_on_a_45_deg_roof_and_stops_the_motors_first(autopilot: str) -> None:
+    """The shipped 0.30 m cut lies below the range at which the uphill foot meets a 45 deg roof
+    (0.34 m with the table's uphill angle): the motors pushed the foot into the roof and the cut
+    followed. The landing raises its cut (controller/landing.py ``landing_cut_height``) and the
+    motors stop first."""
+    cfg = config()  # the shipped settings: reflex.cut_height_m 0.30
+    with Rig(slope_deg=45.0, seed=47, autopilot=autopilot) as rig:
+        p, _ = rig.plan(cfg)
+        rig.take_off(3.0)
+        rig.go_over_roof(2.5)
+        flight = rig.land(
+            (p.tau_up, p.tau_down), cfg, timeout_s=90.0, rest_s=3.0, uphill_angle_deg=p.angle_up_deg
+        )
+        cut_m = flight.lander.ctx.cfg["reflex.cut_height_m"]
+    ctx = " | ".join(
+        [f"{autopilot}, cut {cut_m:.3f} m"] + [f"{h['to']}: {h['reason']}" for h in flight.history]
+    )
+    assert cut_m > 0.3 + 0.05, ctx
+    c = flight.contact
+    stops = flight.track.event_times("EV_STOP", flight.t_start)
+    assert c is not None and stops and stops[0] < c["t"], (stops, c, ctx)
+    assert flight.end == "LANDED", ctx
+
+
 #: reverse thrust within 30 ms of contact, checked last. Flown first with the table's uphill angle
 #: (2026-11-26), the feet met the roof and the vehicle landed, but ArduCopter's script saw the impact
 #: 154-166 ms (45 deg) and 181 ms (55 deg) after contact: an uphill leg that near the horizontal

@@ -161,6 +161,12 @@ class Config:
             section, key = dotted.split(".", 1)
             return self.doc[section][key]
 
+    def with_values(self, overrides: dict[str, dict[str, Any]], why: str) -> Config:
+        """A copy with ``overrides`` (sections of keys) applied and validated like a user's file;
+        ``why`` joins the source, for the errors and records that name it."""
+        source = f"{self.source} ({why})"
+        return Config(merge(self.doc, overrides, source), source)
+
     def __getattr__(self, section: str) -> dict[str, Any]:
         try:
             return self.__dict__["doc"][section]

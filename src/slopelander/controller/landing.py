@@ -111,6 +111,30 @@ def contact_range(slope_deg: float, geom: LegGeometry, uphill_angle_deg: float |
     return drop + reach * math.tan(math.radians(slope_deg))
 
 
+#: the cut's longest latency (s): the range crossing the cut height is seen up to one 20 Hz
+#: sample late and confirmed by the next (docs/onboard-script.md, ``reflex.cut_latency_s``)
+CUT_LATENCY_MAX_S = 0.10
+#: the clearance (m) kept between the motors' stop and the uphill foot's touch, beyond that fall
+FOOT_MARGIN_M = 0.02
+
+
+def landing_cut_height(
+    cut_height_m: float,
+    descent_mps: float,
+    slope_deg: float,
+    geom: LegGeometry,
+    uphill_angle_deg: float | None,
+) -> float:
+    """The cut height (m) for one landing: the configured one, raised where the uphill foot would
+    meet the roof before the motors stop. Above about 30 deg the uphill foot touches at a range of
+    more than 0.30 m less the cut's fall (0.34 m at 45 deg with the table's uphill angle): cut
+    there, the motors pushed the foot into the roof and the cut followed the contact (soak on
+    ArduCopter, 0750e6b, landing 79). Raised to the contact range plus the descent over the cut's
+    longest latency and :data:`FOOT_MARGIN_M`."""
+    need = contact_range(slope_deg, geom, uphill_angle_deg) + descent_mps * CUT_LATENCY_MAX_S + FOOT_MARGIN_M
+    return max(cut_height_m, round(need, 3))
+
+
 def _fall(v0: float, t: float, cut: CutDynamics) -> tuple[float, float]:
     """(height fallen, speed) ``t`` s after the cut decision, per the module docstring."""
     if t <= cut.latency_s:
@@ -211,16 +235,19 @@ def plan_landing(
     calibration,
     cut: CutDynamics | None = None,
 ) -> tuple[LegPreset, float]:
-    """The preset and the impact speed it was chosen for.
+    """The preset and the impact speed it was chosen for, from the landing's cut height
+    (:func:`landing_cut_height`).
 
     The table's uphill angle changes where the uphill foot touches, so the speed is computed
     again with that angle and the cell looked up again (the angle varies with the slope only,
     so the second lookup settles it).
     """
-    speed = expected_impact_speed(descent_mps, cut_height_m, slope_deg, geom, None, cut)
+    h = landing_cut_height(cut_height_m, descent_mps, slope_deg, geom, None)
+    speed = expected_impact_speed(descent_mps, h, slope_deg, geom, None, cut)
     preset = choose_leg_preset(slope_deg, speed, table, pilot, calibration)
     if preset.angle_up_deg is not None:
-        speed = expected_impact_speed(descent_mps, cut_height_m, slope_deg, geom, preset.angle_up_deg, cut)
+        h = landing_cut_height(cut_height_m, descent_mps, slope_deg, geom, preset.angle_up_deg)
+        speed = expected_impact_speed(descent_mps, h, slope_deg, geom, preset.angle_up_deg, cut)
         preset = choose_leg_preset(slope_deg, speed, table, pilot, calibration)
     return preset, speed
 

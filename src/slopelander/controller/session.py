@@ -21,7 +21,14 @@ from pathlib import Path
 from typing import IO
 
 from slopelander.controller.config import Config
-from slopelander.controller.landing import LegPreset, cut_dynamics, leg_geometry, plan_landing
+from slopelander.controller.landing import (
+    LegPreset,
+    contact_range,
+    cut_dynamics,
+    landing_cut_height,
+    leg_geometry,
+    plan_landing,
+)
 from slopelander.controller.link import LANDING_MESSAGES, AutopilotInfo, Link, mavlink
 from slopelander.controller.rc_presets import preset_for
 from slopelander.controller.runner import Lander
@@ -250,7 +257,7 @@ class Session:
             sink = _Tee(self._transitions, record)
         self.lander = Lander(
             self.link,
-            cfg or self.cfg,
+            self.landing_config(cfg or self.cfg, slope_deg, angle),
             torques,
             legs=self.legs,
             record=sink,
@@ -261,6 +268,28 @@ class Session:
             slope_bound_deg=None if slope is None else slope.bound_deg,
         )
         return self.lander
+
+    def landing_config(
+        self, cfg: Config, slope_deg: float | None, uphill_angle_deg: float | None, *, say: bool = True
+    ) -> Config:
+        """``cfg`` with the landing's cut height (:func:`landing_cut_height`): raised, and said
+        (``say``), where the uphill foot would touch the roof before the motors stop. A landing not
+        told its slope keeps the configured cut."""
+        set_m = cfg["reflex.cut_height_m"]
+        if slope_deg is None:
+            return cfg
+        geom = leg_geometry()
+        cut = landing_cut_height(set_m, cfg["descent.rate_mps"], slope_deg, geom, uphill_angle_deg)
+        if cut <= set_m:
+            return cfg
+        touch = contact_range(slope_deg, geom, uphill_angle_deg)
+        if say:
+            self.echo(
+                f"cut height raised from {set_m:.2f} to {cut:.2f} m: on the {slope_deg:.1f} deg roof the "
+                f"uphill foot touches at a range of {touch:.2f} m"
+            )
+        why = f"cut raised for a {slope_deg:.1f} deg roof"
+        return cfg.with_values({"reflex": {"cut_height_m": cut}}, why)
 
     def hand_to_loiter(self, wait_s: float = 3.0) -> bool:
         """Stop where the vehicle is: a zero-velocity setpoint first (a survey pass's target
