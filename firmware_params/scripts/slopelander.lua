@@ -35,7 +35,9 @@ local VERSION = 8 -- 2: a refresh during RVT sets its duration (the companion en
 -- 7: ARMED cuts on the descent reckoned from the last trusted reading when no reading has agreed
 --    with it for RECKON.AFTER_MS within RECKON.WINDOW_M of the cut height (a dropout, a spike).
 -- 8: a reading that stopped moving (RECKON.STILL_M) is silence for the reckoning (a stuck sensor);
---    the impact is a push up the body (IMPACT.UP): an accelerometer reading down is not the roof.
+--    the impact is a push up the body (IMPACT.UP): an accelerometer reading down is not the roof;
+--    a glitch against a chain at the cut height does not hide the impact (RECKON.ground); a false
+--    cut is released only while the vehicle falls freely.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
@@ -563,6 +565,14 @@ function RECKON.near()
   return reflex.reckoned == true and not (chain.moved_at > entered_ms and chain.d > reflex.cut_m)
 end
 
+-- the impact's ground evidence: near (above), or the newest sample one the chain sets aside (a
+-- glitch) while the chain reads the cut height or less. A 0.49 s spike reading 1.19 m began 0.05 s
+-- before the feet met a 7 deg roof and hid the impact; at the bound the spike read as a false cut
+-- and the motors were given back on the roof (soak at 7425eb6, landing 64).
+function RECKON.ground()
+  return RECKON.near() or (chain.disagree ~= nil and chain.d ~= nil and chain.d <= reflex.cut_m)
+end
+
 -- the reflex: cut on a trusted range at or below the cut height, reverse at impact; ``d`` is
 -- this update's sample on the chain (nil: none, untrusted, or a glitch)
 local function run_reflex(t, fresh, d)
@@ -603,7 +613,7 @@ local function run_reflex(t, fresh, d)
     if t - entered_ms >= RISE_AFTER_MS then
       threshold = math.min(threshold, floor_a + reflex.impact - GRAVITY)
     end
-    if near and a > threshold and -av:z() > IMPACT.UP then
+    if (near or RECKON.ground()) and a > threshold and -av:z() > IMPACT.UP then
       enter(RVT, t)
     elseif t - entered_ms > reflex.bound_ms then
       local far = not near
@@ -615,7 +625,9 @@ local function run_reflex(t, fresh, d)
         if t - entered_ms > reflex.bound_ms + MS.FALL_WAIT then
           enter(HOLD, t, "no impact seen, holding motors stopped")
         end
-      elseif far then
+      elseif far and a < LEAVE.FALL_SUPPORT then
+        -- falling freely with the ground far below: a false cut. Carried by something (a >= 0.5 g,
+        -- the motors long stopped) it stands on the roof, whatever the range says: HOLD
         release(t, "false cut, motors released")
       else
         enter(HOLD, t, "no impact seen, holding motors stopped")

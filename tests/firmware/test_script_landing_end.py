@@ -196,6 +196,7 @@ def test_a_false_cut_gives_the_motors_back_at_once(bench: Bench) -> None:
     bound) clears it at once, and the autopilot flies the vehicle."""
     cut_now(bench)
     bench.io.range = good(0.8)
+    bench.io.accel_body = (0.0, 0.0, -0.3)  # falling freely: nothing under it
     for _ in range(600):
         bench.run(1)
         if bench.io.state() == ScriptState.IDLE:

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from script_bench import Bench
-from test_script_reflex import ARMED, BOUND_MS, CUT, CUT_M, HOLD, IDLE, RVT, arm, good
+from test_script_reflex import ARMED, BOUND_MS, CUT, CUT_M, HOLD, IDLE, RVT, arm, cut_now, good
 
 from slopelander_sitl.vehicle.scripting import RangeReading
 
@@ -117,6 +117,7 @@ def test_a_reckoned_cut_that_trusted_readings_contradict_is_released(bench: Benc
     assert cut is not None
     bench.io.velocity = (0.0, 0.0, 0.0)
     bench.io.range = good(0.5)
+    bench.io.accel_body = (0.0, 0.0, -0.3)  # nothing under it: falling freely
     bench.run(cut[0] + BOUND_MS + 10 - bench.io.now_ms)
     assert bench.io.state() == IDLE
     assert "SL: false cut, motors released" in bench.io.sl_texts()
@@ -226,3 +227,31 @@ def test_an_accelerometer_spike_pointing_down_the_body_is_no_impact(bench: Bench
     bench.io.accel_body = (8.0, 0.0, -40.0)  # the feet on the roof
     bench.run(5)
     assert bench.io.state() == RVT
+
+
+def test_a_high_spike_at_the_touchdown_hides_neither_the_impact_nor_the_roof(bench: Bench) -> None:
+    """Soak landing 64 at 7425eb6: a 0.49 s spike reading 1.19 m began 0.05 s before the feet met a
+    7 deg roof. The newest sample read far, so the impact was not taken, and at the bound the
+    spike read as a false cut: the motors were given back on the roof. A glitch against a chain at
+    the cut height is no evidence of height (contract 8)."""
+    cut_now(bench)  # the range at 0.2 m, on the chain
+    bench.io.accel_body = (0.0, 0.0, -0.3)
+    bench.run(60)
+    bench.io.range = good(1.19)  # the spike
+    bench.run(50)
+    bench.io.accel_body = (3.0, 0.0, -40.0)  # the feet on the roof
+    bench.run(5)
+    assert bench.io.state() == RVT
+
+
+def test_a_carried_vehicle_is_held_whatever_a_spike_reads_at_the_bound(bench: Bench) -> None:
+    """No impact seen (a soft touchdown), and the range spiking far at the bound: the vehicle is
+    carried (1 g with the motors long stopped), so it stands on the roof: HOLD, not a release."""
+    cut_now(bench)
+    bench.io.accel_body = (0.0, 0.0, -9.81)
+    bench.run(100)
+    bench.io.range = good(1.19)
+    cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
+    bench.run(cut_at + BOUND_MS + 10 - bench.io.now_ms)
+    assert bench.io.state() == HOLD
+    assert "SL: false cut, motors released" not in bench.io.sl_texts()

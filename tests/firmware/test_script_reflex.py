@@ -384,6 +384,7 @@ def test_a_cut_falling_past_its_wait_holds(bench: Bench) -> None:
 def test_missed_impact_in_the_air_releases(bench: Bench) -> None:
     cut_now(bench)
     bench.io.range = good(0.8)  # the vehicle is not on the ground: the cut was false
+    bench.io.accel_body = (0.0, 0.0, -0.3)  # ...and falls freely
     cut_at = next(t for t, n, v in bench.io.named if n == "SL_STATE" and v == CUT)
     bench.run(cut_at + BOUND_MS + 5 - bench.io.now_ms)
     assert bench.io.state() == IDLE
