@@ -250,6 +250,12 @@ class Flight:
     def states(self) -> list[str]:
         return [h["to"] for h in self.history]
 
+    @property
+    def story(self) -> str:
+        """The transitions on one line, every reason whole, for an assertion's message (a repr of
+        the history is cut short by pytest, and with it the reason a landing went wrong)."""
+        return " | ".join(f"{h['t']:.2f} {h['to']}: {h['reason']}" for h in self.history)
+
     def time_of(self, state: str) -> float | None:
         for h in self.history:
             if h["to"] == state:

@@ -123,7 +123,7 @@ def assert_held_sliding(rig: Rig, flight: Flight, source: str) -> None:
     """A landing that ended SETTLED (the rig ends the hold after ``slopelander_sitl.rig.HELD_S``): the vehicle
     slid after the thrust and is held on the roof, armed, motors stopped, the pilot told; neither
     disarmed nor handed back."""
-    assert flight.states == SEQUENCE[:-1], (flight.history, source)
+    assert flight.states == SEQUENCE[:-1], (flight.story, source)
     assert "slide" in flight.lander.ctx.marks.get("said", set()), (flight.lander.ctx.marks, source)
     assert rig.armed() and rig.link.script_state == 13  # the script's HOLD
     assert not any("disarm" in h["reason"] and "not disarmed" not in h["reason"] for h in flight.history)
@@ -135,7 +135,7 @@ def check_against_the_model(rig: Rig, fall_m: float, timeout_s: float = 90.0) ->
     if flight.end == "SETTLED":  # a slide after the thrust: held on the roof, not handed back
         assert_held_sliding(rig, flight, source)
     else:
-        assert flight.states == SEQUENCE, (flight.history, source)
+        assert flight.states == SEQUENCE, (flight.story, source)
     c = flight.contact
     assert c is not None
     assert abs(c["slope"] - rig.slope_deg) < 1e-6
@@ -223,7 +223,7 @@ class TestRoof45:
 
     def test_a_slow_landing_rests_under_reverse_thrust_and_stays_when_it_ramps_down(self, rig):
         flight, source = fly(rig, 0.1)
-        assert flight.contact is not None and flight.states == SEQUENCE, (flight.history, source)
+        assert flight.contact is not None and flight.states == SEQUENCE, (flight.story, source)
         predicted = simulate(flight.model_conditions()).result
         assert model_class(predicted.outcome) == "landed", predicted.summary()
         cfg = flight.cfg
@@ -242,7 +242,7 @@ class TestRoof45:
     def test_ended_as_a_step_the_same_landing_rests_and_slides_once_it_stops(self, rig):
         flight, source = fly(rig, 0.1, ROOF45_TIMEOUT_S, reverse_ramp_ms=0)
         c = flight.contact
-        assert c is not None and flight.end in ("LANDED", "SETTLED"), (flight.history, source)
+        assert c is not None and flight.end in ("LANDED", "SETTLED"), (flight.story, source)
         held = simulate(flight.model_conditions("held")).result
         assert model_class(held.outcome) == "landed", held.summary()  # the maps: held by the thrust
         cond = flight.model_conditions()
