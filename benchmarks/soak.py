@@ -567,7 +567,11 @@ class Soak:
                             rig.legs is not None and rig.legs.status is not None) else None  # fmt: skip
                         lander.takeoff_request = True
                         took_off = True
-                    elif name in ("ABORTED", "ESTOP", "READY") and self.forever_until is None:
+                    elif (
+                        name in ("ABORTED", "ESTOP", "READY")
+                        and self.forever_until is None
+                        and not lander.abort_settling()  # as Lander.run: the script may still cut
+                    ):
                         end = name
                         break
                     elif name == "LANDED" and lander.ctx.marks.get("takeoff_refused"):

@@ -370,6 +370,15 @@ class Lander:
             Aborted.ask_loiter(self.ctx, self.inputs())
         return name
 
+    def abort_settling(self) -> bool:
+        """Whether the landing is ABORTED but the abort still holds the reflex (until the vehicle
+        climbs or holds) or rises before LOITER: not over yet, as the script may still cut
+        (ABORTED -> CUT, "landing on"); :meth:`run` goes on polling then, for at most
+        :data:`ABORT_SETTLE_S`."""
+        if self.machine.name != "ABORTED":
+            return False
+        return bool(self.ctx.marks.get("abort_pending") or Aborted.rising(self.ctx))
+
     def run(
         self,
         timeout_s: float,
@@ -398,8 +407,7 @@ class Lander:
             started = time.monotonic()
             name = self.poll()
             if self.machine._started and name in until:
-                holding = self.ctx.marks.get("abort_pending") or Aborted.rising(self.ctx)
-                pending = name == "ABORTED" and holding
+                pending = self.abort_settling()
                 aborted_at = aborted_at if aborted_at is not None else time.monotonic()
                 if not pending or time.monotonic() - aborted_at > ABORT_SETTLE_S:
                     return self._ended(name)
