@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from slopelander.controller.states.base import Context, Inputs, State, hand_to_loiter
-from slopelander.controller.states.takeoff import height_over_slope
+from slopelander.controller.states.takeoff import height_over_roof
 
 #: While the legs loosen the vehicle hovers in GUIDED, which holds the autopilot's height estimate,
 #: not the height over the roof. An estimate upset on the roof (soak on ArduCopter at ea848b5,
@@ -18,16 +18,6 @@ RESEND_S = 0.1
 #: READY needs the height held: no reading under the clear height less SINK_M for this long.
 #: Not held by ``legs.ready_timeout_s`` after RESET began: handed to LOITER with the reason.
 HELD_S = 1.0
-
-
-def height_over_roof(ctx: Context, inp: Inputs) -> float | None:
-    """The height over the roof a valid, level reading guarantees (:func:`height_over_slope`), or
-    None (no reading, or the body too tilted for the beam to say)."""
-    cfg = ctx.cfg
-    if not inp.range_valid or inp.tilt_deg is None or inp.tilt_deg > cfg["takeoff.max_tilt_deg"]:
-        return None
-    slope = ctx.slope_deg if ctx.slope_deg is not None else cfg["takeoff.unknown_slope_deg"]
-    return height_over_slope(inp.range_m, inp.tilt_deg, slope)
 
 
 class Reset(State):

@@ -69,6 +69,20 @@ def height_over_slope(range_m: float, tilt_deg: float, slope_deg: float) -> floa
     return range_m * c / math.cos(a)
 
 
+def landing_slope(ctx: Context) -> float:
+    """The slope (deg) a range is read over: the landing's, else ``takeoff.unknown_slope_deg``."""
+    return ctx.slope_deg if ctx.slope_deg is not None else ctx.cfg["takeoff.unknown_slope_deg"]
+
+
+def height_over_roof(ctx: Context, inp: Inputs) -> float | None:
+    """The height over the roof a valid reading taken with the body level (within
+    ``takeoff.max_tilt_deg``) guarantees (:func:`height_over_slope`, over :func:`landing_slope`),
+    or None: no valid reading, or the body too tilted for the beam to say."""
+    if not inp.range_valid or inp.tilt_deg is None or inp.tilt_deg > ctx.cfg["takeoff.max_tilt_deg"]:
+        return None
+    return height_over_slope(inp.range_m, inp.tilt_deg, landing_slope(ctx))
+
+
 def roof_of(ctx: Context, inp: Inputs) -> tuple[float | None, float | None, float | None]:
     """The roof the take-off leaves (:func:`~slopelander.controller.roof.roof_plane`): the
     survey's plane, else the landing's slope along the heading the vehicle had when the take-off
@@ -217,13 +231,8 @@ class Takeoff(State):
         m["takeoff_disagree"] = None
         m["takeoff_range"] = (inp.t, inp.range_m)
         cfg = ctx.cfg
-        level = inp.tilt_deg is not None and inp.tilt_deg <= cfg["takeoff.max_tilt_deg"]
-        if not level:
-            m["takeoff_clear"] = None
-            return None
-        slope = ctx.slope_deg if ctx.slope_deg is not None else cfg["takeoff.unknown_slope_deg"]
-        height = height_over_slope(inp.range_m, inp.tilt_deg, slope)
-        if height < cfg["takeoff.clear_height_m"]:
+        height = height_over_roof(ctx, inp)
+        if height is None or height < cfg["takeoff.clear_height_m"]:
             m["takeoff_clear"] = None
             return None
         if m.get("takeoff_clear") is None:
@@ -239,7 +248,7 @@ class Takeoff(State):
             rise = self._rise(ctx, inp)
             return (
                 "RESET",
-                f"clear of the ground at {height:.2f} m over the {slope:g} deg slope "
+                f"clear of the ground at {height:.2f} m over the {landing_slope(ctx):g} deg slope "
                 f"(range {inp.range_m:.2f} m, tilt {inp.tilt_deg:.0f} deg, climbed {rise:.2f} m)",
             )
         return None
