@@ -124,6 +124,9 @@ class LegPlant:
         self.erratic = False  # a gear that skips teeth under load
         self.grip = False  # disks whose grip differs from one clamp to the next
         self.grip_factor = 1.0
+        # its own stream, drawn once a clamp (the nut reaching the stack): the same grips in the
+        # same order however the board's clock and the sensor noise interleave
+        self.grip_draws = Noise(1000 + index)
         # the calibration bench (docs/legs-build.md): a mass on a lever, a peg, the spring off
         self.load_nm = 0.0
         self.peg = False
@@ -197,15 +200,16 @@ class LegPlant:
             w_new = 0.0
             if self.erratic and s > 0 and force > 5.0:  # the gear skips back under the load
                 self.travel -= p.gear_skip * noise.uniform() * force / p.stack_stiffness
-            if self.grip and s > 0:  # the disks settle differently at every clamp
-                self.grip_factor = 1.0 - p.grip_scatter * noise.uniform()
         else:
             turn = w_inf * dt + (w - w_inf) * tau * (1.0 - decay)
         self.omega = w_new
         self.motor_rad += turn
         self.current = self.volts / p.r_short if self.shorted else (v - k * w_new) / r
         if not self.slip:
+            before = self.travel
             self.travel += turn / (p.gear_ratio * 2.0 * math.pi) * p.screw_pitch
+            if self.grip and before <= p.clearance < self.travel:  # the disks settle anew each clamp
+                self.grip_factor = 1.0 - p.grip_scatter * self.grip_draws.uniform()
             if self.travel <= 0.0:  # the back stop
                 self.travel = 0.0
                 self.omega = 0.0
