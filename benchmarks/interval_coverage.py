@@ -11,7 +11,11 @@ integrator, motion-capture noise), where the only error is noise. ``--truth inde
 from the independent truth simulator (``slopelander.ident.truth``: solve_ivp, its own
 motion-capture model), where part of the residual is model error, as in real data.
 
+``--latency`` sets the model truth's recording lag (its t = 0 is the true contact, its frames
+show the body that long before); ``--align-ms`` fits each drop's clock within that window.
+
 Usage: python benchmarks/interval_coverage.py [--truth model|independent] [--seeds 20] [--drops 8]
+       [--latency S] [--align-ms MS]
 """
 
 from __future__ import annotations
@@ -50,10 +54,25 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=0.6)
     ap.add_argument("--cma-evals", type=int, default=60)
     ap.add_argument("--ls-evals", type=int, default=15)
+    ap.add_argument(
+        "--latency",
+        type=float,
+        default=NoiseModel().latency,
+        help="s the model-truth recording lags the true contact (default the noise model's)",
+    )
+    ap.add_argument(
+        "--align-ms",
+        type=float,
+        default=None,
+        help="fit each drop's clock within +- this many ms (Identifier align_s; default: none)",
+    )
     args = ap.parse_args()
     one, five, _ = os.getloadavg()
     print(
-        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: interval coverage, load {one:.1f}/{five:.1f}"
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: interval coverage, "
+        f"load {one:.1f}/{five:.1f}, truth {args.truth}"
+        + (f", recording latency {args.latency * 1e3:g} ms" if args.truth == "model" else "")
+        + (f", clocks aligned within +-{args.align_ms:g} ms" if args.align_ms is not None else "")
     )
     model = Model.default()
     truth = model.with_params(**TRUTH)
@@ -63,13 +82,21 @@ def main() -> int:
     held = {k: dict.fromkeys(TRUTH, 0) for k in kinds}
     for seed in range(args.seeds):
         if args.truth == "model":
-            drops = synthesize(truth, conds, NoiseModel(), seed=seed, duration=args.duration)
+            drops = synthesize(
+                truth, conds, NoiseModel(latency=args.latency), seed=seed, duration=args.duration
+            )
         else:
             from slopelander.ident.truth.dataset import truth_dataset
 
             drops = truth_dataset(truth, conds, seed=seed, duration=args.duration, cache=cache)
         ident = Identifier(
-            model, list(TRUTH), cma_evals=args.cma_evals, ls_evals=args.ls_evals, workers=1, seed=seed
+            model,
+            list(TRUTH),
+            cma_evals=args.cma_evals,
+            ls_evals=args.ls_evals,
+            workers=1,
+            seed=seed,
+            align_s=None if args.align_ms is None else args.align_ms / 1e3,
         )
         r = ident.fit(drops).result_
         half = {"sandwich": r.ci95, "jackknife": ident.jackknife_ci95(drops)}

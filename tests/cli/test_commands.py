@@ -76,6 +76,7 @@ CONCEPTS: dict[str, tuple[str, set[str]]] = {
     "the local search's budget": ("--ls-evals", SEARCH),
     "the global search method": ("--optimizer", SEARCH),
     "how the 95 % intervals are made": ("--intervals", {"fit", "diagnose"}),
+    "each drop's clock window": ("--align-ms", SEARCH | {"compare"}),
     "the grid's slope step": ("--slope-step", SWEEP),
     "the grid's speed step": ("--speed-step", SWEEP),
     "continuous torques": ("--refine", SWEEP),

@@ -230,7 +230,7 @@ def test_a_recordings_first_and_last_rates_are_centred_as_the_models_are(model):
     difference there (window 3) or the first window's slope: its rates at the edges then
     differed from the recording's central differences by half a frame of acceleration (z rate
     0.025 m/s in flight at 200 Hz), and the noise floor counted twice the noise there."""
-    from slopelander.ident.compare import predict
+    from slopelander.ident.observe import predict
     from slopelander.ident.recording import Drop
     from slopelander.ident.synth import true_states
     from slopelander.model import LandingConditions

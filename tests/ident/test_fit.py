@@ -17,6 +17,7 @@ from slopelander.ident.fit import (
     subsets,
 )
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+from slopelander.model import Model
 
 
 def test_default_is_the_papers_seven_the_model_has(model):
@@ -203,3 +204,43 @@ def test_a_jackknife_whose_refits_never_moved_says_its_intervals_understate(mode
     res = r.fit(drops).result_
     assert res.ci95["friction_kinetic"] == 0.0
     assert any(w.startswith("jackknife: 4 of 4 refits") for w in res.warnings), res.warnings
+
+
+TRUTH_KG_MU = {"ground_stiffness": 3.0e4, "friction_kinetic": 0.65}
+
+
+def _noisy_drops(seed: int, latency: float = 0.002):
+    truth = Model.default().with_params(**TRUTH_KG_MU)
+    noise = NoiseModel(latency=latency)
+    return synthesize(truth, paper_drops(8, seed=7), noise, seed=seed, duration=0.6)
+
+
+def test_the_polish_steps_over_a_kink_least_squares_stopped_at(model):
+    """Noise seed 7 of benchmarks/interval_coverage.py: least squares from CMA-ES's point ended
+    at k_g 28,649 at a kink (the trust region shrank to nothing there) with a cost 15 % above
+    the truth's; the simplex over the kinks goes on to a point whose cost is below the truth's
+    (the noise's own optimum, k_g about 31,400)."""
+    drops = _noisy_drops(7)
+    res = (
+        Identifier(model, list(TRUTH_KG_MU), cma_evals=60, ls_evals=15, workers=1, seed=7).fit(drops).result_
+    )
+    prob = Problem(model, drops, res.params, res.ranges)
+    at_truth = prob.cost([p.unit(TRUTH_KG_MU[p.name]) for p in res.params])
+    assert res.cost < at_truth, (res.values, res.cost, at_truth)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_sandwich_holds_the_truth_where_the_kinks_made_it_narrow(model, seed):
+    """Drops of the model's own landings with noise and no time offset: at the polish's 1e-3
+    step the sandwich's k_g widths were +-122, +-406 and +-66 N/m on these seeds, the fits
+    284-529 N/m off the truth; read at INTERVAL_STEP they hold it (over 20 seeds: 20 of 20)."""
+    drops = _noisy_drops(seed, latency=0.0)
+    res = (
+        Identifier(model, list(TRUTH_KG_MU), cma_evals=60, ls_evals=15, workers=1, seed=seed)
+        .fit(drops)
+        .result_
+    )
+    for name, truth in TRUTH_KG_MU.items():
+        assert abs(res.values[name] - truth) <= res.ci95[name], (name, res.values[name], res.ci95[name])
+    # and they are intervals, not the whole range: under a tenth of the value
+    assert res.ci95["ground_stiffness"] < 3.0e3 and res.ci95["friction_kinetic"] < 0.065

@@ -7,7 +7,15 @@ import json
 import math
 from pathlib import Path
 
-from slopelander.commands.ident_options import IdentCliError, add_model_options, build_model, count, plain
+from slopelander.commands.ident_options import (
+    IdentCliError,
+    add_align_option,
+    add_model_options,
+    align_s,
+    build_model,
+    count,
+    plain,
+)
 from slopelander.commands.options import renamed
 from slopelander.outputs import check_output, check_output_dir
 
@@ -42,6 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="FILE",
         help="also write the figures as JSON (for a log: every landing's)",
     )
+    add_align_option(p)
     g = p.add_argument_group("flight log (docs/flight-logs.md)")
     g.add_argument("--landing", type=count(1), metavar="N", help="only the log's N-th landing")
     g.add_argument("--slope", type=float, metavar="DEG", help="the roof's slope, instead of the log's")
@@ -70,13 +79,15 @@ def run(args: argparse.Namespace) -> int:
         )
     check_output_dir(args.out, "--out")
     check_output(args.json, "--json")
+    from slopelander.ident.clocks import align_windows
     from slopelander.ident.compare import compare
     from slopelander.ident.recording import STATES, load_dataset
     from slopelander.ident.report import write_report
 
+    window = align_s(args)
     drops = load_dataset(args.dataset)
     model = build_model(args)
-    c = compare(model, drops)
+    c = compare(model, drops, align=align_windows(drops, window))
     ok, known = c.outcome_matches()
     print(f"NRMSE {c.nrmse:.4f} over {len(drops)} drops (angular states x2); outcomes match {ok}/{known}")
     print("  per state: " + ", ".join(f"{s} {v:.4f}" for s, v in zip(STATES, c.per_state, strict=True)))

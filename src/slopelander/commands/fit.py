@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import statistics
 from pathlib import Path
 
 from slopelander.commands.ident_options import (
@@ -87,11 +88,19 @@ def run(args: argparse.Namespace) -> int:
     print(sf.table())
     for w in sf.warnings():
         print(f"warning: {w}")
+    lags = [1e3 * lag for f in sf.fits for lag in f.lags.values()]
+    if lags:  # docs/ident.md, "Clocks"
+        print(
+            f"clocks: each drop observed at its best lag within its window, {min(lags):+.2f} to "
+            f"{max(lags):+.2f} ms (median {statistics.median(lags):+.2f}) over the fits"
+        )
+    from slopelander.ident.clocks import align_windows
     from slopelander.ident.compare import compare
 
     means = {n: m for n, (m, _) in sf.mean_sd().items()}
     fitted = model.with_params(**means)
-    before, after = compare(model, drops).nrmse, compare(fitted, drops).nrmse
+    clocks = align_windows(drops, ident.align_s)
+    before, after = compare(model, drops, align=clocks).nrmse, compare(fitted, drops, align=clocks).nrmse
     print(
         f"on all {len(drops)} drops: NRMSE {before:.4f} with the given model, "
         f"{after:.4f} with the fitted means"

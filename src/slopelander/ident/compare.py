@@ -7,87 +7,20 @@ by almost zero), and the states combined with the angular ones (pitch, pitch rat
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
-from slopelander.ident.mocap.rates import savgol_rates
+from slopelander.ident.clocks import align_windows, aligned
 from slopelander.ident.phases import PHASES, phase_labels
 from slopelander.ident.recording import STATES, Drop
-from slopelander.ident.synth import ballistic, centred_rates, extend
-from slopelander.model import LandingConditions, Model, Outcome, simulate
-from slopelander.model.landing import STATE_COLUMNS
+from slopelander.model import LandingConditions, Model, Outcome
 
 WEIGHTS = np.array([1.0, 1.0, 2.0, 1.0, 1.0, 2.0])
 """Per-state weights of the combined NRMSE: angular states count twice, as in the paper."""
 WINDOW = 0.05
 """s: length of the windows in which the residual's concentration is reported."""
-_COLUMNS = np.array(STATE_COLUMNS)
-
-
-def predict(model: Model, drop: Drop, *, outcome: bool = True) -> tuple[np.ndarray, Outcome | None]:
-    """The model's states at the drop's sample times (free flight before contact) and, with
-    ``outcome``, its predicted outcome over the model's full horizon. When the recording's rates
-    were differentiated from its positions, the model's are too, the same way."""
-    h = (drop.rate_window or 0) // 2
-    t = extend(drop.t, h)  # a recording's rates are centred on its first and last samples too
-    horizon = float(t[-1]) + 0.01
-    if outcome:
-        horizon = max(horizon, model.criteria.horizon)
-    tr = simulate(drop.conditions, _with_horizon(model, horizon), sample_rate=400.0, full_horizon=True)
-    raw = tr.raw  # the states' columns read straight from it (tr.states would copy them first)
-    tc = np.clip(t, 0, None)
-    after = np.empty((len(t), 6))
-    for i, c in enumerate(STATE_COLUMNS):
-        after[:, i] = np.interp(tc, tr.t, raw[:, c])
-    if tr.t[-1] < t[-1] - 1e-9:  # the integrator stopped early: hold its last state
-        after[t > tr.t[-1]] = raw[-1, _COLUMNS]
-    pre = t < 0
-    if pre.any():
-        z0 = float(raw[0, STATE_COLUMNS[1]])
-        after[pre] = _flight(drop.conditions, t[pre], z0, model.params["gravity"])
-    if drop.rate_window:  # observe the model as the recording was observed
-        rates = centred_rates(after[:, :3], t, drop.rate_window)
-        after = after[h : len(t) - h]
-        after[:, 3:] = rates
-    elif drop.savgol:
-        after[:, 3:] = savgol_rates(after[:, :3], drop.savgol[2], *drop.savgol[:2])
-    return after, (tr.result.outcome if outcome else None)
-
-
-_FLIGHTS: dict[tuple, tuple[LandingConditions, np.ndarray]] = {}
-_FLIGHTS_MAX = 1024
-
-
-def _flight(cond: LandingConditions, t: np.ndarray, z0: float, gravity: float) -> np.ndarray:
-    """:func:`ballistic`, kept per conditions, times, start height and gravity (exact values):
-    a fit changes neither the drops nor, mostly, the vehicle's height at impact."""
-    key = (id(cond), t.dtype.str, t.tobytes(), float(z0).hex(), float(gravity).hex())
-    hit = _FLIGHTS.get(key)
-    if hit is None or hit[0] is not cond:
-        hit = (cond, ballistic(cond, t, z0, gravity))
-        hit[1].setflags(write=False)
-        if len(_FLIGHTS) >= _FLIGHTS_MAX:
-            _FLIGHTS.clear()
-        _FLIGHTS[key] = hit
-    return hit[1]
-
-
-_variant: tuple[Model, str, Model] | None = None
-"""The last (model, horizon as its exact hex, model with that horizon): a fit predicts every
-drop of a set with one model, and the drops mostly share their length."""
-
-
-def _with_horizon(model: Model, horizon: float) -> Model:
-    """``model`` simulated to ``horizon`` s after impact (the same copy for the same model)."""
-    global _variant
-    v = _variant
-    exact = float(horizon).hex()
-    if v is not None and v[0] is model and v[1] == exact:
-        return v[2]
-    m = replace(model, criteria=replace(model.criteria, horizon=horizon))
-    _variant = (model, exact, m)
-    return m
 
 
 def state_ranges(drops: list[Drop]) -> np.ndarray:
@@ -130,6 +63,8 @@ class DropComparison:
     observed: Outcome | None
     predicted: Outcome | None
     conditions: LandingConditions
+    lag: float = 0.0
+    """s: the recording's clock against the model's, as aligned (0 when not)."""
 
     @property
     def nrmse(self) -> float:
@@ -220,8 +155,9 @@ class Comparison:
         return sum(bool(d.outcome_match) for d in known), len(known)
 
 
-def compare_drop(model: Model, drop: Drop, ranges: np.ndarray) -> DropComparison:
-    sim, outcome = predict(model, drop)
+def compare_drop(model: Model, drop: Drop, ranges: np.ndarray, align: float = 0.0) -> DropComparison:
+    """One drop's comparison; ``align``: its clock's window (:func:`align_windows`)."""
+    sim, outcome, lag = aligned(model, drop, align, np.sqrt(WEIGHTS) / ranges, outcome=True)
     labels = phase_labels(drop.t, drop.states[:, 4], drop.states[:, 3], drop.conditions.slope_deg)
     err = (sim - drop.states) / ranges
     contact = drop.t >= 0
@@ -238,12 +174,20 @@ def compare_drop(model: Model, drop: Drop, ranges: np.ndarray) -> DropComparison
         drop.outcome,
         outcome,
         drop.conditions,
+        lag,
     )
 
 
-def compare(model: Model, drops: list[Drop], ranges: np.ndarray | None = None) -> Comparison:
-    """Simulate every drop with ``model`` and measure the error against the recording."""
+def compare(
+    model: Model,
+    drops: list[Drop],
+    ranges: np.ndarray | None = None,
+    align: Sequence[float] | None = None,
+) -> Comparison:
+    """Simulate every drop with ``model`` and measure the error against the recording.
+    ``align``: each drop's clock window (s; default :func:`align_windows`' own)."""
     if not drops:
         raise ValueError("no drops to compare")
     ranges = state_ranges(drops) if ranges is None else ranges
-    return Comparison([compare_drop(model, d, ranges) for d in drops], ranges)
+    align = align_windows(drops) if align is None else align
+    return Comparison([compare_drop(model, d, ranges, w) for d, w in zip(drops, align, strict=True)], ranges)

@@ -40,6 +40,7 @@ from slopelander.ident.fit import (
     effect_of,
     make_param,
     resolve_params,
+    windows,
 )
 from slopelander.ident.optimizers import CMA
 from slopelander.ident.recording import STATES, Drop
@@ -514,6 +515,7 @@ def screen(
     base_params: list[FitParam],
     ranges: np.ndarray,
     bounds: dict[str, tuple[float, float]],
+    align: list[float] | None = None,
 ) -> dict[str, Screening]:
     """Cheap signature test: switch each candidate on (a tenth of its range from "off", or at
     the centre of its bounds) and measure how much more of the base residual a least-squares
@@ -521,12 +523,12 @@ def screen(
     directions alone (linearised: a secant per direction), and on which drops it acts. Also
     checks that the candidate at its neutral values is the base model. Two simulations per
     candidate and drop, and one per base parameter and drop."""
-    base_prob = Problem(base_model, drops, [], ranges)
+    base_prob = Problem(base_model, drops, [], ranges, align)
     r = base_prob.residuals([])
     rr = float(r @ r)
     # what re-tuning the base's own parameters could remove (linearised): a candidate earns
     # only what it removes beyond that, as in its refit, where the base parameters move too
-    tuned = Problem(base_model, drops, base_params, ranges)
+    tuned = Problem(base_model, drops, base_params, ranges, align)
     u0 = np.array([p.unit(base_model.parameter(p.name)) for p in base_params])
     cols = []
     for i in range(len(base_params)):
@@ -547,7 +549,7 @@ def screen(
     out = {}
     for c in cands:
         params = candidate_params(base_model, c, [], bounds)
-        prob = Problem(c.add_to(base_model), drops, params, ranges)
+        prob = Problem(c.add_to(base_model), drops, params, ranges, align)
         # a small step from "off" where the effect has an off value, else the bounds' centre
         off = neutral_values(c)
         u = [min(1.0, p.unit(off[p.name]) + 0.1) if p.name in off else 0.5 for p in params]
@@ -607,14 +609,14 @@ def fold_splits(
 
 
 def _heldout(
-    fits: list[FitResult], splits, drops: list[Drop], ranges: np.ndarray
+    fits: list[FitResult], splits, drops: list[Drop], ranges: np.ndarray, align: list[float]
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per drop: NRMSE and weighted MSE predicted by the fits that did not see it (averaged
-    over repeats)."""
+    over repeats), each drop's clock aligned within its window ``align``."""
     n = len(drops)
     nrmse, mse, count = np.zeros(n), np.zeros(n), np.zeros(n)
     for f, (_, held) in zip(fits, splits, strict=True):
-        c = compare(f.model, [drops[i] for i in held], ranges)
+        c = compare(f.model, [drops[i] for i in held], ranges, [align[i] for i in held])
         for i, dc in zip(held, c.drops, strict=True):
             nrmse[i] += dc.nrmse
             mse[i] += weighted_mse(dc.per_state)
@@ -649,7 +651,7 @@ class CrossFit:
         return one.fit([self.drops[i] for i in tr], [self.drops[i] for i in va]).result_  # type: ignore[return-value]
 
     def heldout(self, fits: list[FitResult]) -> tuple[np.ndarray, np.ndarray]:
-        return _heldout(fits, self.splits, self.drops, self.ranges)
+        return _heldout(fits, self.splits, self.drops, self.ranges, windows(self.drops, self.search.align_s))
 
 
 def _base_and_control(cf: CrossFit) -> tuple[list[FitResult], list[FitResult]]:
@@ -795,7 +797,7 @@ def diagnose(
     )
     base, control = _base_and_control(cf)
     base_nrmse, base_mse = cf.heldout(control)
-    scr = screen(control[0].model, drops, cands, base_params, ranges, bounds)
+    scr = screen(control[0].model, drops, cands, base_params, ranges, bounds, windows(drops, ident.align_s))
     results = [_screened(c, scr[c.name]) for c in sorted(cands, key=lambda c: -scr[c.name].share)]
     for res in results[: len(results) if refits is None else max(0, refits)]:
         _refit_candidate(cf, res, base, control)

@@ -26,8 +26,9 @@ from itertools import product
 
 import numpy as np
 
-from slopelander.ident.compare import WEIGHTS, combine, masked_rms, predict
+from slopelander.ident.compare import WEIGHTS, combine, masked_rms
 from slopelander.ident.mocap.rates import savgol_rates
+from slopelander.ident.observe import predict
 from slopelander.ident.recording import Drop
 from slopelander.ident.synth import centred_rates, extend
 from slopelander.model import Model

@@ -13,7 +13,7 @@ import numpy as np
 
 from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.diagnose import NEUTRAL, Candidate, candidate_params
-from slopelander.ident.fit import DEFAULT_BOUNDS, FitResult, Identifier, resolve_params, subsets
+from slopelander.ident.fit import DEFAULT_BOUNDS, FitResult, Identifier, resolve_params, subsets, windows
 from slopelander.ident.optimizers import Optimizer
 from slopelander.ident.recording import STATES, Drop
 from slopelander.model import Model
@@ -127,8 +127,10 @@ def run_steps(
     client=None,
     progress=None,
     optimizer: Optimizer | None = None,
+    align_s: float | None = None,
 ) -> Steps:
-    """Fit ``model``, then ``model`` + effects[0], + effects[1], ... re-identifying at each step."""
+    """Fit ``model``, then ``model`` + effects[0], + effects[1], ... re-identifying at each step
+    (``align_s``: each drop's clock window, :func:`~slopelander.ident.clocks.align_windows`)."""
     bounds = {**DEFAULT_BOUNDS, **(bounds or {})}
     ranges = state_ranges(drops)
     splits = subsets(len(drops), repeats, seed=seed)
@@ -142,6 +144,7 @@ def run_steps(
         progress=progress,
         ls_evals=ls_evals,
         optimizer=optimizer,
+        align_s=align_s,
     )
     out: list[Step] = []
     prev: list[FitResult] = []
@@ -163,7 +166,8 @@ def run_steps(
             one = step.with_(seed=seed + k, start=prev[k].values if prev else None)
             fits.append(one.fit([drops[j] for j in tr], [drops[j] for j in va]).result_)
         comps = [
-            compare(f.model, [drops[j] for j in va], ranges) for f, (_, va) in zip(fits, splits, strict=True)
+            compare(f.model, [drops[j] for j in va], ranges, windows([drops[j] for j in va], step.align_s))
+            for f, (_, va) in zip(fits, splits, strict=True)
         ]
         per_state = np.mean([c.per_state for c in comps], axis=0)
         per_drop = np.array([d.nrmse for c in comps for d in c.drops])
