@@ -11,7 +11,7 @@ With ``--intervals jackknife`` the named candidate's intervals are the leave-one
 jackknife's; the last line says whether the printed interval holds the hidden value.
 
 Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction,normal_force,point_force}
-       [--seed 1] [--fit-mu-k] [--intervals sandwich|jackknife]
+       [--seed 1] [--fit-mu-k] [--intervals sandwich|jackknife] [--align-ms MS]
 """
 
 from __future__ import annotations
@@ -48,6 +48,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--fit-mu-k", action="store_true", help="fit friction_kinetic with the base parameters")
     ap.add_argument("--intervals", choices=("sandwich", "jackknife"), default="sandwich")
+    ap.add_argument(
+        "--align-ms", type=float, default=None, help="fit each drop's clock within +- this many ms"
+    )
     args = ap.parse_args()
     effects = {n: load_effects(p)[0] for n, p in FILES.items()}
     base = Model.default().without("downhill_torque_growth", "downhill_friction_growth")
@@ -72,10 +75,12 @@ def main() -> None:
         refit_evals=100,
         ls_evals=10,
         final_intervals=args.intervals,
+        align_s=None if args.align_ms is None else args.align_ms / 1e3,
     )
     print(
         f"hidden: {name} {param} = {value}; seed {args.seed}; base fits {', '.join(names)}; "
         f"{len(drops)} drops; {time.perf_counter() - t0:.0f} s"
+        + (f"; clocks aligned within +-{args.align_ms:g} ms" if args.align_ms is not None else "")
     )
     print(d.table())
     print(d.verdict())

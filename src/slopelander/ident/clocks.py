@@ -24,11 +24,7 @@ ALIGN_MAX_S = 0.05
 def align_windows(drops: Sequence[Drop], align_s: float | None = None) -> list[float]:
     """Each drop's alignment window (s): ``align_s`` for all, or by default
     :data:`ALIGN_SIGMAS` times the contact's standard deviation an imported take records
-    (``meta.quality.contact_sd_s``), 0 where none is recorded.
-
-    Why: t = 0 is the contact as the recording found it, and a few milliseconds matter: drops
-    whose frames lag it by 2 ms put a fitted k_g 4-6 % high in every one of 20 fits (the truth
-    outside every interval). Each drop's clock is a nuisance fitted within its window."""
+    (``meta.quality.contact_sd_s``), 0 where none is recorded (a simulator's drops)."""
     if align_s is not None:
         ok = isinstance(align_s, (int, float)) and not isinstance(align_s, bool)
         if not (ok and 0 <= align_s <= ALIGN_MAX_S):
