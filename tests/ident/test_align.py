@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -77,3 +78,28 @@ def test_a_window_out_of_range_is_refused_before_any_work():
     done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120)
     assert done.returncode in (1, 2) and "Traceback" not in done.stderr
     assert "--align-ms" in done.stderr, done.stderr
+
+
+def test_compare_writes_each_drops_clock_and_finds_the_synthesizers_lag(tmp_path):
+    """`slopelander synth` records with a 2 ms lag (its noise model's latency); `compare
+    --align-ms 4` finds it in every drop and writes window and lag to its JSON; without the
+    option a synthetic drop (no contact interval recorded) is compared at its own t."""
+    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        cmd = [sys.executable, "-m", "slopelander.cli", *args]
+        return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+
+    ds = tmp_path / "ds"
+    assert run("synth", "--out", str(ds), "--drops", "3", "--duration", "0.4", "--seed", "4").returncode == 0
+    for extra, window in ((("--align-ms", "4"), 0.004), ((), 0.0)):
+        out = tmp_path / f"c{window}.json"
+        done = run("compare", str(ds), "--json", str(out), *extra)
+        assert done.returncode == 0, done.stderr
+        clocks = json.loads(out.read_text())["clocks"]
+        assert len(clocks) == 3 and all(c["window_s"] == window for c in clocks.values())
+        lags = [c["lag_s"] for c in clocks.values()]
+        if window:
+            assert all(abs(lag - 0.002) < 5e-4 for lag in lags), lags
+        else:
+            assert lags == [0.0] * 3

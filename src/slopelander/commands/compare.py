@@ -87,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
     window = align_s(args)
     drops = load_dataset(args.dataset)
     model = build_model(args)
-    c = compare(model, drops, align=align_windows(drops, window))
+    windows = align_windows(drops, window)
+    c = compare(model, drops, align=windows)
     ok, known = c.outcome_matches()
     print(f"NRMSE {c.nrmse:.4f} over {len(drops)} drops (angular states x2); outcomes match {ok}/{known}")
     print("  per state: " + ", ".join(f"{s} {v:.4f}" for s, v in zip(STATES, c.per_state, strict=True)))
@@ -116,6 +117,11 @@ def run(args: argparse.Namespace) -> int:
                 for w in c.worst_windows(3)
             ],
             "effects": list(model.effects),
+            # each drop's clock as compared (docs/ident.md "Clocks"): window and lag, s
+            "clocks": {
+                d.name: {"window_s": w, "lag_s": dc.lag}
+                for d, w, dc in zip(drops, windows, c.drops, strict=True)
+            },
         }  # fmt: skip
         args.json.write_text(json.dumps(figures, indent=1, default=plain) + "\n")
         print(f"json: {args.json}")
