@@ -3,10 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,8 +12,8 @@ from slopelander.ident.compare import compare
 from slopelander.ident.fit import FitError, Identifier
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
 from slopelander.model import Model
+from tests.ident.conftest import slopelander
 
-ROOT = Path(__file__).resolve().parents[2]
 TRUTH = {"ground_stiffness": 3.0e4, "friction_kinetic": 0.65}
 
 
@@ -73,9 +69,7 @@ def test_a_window_out_of_range_is_refused_before_any_work():
     drops = _lagged(0.0, n=3)
     with pytest.raises(FitError, match=r"align_s: the alignment window must be 0\.\.0\.05 s"):
         Identifier(Model.default(), ["friction_kinetic"], align_s=-1.0).fit(drops)
-    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
-    cmd = [sys.executable, "-m", "slopelander.cli", "compare", "no-such-folder", "--align-ms", "-2"]
-    done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120)
+    done = slopelander("compare", "no-such-folder", "--align-ms", "-2")
     assert done.returncode in (1, 2) and "Traceback" not in done.stderr
     assert "--align-ms" in done.stderr, done.stderr
 
@@ -84,12 +78,7 @@ def test_compare_writes_each_drops_clock_and_finds_the_synthesizers_lag(tmp_path
     """`slopelander synth` records with a 2 ms lag (its noise model's latency); `compare
     --align-ms 4` finds it in every drop and writes window and lag to its JSON; without the
     option a synthetic drop (no contact interval recorded) is compared at its own t."""
-    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
-
-    def run(*args: str) -> subprocess.CompletedProcess:
-        cmd = [sys.executable, "-m", "slopelander.cli", *args]
-        return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
-
+    run = slopelander
     ds = tmp_path / "ds"
     assert run("synth", "--out", str(ds), "--drops", "3", "--duration", "0.4", "--seed", "4").returncode == 0
     for extra, window in ((("--align-ms", "4"), 0.004), ((), 0.0)):

@@ -1,23 +1,18 @@
 """The ident subcommands as a user runs them: a real process, this checkout's code."""
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.ident.conftest import slopelander
 
 ROOT = Path(__file__).resolve().parents[2]
 LOG = ROOT / "docs" / "examples" / "flightlog" / "landing-20deg.bin"
 """A flight log: compared, not identified."""
 
 
-def run(*args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
-    return subprocess.run(
-        [sys.executable, "-m", "slopelander.cli", *args], capture_output=True, text=True, env=env, timeout=120
-    )
+run = slopelander
 
 
 def test_synth_then_compare_with_report(tmp_path):

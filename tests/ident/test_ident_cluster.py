@@ -3,9 +3,6 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +17,7 @@ from slopelander.ident.compare import state_ranges  # noqa: E402
 from slopelander.ident.fit import Evaluator, Identifier, Problem, resolve_params  # noqa: E402
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize  # noqa: E402
 from tests.envelope.loopback_cluster import LoopbackCluster  # noqa: E402
+from tests.ident.conftest import slopelander  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -63,11 +61,7 @@ def test_a_single_point_is_shared_out_and_joined_in_order(cluster, model):
         assert got.tobytes() == prob.residuals(u).tobytes()
 
 
-def run(*args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
-    return subprocess.run(
-        [sys.executable, "-m", "slopelander.cli", *args], capture_output=True, text=True, env=env, timeout=600
-    )
+run = slopelander
 
 
 def test_diagnose_with_a_user_effect_on_the_cluster_prints_what_one_process_prints(cluster, tmp_path):

@@ -1,10 +1,6 @@
 """The fit's global search is an object: the shipped two find the truth, a user's own is used."""
 
-import os
-import subprocess
-import sys
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,11 +8,11 @@ import pytest
 from slopelander.ident.fit import FitError, Identifier
 from slopelander.ident.optimizers import CMA, DifferentialEvolution, SearchTask, optimizer_named
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
+from tests.ident.conftest import slopelander
 
 #: its tests share the drops (a module fixture): one worker runs them
 pytestmark = pytest.mark.xdist_group("ident/test_optimizers")
 
-ROOT = Path(__file__).resolve().parents[2]
 NAMES = ["ground_stiffness", "friction_kinetic"]
 
 
@@ -76,12 +72,7 @@ def test_the_default_is_cma_and_a_wrong_optimizer_is_refused_before_any_work(mod
 
 
 def test_the_command_takes_the_optimizer_by_name(tmp_path):
-    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{ROOT}"}
-
-    def run(*args: str) -> subprocess.CompletedProcess:
-        cmd = [sys.executable, "-m", "slopelander.cli", *args]
-        return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
-
+    run = slopelander
     ds = tmp_path / "ds"
     assert run("synth", "--out", str(ds), "--drops", "3", "--duration", "0.3", "--seed", "4").returncode == 0
     common = ("fit", str(ds), "--fit", "friction_kinetic", "--repeats", "1", "--workers", "1", "--quiet")
