@@ -78,11 +78,13 @@ def aligned(
     tr = trajectory(model, drop, outcome=outcome, reach=window)
     after = drop.t >= 0
     measured = drop.states[after]
+    seen: dict[float, np.ndarray] = {}  # each lag's observation, the chosen one returned as is
 
     def sse(lag: float) -> float:
-        r = ((observe(tr, model, drop, lag)[after] - measured) * scale).ravel()
+        seen[lag] = observe(tr, model, drop, lag)
+        r = ((seen[lag][after] - measured) * scale).ravel()
         r = r[np.isfinite(r)]  # gaps in the recording
         return float(r @ r)
 
     lag = best_lag(sse, window)
-    return observe(tr, model, drop, lag), (tr.result.outcome if outcome else None), lag
+    return seen[lag], (tr.result.outcome if outcome else None), lag

@@ -143,7 +143,8 @@ class Problem:
 
     ``align``: per drop, how far (s) its clock may be off the model's (its t = 0 off the
     contact, its frames lagging): each evaluation observes the model at the lag within
-    +-align that fits that drop best (:func:`best_lag`); 0 (the default) observes at t."""
+    +-align that fits that drop best (:func:`slopelander.ident.clocks.aligned`); 0 (the
+    default) observes at t."""
 
     model: Model
     drops: list[Drop]
@@ -153,7 +154,7 @@ class Problem:
 
     def __post_init__(self) -> None:
         self.align = [0.0] * len(self.drops) if self.align is None else [float(a) for a in self.align]
-        horizon = max(float(d.t[-1]) for d in self.drops) + 0.01 + max(self.align, default=0.0)
+        horizon = max(float(d.t[-1]) for d in self.drops) + 0.01
         self.model = replace(self.model, criteria=replace(self.model.criteria, horizon=horizon))
         # the samples after contact, and what was measured there: the same at every evaluation;
         # a gap in a recording (NaN) is no residual at all, and each state's mean is over its own
@@ -185,11 +186,7 @@ class Problem:
             return np.full(sum(int(self._seen[i].sum()) for i in idx), 10.0)
         out = [np.zeros(0)]
         for i in idx:
-            if self.align[i] > 0:
-                r = self._aligned(m, i)
-            else:
-                sim, _ = predict(m, self.drops[i], outcome=False)
-                r = (sim[self._after[i]] - self._measured[i]) * self._scale[i]
+            _, r = self._lag(m, i)
             out.append(r[self._seen[i]] if self._gaps else r.ravel())
         r = np.concatenate(out)
         return np.where(np.isfinite(r), r, 10.0)
@@ -199,11 +196,9 @@ class Problem:
         m = self.model_at(u)
         return [self._lag(m, i)[0] if a > 0 else 0.0 for i, a in enumerate(self.align)]
 
-    def _aligned(self, m: Model, i: int) -> np.ndarray:
-        return self._lag(m, i)[1]
-
     def _lag(self, m: Model, i: int) -> tuple[float, np.ndarray]:
-        """Drop ``i``'s residual at the lag within its window that makes it least."""
+        """Drop ``i``'s lag and residual: at t with no window, else at the lag within its
+        window that makes the residual least."""
         sim, _, lag = aligned(m, self.drops[i], self.align[i], self._scale[i])
         return lag, (sim[self._after[i]] - self._measured[i]) * self._scale[i]
 
@@ -703,8 +698,7 @@ KINK_STEP = 0.02
 
 
 class _Polish:
-    """The least-squares polish's residuals and Jacobians, each point evaluated once (the
-    intervals need the Jacobian at the optimum, where the polish has usually just computed it)."""
+    """The polish's residuals and least-squares Jacobians, each point evaluated once."""
 
     def __init__(self, ev: Evaluator, tick: Callable[[int], None]) -> None:
         self.ev, self.tick = ev, tick
@@ -810,7 +804,7 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
         polish = _Polish(ev, ident.progress or (lambda k: None))
         u = polish.run(task.best_u, task.best_cost, ident.ls_evals)
         r, J = polish.fun(u), _interval_jacobian(ev, np.asarray(u, dtype=float))
-        (ident.progress or (lambda k: None))(2 * len(u))
+        polish.tick(2 * len(u))
         values = dict(zip([p.name for p in params], prob.values(u), strict=True))
         cov, stuck = None, []
         if ident.intervals == "jackknife":
