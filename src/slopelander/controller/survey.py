@@ -77,7 +77,8 @@ def survey_refusal(link: Link) -> str | None:
     """Why the companion may not fly the pass now, or None."""
     hb = link.last.get("HEARTBEAT")
     if link.lost or hb is None:
-        return "no link to the autopilot" + (f" ({link.reboot_note})" if link.rebooted else "")
+        why = link.reboot_note if link.rebooted else link.lost_why
+        return "no link to the autopilot" + (f" ({why})" if why else "")
     if hb.custom_mode != GUIDED:
         return f"mode number {hb.custom_mode}, GUIDED needed to fly the survey pass"
     if not hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED:
