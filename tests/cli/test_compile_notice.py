@@ -1,4 +1,4 @@
-""" "compiling the model ... half a minute" is said when numba compiles, not on any slow start."""
+""" "compiling the model ... ten seconds or more" is said when numba compiles, not on any slow start."""
 
 from __future__ import annotations
 

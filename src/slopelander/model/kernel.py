@@ -28,6 +28,11 @@ Why this shape (``docs/model.md`` has the full account):
   every model with user effects and every candidate of a diagnosis, and a model without them
   runs its own compiled copy, in which no seam is looked at. User effects' memory lives at the
   end of the state vector (``S_MEM``); that copy neither saves nor restores it.
+* The stages and small helpers are inlined by LLVM (``forceinline=True``: the ``alwaysinline``
+  attribute), not in numba's own IR (``inline="always"``), which types each inlined body again
+  at every call site: the same machine code within noise (the landings bit-identical), the first
+  compile a third shorter (``benchmarks/first_compile.py``). Without either the stages stay calls,
+  and a landing takes twice as long.
 
 Coordinates: x downhill-positive horizontal, z up, angles counter-clockwise positive.
 Q = (x, z, pitch, q_C, q_D); q_C is the left (-x) leg's angle below the body plane, q_D the
@@ -228,7 +233,7 @@ def _has_normal_law(sx, w):
     return lambda sx, w: w.seams[SEAM_NORMAL_FORCE, 0] > 0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _params(sx, w, seam, k, ctx):
     """The user parameters the k-th law of a seam reads; its effect's memory is told in
     ``ctx[C_MEM]`` (what ``state.memory`` reads)."""
@@ -435,14 +440,14 @@ def _leg_geometry(p, j, q):
     return hx, hz, ux, uz, dux, duz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _columns(i):
     """How many generalised coordinates move contact point i: x, z, pitch and a foot's own
     leg (the other columns of its Jacobian are zero)."""
     return 4 if i < 2 else 3
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _column(i, b):
     """The b-th of them (b < _columns(i))."""
     return b if b < 3 else 3 + i
@@ -550,7 +555,7 @@ def kinematics(p, st, M, f, pts, vel, J):
     return c, s
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _solve5(A, b, x, n):
     """Gaussian elimination with partial pivoting (A, b are overwritten)."""
     for k in range(n):
@@ -582,7 +587,7 @@ def _solve5(A, b, x, n):
         x[k] = acc / A[k, k]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _contact_rates(JNT, i, v):
     """Normal and tangential speed of contact point i for generalised velocities v."""
     ddn = 0.0
@@ -752,7 +757,7 @@ def contact_points(sx, w, p, st, ctx, h):
         J[j, 1, qi] += sg * rx
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _surface(ctx):
     """Surface normal n (out of the ground), tangent t (toward +x) and the downhill sign
     along t (the slip speeds users read are downhill-positive)."""
@@ -761,7 +766,7 @@ def _surface(ctx):
     return sa, ca, ca, -sa, 1.0 if sa >= 0.0 else -1.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _joint_constants(p, fl):
     """(rigid, flex, q_end, q_max, q_zone, k_eot, b_eot, k_flex, b_flex, implicit springs)."""
     rigid = fl[F_RIGID] != 0
@@ -778,7 +783,7 @@ def _joint_constants(p, fl):
     return rigid, flex, q_end, q_max, q_zone, ke, be, kq, bq, ik
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _applied_forces(p, fl, ctx, st, w, sx):
     """Stage 1: the explicit forces at the start of the step into ``f``: the force seams'
     (generalised and at named points), the external force on the body, rotor thrust.
@@ -820,7 +825,7 @@ def _applied_forces(p, fl, ctx, st, w, sx):
     return user_forces
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _grows(flag, ctx, leg):
     """Whether eq. 3 or 4, switched on with ``flag`` (its effect's flag value), acts on this
     leg: 1, on either by its physical condition; 2 (``paper_downhill_growth``, set by
@@ -828,7 +833,7 @@ def _grows(flag, ctx, leg):
     return flag == 1 or leg == ctx[C_DOWN] or ctx[C_SIN] == 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def joint_torque_law(p, fl, ctx, st, leg, tau):
     """The built-in slip torque of a leg's friction joint: its preset, grown by eq. 3 on the
     leg whose foot is pushed outward (its friction points inward): on a slope the downhill
@@ -839,7 +844,7 @@ def joint_torque_law(p, fl, ctx, st, leg, tau):
     return tau
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _joint_law(p, fl, ctx, st, h, w, sx):
     """Stage 2: each friction joint's slip torque (built-in law, then the joint-torque seam),
     and what the joints add to the step: the flex spring-damper or the slipping joint's
@@ -903,7 +908,7 @@ def _joint_law(p, fl, ctx, st, h, w, sx):
         r0[a] = acc + h * f[a]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _joint_load(st, w, j, rigid, flex, q_zone, ke, kq, bq):
     """The torque leg j puts on its friction joint at the start of the step (planar N*m, +
     toward extension), for a joint-torque law (``state.joint_load``): with leg flex its
@@ -921,7 +926,7 @@ def _joint_load(st, w, j, rigid, flex, q_zone, ke, kq, bq):
     return m * w.tau[j]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _contacts(p, fl, ctx, st, w, sx):
     """Stage 3: every contact point's distance and speeds, its normal law at the start of the
     step (built-in spring-damper or the normal-force seam), which points are in contact and
@@ -996,7 +1001,7 @@ def _contacts(p, fl, ctx, st, w, sx):
     return began
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def friction_coefficient(p, fl, ctx, tx, tz, vel, i, slip, touching, mu_s):
     """The built-in sliding friction coefficient of contact point i: mu_k; on a foot grown by
     eq. 4 with its leg's joint moving outward along the surface (downhill for the downhill
@@ -1011,7 +1016,7 @@ def friction_coefficient(p, fl, ctx, tx, tz, vel, i, slip, touching, mu_s):
     return mu
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _solve(p, fl, st, h, w, sx):
     """Stage 4: the implicit solve for the new velocities ``vn``, with the contacts' normal
     and friction forces linearised in it, repeated while a contact's mode changes (a point
@@ -1029,7 +1034,7 @@ def _solve(p, fl, st, h, w, sx):
     return solves
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _lock_joints(fl, st, w):
     """Which generalised coordinates the solve holds fixed: the legs of the rigid gear, and
     without leg flex a leg whose joint is stuck."""
@@ -1043,7 +1048,7 @@ def _lock_joints(fl, st, w):
             locked[3 + j] = 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _assemble(p, fl, st, h, w, sx):
     """The system ``A vn = r`` of one active-set iteration: A0 and r0, each active contact's
     normal force and its friction in their present modes, the locked coordinates."""
@@ -1093,7 +1098,7 @@ def _assemble(p, fl, st, h, w, sx):
             r[a] = 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _add_rows(w, i, row_a, row_b, coeff, h, rhs):
     """Add contact point i's force along its row ``row_a`` (0 normal, 1 tangent) to the
     system: ``h * rhs`` to r and ``coeff`` times its coupling to row ``row_b`` to A, over the
@@ -1109,7 +1114,7 @@ def _add_rows(w, i, row_a, row_b, coeff, h, rhs):
                 A[a, b] += coeff * ja * JNT[i, row_b, b]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _modes_changed(p, fl, st, h, w, sx):
     """Settle each active contact's mode against the new velocities: a point pulling on the
     ground lets go, a stuck foot whose force leaves the friction cone slides, a sliding foot
@@ -1154,7 +1159,7 @@ def _modes_changed(p, fl, st, h, w, sx):
     return changed
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _contact_forces(p, fl, ctx, st, h, w, sx, user_forces):
     """Stage 5: the forces the solve applied (outputs, the next step's laws, energy
     bookkeeping), every point's slip speed, the force seams' work, and the locked joints'
@@ -1248,7 +1253,7 @@ def _contact_forces(p, fl, ctx, st, h, w, sx, user_forces):
                 lam[j] = acc / h
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _integrate(p, fl, st, h, u0, u1, w):
     """Stage 6: the rotors' work, the new velocities and positions (semi-implicit Euler), the
     friction joints, the rotors' speeds, and the landing's bookkeeping."""
@@ -1269,7 +1274,7 @@ def _integrate(p, fl, st, h, u0, u1, w):
     _bookkeeping(st, t, h, w.active)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _rotor_work(st, h, w):
     """The work the rotors' thrust did over the step (at the new velocities, the start pitch)."""
     J, vn = w.J, w.vn
@@ -1281,7 +1286,7 @@ def _rotor_work(st, h, w):
         st[S_DISS + D_ROTOR] += st[S_THR + rr] * vz * h
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _friction_joints(p, fl, st, h, w, qc_old0, qc_old1):
     """The friction joints' massless frames, updated exactly over the step in their mode
     (stuck, slipping, slipping in the end-of-travel zone), then their mode changes; without
@@ -1359,7 +1364,7 @@ def _friction_joints(p, fl, st, h, w, qc_old0, qc_old1):
             st[S_QE + j] = qE
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _rotor_speeds(p, fl, st, h, u0, u1):
     """Rotors: a direction change waits out the reversal delay, the speed is first order."""
     if fl[F_ROTORS] == 0:
@@ -1391,7 +1396,7 @@ def _rotor_speeds(p, fl, st, h, u0, u1):
             st[S_W + rr] = target + (st[S_W + rr] - target) * e
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _bookkeeping(st, t, h, active):
     """Time, the first contact (time and place), the smallest joint angles, the pitch range."""
     st[S_T] = t + h
@@ -1469,7 +1474,7 @@ def init_landing(p, fl, cond, st, ctx, ws):
     st[S_PMAX] = st[S_Q + 2]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _start_user(sx, w, p, fl, ctx, st):
     """What user effects change at the start of a landing (``st`` just made by init_landing):
     their memory starts at its initial values, and with a contact geometry the vehicle is
@@ -1495,7 +1500,7 @@ def start_user_effects(p, fl, ctx, st, ws, sx):
     _start_user(sx, w, p, fl, ctx, st)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _at_rest(st, crit):
     if abs(st[S_V]) > crit[R_SPEED] or abs(st[S_V + 1]) > crit[R_SPEED]:
         return False
@@ -1559,7 +1564,7 @@ def classify(p, fl, ctx, st, crit, settled, slid, res):
     res[O_TEND] = st[S_T] - max(st[S_TIMP], 0.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _slide(ctx, st):
     dsg = 1.0 if ctx[C_SIN] >= 0.0 else -1.0
     if st[S_TIMP] < 0.0:
@@ -1567,7 +1572,7 @@ def _slide(ctx, st):
     return dsg * (ctx[C_COS] * (st[S_Q] - st[S_X0]) - ctx[C_SIN] * (st[S_Q + 1] - st[S_X0 + 1]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def reverse_command(cond, since):
     """Rotor command ``since`` s after first contact: 0 before the delay, full reverse held for
     the duration, then a linear ramp to zero (or a step), then 0."""

@@ -116,7 +116,7 @@ def compiling_notice(
             state["said"] = True
         print(
             f"slopelander: compiling {what} (first run after an install or an update, "
-            "about half a minute; later runs use the cache)...",
+            "ten seconds or more; later runs use the cache)...",
             file=sys.stderr,
             flush=True,
         )
