@@ -422,12 +422,12 @@ def _seam_normal_force(sx, w, t, st, ctx, point, depth, rate):
     return impl
 
 
-@njit(cache=True)
+@njit(cache=True, forceinline=True)
 def _rot(c, s, a, b):
     return c * a - s * b, s * a + c * b
 
 
-@njit(cache=True)
+@njit(cache=True, forceinline=True)
 def _leg_geometry(p, j, q):
     """Joint position (body frame), leg unit vector u and du/dq for leg j at angle q."""
     sgn = -1.0 if j == 0 else 1.0
@@ -453,7 +453,7 @@ def _column(i, b):
     return b if b < 3 else 3 + i
 
 
-@njit(cache=True)
+@njit(cache=True, forceinline=True)
 def kinematics(p, st, M, f, pts, vel, J):
     """Mass matrix, velocity-product + gravity forces, and the contact points' kinematics.
 
