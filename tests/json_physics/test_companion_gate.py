@@ -86,8 +86,9 @@ def test_a_companion_that_read_everything_and_waits_lets_the_physics_run_another
     gate: CompanionGate,
 ) -> None:
     """The newest echo said again during a hold: the companion read its link dry and waits, so what
-    the physics sent in its lead has not arrived (lost, or unsent while held). Both once waited for the other until the patience ran out. A
-    repeat sent before the hold began says nothing about it."""
+    the physics sent in its lead has not arrived (lost, or unsent while held). Both once waited
+    for the other until the patience ran out. A repeat sent before the hold began says nothing
+    about it."""
     _echo(gate.port, 10.0)
     _echo(gate.port, 10.0)  # before the hold: not counted
     threading.Timer(0.15, lambda: _echo(gate.port, 10.0)).start()

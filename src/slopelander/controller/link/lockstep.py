@@ -7,11 +7,11 @@ companion. The echo is a TIMESYNC whose ``tc1`` is non-zero (an answer, not a re
 ``ts1`` is the newest vehicle time read, in nanoseconds, every 20 ms of vehicle time.
 
 The same time echoed twice says "read everything, and the vehicle's time has not moved a period
-in :data:`IDLE_S` of wall time": the companion is polling a drained link, so it is not behind. The echo is sent
-again so that a simulator holding for a newer one learns the stamped messages it sent before the
-hold have not arrived (lost, or still unsent on the way while it is held): without
-it both sides wait, each for the other (on ArduCopter SITL under load the physics held up to 4.8 s
-and the companion declared the link lost after 1.5 s, 2026-12-07).
+in :data:`IDLE_S` of wall time": the companion is polling a drained link, so it is not behind.
+A simulator holding for a newer echo learns so that the stamped messages it sent before the hold
+have not arrived (lost, or still unsent on the way while it is held): without it both sides
+wait, each for the other (on ArduCopter SITL under load the physics held up to 4.8 s and the
+companion declared the link lost after 1.5 s, 2026-12-07).
 
 A real autopilot has no use for it: ArduPilot drops a TIMESYNC answer that does not match a
 request of its own (``GCS_MAVLINK::handle_timesync``), so on a real vehicle the echoes would only
