@@ -148,17 +148,22 @@ def test_an_error_in_the_script_after_the_cut_keeps_the_motors_stopped_on_the_ro
 @pytest.mark.timeout(1200)  # a long flight
 def test_a_stalled_scripting_thread_in_cut_keeps_the_motors_stopped(tmp_path: Path, monkeypatch) -> None:
     """ArduCopter only: its scripting thread stalled (injected: the script's own update busy for
-    40-100 ms of vehicle time at the cut). CUT's override lasted 30 ms and the mixer, demanding
-    climb for the falling vehicle, spun the motors up mid-fall; now it holds 250 ms."""
+    40-100 ms of vehicle time at the cut; each turn of the loop is a slow pattern match that
+    allocates nothing, so the 100 ms bound ends it, not the turn count that keeps it under the
+    VM's instruction limit: on a fast machine 40,000 cheap turns once took 15 ms). CUT's override
+    lasted 30 ms and the mixer, demanding climb for the falling vehicle, spun the motors up
+    mid-fall; now it holds 250 ms."""
     autopilot_available("ardupilot")
-    head = 'param:set("SCR_VM_I_COUNT", 1000000)\nlocal stalled = false\n'
+    head = (
+        'param:set("SCR_VM_I_COUNT", 1000000)\nlocal stalled = false\nlocal filler = string.rep("x", 500)\n'
+    )
     lines = (
         "  if state == CUT and not stalled then\n"
         "    stalled = true\n"
         "    local t0, n = millis():toint(), 0\n"
         "    while millis():toint() - t0 < 100 and n < 40000 do\n"
         "      n = n + 1\n"
-        "      ins:get_accel(0)\n"
+        '      filler:find("x*y")\n'  # backtracks 500^2/2 steps: wall time, no allocation
         "    end\n"
         '    gcs:send_text(6, string.format("SL: stalled %d ms", millis():toint() - t0))\n'
         "  end\n"
