@@ -300,15 +300,11 @@ def _timesync(v: Vehicle, chan: int, m) -> None:
     if m.tc1 == 0:
         v.links.send(mavlink.MAVLink_timesync_message(now_ns, m.ts1))
     else:
-        # a companion's echo: ts1 is the newest vehicle time it has seen (ns); the same time
-        # again says it read everything and waits (slopelander.controller.link.lockstep)
+        # a companion's echo: ts1 is the newest vehicle time it has seen (ns)
         echo = m.ts1 / 1e9
-        if v.echo_t is None or echo > v.echo_t:
+        if v.echo_t is None or echo >= v.echo_t:
             v.echo_t = echo
             v.echo_wall = time.monotonic()
-            v.echo_repeated = False
-        elif echo == v.echo_t:
-            v.echo_repeated = True
 
 
 def _data_stream(v: Vehicle, chan: int, m) -> None:

@@ -86,8 +86,6 @@ class Vehicle:
         self.rc_override: dict[int, tuple[int, float]] = {}
         self.echo_t: float | None = None
         self.echo_wall = 0.0
-        self.echo_repeated = False  # the newest echo said again (the companion waits too)
-        self.echo_free_until = -math.inf  # vehicle time up to which a repeat lets it run
         self.running = True
         self.events = Events(self._send_event)  # measurement hooks (docs/simulated-vehicle.md)
         self.host = None
@@ -451,17 +449,10 @@ class Vehicle:
                     wall0 = time.monotonic() - (self.t - sim0) / self.speed
 
     def _wait_for_companion(self) -> None:
-        """Hold while the companion's echo is more than the lead behind; a repeat of its newest
-        echo during the hold (it read everything and waits: what it lacks was lost) lets the
-        vehicle run another lead, as the ArduCopter rig's gate does
-        (slopelander_sitl.json_physics.companion_gate)."""
-        if self.t <= self.echo_free_until:
-            return
         if self.running and self.echo_t is not None and self.t - self.echo_t > LOCKSTEP_LEAD_S:
             # tell the companion the time it waits at: with no fast stream asked for yet, nothing
             # else it reads may carry a newer stamp, and both would wait for the give-up
             self.links.send(system_time(self))
-            self.echo_repeated = False
         while self.running and self.echo_t is not None and self.t - self.echo_t > LOCKSTEP_LEAD_S:
             if time.monotonic() - self.echo_wall > self.give_up_s:
                 self.echo_t = None  # the companion went away: run free until it echoes again
@@ -469,10 +460,6 @@ class Vehicle:
             got = self.links.receive()
             for chan, m in got:
                 self.handle(chan, m)
-            if self.echo_repeated:
-                self.echo_repeated = False
-                self.echo_free_until = self.t + LOCKSTEP_LEAD_S
-                return
             if not got:
                 time.sleep(0.0005)
 
