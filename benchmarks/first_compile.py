@@ -103,7 +103,7 @@ def measure(name: str, root: Path, tmp: Path, venv: bool) -> None:
         for what in ("first", "second"):
             t = time.perf_counter()
             r = subprocess.run(
-                [str(tmp / "venv" / "bin" / "slopelander"), "simulate", "--slope", "20"],
+                [str(Path(py).with_name("slopelander")), "simulate", "--slope", "20"],
                 env=env,
                 cwd=run,
                 capture_output=True,
