@@ -1,12 +1,13 @@
 """The companion's link keeps a lock-stepped simulated vehicle (a real process) in step: the
 vehicle never runs more than its 50 ms lead ahead of the newest time the link has seen, so a
-flight in simulation does not depend on how fast the machine runs the companion."""
+flight in simulation does not depend on how fast the machine runs the companion; nor, with the
+echo held for it, on how late the leg board's bytes are."""
 
 from __future__ import annotations
 
 import time
 
-from slopelander.controller.link import Link, mavlink
+from slopelander.controller.link import Link, lockstep, mavlink
 from slopelander.controller.link.lockstep import PERIOD_S as TIMESYNC_PERIOD_S
 from slopelander_sitl.vehicle.launch import start_vehicle
 from tests.vehicle.conftest import ROUTE_A
@@ -54,6 +55,38 @@ def test_the_vehicle_waits_for_the_links_echo():
         before = link.clock.now()
         poll_for(link, 0.5)
         assert link.clock.now() - before > 0.1
+    finally:
+        link.close()
+        v.stop()
+
+
+def test_the_echo_holds_for_a_board_not_heard_from_and_the_held_silence_is_not_a_lost_link(monkeypatch):
+    """A limit (the leg board's accounted time) holds the echo, and with it the vehicle, at the
+    limit plus the slack; the silence of the held vehicle is not counted; a hold ends after
+    HOLD_MAX_S of local time, and the silence counts again from there."""
+    monkeypatch.setattr(lockstep, "HOLD_MAX_S", 2.0)  # shorter than the 5 s of a flight
+    v = start_vehicle(params=ROUTE_A, no_script=True, speed=0.0, lockstep=True, give_up_s=30.0)
+    link = Link(v.mavlink_url, link_loss_s=1.0, lockstep=True)
+    try:
+        link.wait_autopilot(timeout_s=30.0)
+        ask = link.request_stream(mavlink.MAVLINK_MSG_ID_RAW_IMU, 200)
+        end = time.monotonic() + 10.0
+        while not ask.done and time.monotonic() < end:
+            poll_for(link, 0.01)
+        assert ask.ok, ask.state
+        poll_for(link, 0.3)
+        heard = link.clock.now()  # the board's last word, as far as the limit says
+        link.lockstep.limit = lambda: heard
+        poll_for(link, 1.5)  # longer than the link's 1 s loss limit
+        assert link.lockstep.holding
+        assert not link.lost, link.lost_why
+        held_at = link.clock.now()
+        assert held_at <= heard + lockstep.BOARD_SLACK_S + LEAD_S + TIMESYNC_PERIOD_S + TICK_S + 1e-6
+        poll_for(link, 1.0)  # past HOLD_MAX_S: the hold ends, the vehicle runs on
+        assert not link.lockstep.holding
+        assert link.clock.now() > held_at + 0.1
+        assert not link.lost, link.lost_why
+        link.lockstep.limit = None
     finally:
         link.close()
         v.stop()

@@ -1,5 +1,5 @@
 """The HAL on a host: the plant model for motors and sensors, a file descriptor for the serial
-link (the pseudo-terminal's master side, made by the host's CPython launcher).
+link (the board's end of the line the host's CPython launcher relays to a pseudo-terminal).
 
 Link faults a test injects act here, between the firmware and the line: ``silent`` (bytes
 the firmware writes are dropped), ``corrupt`` (each byte replaced with a probability) and

@@ -278,6 +278,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         board.set_clock(bench.clock)
         if hasattr(bench, "poll"):  # a simulated board's bench steps the driver between its waits
             bench.poll = board.poll
+            bench.accounted = board.accounted_until  # and feeds no time past what it heard
         points = cal.measure(board, bench, proc, board.calibration)
         try:
             fits = cal.fit_all(points, proc)

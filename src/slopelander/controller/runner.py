@@ -435,5 +435,7 @@ class Lander:
                 rest = period / rate - (time.monotonic() - started)
                 if rest > 0:
                     time.sleep(rest)  # a rate limit, not a synchronisation: the wait below follows
-                legs = self.legs.fileno() if self.legs is not None else None
-                self.link.wait_readable(POLL_WAIT_S, () if legs is None else (legs,))
+                # the autopilot's link only: a wait on the leg board's tty can be held by the
+                # kernel for seconds on a loaded machine (LegBoard._read); its bytes are read
+                # within POLL_WAIT_S anyway
+                self.link.wait_readable(POLL_WAIT_S)

@@ -166,9 +166,15 @@ class Session:
             self.legs = None
         self.legs = LegBoard.open(port, calibration=self.calibration, **kw)
         self.legs.set_clock(self.link.clock.now)
+        if self.link.lockstep is not None:  # the simulator waits for the board's bytes too
+            self.link.lockstep.limit = self._legs_accounted
         if self.telemetry is not None:
             self.telemetry.legs = self.legs
         return self.legs
+
+    def _legs_accounted(self) -> float | None:
+        """The vehicle time up to which the leg board is accounted for (None: no board)."""
+        return None if self.legs is None else self.legs.accounted_until()
 
     def measure_slope(
         self, pilot: float | str, *, tick: Callable[[], None] | None = None, wall_s: float = 300.0

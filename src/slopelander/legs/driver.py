@@ -408,6 +408,11 @@ class _Pending:
     op: Operation | None
     sent_at: float
     tries: int = 1
+    first_at: float | None = None  # when it was first sent (sent_at moves with each try)
+
+    def __post_init__(self) -> None:
+        if self.first_at is None:
+            self.first_at = self.sent_at
 
 
 class LegBoard:
@@ -565,13 +570,6 @@ class LegBoard:
         """Whether the port is open (False after :meth:`close`, or before a reconnect)."""
         return self._ser is not None
 
-    def fileno(self) -> int | None:
-        """The port's file descriptor while open (for a caller that waits on it), else None."""
-        try:
-            return self._ser.fileno() if self._ser is not None else None
-        except (AttributeError, OSError, ValueError):  # a port object without a descriptor
-            return None
-
     def unobserved(self, seconds: float) -> None:
         """Tell the driver that ``seconds`` of its clock went by while nobody could watch the
         board on it (an autopilot clock that stood still during a MAVLink outage, then jumped):
@@ -585,10 +583,25 @@ class LegBoard:
         self._last_good += offset
         for p in self._pending.values():
             p.sent_at += offset
+            p.first_at += offset
         for op in self._ops:
             op._shift(offset)
         if self.status is not None:
             self.status = dataclasses.replace(self.status, received_at=self.status.received_at + offset)
+
+    def accounted_until(self) -> float | None:
+        """The time on this driver's clock up to which the board is accounted for: its newest
+        good frame's arrival, or the first sending of a command it has not yet answered if
+        that is older (None while the port is closed: nothing to wait for). A simulation that
+        feeds the board its time and waits for the companion (the lock-step echo, a simulated
+        bench) does not run far past it: a loaded machine can hold a pseudo-terminal's bytes
+        for seconds, which a real board's UART does not."""
+        if self._ser is None:
+            return None
+        t = self._last_good
+        for p in self._pending.values():
+            t = min(t, p.first_at)
+        return t
 
     @property
     def queued_bytes(self) -> int:
@@ -881,10 +894,17 @@ class LegBoard:
         del self._outq[:n]
 
     def _read(self) -> list[codec.Frame]:
+        """What has arrived, without waiting: only the bytes the port says it holds are read.
+        A poll or read of a Linux tty that finds nothing first waits for the kernel's worker to
+        move bytes still in flight (``n_tty_poll`` -> ``tty_buffer_flush_work``): on a loaded
+        machine that held this call 0.2-2.1 s (a pseudo-terminal, two busy processes on 2
+        cores, 2026-12-07), and with it the companion's control loop. A hung-up port (an
+        unplugged board) fails the count with EIO: that is the disconnect."""
         if self._ser is None:
             raise BoardDisconnected(f"leg board port {self.port} is not open")
         try:
-            data = self._ser.read(4096)
+            waiting = self._ser.in_waiting
+            data = self._ser.read(waiting) if waiting else b""
         except (serial.SerialException, OSError) as exc:
             raise BoardDisconnected(f"leg board port {self.port}: {exc}") from None
         frames = self.decoder.feed(data) if data else []

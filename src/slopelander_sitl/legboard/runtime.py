@@ -2,8 +2,9 @@
 
 The firmware (``firmware/legboard``, package ``legfw``) is the board's own code; the simulated
 board runs it with the plant model behind its HAL. With ``SLOPELANDER_MICROPYTHON`` naming a
-MicroPython unix-port binary it runs there, as a child process that owns the pseudo-terminal's
-master side; otherwise in this process. Either way :class:`Runner` takes the same requests.
+MicroPython unix-port binary it runs there, as a child process that owns the board's end of the
+serial line (:mod:`slopelander_sitl.legboard.line`); otherwise in this process. Either way
+:class:`Runner` takes the same requests.
 """
 
 from __future__ import annotations
@@ -123,7 +124,7 @@ class InProcess(Runner):
 
 
 class MicroPythonChild(Runner):
-    """The firmware on MicroPython, in a child process that owns the pty's master side."""
+    """The firmware on MicroPython, in a child process that owns the board's end of the line."""
 
     name = "micropython"
 
@@ -203,7 +204,7 @@ class MicroPythonChild(Runner):
 
 
 def start(runtime: str, fd: int, **kw) -> Runner:
-    """The firmware on ``runtime`` (see :func:`resolve`) with the pty master ``fd``; this
+    """The firmware on ``runtime`` (see :func:`resolve`) with the line's board end ``fd``; this
     process keeps ``fd`` only when the firmware runs in it."""
     name, binary = resolve(runtime)
     if name == "micropython":

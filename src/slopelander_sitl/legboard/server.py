@@ -9,7 +9,9 @@ Board time follows one of two clocks. ``wall`` (the default, for a board used on
 ``speed`` × wall time. ``external`` (a board a simulated vehicle drives): only the times the
 vehicle sends (control op ``advance``), so board and vehicle cannot drift apart under machine
 load; a board fed no time stands still, sends no periodic STATUS and only answers commands.
-The firmware itself never reads a clock: this process feeds it time either way.
+The firmware itself never reads a clock: this process feeds it time either way. Nor does it
+touch the pty: it reads and writes a socket that :mod:`slopelander_sitl.legboard.line` relays to
+the pty's master side (that module says why).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from pathlib import Path
 
 from slopelander.legs.messages import Capability
 from slopelander_sitl.legboard import runtime
+from slopelander_sitl.legboard.line import PtyLine
 from slopelander_sitl.legboard.runtime import (
     FAULT_KINDS,
     IO_FAULTS,
@@ -101,6 +104,7 @@ class BoardServer:
         self.unplugged = False
         self.slave_path = ""
         self.runner: Runner | None = None
+        self.line: PtyLine | None = None
         self._slave = -1
         self._listener: socket.socket | None = None
         self._clients: dict[socket.socket, bytearray] = {}
@@ -109,12 +113,12 @@ class BoardServer:
     def open(self) -> str:
         master, self._slave = os.openpty()
         tty.setraw(self._slave)
-        os.set_blocking(master, False)
         self.slave_path = os.ttyname(self._slave)
         config = dict(self.config, angle_stop=bool(self.capabilities & Capability.ANGLE_STOP))
+        self.line = PtyLine(master)  # the firmware never waits on the tty layer (see line.py)
         self.runner = runtime.start(
             self.runtime,
-            master,
+            self.line.board_end(),
             config=config,
             plant=self.plant,
             seed=self.seed,
@@ -141,6 +145,9 @@ class BoardServer:
         if self.runner is not None:
             self.runner.close()
             self.runner = None
+        if self.line is not None:
+            self.line.close()
+            self.line = None
         for sock in list(self._clients):
             sock.close()
         self._clients.clear()
@@ -269,6 +276,11 @@ class BoardServer:
                     "the board runs on the wall clock; start it with --clock external to feed it time"
                 )
             req = dict(req, to_s=_finite(req["to_s"]))
+        if op == "line_stall":  # the pty's bytes held, both ways, as a loaded kernel holds them
+            if self.line is None:
+                raise ValueError("line_stall: the board has no line open")
+            self.line.stall(float(req["seconds"]))
+            return {"ok": True, "time_s": self._time}
         if op == "fault" and req.get("kind") == "unplug":
             self._unplug()
             return {"ok": True, "time_s": self._time}

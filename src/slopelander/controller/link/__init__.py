@@ -404,10 +404,15 @@ class Link:
     def _silence(self) -> float:
         """Local seconds the autopilot has been silent for, as far as the reads show: from its
         newest message to the newest read that found nothing more (time since that read is not
-        counted: nobody looked)."""
+        counted: nobody looked). In lock-step, a simulator the echo holds for the leg board is
+        not silent (:mod:`.lockstep`)."""
         if self._last_rx is None:
             return math.inf
         looked = self._looked_at if self._looked_at is not None else self._last_rx
+        if self.lockstep is not None:  # a simulator held for the leg board is our own silence
+            if self.lockstep.holding:
+                return 0.0
+            return max(0.0, looked - max(self._last_rx, self.lockstep.released_at))
         return max(0.0, looked - self._last_rx)
 
     @property

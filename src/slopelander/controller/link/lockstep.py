@@ -6,6 +6,16 @@ the companion echoed, so a simulated flight does not depend on how fast the mach
 companion. The echo is a TIMESYNC whose ``tc1`` is non-zero (an answer, not a request) and whose
 ``ts1`` is the newest vehicle time read, in nanoseconds, every 20 ms of vehicle time.
 
+The companion has another link a simulator feeds on the vehicle's time: the leg board's, a
+pseudo-terminal whose bytes a loaded machine can hold for seconds (the kernel's tty worker
+unscheduled). While the board is not accounted for (:attr:`LockstepEcho.limit`: its newest frame,
+or an unanswered command, more than :data:`BOARD_SLACK_S` of vehicle time back) the echo holds
+at that time, so the simulator waits for the board's bytes as it waits for the companion, and
+neither a silent-looking board nor a late acknowledgement is made of the machine's load. The
+simulator then sends nothing; the link does not count that silence (:attr:`holding`). A hold
+lasts at most :data:`HOLD_MAX_S` of local time (a board really gone is then found silent on the
+vehicle's time, as without the hold).
+
 A real autopilot has no use for it: ArduPilot drops a TIMESYNC answer that does not match a
 request of its own (``GCS_MAVLINK::handle_timesync``), so on a real vehicle the echoes would only
 load its serial link. The caller asks for the echo (``Link(lockstep=True)``: the test rig, the demo,
@@ -14,9 +24,16 @@ load its serial link. The caller asks for the echo (``Link(lockstep=True)``: the
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 PERIOD_S = 0.02
+#: vehicle seconds the board may be unaccounted for before the echo holds: three of its 100 ms
+#: STATUS periods, so the hold never starts in a landing where the board keeps up, and, with the
+#: simulators' lead (0.25 s at most), ends well inside the board's 1 s silence limit
+BOARD_SLACK_S = 0.3
+#: local seconds one hold may last
+HOLD_MAX_S = 5.0
 
 
 class LockstepEcho:
@@ -29,14 +46,52 @@ class LockstepEcho:
         self.monotonic = monotonic
         self.sent = 0
         self._last_usec = 0
+        #: the vehicle time (s) up to which the companion's other links are accounted for (the
+        #: leg board's: :meth:`slopelander.legs.driver.LegBoard.accounted_until`); None: no limit
+        self.limit: Callable[[], float | None] | None = None
+        #: local time the current hold began (None: not holding)
+        self.held_since: float | None = None
+        #: local time the last hold ended (the link counts silence from there)
+        self.released_at = -math.inf
+        self.holds = 0
+        self._spent = False  # the current shortfall already held HOLD_MAX_S: not again
+
+    @property
+    def holding(self) -> bool:
+        """Whether the echo is held for the board now (the simulator waits: its silence is ours)."""
+        return self.held_since is not None
+
+    def _target_usec(self) -> int:
+        """The time to echo: the newest vehicle time, or the board's accounted time plus the
+        slack if that is earlier (and the hold has not run out)."""
+        now = self.clock.usec
+        until = self.limit() if self.limit is not None else None
+        short = until is not None and (until + BOARD_SLACK_S) * 1e6 < now
+        local = self.monotonic()
+        if short and not self._spent:
+            if self.held_since is None:
+                self.held_since = local
+                self.holds += 1
+            if local - self.held_since <= HOLD_MAX_S:
+                return min(now, int((until + BOARD_SLACK_S) * 1e6))
+            self._spent = True  # the board is gone: let the vehicle's time find it silent
+        if not short:
+            self._spent = False
+        if self.held_since is not None:
+            self.held_since = None
+            self.released_at = local
+        return now
 
     def due(self) -> None:
-        """Echo if the vehicle's time moved on a period since the last echo."""
-        if self.clock.known and self.clock.usec - self._last_usec >= PERIOD_S * 1e6:
-            self.echo()
+        """Echo if the time to echo moved on a period since the last echo."""
+        if self.clock.known:
+            target = self._target_usec()
+            if target - self._last_usec >= PERIOD_S * 1e6:
+                self.echo(target)
 
-    def echo(self) -> None:
-        """Echo the newest vehicle time now."""
-        self._last_usec = self.clock.usec
+    def echo(self, usec: int | None = None) -> None:
+        """Echo ``usec`` (default: the newest vehicle time) now."""
+        usec = self.clock.usec if usec is None else usec
+        self._last_usec = usec
         self.sent += 1
-        self.conn.mav.timesync_send(max(1, int(self.monotonic() * 1e9)), self.clock.usec * 1000)
+        self.conn.mav.timesync_send(max(1, int(self.monotonic() * 1e9)), usec * 1000)
