@@ -11,6 +11,7 @@ from __future__ import annotations
 from slopelander.legs import LegBoard
 from slopelander.legs.driver import Operation
 from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.legboard.feeding import wait_for_driver
 
 STEP_S = 0.1
 
@@ -25,6 +26,7 @@ def feed_until_done(board: LegBoard, ctl: BoardControl, op: Operation, limit_s: 
     t = ctl.state()["time_s"]
     while op.check() is None:
         assert t < limit_s, f"{op.kind} not done at board time {t:.1f} s"
+        wait_for_driver(board, t)  # no faster than the driver hears the board
         t = ctl.advance(t + STEP_S)["time_s"]
         board.poll()
     return t

@@ -21,6 +21,7 @@ import yaml
 from slopelander.legs import LegBoard, load_calibration, wire
 from slopelander.legs.errors import CalibrationError
 from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.legboard.feeding import wait_for_driver
 from slopelander_sitl.legboard.runtime import HostBoard
 from tests.legs.conftest import ROOT
 
@@ -105,6 +106,7 @@ def _hold(board: Board, currents: dict[int, int]) -> list[float]:
 
         def run(op) -> None:
             while op.check() is None:
+                wait_for_driver(drv, now[0])  # no faster than the driver hears the board
                 now[0] = ctl.advance(now[0] + 0.05)["time_s"]
                 drv.poll()
 

@@ -276,9 +276,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     board = LegBoard.open(args.legs_port, args.legs_baud, status_period_ms=20, timeout=5.0)
     try:
         board.set_clock(bench.clock)
-        if hasattr(bench, "poll"):  # a simulated board's bench steps the driver between its waits
-            bench.poll = board.poll
-            bench.accounted = board.accounted_until  # and feeds no time past what it heard
+        if hasattr(bench, "driver"):  # a simulated board's bench steps the driver between its waits
+            bench.driver = board
         points = cal.measure(board, bench, proc, board.calibration)
         try:
             fits = cal.fit_all(points, proc)

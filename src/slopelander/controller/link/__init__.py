@@ -17,6 +17,7 @@ listeners are the link's own for the same reason as the filtered reader: pymavli
 
 from __future__ import annotations
 
+import contextlib
 import math
 import select
 import time
@@ -157,6 +158,11 @@ class Link:
     def add_listener(self, fn: Callable[[object], None]) -> None:
         """Call ``fn(msg)`` for every message from the autopilot (e.g. the impact detector)."""
         self._listeners.append(fn)
+
+    def remove_listener(self, fn: Callable[[object], None]) -> None:
+        """Stop calling ``fn`` (one added by :meth:`add_listener`; absent: nothing to do)."""
+        with contextlib.suppress(ValueError):
+            self._listeners.remove(fn)
 
     def since(self, mtype: str, count: int) -> tuple[list, int]:
         """The messages of ``mtype`` (one of :data:`KEEP_RECENT`) received after the first ``count``,
