@@ -2,9 +2,11 @@
 
 The load flake of the test suite, measured on its own: one vehicle takes off over the 35 deg
 roof and flies survey passes (``slopelander land``'s slope measurement, the leg board polled as a
-landing polls it) while ``--busy`` processes spin on the machine's cores. Prints each pass, then
-the passes whose link was lost, the leg board's silences (the rig reopens the board after one)
-and the slowest leg-board poll (the companion's loop waits that long).
+landing polls it) while ``--busy`` processes spin on the machine's cores, until the link is
+lost or ``--passes`` are flown (after a loss ArduCopter's failsafes own the vehicle). Prints
+each pass, then how many were flown and whether the last lost the link, the leg board's
+silences (the rig reopens the board after one) and the slowest leg-board poll (the companion's
+loop waits that long).
 
     SLOPELANDER_ARDUCOPTER=/path/to/arducopter python3 benchmarks/survey_under_load.py --passes 40
 
@@ -46,12 +48,14 @@ def main(argv: list[str] | None = None) -> int:
     ]
     for p in busy:
         p.start()
-    lost, silences, slowest = [], 0, 0.0
+    lost, silences, slowest, flown = [], 0, 0.0, 0
     rig = Rig(slope_deg=35, autopilot="ardupilot", seed=a.seed)
 
     def poll() -> None:
         nonlocal silences, slowest
         rig.link.poll()
+        if rig.link.lost and not lost:
+            lost.append(rig.link.lost_why)
         t0 = time.monotonic()
         try:
             rig.legs.poll()
@@ -73,25 +77,25 @@ def main(argv: list[str] | None = None) -> int:
                 rig.go_over_roof(2)
                 est, _ = measure_slope(rig.link, cfg, track, tick=poll, note=lambda _: None)
                 print(f"pass {i}: {est.describe()}", flush=True)
-            except Exception as exc:  # a pass that fails is the figure: count it, fly the next
-                why = rig.link.lost_why
-                print(f"pass {i}: failed ({type(exc).__name__}: {exc}); link: {why}", flush=True)
-                if why is not None:
-                    lost.append(i)
-                    end = time.monotonic() + 30.0
-                    while rig.link.lost and time.monotonic() < end:
-                        poll()
-                        time.sleep(0.01)
+            except Exception as exc:  # a pass that fails is the figure: say why, then stop
+                print(f"pass {i}: failed ({type(exc).__name__}: {exc}); link: {rig.link.lost_why}")
+                break
             finally:  # a checkout before Link.remove_listener: its list
                 remove = getattr(rig.link, "remove_listener", rig.link._listeners.remove)
                 remove(track.feed)
+            flown += 1
+            if rig.link.lost and not lost:  # lost in the transit (the rig's own polls)
+                lost.append(rig.link.lost_why)
+            if lost:
+                break
         took = time.monotonic() - t0
     finally:
         for p in busy:
             p.terminate()
         rig.close()
+    ended = f"the link lost in the last ({lost[0]})" if lost else "the link never lost"
     print(
-        f"{len(lost)} of {a.passes} passes lost the link {lost}; leg board silent {silences} times; "
+        f"{flown} of {a.passes} passes flown, {ended}; leg board silent {silences} times; "
         f"slowest leg-board poll {slowest * 1000:.0f} ms; {took:.0f} s beside {a.busy} busy processes"
     )
     return 0

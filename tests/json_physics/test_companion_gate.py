@@ -82,6 +82,28 @@ def test_a_silent_companion_is_given_up_after_the_patience_then_waited_for_again
     assert time.monotonic() - t1 > 0.5 and gate.give_ups == 2
 
 
+def test_a_companion_that_read_everything_and_waits_lets_the_physics_run_another_lead(
+    gate: CompanionGate,
+) -> None:
+    """The newest echo said again during a hold: the companion read its link dry and waits, so
+    what the physics sent in its lead has not arrived (unsent while held). Both once waited for
+    the other until the patience ran out. A repeat sent before the hold began says nothing."""
+    _echo(gate.port, 10.0)
+    _echo(gate.port, 10.0)  # before the hold: not counted
+    threading.Timer(0.15, lambda: _echo(gate.port, 10.0)).start()
+    t0 = time.monotonic()
+    gate.wait(10.4)
+    took = time.monotonic() - t0
+    assert 0.1 < took < 0.45 and gate.grants == 1 and gate.give_ups == 0, (took, gate.summary())
+    t1 = time.monotonic()
+    gate.wait(10.6)  # within the granted lead (to 10.65): no hold
+    gate.wait(10.65)
+    assert time.monotonic() - t1 < 0.05 and gate.holds == 1
+    t2 = time.monotonic()
+    gate.wait(10.7)  # past it: held again, to the patience (counted from the last newer echo)
+    assert time.monotonic() - t2 > 0.2 and gate.holds == 2 and gate.give_ups == 1
+
+
 def test_a_companion_that_disconnects_is_not_waited_for(gate: CompanionGate) -> None:
     _echo(gate.port, 10.0)
     threading.Timer(0.1, lambda: _send_raw(gate.port, ECHO.pack(GONE))).start()

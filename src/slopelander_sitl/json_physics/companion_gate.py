@@ -11,7 +11,14 @@ arrive here as UDP datagrams of one little-endian int64: the echoed vehicle time
 or ``GONE`` (-1) when the companion's connection closed.
 
 Before stepping a frame that would put the physics more than ``lead_s`` past the newest echo, the
-server waits for a newer one. No echo yet (no companion, or one that does not echo): no waiting.
+server waits for a newer one, or for the newest one said again during the wait: the companion
+echoes the same time again when it has read its link dry and the vehicle's time has not moved
+for a while (``slopelander.controller.link.lockstep``), so it is not behind; what ArduCopter sent
+in the lead has not reached it (lost, or still unsent on the way: which, was not found). The
+physics then runs another lead (a grant). Without the grant both sides
+waited, each for the other, until the patience ran out: on a loaded machine the physics held up
+to 4.8 s and the companion declared its link lost after 1.5 s (2026-12-07).
+No echo yet (no companion, or one that does not echo): no waiting.
 No newer echo for ``patience_s`` of wall time (the companion went away): the physics runs free
 until the companion echoes again, as the simulated vehicle does.
 
@@ -94,6 +101,9 @@ class CompanionGate:
         self.port = self.sock.getsockname()[1]
         self.lead_s, self.patience_s = lead_s, patience_s
         self.echo_t: float | None = None  # newest echoed vehicle time (s)
+        self.repeated = False  # the newest echo said again since the wait began
+        self.free_until = -math.inf  # physics time up to which a grant lets the physics run
+        self.grants = 0
         self.echo_wall = 0.0  # monotonic time it last moved forward
         self.echoes = 0
         self.holds = 0  # frames that waited
@@ -106,6 +116,8 @@ class CompanionGate:
     def reset(self) -> None:
         """ArduPilot restarted: its old echoes mean nothing."""
         self.echo_t = None
+        self.repeated = False
+        self.free_until = -math.inf
 
     def _drain(self) -> None:
         """Read every echo waiting (none left, or the socket closed: done)."""
@@ -126,14 +138,18 @@ class CompanionGate:
             if self.echo_t is None or t > self.echo_t:
                 self.echo_t = t
                 self.echo_wall = time.monotonic()
+                self.repeated = False
+            elif t == self.echo_t:
+                self.repeated = True
 
     def wait(self, t: float) -> None:
         """Return once physics time ``t`` is within the lead of the newest echo, or the companion
         has been silent for the patience (then run free until it echoes again)."""
         self._drain()
-        if self.echo_t is None or t - self.echo_t <= self.lead_s:
+        if self.echo_t is None or t - self.echo_t <= self.lead_s or t <= self.free_until:
             return
         self.holds += 1
+        self.repeated = False  # only a repeat sent while this frame waits says the companion waits too
         start, echo0 = time.monotonic(), self.echo_t
         try:
             while not self.stopping and self.echo_t is not None and t - self.echo_t > self.lead_s:
@@ -144,6 +160,11 @@ class CompanionGate:
                     return
                 select.select([self.sock], [], [], min(left, 0.2))
                 self._drain()
+                if self.repeated:  # the companion read everything and waits: run another lead
+                    self.grants += 1
+                    self.repeated = False
+                    self.free_until = t + self.lead_s
+                    return
         finally:
             took = time.monotonic() - start
             self.held_s += took
@@ -175,7 +196,7 @@ class CompanionGate:
         took, t, echo = self.longest
         return (
             f"echoes={self.echoes} holds={self.holds} held={self.held_s:.1f}s "
-            f"longest={took:.2f}s(t={t:.2f},echo={echo:.2f}) give_ups={self.give_ups} "
+            f"longest={took:.2f}s(t={t:.2f},echo={echo:.2f}) grants={self.grants} give_ups={self.give_ups} "
             f"bad_echoes={self.rejected} slept_near_ground={self.paced_s:.1f}s"
         )
 

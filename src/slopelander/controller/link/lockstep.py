@@ -4,7 +4,8 @@ The project's simulated vehicle (``slopelander_sitl.vehicle --lockstep``) and it
 JSON physics' companion gate) run at most 50 ms of vehicle time ahead of the newest vehicle time
 the companion echoed, so a simulated flight does not depend on how fast the machine runs the
 companion. The echo is a TIMESYNC whose ``tc1`` is non-zero (an answer, not a request) and whose
-``ts1`` is the newest vehicle time read, in nanoseconds, every 20 ms of vehicle time.
+``ts1`` is the newest vehicle time read, in nanoseconds, every 20 ms of vehicle time (or of local
+time, when the vehicle's time has moved on less).
 
 The companion has another link a simulator feeds on the vehicle's time: the leg board's, a
 pseudo-terminal whose bytes a loaded machine can hold for seconds (the kernel's tty worker
@@ -15,6 +16,14 @@ neither a silent-looking board nor a late acknowledgement is made of the machine
 simulator then sends nothing; the link does not count that silence (:attr:`holding`). A hold
 lasts at most :data:`HOLD_MAX_S` of local time (a board really gone is then found silent on the
 vehicle's time, as without the hold).
+
+The same time echoed again says "read everything, and the vehicle's time has not moved in
+:data:`IDLE_S` of local time": the companion polls a drained link, so it is not behind, and a
+simulator holding for a newer echo may run another lead (ArduCopter's gate,
+``slopelander_sitl/json_physics/companion_gate.py``): what ArduCopter sent in its lead can sit
+unsent while it is held, and both sides then waited for the other until the gate's patience ran
+out (5 s; at the same vehicle time in two runs of a survey under load, 2026-12-07). Not while
+the echo holds for the board: that wait is the companion's own.
 
 A real autopilot has no use for it: ArduPilot drops a TIMESYNC answer that does not match a
 request of its own (``GCS_MAVLINK::handle_timesync``), so on a real vehicle the echoes would only
@@ -34,6 +43,9 @@ PERIOD_S = 0.02
 BOARD_SLACK_S = 0.3
 #: local seconds one hold may last
 HOLD_MAX_S = 5.0
+#: local seconds a polled, drained link may see the vehicle's time stand still before the newest
+#: time is echoed again (see the module's note)
+IDLE_S = 0.1
 
 
 class LockstepEcho:
@@ -45,7 +57,9 @@ class LockstepEcho:
         self.clock = clock
         self.monotonic = monotonic
         self.sent = 0
+        self.repeats = 0  # the same time said again (see the module's note)
         self._last_usec = 0
+        self._last_local = -math.inf  # local time of the last echo
         #: the vehicle time (s) up to which the companion's other links are accounted for (the
         #: leg board's: :meth:`slopelander.legs.driver.LegBoard.accounted_until`); None: no limit
         self.limit: Callable[[], float | None] | None = None
@@ -83,15 +97,27 @@ class LockstepEcho:
         return now
 
     def due(self) -> None:
-        """Echo if the time to echo moved on a period since the last echo."""
-        if self.clock.known:
-            target = self._target_usec()
-            if target - self._last_usec >= PERIOD_S * 1e6:
-                self.echo(target)
+        """Echo if the time to echo moved on since the last echo, by a period of vehicle time or
+        after a period of local time: a simulator that holds for a newer echo sends nothing new
+        (ArduCopter's last frames can sit in its buffers while it is held), so a newer time
+        read before the hold, however little newer, must still be said (waiting for a period's
+        worth of vehicle time, both sides waited for the other until the simulator's patience
+        ran out: 5 s, on a loaded machine)."""
+        if not self.clock.known:
+            return
+        target = self._target_usec()
+        moved = target - self._last_usec
+        idle = self.monotonic() - self._last_local
+        if moved >= PERIOD_S * 1e6 or (moved > 0 and idle >= PERIOD_S):
+            self.echo(target)
+        elif idle >= IDLE_S and not self.holding and target == self.clock.usec:
+            self.repeats += 1  # read dry, the vehicle's time still: say it again (a grant)
+            self.echo(target)
 
     def echo(self, usec: int | None = None) -> None:
         """Echo ``usec`` (default: the newest vehicle time) now."""
         usec = self.clock.usec if usec is None else usec
         self._last_usec = usec
+        self._last_local = self.monotonic()
         self.sent += 1
         self.conn.mav.timesync_send(max(1, int(self.monotonic() * 1e9)), usec * 1000)
