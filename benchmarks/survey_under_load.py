@@ -35,13 +35,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--busy", type=int, default=2, help="busy processes beside it (default 2)")
     ap.add_argument("--seed", type=int, default=42)
     a = ap.parse_args(argv)
+    import slopelander_sitl
     from slopelander.controller.slope_estimate import SurfaceTrack
     from slopelander.controller.survey import measure_slope
     from slopelander.legs.errors import LegBoardError
     from slopelander_sitl.rig import Rig, config
 
-    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    print(f"checkout {here}; load {os.getloadavg()}")
+    print(f"simulator from {os.path.dirname(slopelander_sitl.__file__)}; load {os.getloadavg()}")
     busy = [
         multiprocessing.Process(target=spin, args=(time.monotonic() + 3600,), daemon=True)
         for _ in range(a.busy)
