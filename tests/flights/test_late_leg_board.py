@@ -69,7 +69,11 @@ def test_a_stalled_leg_board_line_holds_the_vehicle_and_is_neither_silent_nor_a_
     assert not silences, silences
     assert rig.link.lockstep.holds >= 1
     assert ahead <= BOARD_SLACK_S + LEADS[autopilot], (ahead, autopilot)
-    # and the vehicle went on once the board's bytes came
+    # and the vehicle goes on once the board's bytes come (however slowly a loaded machine runs it)
+    end = time.monotonic() + 30.0
+    while rig.now - began <= BOARD_SLACK_S + LEADS[autopilot] and time.monotonic() < end:
+        rig.poll()
+        time.sleep(0.002)
     assert rig.now - began > BOARD_SLACK_S + LEADS[autopilot]
     assert rig.legs.poll() is not None
 
