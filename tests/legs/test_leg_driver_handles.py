@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+import serial
 
 from slopelander.controller.clock import ManualClock
 from slopelander.legs import (
@@ -111,6 +112,47 @@ def test_timeouts_run_on_the_injected_clock(board):
         clk.advance(5.01)
         with pytest.raises(LegTimeout, match=r"silent: nothing for 5 s"):
             drv.poll()
+
+
+class KernelBehind(serial.Serial):
+    """A real port whose kernel has not yet moved the bytes in flight (its tty worker
+    unscheduled, as on a loaded machine): the count of waiting bytes says 0, as TIOCINQ does
+    then, while a read, which waits for that worker, gets them."""
+
+    behind = False
+
+    @property
+    def in_waiting(self) -> int:
+        return 0 if self.behind else super().in_waiting
+
+
+def test_a_board_whose_bytes_the_kernel_still_holds_is_not_taken_for_silent(board):
+    clk = ManualClock(5.0)
+    ports: list[KernelBehind] = []
+
+    def port(*args, **kw) -> KernelBehind:
+        ports.append(KernelBehind(*args, **kw))
+        return ports[-1]
+
+    with open_on(board, clk, silence_timeout=1.0, serial_factory=port) as drv, board.ctl() as ctl:
+        poll_until(drv, lambda: drv.status is not None, "a status")
+        ports[0].behind = True
+        time.sleep(0.3)  # STATUS frames arrive (every 0.1 s); the count does not show them
+        drv.poll()
+        clk.advance(1.01)
+        drv.poll()  # nothing counted for 1 s: the bytes in flight are read before "silent"
+        assert drv.status.received_at == clk()
+        # a board that really sent nothing is still silent: nothing in flight to wait for
+        ports[0].behind = False
+        ctl.inject("silent")
+        time.sleep(0.3)
+        drv.poll()
+        ports[0].behind = True
+        clk.advance(1.01)
+        t0 = time.monotonic()
+        with pytest.raises(LegTimeout, match=r"silent: nothing for 1 s"):
+            drv.poll()
+        assert time.monotonic() - t0 < 0.5
 
 
 def test_a_board_that_comes_back_is_reconnected(sim_board):

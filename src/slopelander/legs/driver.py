@@ -68,6 +68,8 @@ MAX_ANGLE_DEG = MAX_ANGLE_CDEG / 100.0
 STEADY_STATES = (LegState.LOOSE, LegState.HOLDING, LegState.STOPPED)
 SETTLE_SAMPLES = 3
 MAX_QUEUE_BYTES = 4096  # about 200 commands: far more than a landing sends between two polls
+#: bytes a read that waits for what the kernel has in flight takes at most (:meth:`LegBoard._read`)
+CHUNK = 4096
 #: a KEEPALIVE goes out when nothing else was sent for this long (driver clock or wall time, which
 #: ever comes first): the board stops holding its motors after 10 s of silence
 KEEPALIVE_S = 0.1
@@ -640,7 +642,7 @@ class LegBoard:
             now = self.clock()
             self._resend(now)
             self._keepalive(now)
-            if now - self._last_good > self.silence_timeout:
+            if now - self._last_good > self.silence_timeout and not self._read(in_flight=True):
                 raise self._silence_error(f"nothing for {self.silence_timeout:g} s")
         except LegBoardError as exc:
             for op in self._ops:
@@ -893,17 +895,22 @@ class LegBoard:
             raise BoardDisconnected(f"leg board port {self.port}: {exc}") from None
         del self._outq[:n]
 
-    def _read(self) -> list[codec.Frame]:
+    def _read(self, in_flight: bool = False) -> list[codec.Frame]:
         """What has arrived, without waiting: only the bytes the port says it holds are read.
         A poll or read of a Linux tty that finds nothing first waits for the kernel's worker to
         move bytes still in flight (``n_tty_poll`` -> ``tty_buffer_flush_work``): on a loaded
         machine that held this call 0.2-2.1 s (a pseudo-terminal, two busy processes on 2
         cores, 2026-12-07), and with it the companion's control loop. A hung-up port (an
-        unplugged board) fails the count with EIO: that is the disconnect."""
+        unplugged board) fails the count with EIO: that is the disconnect.
+
+        ``in_flight``: when the port holds nothing, read anyway, which waits for bytes the
+        kernel still has in flight: asked only before the board is declared silent, so a board
+        whose bytes a loaded machine held is not failed for it (a board that sent nothing costs
+        no wait: there is no work in flight to wait for)."""
         if self._ser is None:
             raise BoardDisconnected(f"leg board port {self.port} is not open")
         try:
-            waiting = self._ser.in_waiting
+            waiting = self._ser.in_waiting or (CHUNK if in_flight else 0)
             data = self._ser.read(waiting) if waiting else b""
         except (serial.SerialException, OSError) as exc:
             raise BoardDisconnected(f"leg board port {self.port}: {exc}") from None
