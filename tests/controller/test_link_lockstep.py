@@ -60,11 +60,8 @@ def test_the_vehicle_waits_for_the_links_echo():
         v.stop()
 
 
-def test_the_echo_holds_for_a_board_not_heard_from_and_the_held_silence_is_not_a_lost_link(monkeypatch):
-    """A limit (the leg board's accounted time) holds the echo, and with it the vehicle, at the
-    limit plus the slack; the silence of the held vehicle is not counted; a hold ends after
-    HOLD_MAX_S of local time, and the silence counts again from there."""
-    monkeypatch.setattr(lockstep, "HOLD_MAX_S", 2.0)  # shorter than the 5 s of a flight
+def held_vehicle() -> tuple:
+    """A lock-stepped vehicle streaming its IMU (the landing's clock source) to a link."""
     v = start_vehicle(params=ROUTE_A, no_script=True, speed=0.0, lockstep=True, give_up_s=30.0)
     link = Link(v.mavlink_url, link_loss_s=1.0, lockstep=True)
     try:
@@ -75,6 +72,20 @@ def test_the_echo_holds_for_a_board_not_heard_from_and_the_held_silence_is_not_a
             poll_for(link, 0.01)
         assert ask.ok, ask.state
         poll_for(link, 0.3)
+    except BaseException:
+        link.close()
+        v.stop()
+        raise
+    return v, link
+
+
+def test_the_echo_holds_for_a_board_not_heard_from_and_the_held_silence_is_not_a_lost_link(monkeypatch):
+    """A limit (the leg board's accounted time) holds the echo, and with it the vehicle, at the
+    limit plus the slack; the silence of the held vehicle is not counted; a hold ends after
+    HOLD_MAX_S of local time, and the silence counts again from there."""
+    monkeypatch.setattr(lockstep, "HOLD_MAX_S", 2.0)  # shorter than the 5 s of a flight
+    v, link = held_vehicle()
+    try:
         heard = link.clock.now()  # the board's last word, as far as the limit says
         link.lockstep.limit = lambda: heard
         poll_for(link, 1.5)  # longer than the link's 1 s loss limit
@@ -87,6 +98,28 @@ def test_the_echo_holds_for_a_board_not_heard_from_and_the_held_silence_is_not_a
         assert link.clock.now() > held_at + 0.1
         assert not link.lost, link.lost_why
         link.lockstep.limit = None
+    finally:
+        link.close()
+        v.stop()
+
+
+def test_before_holding_the_companion_reads_what_its_board_has_in_flight():
+    """The catch-up hook (the leg board's read that waits for the bytes the kernel holds) runs
+    before the echo holds; when that brings the board's word up to date, nothing is held."""
+    v, link = held_vehicle()
+    try:
+        heard, calls = [link.clock.now()], []
+
+        def catch_up() -> None:
+            calls.append(link.clock.now())
+            heard[0] = link.clock.now()  # what was in flight, now read
+
+        link.lockstep.limit = lambda: heard[0]
+        link.lockstep.catch_up = catch_up
+        before = link.clock.now()
+        poll_for(link, 1.0)
+        assert calls and link.lockstep.holds == 0
+        assert link.clock.now() > before + lockstep.BOARD_SLACK_S + 0.1  # it ran on
     finally:
         link.close()
         v.stop()

@@ -168,6 +168,7 @@ class Session:
         self.legs.set_clock(self.link.clock.now)
         if self.link.lockstep is not None:  # the simulator waits for the board's bytes too
             self.link.lockstep.limit = self._legs_accounted
+            self.link.lockstep.catch_up = self._legs_catch_up
         if self.telemetry is not None:
             self.telemetry.legs = self.legs
         return self.legs
@@ -175,6 +176,11 @@ class Session:
     def _legs_accounted(self) -> float | None:
         """The vehicle time up to which the leg board is accounted for (None: no board)."""
         return None if self.legs is None else self.legs.accounted_until()
+
+    def _legs_catch_up(self) -> None:
+        """Read what the leg board has in flight, waiting for it (the simulator is held)."""
+        if self.legs is not None:
+            self.legs.catch_up()
 
     def measure_slope(
         self, pilot: float | str, *, tick: Callable[[], None] | None = None, wall_s: float = 300.0

@@ -591,6 +591,14 @@ class LegBoard:
         if self.status is not None:
             self.status = dataclasses.replace(self.status, received_at=self.status.received_at + offset)
 
+    def catch_up(self) -> None:
+        """Read what the kernel still has in flight from the board, waiting for it (see
+        :meth:`_read`): for a caller that waits anyway, a lock-stepped simulator held until the
+        board is heard. Costs nothing when nothing is in flight; errors are the next poll's."""
+        if self._ser is not None:
+            with contextlib.suppress(LegBoardError):
+                self._read(in_flight=True)
+
     def accounted_until(self) -> float | None:
         """The time on this driver's clock up to which the board is accounted for: its newest
         good frame's arrival, or the first sending of a command it has not yet answered if

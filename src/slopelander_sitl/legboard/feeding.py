@@ -26,5 +26,6 @@ def wait_for_driver(
         until = driver.accounted_until()
         if until is None or now - until <= ahead_s:
             return
+        driver.catch_up()  # waiting for what the kernel holds costs nothing here: we wait anyway
         driver.poll()
         time.sleep(0.001)

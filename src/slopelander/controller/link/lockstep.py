@@ -13,7 +13,9 @@ unscheduled). While the board is not accounted for (:attr:`LockstepEcho.limit`: 
 or an unanswered command, more than :data:`BOARD_SLACK_S` of vehicle time back) the echo holds
 at that time, so the simulator waits for the board's bytes as it waits for the companion, and
 neither a silent-looking board nor a late acknowledgement is made of the machine's load. The
-simulator then sends nothing; the link does not count that silence (:attr:`holding`). A hold
+simulator then sends nothing; the link does not count that silence (:attr:`holding`). Before
+holding, the companion reads what the board's line has in flight, waiting for the kernel
+(:attr:`LockstepEcho.catch_up`): the wait is free, the simulator waits anyway. A hold
 lasts at most :data:`HOLD_MAX_S` of local time (a board really gone is then found silent on the
 vehicle's time, as without the hold).
 
@@ -65,6 +67,9 @@ class LockstepEcho:
         #: the vehicle time (s) up to which the companion's other links are accounted for (the
         #: leg board's: :meth:`slopelander.legs.driver.LegBoard.accounted_until`); None: no limit
         self.limit: Callable[[], float | None] | None = None
+        #: called before the echo holds for :attr:`limit`: the companion reads what its other
+        #: links have in flight, waiting for it (free: the simulator waits anyway)
+        self.catch_up: Callable[[], None] | None = None
         #: local time the current hold began (None: not holding)
         self.held_since: float | None = None
         #: local time the last hold ended (the link counts silence from there)
@@ -83,6 +88,10 @@ class LockstepEcho:
         now = self.clock.usec
         until = self.limit() if self.limit is not None else None
         short = until is not None and (until + BOARD_SLACK_S) * 1e6 < now
+        if short and self.catch_up is not None and not self._spent:
+            self.catch_up()
+            until = self.limit()
+            short = until is not None and (until + BOARD_SLACK_S) * 1e6 < now
         local = self.monotonic()
         if short and not self._spent:
             if self.held_since is None:
