@@ -58,6 +58,10 @@ STREAMS: tuple[tuple[str, str], ...] = (
 SESSION_MESSAGES = LANDING_MESSAGES | {"SERVO_OUTPUT_RAW"}
 #: local seconds to wait for the autopilot to answer the stream requests
 STREAM_ANSWER_S = 10.0
+#: local seconds the leg board has to answer the handshake (resent every 0.25 s): a board answers
+#: in milliseconds, a simulated one on a loaded machine took over 2 s (two busy processes beside
+#: the suite, 2026-12-07); a missing board is reported this much later
+LEGS_HANDSHAKE_S = 5.0
 
 
 class SessionError(SlopelanderError):
@@ -164,6 +168,7 @@ class Session:
         if self.legs is not None:
             self.legs.close()
             self.legs = None
+        kw.setdefault("timeout", LEGS_HANDSHAKE_S)
         self.legs = LegBoard.open(port, calibration=self.calibration, **kw)
         self.legs.set_clock(self.link.clock.now)
         if self.link.lockstep is not None:  # the simulator waits for the board's bytes too
