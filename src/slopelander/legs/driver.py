@@ -912,9 +912,9 @@ class LegBoard:
         unplugged board) fails the count with EIO: that is the disconnect.
 
         ``in_flight``: when the port holds nothing, read anyway, which waits for bytes the
-        kernel still has in flight: asked only before the board is declared silent, so a board
-        whose bytes a loaded machine held is not failed for it (a board that sent nothing costs
-        no wait: there is no work in flight to wait for)."""
+        kernel still has in flight: asked only where a wait is right, before the board is
+        declared silent (a board whose bytes a loaded machine held is not failed for it) and in
+        :meth:`catch_up`. A board that sent nothing costs no wait: nothing is in flight."""
         if self._ser is None:
             raise BoardDisconnected(f"leg board port {self.port} is not open")
         try:
