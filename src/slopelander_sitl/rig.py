@@ -426,6 +426,10 @@ class Rig:
             self.relay = None
         if self.vehicle is not None:
             self.vehicle.stop()
+            if getattr(self.vehicle, "summary", ""):  # ArduCopter's: how its physics waited for us
+                print(self.vehicle.summary, flush=True)
+        for t, why in self.leg_silences:  # a failed test's output says what the rig reopened
+            print(f"rig: leg board reopened at {t:.2f} s: {why}", flush=True)
             self.vehicle = None
         self.board.stop()
 
