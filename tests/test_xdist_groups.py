@@ -50,8 +50,8 @@ def test_a_group_runs_on_one_worker_in_order_with_its_fixture_made_once(tmp_path
     done = _run(tmp_path, 'pytestmark = pytest.mark.xdist_group("toy")')
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     ran = [line.split() for line in (tmp_path / "ran.txt").read_text().splitlines()]
-    assert [n for n, _ in ran] == ["0", "1", "2", "3"]
-    assert len({w for _, w in ran}) == 1
+    assert [n for n, _ in ran] == ["0", "1", "2", "3"], (ran, done.stdout[-2000:])
+    assert len({w for _, w in ran}) == 1, ran
     assert len((tmp_path / "made.txt").read_text().splitlines()) == 1
 
 
