@@ -54,8 +54,12 @@ ECHO = struct.Struct("<q")
 GONE = -1
 #: vehicle seconds the physics may run past the newest echo (see the module's note)
 LEAD_S = 0.25
-#: wall seconds without a newer echo after which the physics stops waiting
-PATIENCE_S = 5.0
+#: wall seconds without a newer echo after which the physics stops waiting: well past the
+#: companion's own longest waits (its hold for the leg board and its handshake with it, 5 s
+#: each). At 5 s, beside the suite and two busy processes, the gate gave up in 5 of 31 flights
+#: and ArduCopter ran free through what the companion never saw (2026-12-07). A companion that
+#: disconnects says so at once (``GONE``); a link cut is echoed by the relay.
+PATIENCE_S = 15.0
 #: a descent (m/s, down) or a pitch rate (rad/s) under these times nothing: resting, hovering
 DESCENT_MPS = 0.15
 PITCH_RATE_RAD_S = 0.2

@@ -24,7 +24,7 @@ The same time echoed again says "read everything, and the vehicle's time has not
 simulator holding for a newer echo may run another lead (ArduCopter's gate,
 ``slopelander_sitl/json_physics/companion_gate.py``): what ArduCopter sent in its lead can sit
 unsent while it is held, and both sides then waited for the other until the gate's patience ran
-out (5 s; at the same vehicle time in two runs of a survey under load, 2026-12-07). Not while
+out (then 5 s; at the same vehicle time in two runs of a survey under load, 2026-12-07). Not while
 the echo holds for the board: that wait is the companion's own.
 
 A real autopilot has no use for it: ArduPilot drops a TIMESYNC answer that does not match a
