@@ -428,9 +428,9 @@ class Rig:
             self.vehicle.stop()
             if getattr(self.vehicle, "summary", ""):  # ArduCopter's: how its physics waited for us
                 print(self.vehicle.summary, flush=True)
+            self.vehicle = None
         for t, why in self.leg_silences:  # a failed test's output says what the rig reopened
             print(f"rig: leg board reopened at {t:.2f} s: {why}", flush=True)
-            self.vehicle = None
         self.board.stop()
 
     def __enter__(self) -> Rig:
