@@ -87,11 +87,15 @@ class LockstepEcho:
         slack if that is earlier (and the hold has not run out)."""
         now = self.clock.usec
         until = self.limit() if self.limit is not None else None
-        short = until is not None and (until + BOARD_SLACK_S) * 1e6 < now
+
+        def behind(until: float | None) -> bool:
+            return until is not None and (until + BOARD_SLACK_S) * 1e6 < now
+
+        short = behind(until)
         if short and self.catch_up is not None and not self._spent:
             self.catch_up()
             until = self.limit()
-            short = until is not None and (until + BOARD_SLACK_S) * 1e6 < now
+            short = behind(until)
         local = self.monotonic()
         if short and not self._spent:
             if self.held_since is None:
