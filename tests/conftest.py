@@ -97,8 +97,24 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
                 )
 
 
+def _not_in_its_group(item: pytest.Item) -> str | None:
+    """Why xdist did not put ``item`` in its group, or None: xdist marks a grouped test by adding
+    ``@<group>`` to its id on the worker, and with pytest 9.2 that no longer takes (pytest-xdist
+    issue 1386): the tests are then spread as if unmarked, with no error of xdist's own."""
+    group = _group(item)
+    if not group or not getattr(item.config, "workerinput", None) or not item.config.getvalue("loadgroup"):
+        return None
+    if item.nodeid.endswith("@" + group):
+        return None
+    return (
+        f"xdist did not put this test in its group {group!r}: pytest {pytest.__version__} with "
+        "--dist loadgroup spreads grouped tests (pytest-xdist issue 1386); install the test "
+        "extra's pytest (pip install -e '.[test]')"
+    )
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_runtest_setup(item: pytest.Item) -> None:
-    why = item.stash.get(_UNGROUPED, None)
+    why = item.stash.get(_UNGROUPED, None) or _not_in_its_group(item)
     if why is not None:
         pytest.fail(why, pytrace=False)
