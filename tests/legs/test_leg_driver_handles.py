@@ -159,6 +159,21 @@ def test_a_board_whose_bytes_the_kernel_still_holds_is_not_taken_for_silent(boar
         assert time.monotonic() - t0 < 0.5
 
 
+def test_a_board_whose_hello_reply_the_kernel_still_holds_is_found_at_the_deadline(board):
+    """The handshake's last look reads what the kernel has in flight too, as the silence check
+    does: a board whose reply a loaded machine held is not refused as silent."""
+
+    def port(*args, **kw) -> KernelBehind:
+        ser = KernelBehind(*args, **kw)
+        ser.behind = True  # the count says 0 throughout: only a read that waits sees the reply
+        return ser
+
+    t0 = time.monotonic()
+    with LegBoard.open(str(board.link), 115200, timeout=1.0, serial_factory=port) as drv:
+        assert drv.info is not None and drv.info.legs == 4
+    assert time.monotonic() - t0 >= 1.0  # found at the last look, not before
+
+
 def test_a_board_that_comes_back_is_reconnected(sim_board):
     sim = sim_board()
     clk = ManualClock()
