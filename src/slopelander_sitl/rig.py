@@ -84,6 +84,10 @@ TRACK_MESSAGES = SESSION_MESSAGES
 #: stalled past 1 s, and the vehicle then ran free at up to 8x real time through the landing's
 #: timing (the thrust's end, the settle), making 55 deg landings end by the script's bound
 LOCKSTEP_PATIENCE_S = 5.0
+#: wall seconds the rig gives its simulated leg board to answer the handshake (a session gives a
+#: board 5 s, a real one answers in milliseconds): the simulated board is a relay and a firmware
+#: process, and beside a parallel suite and two busy processes it once took longer than 5 s
+BOARD_HANDSHAKE_S = 15.0
 #: the rig's default speed-up for real ArduCopter (see :class:`Rig`)
 ARDUCOPTER_SPEEDUP = 8.0
 #: s of vehicle time the rig flies a landing on once the controller holds it in SETTLED after a
@@ -410,7 +414,7 @@ class Rig:
         lock-stepped simulation, and the board on its time, is not a silent board."""
         self.legs = None
         try:
-            self.legs = self.session.open_legs(self.board.pty)
+            self.legs = self.session.open_legs(self.board.pty, timeout=BOARD_HANDSHAKE_S)
         except SessionError as exc:
             raise RigError(str(exc)) from None
         return self.legs
