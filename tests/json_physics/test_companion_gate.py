@@ -16,6 +16,7 @@ from pymavlink import mavutil
 from slopelander_sitl.ardupilot.echo_tap import EchoTap
 from slopelander_sitl.json_physics.ardupilot_side import ArduPilotSide
 from slopelander_sitl.json_physics.companion_gate import (
+    CATCH_UP_S,
     DESCENT_MPS,
     ECHO,
     GONE,
@@ -102,6 +103,21 @@ def test_a_companion_that_read_everything_and_waits_lets_the_physics_run_another
     t2 = time.monotonic()
     gate.wait(10.7)  # past it: held again, to the patience (counted from the last newer echo)
     assert time.monotonic() - t2 > 0.2 and gate.holds == 2 and gate.give_ups == 1
+
+
+def test_an_echo_older_than_the_newest_during_a_hold_also_lets_the_physics_run_another_lead(
+    gate: CompanionGate,
+) -> None:
+    """The newest echo was the relay's, during a cut, of a time the companion never saw (the cut
+    dropped it): with the link back the companion, waiting, echoes its own newest, older. The
+    physics once held for the whole patience then."""
+    _echo(gate.port, 10.0)  # the relay's, in the cut
+    threading.Timer(0.15, lambda: _echo(gate.port, 9.8)).start()  # the companion's, the link back
+    t0 = time.monotonic()
+    gate.wait(10.4)
+    took = time.monotonic() - t0
+    assert 0.1 < took < 0.45 and gate.grants == 1 and gate.give_ups == 0, (took, gate.summary())
+    assert gate.echo_t == pytest.approx(10.0)
 
 
 def test_a_companion_that_disconnects_is_not_waited_for(gate: CompanionGate) -> None:
@@ -219,6 +235,26 @@ def test_near_the_ground_it_keeps_to_real_time_and_above_it_runs_free() -> None:
         g.close()
     with pytest.raises(ValueError, match="positive"):
         CompanionGate(0, real_time_below_m=0.0)
+
+
+def test_near_the_ground_a_stall_is_not_caught_up_above_real_time() -> None:
+    """After a hold or a stall near the ground the physics goes on at real time from where it is,
+    catching up at most CATCH_UP_S: a burst above real time lets the script run late."""
+    g = CompanionGate(0, real_time_below_m=2.0)
+    try:
+        _echo(g.port, 100.0)
+        time.sleep(0.05)
+        g.wait(0.0)
+        for i in range(10):
+            g.pace(1.0 + i * 0.01, 1.0)
+        time.sleep(0.15)  # held for the companion, or not scheduled
+        w0 = time.monotonic()
+        for i in range(10, 21):
+            g.pace(1.0 + i * 0.01, 1.0)
+        took = time.monotonic() - w0  # 10 frames of 10 ms after the first, less the catch-up
+        assert CATCH_UP_S <= 0.01 and took >= 0.1 - 0.01 - 0.01, took
+    finally:
+        g.close()
 
 
 def test_near_the_ground_real_time_is_kept_only_while_the_script_may_time_and_a_second_after() -> None:
