@@ -217,7 +217,7 @@ def format_results(results: dict[int, LegResult], unit: str) -> str:
 
 def _status(args: argparse.Namespace) -> int:
     """The board's status; with ``--calibration``, every check a flight makes of the legs."""
-    from slopelander.legs.checks import preflight
+    from slopelander.controller.leg_checks import preflight
 
     with _open(args) as board:
         status = board.query(timeout=min(args.timeout, 5.0))

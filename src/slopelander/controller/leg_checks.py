@@ -1,4 +1,5 @@
-"""What must hold between the board, its calibration and the lookup table before a flight.
+"""What must hold between the board, its calibration and the lookup table before a flight (here,
+beside the table: the leg package knows nothing of it).
 
 ``slopelander legs status --calibration FILE`` runs these without flying; opening the board
 has already refused a board of another protocol version or leg count and a calibration made
@@ -8,15 +9,12 @@ on another board (:meth:`slopelander.legs.driver.LegBoard.connect`).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.legs.calibration import Calibration
 from slopelander.legs.driver import BoardInfo, BoardStatus, LegBoard
 from slopelander.legs.errors import LegBoardError
 from slopelander.legs.messages import FAULT_TEXT, LegState
-
-if TYPE_CHECKING:
-    from slopelander.controller.table import LookupTable
 
 
 def _fault_problems(status: BoardStatus) -> list[str]:
@@ -86,8 +84,6 @@ def _angle_problems(cal: Calibration, lookup: LookupTable) -> list[str]:
 
 def preflight(board: LegBoard, status: BoardStatus, table: str | Path | None = None) -> list[str]:
     """Every reason the legs are not ready to fly (empty if they are)."""
-    from slopelander.controller.table import DEFAULT_TABLE, LookupTable
-
     cal = board.calibration
     problems = _fault_problems(status) + _calibration_problems(board.info, cal)
     path = table or DEFAULT_TABLE
