@@ -75,7 +75,8 @@ def test_without_reverse_thrust_the_controller_never_disarms_a_moving_vehicle(ri
     cfg = config(reflex={"cut_height_m": CUT_M, "reverse_thrust_pct": 0})
     flight = rig.land(preset(), cfg, timeout_s=ROOF_TIMEOUT_S, rest_s=0.0)
     assert flight.end in ("LANDED", "ABORTED", "SETTLED"), flight.history
-    assert "REVERSE" in flight.states and "SETTLED" in flight.states
+    why = " | ".join(f"{h['t']:.2f} {h['to']}: {h['reason']}" for h in flight.history)
+    assert "REVERSE" in flight.states and "SETTLED" in flight.states, why
     t_end = flight.history[-1]["t"]
     last = [p for p in rig.track.pos if p[0] <= t_end][-3:]
     if flight.end == "LANDED":  # came to rest (e.g. on its back): disarming is right

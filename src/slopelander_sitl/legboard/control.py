@@ -18,6 +18,11 @@ import socket
 from collections.abc import Sequence
 from pathlib import Path
 
+#: wall seconds for one exchange with the board's control socket: the board is a relay and a
+#: firmware process, and on a loaded machine (several simulations on 2 cores, or two busy
+#: processes beside the suite) one exchange has taken more than 2 s
+TIMEOUT_S = 10.0
+
 
 class ControlError(RuntimeError):
     """The board refused a control request or the channel failed."""
@@ -26,7 +31,7 @@ class ControlError(RuntimeError):
 class BoardControl:
     """A connection to one board's control socket; every call has a timeout."""
 
-    def __init__(self, path: str | Path, timeout: float = 2.0) -> None:
+    def __init__(self, path: str | Path, timeout: float = TIMEOUT_S) -> None:
         self.path = str(path)
         self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         self._sock.settimeout(timeout)

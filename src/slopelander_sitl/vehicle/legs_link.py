@@ -20,10 +20,9 @@ from pathlib import Path
 from typing import Protocol
 
 from slopelander.model.stepper import Stepper
-from slopelander_sitl.legboard.control import BoardControl, ControlError
+from slopelander_sitl.legboard.control import TIMEOUT_S, BoardControl, ControlError
 
 PERIOD_S = 0.02
-CONTROL_TIMEOUT_S = 10.0  # s of wall time for one exchange with the board's control socket
 CLEAR_M = 0.05  # the board's angles reach the physics only this far clear of the surface
 
 
@@ -45,7 +44,7 @@ class LegsLink:
         # a simulator in lock-step with the board waits for each exchange: on a loaded machine
         # (several simulations on 2 cores) one can take seconds, and a timeout here ends the
         # simulated legs for good (``error``), which reads as a silent board to the companion
-        self.ctl = BoardControl(control_path, timeout=CONTROL_TIMEOUT_S)
+        self.ctl = BoardControl(control_path, timeout=TIMEOUT_S)
         self.period_s = period_s
         try:
             #: whether the board follows the vehicle's clock (``--clock external``)
