@@ -14,7 +14,7 @@
 
 -- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
 -- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
-local VERSION = 8 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 9 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
 --    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
@@ -38,6 +38,8 @@ local VERSION = 8 -- 2: a refresh during RVT sets its duration (the companion en
 --    the impact is a push up the body (IMPACT.UP): an accelerometer reading down is not the roof;
 --    a glitch against a chain at the cut height does not hide the impact (RECKON.ground); a false
 --    cut is released only while the vehicle falls freely.
+-- 9: an ARMED reflex that lapses within CLIMB_UP.GRACE_M of its cut height while descending keeps
+--    its cut for CLIMB_UP.GRACE_MS more before it climbs.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
@@ -159,7 +161,11 @@ local STILL = { GYRO_DEGS = 5, SPEED_MPS = 0.10, MS = 1000 }
 -- ARMED): a GUIDED velocity target MPS up, re-sent every RESEND_MS for MS; ArduCopter then drops it
 -- after GUID_TIMEOUT and holds. Not in GUIDED: the vehicle is the pilot's, nothing is sent. GUIDED
 -- refusing the target: BRAKE.
-local CLIMB_UP = { MPS = 0.5, MS = 2000, RESEND_MS = 100 }
+-- A lapse with the trusted reading within GRACE_M of the cut height, descending: a climb from there
+-- stops on the roof (ArduCopter took 0.13 m to turn a 0.5 m/s descent round; the feet met a 20 deg
+-- roof at 0.23 m/s, 2026-12-07), so the reflex keeps its cut for GRACE_MS more, once: the descent
+-- goes on to the cut, or stops (GUID_TIMEOUT) near the cut height and climbs from there.
+local CLIMB_UP = { MPS = 0.5, MS = 2000, RESEND_MS = 100, GRACE_M = 0.15, GRACE_MS = 400 }
 local MODE = { GUIDED = 4, BRAKE = 17 }
 local TILT_BOUND_MAX_DEG = 30 -- the largest take-off tilt bound a release may ask for
 
@@ -579,6 +585,14 @@ local function run_reflex(t, fresh, d)
   if state == ARMED then
     if t >= valid_until then
       -- the companion silent: its descent target runs on for GUID_TIMEOUT, the reflex does not
+      ---@type Vector3f_ud|nil
+      local v = ahrs:get_velocity_NED()
+      if not reflex.graced and chain.d ~= nil and chain.d <= reflex.cut_m + CLIMB_UP.GRACE_M
+        and v ~= nil and v:z() >= RECKON.MIN_MPS then
+        reflex.graced, valid_until = true, t + CLIMB_UP.GRACE_MS
+        say(SEV.WARNING, string.format("lapse at %.2f m, cut %.2f m: cut kept", chain.d, reflex.cut_m))
+        return
+      end
       local how = stop_descent(t)
       reflex = nil
       enter(climb_until and CLIMB or IDLE, t, "reflex validity lapsed, " .. how)

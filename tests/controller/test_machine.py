@@ -162,7 +162,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 7.0}, "v7, v8 needed"),  # contract 8 reckons through a stuck range
+        ({"script_version": 8.0}, "v8, v9 needed"),  # contract 9 keeps a lapse's cut near it
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),

@@ -22,8 +22,9 @@ from slopelander.controller.link import CommandHandle, Link, LinkError
 #: falls freely at the missed-impact bound for :data:`FALL_WAIT_S` (the companion's backstop
 #: counts on it), 7 cuts on the descent reckoned from the last trusted reading through a dropout
 #: or a spike within 0.3 m of the cut height, 8 reckons through a reading that stopped moving (a
-#: stuck sensor) and takes only a push up the body for the impact
-SCRIPT_CONTRACT = 8
+#: stuck sensor) and takes only a push up the body for the impact, 9 keeps an ARMED reflex's cut
+#: for 0.4 s more when it lapses within 0.15 m over the cut height (a climb would stop on the roof)
+SCRIPT_CONTRACT = 9
 
 CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
 CMD_REFLEX = 31011  # MAV_CMD_USER_2
