@@ -125,8 +125,12 @@ def test_a_board_back_between_landings_is_reconnected_and_takes_a_preset(setup):
     assert lander.act.leg_op is not None, lander.act.leg_error
     assert run(lander, ap, lambda: lander.act.leg_op is None or lander.act.leg_op.done, 30.0)
     assert lander.act.leg_op is not None, lander.ctx.marks
-    assert lander.act.leg_op.exception() is None
-    assert [lg.torque_nm for lg in board.status.legs] == pytest.approx([1.3] * 4, abs=0.15)
+    op = lander.act.leg_op
+    assert op.exception() is None
+    # what each leg held when the preset was done; the status may have moved on since: at 20x a
+    # loaded machine's 0.5 s pause is the board's 10 s companion silence, and a HOLDING leg stops
+    assert all(r.converged for r in op.results.values()), op.results
+    assert [op.results[i].achieved for i in range(4)] == pytest.approx([1.3] * 4, abs=0.15)
 
 
 def test_a_board_back_during_a_landing_waits_for_the_landing_to_end(setup):
