@@ -13,6 +13,7 @@ from slopelander.controller.link import Link, mavlink
 from slopelander.controller.runner import Lander
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
+from slopelander_sitl.legboard.runtime import silence_in_wall_time
 from slopelander_sitl.vehicle.launch import REPO, start_legboard, start_vehicle
 from tests.vehicle.conftest import ROUTE_A
 
@@ -31,7 +32,7 @@ def wait(link: Link, h, seconds: float = 3.0) -> str:
 def airborne():
     # the vehicle at real time, as a real one flies; the board at 4x the wall clock: its legs
     # clamp in about 2.5 s, not the paper's 10 s of waiting
-    lb = start_legboard(speed=4.0)
+    lb = start_legboard(speed=4.0, config=silence_in_wall_time(4.0))
     v = start_vehicle(params=ROUTE_A, script=SCRIPT, speed=1.0, legboard_control=lb.control)
     link = Link(v.mavlink_url)
     legs = None

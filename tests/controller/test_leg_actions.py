@@ -3,6 +3,7 @@ the uphill angle is set before the torques when the board can, and only reported
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import time
@@ -14,6 +15,7 @@ from slopelander.controller.clock import ManualClock
 from slopelander.controller.config import load_config
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
+from slopelander_sitl.legboard.runtime import silence_in_wall_time
 from slopelander_sitl.vehicle.launch import REPO, child_env, start_legboard
 
 HANG_S = 60.0  # only a bound against a hung test; the driver's timeouts run on the manual clock
@@ -21,7 +23,7 @@ HANG_S = 60.0  # only a bound against a hung test; the driver's timeouts run on 
 
 @pytest.fixture
 def board():
-    lb = start_legboard(speed=20.0)
+    lb = start_legboard(speed=20.0, config=silence_in_wall_time(20.0))
     legs = None
     try:
         legs = LegBoard.open(lb.pty, calibration=load_calibration(), clock=ManualClock())
@@ -58,6 +60,7 @@ def test_the_preset_sets_the_uphill_angle_then_the_torques(board):
 
 def test_a_board_without_the_angle_stop_gets_only_the_torques(tmp_path):
     link = tmp_path / "legs"
+    (tmp_path / "config.json").write_text(json.dumps(silence_in_wall_time(20.0)))
     proc = subprocess.Popen(
         [
             sys.executable,
@@ -67,6 +70,8 @@ def test_a_board_without_the_angle_stop_gets_only_the_torques(tmp_path):
             str(link),
             "--speed",
             "20",
+            "--config",
+            str(tmp_path / "config.json"),
             "--no-angle-stop",
         ],
         stdout=subprocess.PIPE,

@@ -3,6 +3,7 @@ reconnects it between landings, not during one (real board processes, a real pty
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -16,6 +17,7 @@ from slopelander.controller.link import Link
 from slopelander.controller.runner import Lander
 from slopelander.legs.calibration import load_calibration
 from slopelander.legs.driver import LegBoard
+from slopelander_sitl.legboard.runtime import silence_in_wall_time
 from slopelander_sitl.rig import config
 from slopelander_sitl.vehicle.launch import REPO, child_env
 
@@ -24,8 +26,11 @@ HANG_S = 60.0  # only a bound against a hung test: every decision below runs on 
 
 
 def start_board(link: Path) -> subprocess.Popen:
+    config = link.with_name("config.json")
+    config.write_text(json.dumps(silence_in_wall_time(20.0)))
+    cmd = ["--link", str(link), "--speed", "20", "--config", str(config)]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "slopelander_sitl.legboard", "--link", str(link), "--speed", "20"],
+        [sys.executable, "-m", "slopelander_sitl.legboard", *cmd],
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,

@@ -7,6 +7,7 @@ pipe closed and its temporary directory removed.
 
 from __future__ import annotations
 
+import json
 import os
 import select
 import shutil
@@ -19,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from slopelander_sitl.legboard.control import BoardControl
+from slopelander_sitl.legboard.runtime import silence_in_wall_time
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEED = 20.0
@@ -41,6 +43,8 @@ class SimBoard:
 
 def _start(directory: Path, flags: tuple[str, ...], speed: float) -> SimBoard:
     link = directory / "legs"
+    config = directory / "config.json"
+    config.write_text(json.dumps(silence_in_wall_time(speed)))
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(ROOT), env.get("PYTHONPATH", "")])
     proc = subprocess.Popen(
@@ -52,6 +56,8 @@ def _start(directory: Path, flags: tuple[str, ...], speed: float) -> SimBoard:
             str(link),
             "--speed",
             str(speed),
+            "--config",
+            str(config),
             *flags,
         ],
         stdout=subprocess.PIPE,

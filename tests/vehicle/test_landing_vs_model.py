@@ -16,6 +16,7 @@ from pymavlink import mavutil
 
 from slopelander.legs import LegBoard
 from slopelander.model import LandingConditions, Outcome, simulate
+from slopelander_sitl.legboard.runtime import silence_in_wall_time
 from slopelander_sitl.vehicle.landing_record import FIELDS
 from slopelander_sitl.vehicle.launch import REPO, start_legboard, start_vehicle
 from tests.vehicle.conftest import ROUTE_A
@@ -83,7 +84,7 @@ def fly_reflex_landing(url: str, cut_m: float) -> tuple[dict[str, float], list]:
     ],
 )
 def test_a_reflex_landing_ends_as_the_model_predicts(slope_deg, cut_m, angles, torques, expected):
-    lb = start_legboard(speed=SPEED)
+    lb = start_legboard(speed=SPEED, config=silence_in_wall_time(SPEED))
     try:
         preset_legs(lb.pty, angles, torques)
         v = start_vehicle(

@@ -55,6 +55,11 @@ def main(argv: list[str] | None = None) -> int:
         type=argparse.FileType("r"),
         help="JSON object of plant parameters (a hidden leg, for tests)",
     )
+    parser.add_argument(
+        "--config",
+        type=argparse.FileType("r"),
+        help="JSON object of firmware settings, as a board's config.json (docs/legs-build.md)",
+    )
     args = parser.parse_args(argv)
     try:
         faults = tuple(FaultSpec.parse(f) for f in args.fault)
@@ -76,6 +81,14 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--plant {args.plant.name}: not JSON: {exc}")
         if not isinstance(plant, dict):
             parser.error(f"--plant {args.plant.name}: expected a JSON object of plant parameters")
+    config = {}
+    if args.config is not None:
+        try:
+            config = json.load(args.config)
+        except ValueError as exc:
+            parser.error(f"--config {args.config.name}: not JSON: {exc}")
+        if not isinstance(config, dict):
+            parser.error(f"--config {args.config.name}: expected a JSON object of firmware settings")
     server = BoardServer(
         link=args.link,
         control=args.control,
@@ -88,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         runtime=args.runtime,
         board_id=board_id,
         plant=plant,
+        config=config,
     )
 
     def stop(_signum: int, _frame: object) -> None:

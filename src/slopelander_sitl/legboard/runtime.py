@@ -35,6 +35,7 @@ if not (FIRMWARE_DIR / "legfw").is_dir():  # an install without the checkout's f
 if str(FIRMWARE_DIR) not in sys.path:
     sys.path.insert(0, str(FIRMWARE_DIR))
 
+from legfw.config import Config  # noqa: E402
 from legfw.host import (  # noqa: E402 (the firmware folder is on the path from here)
     FAULT_KINDS,
     IO_FAULTS,
@@ -43,6 +44,15 @@ from legfw.host import (  # noqa: E402 (the firmware folder is on the path from 
     HostBoard,
     parse_fault,
 )
+
+
+def silence_in_wall_time(speed: float) -> dict[str, int]:
+    """Firmware settings keeping the companion-silence rule's 10 s (``silence_ms``) in wall time
+    for a board run ``speed`` times faster than the wall clock, for ``--config``: at 20x, 10 s
+    of board time was a 0.5 s pause of a loaded machine, and a test board's holding legs
+    stopped mid-test (2026-12-07). A test of the rule itself keeps the default."""
+    return {"silence_ms": round(Config.silence_ms * max(speed, 1.0))}
+
 
 __all__ = [
     "FAULT_KINDS",
@@ -54,6 +64,7 @@ __all__ = [
     "Runner",
     "parse_fault",
     "resolve",
+    "silence_in_wall_time",
     "start",
 ]
 
@@ -174,7 +185,10 @@ class MicroPythonChild(Runner):
                 raise self._gone()
             self._buf += chunk
         line, _, self._buf = self._buf.partition(b"\n")
-        return json.loads(line)
+        try:
+            return json.loads(line)
+        except ValueError:
+            raise RuntimeError(f"the firmware on MicroPython wrote {line[:200]!r}, not a reply") from None
 
     def _gone(self) -> RuntimeError:
         """The child ended or hangs: an error with what it wrote to stderr."""
@@ -207,6 +221,7 @@ def start(runtime: str, fd: int, **kw) -> Runner:
     """The firmware on ``runtime`` (see :func:`resolve`) with the line's board end ``fd``; this
     process keeps ``fd`` only when the firmware runs in it."""
     name, binary = resolve(runtime)
+    Config(**kw.get("config", {}))  # a wrong setting named here (ValueError), on either runtime
     if name == "micropython":
         try:
             return MicroPythonChild(binary, fd, **kw)

@@ -6,6 +6,7 @@ with start_vehicle(scenario={"slope_deg": 20}) as v:
 
 from __future__ import annotations
 
+import json
 import os
 import socket
 import subprocess
@@ -160,12 +161,19 @@ class LegboardProcess:
         return stop_process(self.proc, self._tmp, timeout)
 
 
-def start_legboard(speed: float = 1.0, clock: str = "wall", timeout: float = 30.0) -> LegboardProcess:
+def start_legboard(
+    speed: float = 1.0, clock: str = "wall", timeout: float = 30.0, config: dict | None = None
+) -> LegboardProcess:
     """Start ``python -m slopelander_sitl.legboard`` with a control socket in a temporary directory.
     ``clock="external"``: board time follows the vehicle given its control socket (and stands
-    still until that vehicle runs); ``speed`` then does not matter."""
+    still until that vehicle runs); ``speed`` then does not matter. ``config``: firmware settings
+    (``--config``), e.g. :func:`slopelander_sitl.legboard.runtime.silence_in_wall_time`."""
     tmp = tempfile.TemporaryDirectory(prefix="sl-legs-")
     link, ctl = Path(tmp.name) / "legs", Path(tmp.name) / "legs.ctl"
+    extra = []
+    if config:
+        (Path(tmp.name) / "config.json").write_text(json.dumps(config))
+        extra = ["--config", str(Path(tmp.name) / "config.json")]
     cmd = [
         "--link",
         str(link),
@@ -175,6 +183,7 @@ def start_legboard(speed: float = 1.0, clock: str = "wall", timeout: float = 30.
         str(speed),
         "--clock",
         clock,
+        *extra,
     ]
     proc = processes.start(
         "slopelander_sitl.legboard",
