@@ -91,7 +91,7 @@ def fly_land_and_interrupt(tmp_path: Path, when: str, slope: float = 20.0, surve
 def test_ctrl_c_in_the_descent_aborts_to_loiter_and_the_vehicle_stops_descending(tmp_path: Path) -> None:
     lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "-> DESCEND")
     try:
-        assert sent_at is not None, lines
+        assert sent_at is not None, (lines, status, err[-1500:])
         # sent on the line "-> DESCEND"; the 1 s of vehicle time to the reflex's arming height can
         # pass before the signal is handled (the vehicle runs free at 8x while this test waits on
         # the next line; seen once in the suite of 2026-11-27): ARMED is the descent too, before
@@ -120,7 +120,7 @@ def test_ctrl_c_during_the_survey_pass_stops_it_and_hands_the_vehicle_to_loiter(
     the pass where the vehicle is, asks LOITER and exits 130."""
     lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "survey: ", survey=True)
     try:
-        assert sent_at is not None, lines
+        assert sent_at is not None, (lines, status, err[-1500:])
         assert "interrupted before the landing: holding position in LOITER" in lines, lines
         assert status == 130 and "Traceback" not in err, (status, err[-500:])
         assert lines[-1] == "outcome: INTERRUPTED", lines[-3:]
@@ -138,7 +138,7 @@ def test_ctrl_c_during_the_survey_pass_stops_it_and_hands_the_vehicle_to_loiter(
 def test_ctrl_c_after_contact_finishes_the_landing_to_its_disarm(tmp_path: Path) -> None:
     lines, status, err, rig, sent_at = fly_land_and_interrupt(tmp_path, "-> REVERSE")
     try:
-        assert sent_at is not None, lines
+        assert sent_at is not None, (lines, status, err[-1500:])
         # sent on the line "-> REVERSE"; the landing may have moved on when the signal lands
         said = [ln for ln in lines if ln.startswith("interrupted in ")]
         assert len(said) == 1 and ": on the roof with the motors held: finishing" in said[0], lines

@@ -339,10 +339,20 @@ def i_reverse(lander: Lander) -> int:
     return [h["to"] for h in lander.machine.history].index("REVERSE")
 
 
-def poll_for(lander: Lander, wall_s: float) -> None:
-    """Keep the controller running for ``wall_s`` of wall time (a cut link shows no vehicle time)."""
+def link_state(link) -> str:
+    """What the link's loss rule saw: why lost (or not), the silence counted, the echo's hold."""
+    ls = link.lockstep
+    hold = (
+        "" if ls is None else f", echo holding={ls.holding} holds={ls.holds} released_at={ls.released_at:.2f}"
+    )
+    return f"lost_why={link.lost_why!r} silence={link._silence():.2f} s{hold}"
+
+
+def poll_for(lander: Lander, wall_s: float, until=None) -> None:
+    """Keep the controller running for ``wall_s`` of wall time (a cut link shows no vehicle time),
+    or until ``until()``."""
     end = time.monotonic() + wall_s
-    while time.monotonic() < end:
+    while time.monotonic() < end and not (until is not None and until()):
         lander.poll()
         time.sleep(0.002)
 
@@ -471,9 +481,13 @@ class TestLinkCuts:
         rig.wait(0.5, tick=lander.poll)
         h0 = rig.height()
         rig.relay.cut(None)  # the radio fades: nothing passes either way, until restored
-        poll_for(lander, 4.0)
-        assert lander.machine.name == "LINK_LOST", story(rig, lander)
-        rig.relay.restore()
+        try:
+            # link_loss_s (1.5 s) of silence, counted once any hold of the echo for the leg board
+            # has ended (HOLD_MAX_S, 5 s: a simulator held for the board is the companion's own wait)
+            poll_for(lander, 10.0, until=lambda: lander.machine.name == "LINK_LOST")
+            assert lander.machine.name == "LINK_LOST", f"{story(rig, lander)} | {link_state(rig.link)}"
+        finally:
+            rig.relay.restore()  # the class's next test flies this vehicle
         rig.fly_until(lambda: lander.poll() == "ABORTED", 60.0, "see the link come back", wall_s=20.0)
         rig.wait(1.0, tick=lander.poll)
         rig.read_events()
