@@ -13,6 +13,19 @@ from slopelander_sitl.legboard.server import CLOCKS, FAULT_KINDS, BoardServer, F
 from slopelander_sitl.parent_watch import watch_parent
 
 
+def _json_object(parser: argparse.ArgumentParser, option: str, file, what: str) -> dict:
+    """The JSON object in ``file`` (an open option file, or None: empty); a parser error otherwise."""
+    if file is None:
+        return {}
+    try:
+        obj = json.load(file)
+    except ValueError as exc:
+        parser.error(f"{option} {file.name}: not JSON: {exc}")
+    if not isinstance(obj, dict):
+        parser.error(f"{option} {file.name}: expected a JSON object of {what}")
+    return obj
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m slopelander_sitl.legboard",
@@ -73,22 +86,8 @@ def main(argv: list[str] | None = None) -> int:
         board_id = b""
     if len(board_id) != 8:
         parser.error(f"--board-id must be 16 hex digits, got {args.board_id!r}")
-    plant = {}
-    if args.plant is not None:
-        try:
-            plant = json.load(args.plant)
-        except ValueError as exc:
-            parser.error(f"--plant {args.plant.name}: not JSON: {exc}")
-        if not isinstance(plant, dict):
-            parser.error(f"--plant {args.plant.name}: expected a JSON object of plant parameters")
-    config = {}
-    if args.config is not None:
-        try:
-            config = json.load(args.config)
-        except ValueError as exc:
-            parser.error(f"--config {args.config.name}: not JSON: {exc}")
-        if not isinstance(config, dict):
-            parser.error(f"--config {args.config.name}: expected a JSON object of firmware settings")
+    plant = _json_object(parser, "--plant", args.plant, "plant parameters")
+    config = _json_object(parser, "--config", args.config, "firmware settings")
     server = BoardServer(
         link=args.link,
         control=args.control,
