@@ -551,8 +551,9 @@ class Soak:
                         break
                 else:
                     held_since = None
-                if self.real:  # the pilot's stick down while disarmed: ArduCopter's arming rule
-                    rig.pilot_stick_down_while_disarmed()
+                # the pilot's stick down while disarmed: ArduCopter's arming rule, which the
+                # simulated vehicle holds too (arducopter_rules.arming_failure, RC_OPTIONS bit 5)
+                rig.pilot_stick_down_while_disarmed()
                 seen.update(h["to"] for h in lander.machine.history)
                 if not fired and target in seen:
                     self.inject(fault, row)
@@ -582,8 +583,7 @@ class Soak:
                 if rig.now - t0 > VEHICLE_LIMIT_S or time.monotonic() - wall0 > WALL_LIMIT_S:
                     end = "hang"
                     break
-                legs = lander.legs.fileno() if lander.legs is not None else None
-                rig.link.wait_readable(0.005, () if legs is None else (legs,))
+                rig.link.wait_readable(0.005)  # the autopilot's link only, as Lander.run
             if end != "hang":
                 rig.wait(2.0, tick=lander.poll)
         finally:

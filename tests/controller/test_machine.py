@@ -1125,6 +1125,27 @@ def test_a_take_off_the_autopilot_will_not_arm_for_is_asked_again_then_ends_land
     assert "loosen" not in " ".join(act.names())  # legs clamped on the roof
 
 
+def test_a_failed_take_off_waits_for_the_request_to_be_let_go_and_given_again():
+    """Found by the soak on the simulated vehicle: with the pilot's request held (a switch left
+    up) and the autopilot refusing to arm, LANDED -> TAKEOFF -> LANDED went round every 10 s until
+    the run gave up. A failed take-off now needs the request released and given anew."""
+    from slopelander.controller.states.takeoff import ARM_WAIT_S
+
+    act = RefusesToArm()
+    m = Machine(Context(cfg=load_config(), act=act, preset=(0.8, 1.5), next_preset=(0.6, 1.2)), io.StringIO())
+    t = run_to(m, "LANDED")
+    held = replace(OK, range_m=0.1, armed=False, takeoff_request=True)
+    for _ in range(int(3 * ARM_WAIT_S / 0.1)):
+        t += 0.1
+        m.step(replace(held, t=t))
+    assert [h["to"] for h in m.history].count("TAKEOFF") == 1, [h["to"] for h in m.history]
+    assert m.name == "LANDED" and "release and ask again" in " ".join(map(str, act.calls))
+    m.step(replace(held, t=t + 0.1, takeoff_request=False))
+    assert m.name == "LANDED"
+    m.step(replace(held, t=t + 0.2))
+    assert m.name == "TAKEOFF", m.history[-1]
+
+
 def test_an_abort_asks_for_loiter_again_while_the_autopilot_stays_in_guided():
     """A lost mode command (and its retries) must not leave the vehicle in GUIDED: LOITER is
     asked for every REASK_S while the autopilot reports GUIDED, armed; the pilot is told once

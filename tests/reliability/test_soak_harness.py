@@ -61,6 +61,39 @@ def test_a_run_keeps_an_existing_log_and_a_resume_keeps_the_logs_settings(tmp_pa
     assert log.read_text() == json.dumps({"run": {"seed": 3}}) + "\n"  # untouched
 
 
+def test_three_landings_of_the_soak_fly_to_safe_ends_on_the_simulated_vehicle(tmp_path: Path) -> None:
+    """The soak end to end, so a change elsewhere cannot leave it unable to fly: seed 1's first
+    landings are a pilot's LOITER, a link cut for good in REVERSE and a 0.5 s cut, each followed
+    by the take-off. Two breaks went unseen before this test: the loop waited on a leg-board
+    method that was gone (every landing a rig error), and a take-off refused for the pilot's
+    centred throttle went LANDED -> TAKEOFF for ever (both landings a hang)."""
+    log = tmp_path / "soak.jsonl"
+    run = subprocess.run(
+        [
+            sys.executable,
+            str(REPO / "benchmarks" / "soak.py"),
+            "--landings",
+            "3",
+            "--seed",
+            "1",
+            "--log",
+            str(log),
+            "--results",
+            "-",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    _, rows = read_log(log)
+    ends = [(r["fault"], r["end"], r.get("reason"), r["unsafe"]) for r in rows]
+    assert len(rows) == 3, ends
+    assert all(not unsafe and end in ("READY", "ABORTED", "LANDED") for _, end, _, unsafe in ends), ends
+    assert sum(end == "READY" for _, end, _, _ in ends) >= 2, ends  # landed and took off again
+    assert "hangs: 0; unsafe ends: 0" in run.stdout, run.stdout[-1500:]
+
+
 def test_the_script_copy_raises_only_once_scr_user1_is_set_to_1(tmp_path: Path) -> None:
     """Inert until the soak sets the parameter (ArduCopter's SCR_USER1 is 0 at boot); then the
     update raises and the script's pcall leaves FAULT, the error reported."""

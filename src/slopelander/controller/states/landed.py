@@ -19,11 +19,27 @@ class Landed(State):
     A take-off is never asked of a script in a fault (FAULT, FAULT_HELD): it would not release the
     motors for it, nor cut or reverse on the next roof, and the soak on ArduCopter re-armed and
     flew such a vehicle, which then ended armed in LOITER at the roof. The request is refused with
-    the reason (``marks["takeoff_refused"]``, one STATUSTEXT) and LANDED stays, disarmed."""
+    the reason (``marks["takeoff_refused"]``, one STATUSTEXT) and LANDED stays, disarmed.
+
+    A take-off that came back here (the autopilot would not arm, the vehicle never climbed) is
+    not asked again while the pilot's request still stands: the request must be let go and given
+    anew (``marks["takeoff_release"]``). Without that, a held request bounced LANDED -> TAKEOFF ->
+    LANDED every 10 s for as long as the pilot held the switch (the soak: a throttle stick
+    centred, which ArduCopter's arming refuses)."""
 
     name = "LANDED"
 
+    def enter(self, ctx: Context, inp: Inputs) -> str | None:
+        if ctx.previous == "TAKEOFF":
+            ctx.marks["takeoff_release"] = True
+            ctx.act.statustext("SL take-off failed: release and ask again")
+        return None
+
     def step(self, ctx: Context, inp: Inputs):
+        if ctx.marks.get("takeoff_release"):
+            if inp.takeoff_request:
+                return self._disarm_if_armed(ctx, inp)
+            ctx.marks.pop("takeoff_release")
         if inp.takeoff_request:
             if not faulted(inp.script_state, inp.script_present):
                 ctx.marks.pop("takeoff_refused", None)
@@ -31,6 +47,10 @@ class Landed(State):
             if ctx.marks.get("takeoff_refused") is None:
                 ctx.marks["takeoff_refused"] = f"take-off refused: {FAULT_REFUSAL}"
                 ctx.act.statustext("SL take-off refused: script fault, reboot")
+        return self._disarm_if_armed(ctx, inp)
+
+    @staticmethod
+    def _disarm_if_armed(ctx: Context, inp: Inputs) -> None:
         if inp.armed and inp.link_ok:  # a lost link's armed flag is stale, and a command lost
             if inp.script_present and inp.script_state in DISARMS:
                 request_disarm(ctx, inp)
