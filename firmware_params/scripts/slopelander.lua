@@ -14,7 +14,7 @@
 
 -- ArduPilot's Lua allows 100 local variables per function (MAXVARS in
 -- libraries/AP_Scripting/lua/src/lparser.c; stock Lua: 200): constants of one kind share a table.
-local VERSION = 9 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
+local VERSION = 10 -- 2: a refresh during RVT sets its duration (the companion ends it on evidence)
 -- 3: the reflex arm's param 7 ramps the reverse thrust down over that many ms when it ends
 -- 4: param 7 of every command is a request number, echoed in COMMAND_ACK.result_param2; the ramp
 --    and the descent rate move to a SETUP request (reflex action 3) sent before ARM; new reflex
@@ -39,7 +39,9 @@ local VERSION = 9 -- 2: a refresh during RVT sets its duration (the companion en
 --    a glitch against a chain at the cut height does not hide the impact (RECKON.ground); a false
 --    cut is released only while the vehicle falls freely.
 -- 9: an ARMED reflex that lapses within CLIMB_UP.GRACE_M of its cut height while descending keeps
---    its cut for CLIMB_UP.GRACE_MS more before it climbs.
+--    its cut 400 ms more before it climbs.
+-- 10: that band grows with the square of the descent speed over CLIMB_UP.AT_MPS, and the cut is
+--    kept as long as braking to rest across it takes.
 local CMD_ACTUATOR = 31010 -- MAV_CMD_USER_1
 local CMD_REFLEX = 31011 -- MAV_CMD_USER_2
 local ACT = { RELEASE = 0, STOP = 1, REVERSE = 2 }
@@ -163,9 +165,12 @@ local STILL = { GYRO_DEGS = 5, SPEED_MPS = 0.10, MS = 1000 }
 -- refusing the target: BRAKE.
 -- A lapse with the trusted reading within GRACE_M of the cut height, descending: a climb from there
 -- stops on the roof (ArduCopter took 0.13 m to turn a 0.5 m/s descent round; the feet met a 20 deg
--- roof at 0.23 m/s, 2026-12-07), so the reflex keeps its cut for GRACE_MS more, once: the descent
--- goes on to the cut, or stops (GUID_TIMEOUT) near the cut height and climbs from there.
-local CLIMB_UP = { MPS = 0.5, MS = 2000, RESEND_MS = 100, GRACE_M = 0.15, GRACE_MS = 400 }
+-- roof at 0.23 m/s, 2026-12-07), so the reflex keeps its cut a while more, once: the descent goes
+-- on to the cut, or stops (GUID_TIMEOUT ends it with the validity) near the cut height and climbs
+-- from there. GRACE_M was measured at AT_MPS; a faster descent needs room as its square (a braking
+-- distance), and the cut is kept for as long as braking to rest across that band takes (2 x
+-- band / speed: 600 ms at 0.5 m/s, 1.2 s at 1 m/s).
+local CLIMB_UP = { MPS = 0.5, MS = 2000, RESEND_MS = 100, GRACE_M = 0.15, AT_MPS = 0.5 }
 local MODE = { GUIDED = 4, BRAKE = 17 }
 local TILT_BOUND_MAX_DEG = 30 -- the largest take-off tilt bound a release may ask for
 
@@ -587,9 +592,11 @@ local function run_reflex(t, fresh, d)
       -- the companion silent: its descent target runs on for GUID_TIMEOUT, the reflex does not
       ---@type Vector3f_ud|nil
       local v = ahrs:get_velocity_NED()
-      if not reflex.graced and chain.d ~= nil and chain.d <= reflex.cut_m + CLIMB_UP.GRACE_M
-        and v ~= nil and v:z() >= RECKON.MIN_MPS then
-        reflex.graced, valid_until = true, t + CLIMB_UP.GRACE_MS
+      local vz = v ~= nil and v:z() or 0
+      local band = CLIMB_UP.GRACE_M * math.max(1, (vz / CLIMB_UP.AT_MPS) ^ 2)
+      if not reflex.graced and chain.d ~= nil and chain.d <= reflex.cut_m + band and vz >= RECKON.MIN_MPS then
+        reflex.graced = true
+        valid_until = t + math.floor(2000 * band / vz)
         say(SEV.WARNING, string.format("lapse at %.2f m, cut %.2f m: cut kept", chain.d, reflex.cut_m))
         return
       end

@@ -162,7 +162,7 @@ def test_legs_not_ready_in_time_aborts_before_descent():
     [
         ({"script_present": False}, "script"),
         ({"script_version": None}, "did not report its version"),
-        ({"script_version": 8.0}, "v8, v9 needed"),  # contract 9 keeps a lapse's cut near it
+        ({"script_version": 9.0}, "v9, v10 needed"),  # contract 10 scales a lapse's band with speed
         ({"range_ok": False}, "rangefinder"),
         ({"mode": "LOITER"}, "GUIDED"),
         ({"armed": False}, "armed"),

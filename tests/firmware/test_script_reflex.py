@@ -437,23 +437,25 @@ def test_an_armed_reflex_that_lapses_stops_the_descent_and_climbs(bench: Bench) 
     assert bench.outputs() == [None] * 4  # the autopilot flies it
 
 
-def lapse_near_the_cut(bench: Bench, stop_at: float) -> Trace:
-    """The reflex armed at 0.6 m for 350 ms, descending at 0.5 m/s until ``stop_at`` (then
-    holding there): the validity lapses 0.125 m over the cut height (0.3 m)."""
-    bench.io.range = good(0.6)
+def lapse_near_the_cut(
+    bench: Bench, stop_at: float, start: float = 0.6, mps: float = 0.5, run_ms: int = 1200
+) -> Trace:
+    """The reflex armed at ``start`` (m) for 350 ms, descending at ``mps`` until ``stop_at`` (then
+    holding there): at the defaults the validity lapses 0.125 m over the cut height (0.3 m)."""
+    bench.io.range = good(start)
     arm(bench, validity_ms=350)
-    bench.io.velocity = (0.0, 0.0, 0.5)
+    bench.io.velocity = (0.0, 0.0, mps)
     t0 = bench.io.now_ms
     trace = []
 
     def each(t: int) -> None:
-        h = max(stop_at, 0.6 - 0.5 * (t - t0) / 1000)
+        h = max(stop_at, start - mps * (t - t0) / 1000)
         if h == stop_at:
             bench.io.velocity = (0.0, 0.0, 0.0)
         bench.io.range = good(h)
         trace.append((t - t0, h, bench.io.state()))
 
-    bench.run(1200, each)
+    bench.run(run_ms, each)
     return trace
 
 
@@ -461,24 +463,53 @@ def test_a_lapse_just_above_the_cut_height_keeps_the_cut(bench: Bench) -> None:
     """The companion fell silent at the one height where a climb fails: the lapse came 0.13 m over
     the cut height, and ArduCopter took 0.13 m to turn the descent round: the feet met the 20 deg
     roof at 0.23 m/s under power (a loaded machine, 2026-12-07). Now the reflex keeps its cut for
-    400 ms more and the descent ends in the cut, not on the roof under power."""
+    as long as braking across its band takes (600 ms at 0.5 m/s; v9: 400 ms) and the descent ends
+    in the cut, not on the roof under power."""
     trace = lapse_near_the_cut(bench, stop_at=0.1)
     kept = [t for t in bench.io.sl_texts() if t.endswith(": cut kept")]
     assert kept == ["SL: lapse at 0.44 m, cut 0.30 m: cut kept"]  # the newest 20 Hz sample
     cut = next((t, h) for t, h, state in trace if state == CUT)
-    assert 340 < cut[0] < 340 + 400 and 0.2 < cut[1] <= CUT_M, cut
+    assert 340 < cut[0] < 340 + 600 and 0.2 < cut[1] <= CUT_M, cut
     assert S.CLIMB not in {state for *_, state in trace} and not bench.io.velocity_targets
 
 
 def test_a_lapse_kept_to_the_cut_climbs_if_the_descent_stops_short_of_it(bench: Bench) -> None:
-    """GUID_TIMEOUT stopped the descent 0.08 m over the cut height: no cut, and after the 400 ms
+    """GUID_TIMEOUT stopped the descent 0.08 m over the cut height: no cut, and after the 600 ms
     the climb, from a vehicle no longer descending."""
     trace = lapse_near_the_cut(bench, stop_at=0.38)
     climb = next(t for t, _, state in trace if state == S.CLIMB)
-    assert 340 + 400 <= climb <= 350 + 400 + 15, climb  # the arm came some ms before t = 0
+    assert 340 + 600 <= climb <= 350 + 600 + 15, climb  # the arm came some ms before t = 0
     assert CUT not in {state for *_, state in trace}
     assert bench.io.velocity_targets and bench.io.velocity_targets[0][1:] == (0.0, 0.0, -0.5)
     assert "SL: reflex validity lapsed, climbing" in bench.io.sl_texts()
+
+
+def test_a_faster_descent_keeps_the_cut_over_a_band_as_its_braking_distance(bench: Bench) -> None:
+    """At 1 m/s the climb needs four times the room to turn round (a braking distance: 0.6 m over
+    the cut height). A lapse 0.39 m over it kept its cut (v10; v9 kept only within 0.15 m and
+    climbed onto the roof) for as long as braking to rest across the band takes, 1.2 s."""
+    trace = lapse_near_the_cut(bench, stop_at=0.1, start=1.0, mps=1.0)
+    assert [t for t in bench.io.sl_texts() if t.endswith(": cut kept")] == [
+        "SL: lapse at 0.69 m, cut 0.30 m: cut kept"
+    ]
+    cut = next((t, h) for t, h, state in trace if state == CUT)
+    assert 340 + 300 < cut[0] < 340 + 1200 and 0.2 < cut[1] <= CUT_M, cut
+    assert S.CLIMB not in {state for *_, state in trace} and not bench.io.velocity_targets
+
+
+def test_a_faster_descent_stopped_short_of_the_cut_climbs_after_its_longer_grace(bench: Bench) -> None:
+    trace = lapse_near_the_cut(bench, stop_at=0.45, start=1.0, mps=1.0, run_ms=1800)
+    climb = next(t for t, _, state in trace if state == S.CLIMB)
+    assert 340 + 1200 <= climb <= 350 + 1200 + 15, climb
+    assert CUT not in {state for *_, state in trace}
+
+
+def test_a_faster_descent_lapsing_beyond_its_band_climbs_at_once(bench: Bench) -> None:
+    """1.0 m over the cut height at 1 m/s: outside the 0.6 m band, the climb starts at the lapse."""
+    trace = lapse_near_the_cut(bench, stop_at=0.1, start=1.65, mps=1.0)
+    climb = next(t for t, _, state in trace if state == S.CLIMB)
+    assert 340 <= climb <= 350 + 15, climb
+    assert not [t for t in bench.io.sl_texts() if t.endswith(": cut kept")]
 
 
 def test_a_lapse_outside_guided_leaves_the_vehicle_to_the_pilot(bench: Bench) -> None:

@@ -23,8 +23,10 @@ from slopelander.controller.link import CommandHandle, Link, LinkError
 #: counts on it), 7 cuts on the descent reckoned from the last trusted reading through a dropout
 #: or a spike within 0.3 m of the cut height, 8 reckons through a reading that stopped moving (a
 #: stuck sensor) and takes only a push up the body for the impact, 9 keeps an ARMED reflex's cut
-#: for 0.4 s more when it lapses within 0.15 m over the cut height (a climb would stop on the roof)
-SCRIPT_CONTRACT = 9
+#: for 0.4 s more when it lapses within 0.15 m over the cut height (a climb would stop on the roof),
+#: 10 widens that band with the square of the descent speed over 0.5 m/s and keeps the cut as
+#: long as braking to rest across it takes (0.6 s at 0.5 m/s)
+SCRIPT_CONTRACT = 10
 
 CMD_ACTUATOR = 31010  # MAV_CMD_USER_1
 CMD_REFLEX = 31011  # MAV_CMD_USER_2
