@@ -128,6 +128,19 @@ def test_the_default_baud_is_the_shipped_parameter_files() -> None:
     assert connection_string("/dev/null", None) == f"/dev/null,{DEFAULT_BAUD}"
 
 
+def test_land_help_points_to_the_page_that_describes_the_calibration_file() -> None:
+    """A pilot reading ``land --help`` for ``--calibration`` is sent to the page with the file's keys."""
+    import re
+
+    from slopelander.cli import build_parser
+
+    land_parser = build_parser("land")._subparsers._group_actions[0].choices["land"]
+    (option,) = [a for a in land_parser._actions if "--calibration" in a.option_strings]
+    (page,) = re.findall(r"docs/[\w-]+\.md", option.help)
+    text = (ROOT / page).read_text()
+    assert "### The calibration file" in text and "`board_id`" in text, page
+
+
 def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> None:
     err = one_line(land("--connect", free_udp(), "--legs-port", "/dev/no-such-legboard", "--slope", "35"))
     assert "--legs-port /dev/no-such-legboard: no such device" in err

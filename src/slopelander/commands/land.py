@@ -89,7 +89,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--calibration",
         metavar="FILE",
-        help="the leg board's measured current-to-torque calibration (YAML, docs/leg-protocol.md); "
+        help="the leg board's measured current-to-torque calibration (YAML, docs/legs-build.md); "
         "required for a real board, the simulated board may fly the shipped assumed curve",
     )
     p.add_argument(
