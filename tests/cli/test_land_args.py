@@ -279,7 +279,16 @@ def test_state_changes_print_as_they_happen_and_the_landing_leaves_its_folder(tm
     (folder,) = tmp_path.iterdir()
     assert folder.name.startswith("landing-"), folder
     files = {p.name for p in folder.iterdir()}
-    assert {"flight.tlog", "transitions.jsonl", "result.json", "slope_estimate.json"} <= files, files
+    assert {
+        "flight.tlog",
+        "transitions.jsonl",
+        "result.json",
+        "slope_estimate.json",
+        "flight.png",
+    } <= files, files
+    png = (folder / "flight.png").read_bytes()  # the pilot's picture of the landing, as demo's
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000, len(png)
+    assert f"picture: {folder.name}/flight.png" in lines, lines
     result = json.loads((folder / "result.json").read_text())
     assert result["outcome"] == "ABORTED" and result["transitions"][-1]["to"] == "ABORTED"
     from pymavlink import mavutil
