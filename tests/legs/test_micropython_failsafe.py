@@ -20,7 +20,6 @@ pytestmark = pytest.mark.xdist_group("legs/micropython_failsafe")
 
 # the main loop (legfw.board.run) on SimHal, with a clock of its own; printed as one JSON line
 SCENARIO = """
-import itertools
 import json
 from legfw.board import run
 from legfw.compat import wire
