@@ -12,6 +12,8 @@ import subprocess
 import sys
 import textwrap
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -128,6 +130,19 @@ def test_the_default_baud_is_the_shipped_parameter_files() -> None:
     assert connection_string("/dev/null", None) == f"/dev/null,{DEFAULT_BAUD}"
 
 
+def test_land_help_points_to_the_page_that_describes_the_calibration_file() -> None:
+    """A pilot reading ``land --help`` for ``--calibration`` is sent to the page with the file's keys."""
+    import re
+
+    from slopelander.cli import build_parser
+
+    land_parser = build_parser("land")._subparsers._group_actions[0].choices["land"]
+    (option,) = [a for a in land_parser._actions if "--calibration" in a.option_strings]
+    (page,) = re.findall(r"docs/[\w-]+\.md", option.help)
+    text = (ROOT / page).read_text()
+    assert "### The calibration file" in text and "`board_id`" in text, page
+
+
 def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> None:
     err = one_line(land("--connect", free_udp(), "--legs-port", "/dev/no-such-legboard", "--slope", "35"))
     assert "--legs-port /dev/no-such-legboard: no such device" in err
@@ -135,6 +150,7 @@ def test_a_leg_device_that_does_not_exist_is_refused_before_the_autopilot() -> N
 
 # A board that answers exactly as the simulated one does, except that it does not say it is
 # simulated: what a real leg board's HELLO_REPLY looks like.
+SIMBOARD = b"SIMBOARD".hex()
 REAL_BOARD = textwrap.dedent(
     """
     import sys
@@ -197,12 +213,32 @@ def test_a_real_leg_board_with_a_measured_calibration_goes_on_to_the_autopilot(
     measured = tmp_path / "measured.yaml"
     text = default_calibration_path().read_text()
     assert "provenance: assumed" in text
-    measured.write_text(text.replace("provenance: assumed", "provenance: measured"))
+    # measured on this board: the id its HELLO_REPLY gives ("SIMBOARD")
+    measured.write_text(text.replace("provenance: assumed", f"provenance: measured\nboard_id: {SIMBOARD}"))
     wait = tmp_path / "wait.yaml"
     wait.write_text("link:\n  heartbeat_wait_s: 1\n")  # no autopilot here: the check is that it got this far
     flight = ["--connect", free_udp(), "--legs-port", str(real_board), "--slope", "35"]
     out = land(*flight, "--calibration", str(measured), "--config", str(wait))
     assert out.returncode == 1 and "no autopilot heartbeat within 1 s" in out.stderr, out.stderr
+
+
+@pytest.mark.parametrize("check", [False, True])
+def test_a_measured_calibration_that_names_no_board_is_refused_on_a_real_board(
+    real_board: Path, tmp_path: Path, check: bool
+) -> None:
+    """A measured file that does not say which board it was measured on cannot be checked against
+    the one plugged in: refused before the autopilot, as ``legs status`` refuses it."""
+    from slopelander.legs.calibration import default_calibration_path
+
+    anonymous = tmp_path / "anonymous.yaml"
+    anonymous.write_text(
+        default_calibration_path().read_text().replace("provenance: assumed", "provenance: measured")
+    )
+    how = ["--check"] if check else ["--slope", "35"]
+    err = one_line(
+        land("--connect", free_udp(), "--legs-port", str(real_board), *how, "--calibration", str(anonymous))
+    )
+    assert f"{anonymous} names no board_id: it cannot be checked against this board" in err
 
 
 @pytest.mark.slow
@@ -243,7 +279,16 @@ def test_state_changes_print_as_they_happen_and_the_landing_leaves_its_folder(tm
     (folder,) = tmp_path.iterdir()
     assert folder.name.startswith("landing-"), folder
     files = {p.name for p in folder.iterdir()}
-    assert {"flight.tlog", "transitions.jsonl", "result.json", "slope_estimate.json"} <= files, files
+    assert {
+        "flight.tlog",
+        "transitions.jsonl",
+        "result.json",
+        "slope_estimate.json",
+        "flight.png",
+    } <= files, files
+    png = (folder / "flight.png").read_bytes()  # the pilot's picture of the landing, as demo's
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000, len(png)
+    assert f"picture: {folder.name}/flight.png" in lines, lines
     result = json.loads((folder / "result.json").read_text())
     assert result["outcome"] == "ABORTED" and result["transitions"][-1]["to"] == "ABORTED"
     from pymavlink import mavutil
@@ -296,6 +341,100 @@ def test_the_transitions_file_holds_the_transitions_printed(tmp_path: Path) -> N
     assert "protocol" in check.stdout and "on-board script v" in check.stdout
     assert "mode STABILIZE, disarmed" in check.stdout and check.stdout.rstrip().endswith("ready to fly")
     assert "-> PRESET" not in check.stdout
+
+
+@contextmanager
+def simulated(**vehicle_kw: object) -> Iterator[tuple[str, str, Path]]:
+    """A simulated vehicle and a leg board on the wall clock (--check flies nothing): its MAVLink
+    URL, the board's pty and its control socket."""
+    from slopelander_sitl.vehicle.launch import start_legboard, start_vehicle
+
+    board = start_legboard()
+    try:
+        vehicle = start_vehicle(scenario={"slope_deg": 35.0}, **vehicle_kw)
+        try:
+            yield vehicle.mavlink_url, board.pty, board.control
+        finally:
+            vehicle.stop()
+    finally:
+        board.stop()
+
+
+def not_ready(out: subprocess.CompletedProcess[str]) -> list[str]:
+    """The reasons ``--check`` gives, having said it is not ready (exit 1)."""
+    assert out.returncode == 1, out.stdout + out.stderr
+    lines = out.stdout.splitlines()
+    reasons = [x.removeprefix("not ready: ") for x in lines if x.startswith("not ready: ")]
+    assert lines[-1] == f"{len(reasons)} problem(s): not ready to fly", out.stdout
+    return reasons
+
+
+@pytest.mark.slow
+def test_check_refuses_a_calibration_that_cannot_take_the_tables_torques(tmp_path: Path) -> None:
+    """A curve that reaches only 1.6 N·m cannot set the table's stronger presets: ``land --check``
+    says so, as ``legs status --calibration`` does, instead of "ready to fly"."""
+    import yaml
+
+    from slopelander.legs.calibration import default_calibration_path
+
+    weak = tmp_path / "weak.yaml"
+    doc = yaml.safe_load(default_calibration_path().read_text())
+    for entry in doc["legs"]:
+        entry["torque_nm"] = [round(t / 2, 4) for t in entry["torque_nm"]]  # up to 1.6 N·m
+    weak.write_text(yaml.safe_dump(doc))
+    with simulated() as (url, pty, _):
+        out = land("--connect", url, "--legs-port", pty, "--check", "--calibration", str(weak))
+    reasons = not_ready(out)
+    assert any(r.startswith("leg 1 cannot take the table's tau_down of") for r in reasons), reasons
+    assert all("script" not in r for r in reasons), reasons  # the rest of the vehicle is ready
+
+
+@pytest.mark.slow
+def test_check_names_a_silent_on_board_script() -> None:
+    with simulated(no_script=True) as (url, pty, _):
+        out = land("--connect", url, "--legs-port", pty, "--check")
+    assert not_ready(out) == [
+        "the on-board script is silent (no SL_VER): load it (firmware_params/README.md)"
+    ]
+
+
+@pytest.mark.slow
+def test_check_names_an_on_board_script_of_another_version(tmp_path: Path) -> None:
+    from slopelander.controller.states.base import SCRIPT_CONTRACT
+
+    shipped = (ROOT / "firmware_params" / "scripts" / "slopelander.lua").read_text()
+    older = tmp_path / "slopelander.lua"
+    line = f"local VERSION = {SCRIPT_CONTRACT} "
+    assert shipped.count(line) == 1
+    older.write_text(shipped.replace(line, f"local VERSION = {SCRIPT_CONTRACT - 1} "))
+    with simulated(script=older) as (url, pty, _):
+        out = land("--connect", url, "--legs-port", pty, "--check")
+    assert not_ready(out) == [
+        f"on-board script v{SCRIPT_CONTRACT - 1}, this companion needs v{SCRIPT_CONTRACT}"
+    ]
+
+
+@pytest.mark.slow
+def test_check_names_a_faulted_leg() -> None:
+    """A leg whose motor tripped its over-current protection stays faulted until loosened after
+    the repair: ``--check`` names it and the fault."""
+    from slopelander.legs.driver import LegBoard
+    from slopelander_sitl.legboard.control import BoardControl
+
+    with simulated() as (url, pty, control):
+        with BoardControl(control) as ctl:
+            ctl.inject("overcurrent", leg=1)
+        with LegBoard.open(pty, timeout=5.0) as legs:
+            legs.start_currents({1: 100})
+            deadline = time.monotonic() + 10.0
+            while not legs.query().faults and time.monotonic() < deadline:
+                time.sleep(0.05)
+        out = land("--connect", url, "--legs-port", pty, "--check")
+    reasons = not_ready(out)
+    assert reasons == [
+        "leg 1 faulted: over-current: motor current above the limit, motor switched off "
+        "(loosen it after the repair)"
+    ], reasons
 
 
 def test_a_refused_mode_is_named_once() -> None:

@@ -6,8 +6,40 @@ Frames are parsed by ``wire``, the module the companion's driver uses.
 """
 
 from legfw import FIRMWARE_VERSION
-from legfw.compat import wire
+from legfw.compat import ticks_add, ticks_diff, wire
 from legfw.leg import Leg
+
+_DRIVEN = (wire.TIGHTENING, wire.HOLDING, wire.LOOSENING, wire.POSITIONING)
+
+
+def run(hal, cfg) -> None:
+    """The board's main loop, forever: serial bytes whenever they come, a tick every
+    ``cfg.tick_ms`` (which feeds the watchdog). Any exception (a bug, a bus that failed) brakes
+    every motor (``hal.all_off``) and is raised again: the loop, and so the feeding, has ended,
+    and the watchdog resets the board; no bridge is left at its last PWM meanwhile."""
+    try:
+        fw = Firmware(hal, cfg)
+        due = ticks_add(hal.ticks_ms(), cfg.tick_ms)
+        while True:
+            fw.poll_serial()
+            late = ticks_diff(hal.ticks_ms(), due)
+            if late >= 0:
+                # a tick is due: run it; a loop that fell behind by more than 10 ticks drops them
+                # rather than running a burst (board time then lags the wall, as a stalled host's does)
+                fw.tick()
+                due = ticks_add(due, cfg.tick_ms)
+                if late > 10 * cfg.tick_ms:
+                    due = ticks_add(hal.ticks_ms(), cfg.tick_ms)
+            if hal.driver_fault():  # a driver shut its bridge down: fault the legs that drive
+                for leg in fw.legs:
+                    if leg.state in _DRIVEN:
+                        leg._fail(wire.FAULT_OVERCURRENT)
+    except BaseException as exc:  # whatever it was, the motors first
+        try:  # noqa: SIM105 - MicroPython has no contextlib
+            hal.all_off()
+        except BaseException:  # a HAL too broken to brake: the watchdog's reset is what is left
+            pass
+        raise exc
 
 
 class Firmware:

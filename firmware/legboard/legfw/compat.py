@@ -13,4 +13,15 @@ except ImportError:  # CPython
         return x
 
 
-__all__ = ["const", "wire"]
+try:
+    from time import ticks_add, ticks_diff  # MicroPython: millisecond counters that wrap
+except ImportError:  # CPython: a host's counters (SimHal's) do not wrap
+
+    def ticks_add(ticks, delta):
+        return ticks + delta
+
+    def ticks_diff(a, b):
+        return a - b
+
+
+__all__ = ["const", "ticks_add", "ticks_diff", "wire"]

@@ -76,6 +76,22 @@ class Config:
             setattr(self, key, value)
 
     @classmethod
+    def load(cls, path: str, rest_stops: bool):
+        """A board's settings at power-up: the defaults, overridden by ``path`` if it exists, and
+        refused here if the board cannot carry them out (``rest_stops``: it has the servos):
+        refused later, with the watchdog running, they would reboot the board in a loop."""
+        try:
+            cfg = cls.from_json(path)
+        except OSError:  # no config.json: the reference build's defaults
+            cfg = cls()
+        if cfg.angle_stop and not rest_stops:
+            raise ValueError(
+                f"{path}: setting angle_stop is true, but this board has no rest-stop servos: "
+                'set "angle_stop": false'
+            )
+        return cfg
+
+    @classmethod
     def from_json(cls, path: str):
         """Defaults overridden by a JSON object in ``path`` (the board's ``config.json``)."""
         import json

@@ -11,6 +11,8 @@ class Hal:
 
     #: capability bits this board adds to ANGLE_STOP (the simulated board sets SIMULATED)
     extra_capabilities = 0
+    #: whether the board has rest-stop servos, so that ``angle_stop`` may be set (Config.load)
+    rest_stops = False
 
     def ticks_ms(self) -> int:
         """Milliseconds since power-up (wraps as the board's counter does)."""
@@ -52,7 +54,11 @@ class Hal:
         """Tell the hardware watchdog the main loop is alive."""
         raise NotImplementedError
 
+    def driver_fault(self) -> bool:
+        """Whether a motor driver has shut its bridge down (over-current, heat, low supply)."""
+        return False
+
     def all_off(self) -> None:
-        """Every motor braked; called on a fault of the firmware itself."""
+        """Every motor braked; called on a fault of the firmware itself (``board.run``)."""
         for leg in range(4):
             self.drive(leg, 0)

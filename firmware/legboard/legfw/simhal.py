@@ -59,6 +59,8 @@ class Port:
 class SimHal(Hal):
     """The firmware's hardware, simulated: ``plant`` for the legs, ``port`` for the link."""
 
+    rest_stops = True  # the plant moves a leg's rest stop as a servo would
+
     def __init__(self, plant, port, board_id: bytes, capabilities: int, noise) -> None:
         self.plant = plant
         self.port = port

@@ -89,7 +89,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--calibration",
         metavar="FILE",
-        help="the leg board's measured current-to-torque calibration (YAML, docs/leg-protocol.md); "
+        help="the leg board's measured current-to-torque calibration (YAML, docs/legs-build.md); "
         "required for a real board, the simulated board may fly the shipped assumed curve",
     )
     p.add_argument(
@@ -203,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
         check_output_dir(out, "--out")
 
     from slopelander.controller.config import load_config
+    from slopelander.controller.leg_checks import calibration_problems
     from slopelander.controller.table import DEFAULT_TABLE, LookupTable
     from slopelander.legs.calibration import load_calibration
     from slopelander.legs.driver import LegBoard
@@ -226,12 +227,8 @@ def run(args: argparse.Namespace) -> int:
             f"--legs-port {args.legs_port}: a board on a real serial device reports itself SIMULATED; a "
             "simulated board runs on a pseudo-terminal. Refusing to trust it (wrong firmware flashed?)"
         )
-    if not simulated and (args.calibration is None or calibration.assumed):
-        why = "no --calibration given" if args.calibration is None else f"{args.calibration} is assumed"
-        raise SlopelanderError(
-            f"a real leg board flies only with a measured calibration ({why}): "
-            "measure the current-to-torque curve and pass it with --calibration FILE"
-        )
+    for problem in calibration_problems(board, calibration, given=args.calibration is not None):
+        raise SlopelanderError(problem)
     if calibration.assumed:
         print(f"(simulated leg board: torques through the ASSUMED calibration {calibration.source})")
     if args.check:
@@ -258,6 +255,7 @@ def pseudo_terminal(port: str) -> bool:
 def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) -> int:
     """``--check``: every check a landing makes before it flies, the autopilot and the board
     asked what they are; nothing is commanded (no stream but the landing's, no leg moved)."""
+    from slopelander.controller.leg_checks import preflight
     from slopelander.controller.session import Session, SessionError
     from slopelander.controller.states.base import SCRIPT_CONTRACT
     from slopelander.legs.errors import LegBoardError
@@ -265,7 +263,7 @@ def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) ->
     lo, hi = table.slope_range
     print(f"settings: {args.config or 'shipped defaults'}: ok")
     print(f"table: {args.table or 'shipped'}: slopes {lo:g}..{hi:g} deg, ok")
-    print(f"calibration: {calibration.source} ({'assumed' if calibration.assumed else 'measured'}): ok")
+    print(f"calibration: {calibration.source} ({calibration.provenance})")
     print(
         f"leg board {args.legs_port}: protocol {board.version}, {board.legs} legs"
         + (", simulated" if board.simulated else "")
@@ -293,9 +291,10 @@ def check(args: argparse.Namespace, url: str, cfg, table, calibration, board) ->
             problems.append("the on-board script is silent (no SL_VER): load it (firmware_params/README.md)")
         elif int(version) != SCRIPT_CONTRACT:
             problems.append(f"on-board script v{version:g}, this companion needs v{SCRIPT_CONTRACT}")
-        status = session.open_legs(args.legs_port).query()
+        legs = session.open_legs(args.legs_port)
+        status = legs.query()
         print("legs: angles " + ", ".join(f"{lg.angle_deg:.1f}" for lg in status.legs) + " deg")
-        problems += [f"leg board fault: leg {lg.leg}: {lg.fault.name}" for lg in status.faults]
+        problems += preflight(legs, status, table=args.table)  # what `legs status --calibration` says
     except (SessionError, LegBoardError) as exc:
         problems.append(str(exc))
     finally:

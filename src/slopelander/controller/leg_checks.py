@@ -26,14 +26,16 @@ def _fault_problems(status: BoardStatus) -> list[str]:
     ]
 
 
-def _calibration_problems(info: BoardInfo | None, cal: Calibration) -> list[str]:
-    """A real board flies only with a measured calibration that names the board it was measured on."""
+def calibration_problems(info: BoardInfo | None, cal: Calibration, given: bool = True) -> list[str]:
+    """A real board flies only with a measured calibration that names the board it was measured on:
+    the one rule ``land`` and ``legs status`` apply (``given``: whether the pilot named a file)."""
     if info is None or info.simulated:
         return []
     if cal.provenance != "measured":
+        why = f"{cal.source} is {cal.provenance}" if given else "no --calibration given"
         return [
-            f"a real leg board flies only with a measured calibration; {cal.source} is {cal.provenance} "
-            "(slopelander legs calibrate)"
+            f"a real leg board flies only with a measured calibration ({why}): measure the "
+            "current-to-torque curve (slopelander legs calibrate) and pass it with --calibration FILE"
         ]
     if cal.board_id is None:
         return [f"{cal.source} names no board_id: it cannot be checked against this board"]
@@ -85,7 +87,7 @@ def _angle_problems(cal: Calibration, lookup: LookupTable) -> list[str]:
 def preflight(board: LegBoard, status: BoardStatus, table: str | Path | None = None) -> list[str]:
     """Every reason the legs are not ready to fly (empty if they are)."""
     cal = board.calibration
-    problems = _fault_problems(status) + _calibration_problems(board.info, cal)
+    problems = _fault_problems(status) + calibration_problems(board.info, cal)
     path = table or DEFAULT_TABLE
     lookup = LookupTable.load(path)
     return problems + _torque_problems(cal, lookup, path) + _angle_problems(cal, lookup)
