@@ -132,7 +132,7 @@ EFFECTS = [UserEffect("fixed_ground", "a scaled ground, its values fixed", norma
 def test_a_candidate_hard_coding_the_ground_is_told_to_read_the_accessors(model, tmp_path):
     """At its neutral value a law with the ground's values as constants is the model only while
     the model's ground is those values; on another ground it is not nested, and the note says how
-    to write it nested (docs/effects.md, "Nested effects")."""
+    to write it nested (docs/effects.md, "Parameters")."""
     base = model.without("downhill_torque_growth", "downhill_friction_growth").with_params(
         ground_stiffness=3.0e4
     )
