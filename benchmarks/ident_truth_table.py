@@ -26,7 +26,7 @@ named missing; for the control, anything named), and the hidden parameters' erro
 Real data always differs a little from any model in its base physics. ``--departures`` runs
 every set on truths whose base physics departs from the analysed model's in a small,
 documented way (slopelander.ident.truth.DEPARTURES: feet on tanh-regularised friction instead
-of stick/slip; joints whose friction weakens with speed, breaking away at 1.3 times their slip
+of stick/slip; joints whose friction weakens with speed, breaking away at 1.5 times their slip
 torque), as well as on the exact one: an effect named there with nothing hidden, or another
 than the hidden one, only absorbed the departure. Printed per departure: its size (the shipped
 base model's NRMSE on the set, in noise floors), the rate of wrongly named effects with its 95 %

@@ -21,6 +21,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from slopelander.errors import SlopelanderError
+from slopelander.model.conditions import reverse_text
 
 CRUISE_HEIGHT_M = 3.0  # take-off height above the pad
 APPROACH_RANGE_M = 2.0  # the height above the roof the landing starts from (within the 3 m range)
@@ -173,7 +174,7 @@ def run_demo(
         echo(
             f"landing: legs {up:.2f}/{down:.2f} N*m from the {preset.source}, descent "
             f"{cfg['descent.rate_mps']:g} m/s, motors stopped at {cut_m:.2f} m, "
-            f"reverse thrust {cfg['reflex.reverse_thrust_pct']:g} %"
+            f"{reverse_text(cfg['reflex.reverse_thrust_pct'])}"
         )
         # a measurement the estimator refused (a survey cut short on a loaded machine) is shown and
         # recorded, and the demo lands on its own roof's slope, as it always knew it
@@ -211,7 +212,7 @@ def run_demo(
                 out / "flight.png",
                 title=(
                     f"slopelander demo: {slope_deg:g} deg roof, legs {up:.2f}/{down:.2f} N*m, "
-                    f"reverse thrust {cfg['reflex.reverse_thrust_pct']:g} % - {result_state}"
+                    f"{reverse_text(cfg['reflex.reverse_thrust_pct'])} - {result_state}"
                 ),
                 slope=slope_drawn,
             )

@@ -132,7 +132,7 @@ EFFECTS = [UserEffect("fixed_ground", "a scaled ground, its values fixed", norma
 def test_a_candidate_hard_coding_the_ground_is_told_to_read_the_accessors(model, tmp_path):
     """At its neutral value a law with the ground's values as constants is the model only while
     the model's ground is those values; on another ground it is not nested, and the note says how
-    to write it nested (docs/effects.md, "Nested effects")."""
+    to write it nested (docs/effects.md, "Parameters")."""
     base = model.without("downhill_torque_growth", "downhill_friction_growth").with_params(
         ground_stiffness=3.0e4
     )
@@ -142,7 +142,24 @@ def test_a_candidate_hard_coding_the_ground_is_told_to_read_the_accessors(model,
     cands = [c for c in candidates_for(base, load_effects(path)) if c.user is not None]
     out = screen(base, drops, cands, resolve_params(base, ["ground_damping"]), state_ranges(drops), {})
     assert not out["fixed_ground"].nested
-    assert "state.ground_stiffness(ctx)" in out["fixed_ground"].note, out["fixed_ground"].note
+    note = out["fixed_ground"].note
+    assert "state.ground_stiffness(ctx)" in note, note
+    # the section it points at is one the page has (it named a "Nested effects" that was not there)
+    section = note.split("docs/effects.md, '")[1].split("'")[0]
+    assert f"\n## {section}\n" in (ROOT / "docs" / "effects.md").read_text(), section
+
+
+def test_a_built_in_candidate_that_is_not_nested_is_not_told_to_declare_neutral(model):
+    """leg_flex has no value within its bounds that switches it off (rigid legs are an infinite
+    stiffness). The note told the user to "declare neutral=..." on an effect they cannot edit."""
+    base = model.without("downhill_torque_growth", "downhill_friction_growth", "leg_flex")
+    drops = synthesize(base, paper_drops(2, seed=2), NoiseModel(), seed=2, duration=0.3)
+    cands = [c for c in candidates_for(base) if c.name == "leg_flex"]
+    out = screen(base, drops, cands, resolve_params(base, ["ground_damping"]), state_ranges(drops), {})
+    note = out["leg_flex"].note
+    assert not out["leg_flex"].nested
+    assert "declare" not in note and note.startswith("built-in: no value of"), note
+    assert "flex_stiffness, flex_damping" in note
 
 
 def _diagnosis(base_nrmse, cand_nrmse, floor, p):
@@ -180,6 +197,12 @@ def test_the_verdicts_say_what_the_residual_and_the_test_show():
     # nine floors and no candidate: missing, but not among them
     d = _diagnosis([0.096] * 10, [0.095] * 10, 0.010, 0.3)
     assert d.verdict().startswith("missing, but not among these candidates")
+    assert "and no candidate explains it (" in d.verdict()
+    # one that removes much of it without passing the test is not said to explain nothing
+    d = _diagnosis([0.096] * 10, [0.040] * 10, 0.010, 0.3)
+    v = d.verdict()
+    assert v.startswith("missing, but not among these candidates") and "no candidate explains it" not in v
+    assert "no candidate passes the test, though leg_flex lowers it 58 % on held-out drops" in v
     # a moderate excess no candidate pins down: too small to tell, and where to drop next
     d = _diagnosis([0.014] * 10, [0.0135] * 10, 0.010, 0.2)
     v = d.verdict()

@@ -6,6 +6,7 @@ compared with it."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import shutil
@@ -206,3 +207,57 @@ def test_without_the_scripts_states_the_motor_outputs_time_the_landing(tmp_path,
     assert abs(cb.reverse_ramp - ca.reverse_ramp) <= 0.1
     assert any("timed by the 10 Hz motor outputs" in n for n in b.cond.notes)
     assert not any("cut" in n and "after first contact" in n for n in b.cond.notes)
+
+
+def two_landings(dst: Path, gap_s: float = 30.0) -> tuple[Path, float]:
+    """The shipped log flown twice: its messages as ArduCopter wrote them, then all of them again
+    with every ``TimeUS`` moved ``gap_s`` past the first copy's end (nothing else changed), as a
+    flight that lands, takes off and lands again writes one file. Returns the log and the shift."""
+    import struct
+
+    from tests.ident.test_flightlog_bad_input import messages
+
+    data = EXAMPLE.read_bytes()
+    msgs = messages(EXAMPLE)
+    times = [m.TimeUS for m, _, _ in msgs if hasattr(m, "TimeUS")]
+    shift = max(times) - min(times) + round(gap_s * 1e6)
+    again = []
+    for m, a, b in msgs:
+        cols = m.fmt.columns
+        if "TimeUS" not in cols:
+            again.append(data[a:b])
+            continue
+        fields = list(struct.unpack(m.fmt.msg_struct, data[a + 3 : b]))
+        fields[cols.index("TimeUS")] += shift
+        again.append(data[a : a + 3] + struct.pack(m.fmt.msg_struct, *fields))
+    dst.write_bytes(data + b"".join(again))
+    return dst, shift * 1e-6
+
+
+def test_a_log_of_two_landings_is_compared_landing_by_landing(tmp_path, capsys, model) -> None:
+    """`slopelander compare FLIGHT.bin` finds each landing of a log and compares each on its own:
+    the second landing (the first flown again later in the same file) is found at its own time,
+    with the same conditions and contact, and each gets its JSON and plot."""
+    log, shift = two_landings(tmp_path / "flight.bin")
+    first, second = find_landings(read_log(log))
+    assert second.cut == pytest.approx(first.cut + shift, abs=1e-6)
+    assert first.end <= second.cut
+    a, b = compare_log(model, log)
+    assert b.contact == pytest.approx(a.contact + shift, abs=1e-6)
+    # the second roof is measured from the points taken since the first landing (it used both
+    # flights' rangefinder points: 106 where the roof had 52)
+    assert b.cond.sources["slope"] == a.cond.sources["slope"], b.cond.sources["slope"]
+    for f in dataclasses.fields(a.cond.conditions):
+        want, got = getattr(a.cond.conditions, f.name), getattr(b.cond.conditions, f.name)
+        assert got == pytest.approx(want, rel=1e-9, abs=1e-9), f.name
+    [only] = compare_log(model, EXAMPLE)
+    assert a.contact == only.contact and a.cond.conditions == only.cond.conditions
+    assert main(["compare", str(log), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "landing 1 of 2" in out and "landing 2 of 2" in out
+    assert {p.name for p in (tmp_path / "out").glob("*.json")} >= {
+        "flight-landing1.json",
+        "flight-landing2.json",
+    }
+    assert main(["compare", str(log), "--landing", "2", "--out", str(tmp_path / "two")]) == 0
+    assert "landing 2 of 2" in capsys.readouterr().out

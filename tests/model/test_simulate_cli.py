@@ -31,7 +31,7 @@ def test_simulate_prints_outcome_and_writes_plot_and_csv(tmp_path):
         str(csv),
     )
     assert r.returncode == 0, r.stderr
-    assert "outcome:" in r.stdout and "reverse thrust 100 %" in r.stdout
+    assert "outcome:" in r.stdout and "reverse command 100 % (100 % of full reverse thrust)" in r.stdout
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
     lines = csv.read_text().splitlines()
     assert lines[0] == "t_s,x_m,z_m,pitch_rad,x_rate_m_s,z_rate_m_s,pitch_rate_rad_s"
@@ -70,3 +70,12 @@ def test_simulate_ends_the_reverse_thrust_and_judges_after_it():
     assert "ramped to zero over 1 s" in ramp.stdout and "outcome: slid" not in ramp.stdout
     bad = _run(*roof, "--reverse", "--reverse-ramp", "1.0")
     assert bad.returncode == 1 and "reverse_ramp" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_a_reverse_percent_is_told_as_the_rotor_command_and_the_thrust_it_gives():
+    """--reverse-percent is a rotor speed command; thrust goes with its square. It printed
+    "reverse thrust 70 %" for 49 % of the thrust."""
+    r = _run("--slope", "20", "--speed", "2.0", "--reverse-percent", "70")
+    assert r.returncode == 0, r.stderr
+    assert "reverse command 70 % (49 % of full reverse thrust)" in r.stdout, r.stdout
+    assert "reverse thrust 70 %" not in r.stdout

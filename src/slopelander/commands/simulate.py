@@ -105,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.plot, "--plot")
     check_output(args.csv, "--csv")
     from slopelander.model import LandingConditions, simulate
+    from slopelander.model.conditions import reverse_text
 
     pct = args.reverse_percent if args.reverse_percent is not None else (100.0 if args.reverse else 0.0)
     if pct > 0 and "rotors" in args.without:
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
     if cond.thrust_ends:
         ramp = f"ramped to zero over {cond.reverse_ramp:g} s" if cond.reverse_ramp else "then stopped"
         end = f" held {cond.reverse_duration:g} s, {ramp}"
-    print(f"landing: {cond.slope_deg:g} deg slope, {cond.speed:g} m/s, {gear}, reverse thrust {pct:g} %{end}")
+    print(f"landing: {cond.slope_deg:g} deg slope, {cond.speed:g} m/s, {gear}, {reverse_text(pct)}{end}")
     print(tr.summary())
     if args.plot:
         from slopelander.plots.landing import plot_landing

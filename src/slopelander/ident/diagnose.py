@@ -22,6 +22,7 @@ import numpy as np
 
 from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.evidence import (
+    MIN_GAIN,
     SignFlipTest,
     names_missing,
     noise_floor,
@@ -68,6 +69,11 @@ STALL = 8
 (:class:`~slopelander.ident.optimizers.CMA` ``stall``): the base's refits and the candidates'
 start at an optimum, and where nothing is missing their searches spent the whole budget
 confirming it (benchmarks/results/2026-12-06-diagnose-speed.md)."""
+BUILTIN_NOT_NESTED = (
+    "built-in: no value of {} within its bounds switches it off, so it is refitted from their centre "
+    "and may end above the base"
+)
+"""Why a built-in candidate is not nested (a user's own effect is told to declare ``neutral``)."""
 NOT_AMONG = 1.5
 """An excess beyond the floor of more than this many floors that no candidate explains reads
 "missing, but not among these candidates"; a smaller one "too small to tell"."""
@@ -141,6 +147,60 @@ class CandidateResult:
         return {
             p: (min(f.values[p] for f in self.fits), max(f.values[p] for f in self.fits))
             for p in self.candidate.params
+        }
+
+
+SETTLE_CONDITIONS: dict[str, tuple[str, str]] = {
+    "slope_deg": ("slope", "deg"),
+    "speed": ("impact speed", "m/s"),
+    "torque": ("torques", "N*m"),
+}
+"""The drops' conditions a user can choose, by which :meth:`Diagnosis.settle` tells the kind of
+drop that would settle a candidate (``torque``: the mean of the uphill and downhill joints')."""
+
+
+def condition_value(drop: Drop, key: str) -> float:
+    """A drop's condition by :data:`SETTLE_CONDITIONS` key."""
+    c = drop.conditions
+    return 0.5 * (c.tau_up + c.tau_down) if key == "torque" else float(getattr(c, key))
+
+
+@dataclass(frozen=True)
+class Settle:
+    """The kind of drop on which a candidate's gain shows most consistently, and how many of them
+    a test would need (``condition`` empty: drops like all of these)."""
+
+    condition: str
+    unit: str
+    low: float
+    high: float
+    drops: list[str]
+    """These drops of that kind."""
+    needed: int
+    """Drops of that kind a one-sided test at the diagnosis's level (Bonferroni over the
+    candidates) would need to pass with 80 % power, were their observed gain and spread the truth."""
+    more: int
+    """``needed`` less those already there."""
+    gains: np.ndarray
+    """The per-drop log gains of those drops."""
+
+    @property
+    def kind(self) -> str:
+        if not self.condition:
+            return "drops like these"
+        return f"drops at {self.condition} {self.low:.3g}-{self.high:.3g} {self.unit}"
+
+    def to_dict(self) -> dict:
+        return {
+            "condition": self.condition or None,
+            "low": None if not self.condition else self.low,
+            "high": None if not self.condition else self.high,
+            "unit": self.unit or None,
+            "drops": self.drops,
+            "mean_log_gain": float(np.mean(self.gains)),
+            "sd_log_gain": float(np.std(self.gains, ddof=1)) if len(self.gains) > 1 else 0.0,
+            "needed": self.needed,
+            "more": self.more,
         }
 
 
@@ -272,10 +332,15 @@ class Diagnosis:
                 f"it above {ABOVE_FLOOR:g}x the floor); no candidate helps on drops it did not see ({tried})"
             )
         if excess > NOT_AMONG * self.floor:
+            why = "no candidate explains it"
+            if best is not None and self.gain(best) >= MIN_GAIN:
+                why = (
+                    f"no candidate passes the test, though {best.candidate.name} lowers it "
+                    f"{100 * self.gain(best):.0f} % on held-out drops"
+                )
             return (
                 f"missing, but not among these candidates: the held-out NRMSE {self.base_validation:.4f} "
-                f"is {ratio:.1f}x the noise floor {floor} ({excess:.4f} beyond it), and no candidate "
-                f"explains it ({tried})"
+                f"is {ratio:.1f}x the noise floor {floor} ({excess:.4f} beyond it), and {why} ({tried})"
             )
         hint = f"; {self.hint(best)}" if best is not None else ""
         return (
@@ -313,9 +378,12 @@ class Diagnosis:
         pass at the test's level (corrected for the candidates tried, Bonferroni) with ``power``,
         were the observed mean gain and its spread the truth: ((z_a + z_power) sd / mean)^2.
         None when the observed mean gain is not positive (more drops would not show it)."""
+        return self._needed(self.log_gains(r), power)
+
+    def _needed(self, g: np.ndarray, power: float = 0.8) -> int | None:
+        """((z_a + z_power) sd / mean)^2 drops of gains like ``g``, at least ``len(g)``."""
         from statistics import NormalDist
 
-        g = self.log_gains(r)
         mean, sd = float(np.mean(g)), float(np.std(g, ddof=1)) if len(g) > 1 else 0.0
         if not mean > 0:
             return None
@@ -324,6 +392,33 @@ class Diagnosis:
         alpha = self.alpha / max(1, len(self.fitted))
         z = NormalDist().inv_cdf(1 - alpha) + NormalDist().inv_cdf(power)
         return max(len(g), math.ceil((z * sd / mean) ** 2))
+
+    def settle(self, r: CandidateResult) -> Settle | None:
+        """Which kind of drop would settle ``r`` soonest: of the drops' conditions (slope, impact
+        speed, torques), the half of these drops (lowest or highest in one condition) on which
+        its per-drop gains need the fewest drops to pass at the observed mean and spread, when
+        that is fewer than drops like all of these need. A user then drops where the effect
+        shows, not at random. None when no kind of drop shows a positive mean gain."""
+        g = self.log_gains(r)
+        n = len(g)
+        best = None
+        every = self._needed(g)
+        if every is not None:
+            best = Settle("", "", math.nan, math.nan, [d.name for d in self.drops], every, every - n, g)
+        half = (n + 1) // 2
+        for key, (label, unit) in SETTLE_CONDITIONS.items():
+            vals = np.array([condition_value(d, key) for d in self.drops])
+            if half < 3 or np.ptp(vals) <= 1e-9 * max(1.0, float(np.max(np.abs(vals)))):
+                continue
+            order = np.argsort(vals, kind="stable")
+            for idx in (order[:half], order[n - half :]):
+                need = self._needed(g[idx])
+                if need is None or (best is not None and need >= best.needed):
+                    continue
+                lo, hi = float(vals[idx].min()), float(vals[idx].max())
+                names = [self.drops[i].name for i in sorted(idx)]
+                best = Settle(label, unit, lo, hi, names, need, need - len(idx), g[idx])
+        return best
 
     def alike(self, r: CandidateResult, within: float = 0.8) -> list[tuple[CandidateResult, float]]:
         """The other refitted candidates whose held-out gain reaches ``within`` of ``r``'s, each
@@ -375,6 +470,8 @@ class Diagnosis:
             "best": None if best is None else best.candidate.name,
         }
         if best is not None:
+            st = self.settle(best)
+            out["settle"] = None if st is None else st.to_dict()
             out["alike"] = [
                 {"name": o.candidate.name, "gain": self.gain(o), "gain_correlation": c}
                 for o, c in self.alike(best)
@@ -405,11 +502,21 @@ class Diagnosis:
                     f"{name} does not help on average on drops it did not see: more would not show it"
                 )
             else:
-                lines.append(
-                    f"{name}: gain {100 * self.gain(best):+.1f} %, p {best.p:.3g}; about {need} drops like "
-                    f"these (now {len(self.drops)}) would show a gain this size at the {self.alpha:g} level "
-                    "with 80 % power"
-                )
+                st = self.settle(best)
+                assert st is not None  # a positive mean gain over all drops: "drops like these" at least
+                head = f"{name}: gain {100 * self.gain(best):+.1f} %, p {best.p:.3g}; "
+                power = f"pass the {self.alpha:g} level with 80 % power at their observed gain and spread"
+                if st.condition:
+                    lines.append(
+                        f"{head}its gain is most consistent on {st.kind} ({', '.join(st.drops)}): about "
+                        f"{st.more} more such drops would settle it ({st.needed} of them {power}; "
+                        f"{need} drops like all of these)"
+                    )
+                else:
+                    lines.append(
+                        f"{head}about {st.more} more drops like these (now {len(self.drops)}) would settle "
+                        f"it ({need} {power}; no condition shows it more consistently)"
+                    )
         for o, corr in self.alike(best):
             how = "" if math.isnan(corr) else f", per-drop gains correlated {corr:+.2f} with {name}'s"
             lines.append(f"{o.candidate.name} explains nearly as much: gain {100 * self.gain(o):+.1f} %{how}")
@@ -556,7 +663,9 @@ def screen(
         d = prob.residuals(u) - r
         share = max(0.0, removed(np.column_stack([Jb, d])) - by_base) if rr > 0 else 0.0
         missing = [p.name for p in params if p.name not in off]
-        if missing:
+        if missing and c.user is None:
+            nested, note = False, BUILTIN_NOT_NESTED.format(", ".join(missing))
+        elif missing:
             nested, note = False, f"no neutral value for {', '.join(missing)} (declare neutral=...)"
         else:
             gap = prob.residuals([p.unit(off[p.name]) for p in params]) - r
@@ -569,7 +678,7 @@ def screen(
                     f"at its neutral values it differs from the base by {size:.3g} NRMSE: write it so that "
                     "at them it returns exactly what the model would (read the model's own values with the "
                     "state accessors, e.g. state.ground_stiffness(ctx) and state.ground_damping(ctx) for a "
-                    "normal-force law, not constants; docs/effects.md, 'Nested effects')"
+                    "normal-force law, not constants; docs/effects.md, 'Parameters')"
                 )
             )
         out[c.name] = Screening(share, _per_drop(prob, d), nested, note)

@@ -138,6 +138,12 @@ CONDITION_DTYPE = np.dtype([(name, np.float64) for name in CONDITION_FIELDS])
 _DURATION_COLUMN = CONDITION_FIELDS.index("reverse_duration")
 
 
+def reverse_text(percent: float) -> str:
+    """The reverse command as a user should read it: a rotor speed, and the thrust it gives (its
+    square), so that 70 % is not taken for 70 % of the thrust."""
+    return f"reverse command {percent:g} % ({percent**2 / 100:.3g} % of full reverse thrust)"
+
+
 def default_conditions(n: int) -> np.ndarray:
     """``n`` rows of :data:`CONDITION_DTYPE` holding the defaults (a zero-filled array would
     say a reverse thrust held for 0 s, which the model refuses)."""

@@ -18,6 +18,7 @@ from slopelander.ident.flightlog.landings import LandingEvents, contact_time, fi
 from slopelander.ident.flightlog.observe import ModelView, first_peak, impact_peak, observe, rest_time
 from slopelander.ident.flightlog.reader import FlightLog, FlightLogError, read_log
 from slopelander.model import Model
+from slopelander.model.conditions import reverse_text
 
 BEFORE_S = 0.3
 """s of the log kept (and drawn) before first contact."""
@@ -108,10 +109,10 @@ class LandingComparison:
     # -- output ----------------------------------------------------------------------------
     def heading_lines(self) -> list[str]:
         ev, c = self.events, self.cond.conditions
-        thrust = "none"
+        thrust = "no reverse thrust"
         if c.reverse_percent > 0:
             held = "held" if math.isinf(c.reverse_duration) else f"for {c.reverse_duration:.2f} s"
-            thrust = f"{c.reverse_percent:g} % after {c.reverse_delay:.3f} s {held}"
+            thrust = f"{reverse_text(c.reverse_percent)} after {c.reverse_delay:.3f} s {held}"
             thrust += f", ramp {c.reverse_ramp:.2f} s"
         lines = [
             f"{self.log.path.name} ({self.log.kind}): landing {ev.number} of {self.landings}, first contact "
@@ -121,7 +122,7 @@ class LandingComparison:
             f"  conditions: slope {c.slope_deg:.1f} deg, impact {c.speed:.2f} m/s down, "
             f"{c.horizontal_speed:+.2f} m/s along the heading, pitch {c.pitch_deg:+.1f} deg, "
             f"{c.pitch_rate_dps:+.0f} deg/s; legs {c.tau_up:.2f}/{c.tau_down:.2f} N*m, angles "
-            f"{c.angle_up_deg:.1f}/{c.angle_down_deg:.1f} deg; reverse thrust {thrust}",
+            f"{c.angle_up_deg:.1f}/{c.angle_down_deg:.1f} deg; {thrust}",
         ]
         lines += [f"    {k}: {v}" for k, v in self.cond.sources.items()]
         return lines

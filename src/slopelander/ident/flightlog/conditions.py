@@ -110,7 +110,11 @@ def surface_points(log: FlightLog, until: float) -> list[tuple[float, float, flo
 
 
 def measure_slope(
-    log: FlightLog, contact: float, psi: float, settings: EstimateSettings | None = None
+    log: FlightLog,
+    contact: float,
+    psi: float,
+    settings: EstimateSettings | None = None,
+    since: float = -math.inf,
 ) -> tuple[SlopeEstimate, str]:
     """The slope along the heading at the body's position at contact, and how it was fitted.
 
@@ -119,13 +123,14 @@ def measure_slope(
     drift over those seconds would read as slope. They are fitted as the companion fits them, by a
     plane (:func:`estimate_plane`) read along the heading; a log whose passes ran one way only
     (an approach, or a companion before the two-leg survey) is fitted by a line along the heading
-    (:func:`estimate`, the points within :data:`LATERAL_M` of it)."""
+    (:func:`estimate`, the points within :data:`LATERAL_M` of it). Only points after ``since``
+    count: in a log of several landings, those before the previous one's end saw another roof."""
     e = log.ekf
     n0, e0 = float(e.at(contact, 3)), float(e.at(contact, 4))
     moving = [
         p
         for p in surface_points(log, contact)
-        if math.hypot(float(e.at(p[0], 0)), float(e.at(p[0], 1))) >= PASS_SPEED_MPS
+        if p[0] > since and math.hypot(float(e.at(p[0], 0)), float(e.at(p[0], 1))) >= PASS_SPEED_MPS
     ]
     plane = estimate_plane(moving, (n0, e0), settings)
     if plane.ok or not plane.needs_survey:
@@ -296,7 +301,7 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
         slope_deg = given.slope_deg
         sources["slope"] = "given"
     else:
-        slope, fitted = measure_slope(log, contact, psi)
+        slope, fitted = measure_slope(log, contact, psi, since=ev.since)
         if not slope.ok:
             raise FlightLogError(
                 log.path,

@@ -61,6 +61,9 @@ class LandingEvents:
     end: float
     """The end of the landing's part of the log."""
     end_why: str
+    since: float = -math.inf
+    """The end of the previous landing's part (-inf for the first): this landing's roof was
+    surveyed after it, so its slope is measured from the points taken since."""
 
 
 def _changes(log: FlightLog) -> list[tuple[float, int]]:
@@ -127,8 +130,9 @@ def _end(log: FlightLog, cut: float, after: float, next_cut: float | None) -> tu
 def _from_states(log: FlightLog) -> list[LandingEvents]:
     ch = _changes(log)
     cuts = [i for i, (_, c) in enumerate(ch) if c == CUT and (i == 0 or ch[i - 1][1] != CUT)]
-    out = []
+    out: list[LandingEvents] = []
     for k, i in enumerate(cuts):
+        since = out[-1].end if out else -math.inf
         t_cut = ch[i][0]
         after = ch[i + 1 : cuts[k + 1]] if k + 1 < len(cuts) else ch[i + 1 :]
         if not after or after[0][1] not in (RVT, HOLD, FAULT_HELD):
@@ -141,7 +145,9 @@ def _from_states(log: FlightLog) -> list[LandingEvents]:
         next_cut = ch[cuts[k + 1]][0] if k + 1 < len(cuts) else None
         end, why = _end(log, t_cut, hold or left or rvt or t_cut, next_cut)
         out.append(
-            LandingEvents(len(out) + 1, t_cut, log.states.source + " 11", rvt, left, left_to, hold, end, why)
+            LandingEvents(
+                len(out) + 1, t_cut, log.states.source + " 11", rvt, left, left_to, hold, end, why, since
+            )
         )
     return out
 
@@ -175,7 +181,8 @@ def _from_outputs(log: FlightLog) -> list[LandingEvents]:
             end, why = _end(log, t_cut, left or rvt or t_cut, None)
             src = f"{o.source} leaving forward thrust"
             hold = left if left_to == HOLD else None
-            out.append(LandingEvents(len(out) + 1, t_cut, src, rvt, left, left_to, hold, end, why))
+            since = out[-1].end if out else -math.inf
+            out.append(LandingEvents(len(out) + 1, t_cut, src, rvt, left, left_to, hold, end, why, since))
             flying = False
             i = max(j, i + 1)
             continue

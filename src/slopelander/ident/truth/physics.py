@@ -151,12 +151,16 @@ DEPARTURES: dict[str, Departure] = {
             "stick, where the model sticks them on a tangential spring until mu_s N",
             smoothing_speed=0.005,
         ),
+        # at 0.3 and 1 rad/s (breaking away at 1.3 tau) it moved the control set by nothing (0.99
+        # noise floors against 1.01 exact): the legs swing far faster once they slip. At 0.5 and
+        # 5 rad/s it is 2.5 floors, as large as tanh_friction (benchmarks/results/2026-12-07-departures.md)
         Departure(
             "joint_stribeck",
-            "another joint model: the joints' friction weakens with speed, tau (1 + 0.3 "
-            "exp(-(w / 1 rad/s)^2)) (breaking away at 1.3 tau), where the model's joint has one "
+            "another joint model: the joints' friction weakens with speed, tau (1 + 0.5 "
+            "exp(-(w / 5 rad/s)^2)) (breaking away at 1.5 tau), where the model's joint has one "
             "torque",
-            joint_static=0.3,
+            joint_static=0.5,
+            joint_stribeck_rate=5.0,
         ),
     )
 }
