@@ -449,6 +449,40 @@ def test_the_leg_board_unplugged_in_the_descent_aborts_to_loiter_before_the_cut(
         assert_hovering_safe(rig, lander, "leg failure")
 
 
+def test_an_abort_whose_loiter_is_lost_still_stops_the_descent_and_climbs(autopilot):
+    """Finding 5 of the flight-safety review: ABORTED relied on its LOITER command, and a lost one
+    left the 0.5 m/s descent target running until GUID_TIMEOUT. Here every mode change the
+    companion sends is lost (the relay drops MAV_CMD_DO_SET_MODE) when the leg board is unplugged
+    in the descent: the abort's climb setpoint comes first, so the vehicle stops, rises clear of
+    the roof in GUIDED, and the pilot is told after five lost asks to take over."""
+    with roof_rig(autopilot, seed=24, relay=True) as rig:
+        ready_over_roof(rig)
+        lander = Lander(
+            rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG
+        )
+        told: list[str] = []
+        send = lander.link.send_statustext
+        lander.link.send_statustext = lambda text, *a: (told.append(text), send(text, *a))[1]
+        run_until(rig, lander, ("DESCEND",))
+        rig.relay.block_commands(176)  # MAV_CMD_DO_SET_MODE: every LOITER asked is lost
+        t0 = rig.now
+        with BoardControl(rig.board.control) as ctl:
+            ctl.inject("unplug")
+        assert lander.run(40.0, until=("ABORTED", "LANDED")) == "ABORTED", story(rig, lander)
+        rig.legs = None  # the port is gone
+        t_abort = next(h["t"] for h in lander.machine.history if h["to"] == "ABORTED")
+        h_abort = next(p[2] - rig.surface_z(p[1]) for p in rig.track.pos if p[0] >= t_abort)
+        rig.wait(8.0, tick=lander.poll)  # five asks of LOITER, each lost
+        rig.read_events()
+        ctx = story(rig, lander) + f" | abort at {h_abort:.2f} m over the roof"
+        over = [p[2] - rig.surface_z(p[1]) for p in rig.track.pos if p[0] >= t_abort]
+        assert rig.track.contact(t0) is None and not rig.track.event_times("EV_STOP", t0), ctx
+        assert min(over) > h_abort - 0.3 and over[-1] > h_abort + 0.5, (min(over), over[-1], ctx)
+        assert rig.armed() and rig.mode() == GUIDED, (rig.mode(), ctx)  # the LOITER never arrived
+        assert rig.relay.up.counts["blocked"] >= 1, (rig.relay.stats(), ctx)
+        assert any("LOITER not taken after 5 asks" in t for t in told), told
+
+
 #: the link cuts on the simulated vehicle in a group of their own (the two flights share it, in
 #: order); on ArduCopter in the "arducopter" group, as every ArduCopter flight
 CUT_AUTOPILOTS = [pytest.param("sim", marks=pytest.mark.xdist_group("flights/link_cuts")), AUTOPILOTS[1]]

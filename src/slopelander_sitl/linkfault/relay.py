@@ -54,7 +54,9 @@ class _Direction:
         self.held: bytes | None = None
         self.cv = threading.Condition()
         self.send: Callable[[bytes], None] | None = None
-        self.counts = dict(frames=0, sent=0, dropped=0, cut=0, duplicated=0, reordered=0, corrupted=0)
+        self.counts = dict(
+            frames=0, sent=0, dropped=0, cut=0, duplicated=0, reordered=0, corrupted=0, blocked=0
+        )
 
     def reset(self, send: Callable[[bytes], None] | None) -> None:
         with self.cv:
@@ -69,6 +71,12 @@ class _Direction:
         for m in msgs:
             if self is self.relay.down:
                 self.relay.observe(m)
+            elif (
+                getattr(m, "command", None) in self.relay.blocked_commands and m.get_type() == "COMMAND_LONG"
+            ):
+                with self.cv:
+                    self.counts["blocked"] += 1
+                continue
             raw = bytes(m.get_msgbuf()) if hasattr(m, "get_msgbuf") else bytes(getattr(m, "data", b""))
             if raw:
                 self.frame(raw)
@@ -159,6 +167,8 @@ class Relay:
         self.to_kind, th, tp = parse_address(to)
         self.listen_addr, self.to_addr = (lh, lp), (th, tp)
         self.faults = faults or LinkFaults()
+        #: COMMAND_LONG ids the relay never passes to the vehicle (:meth:`block_commands`)
+        self.blocked_commands: frozenset[int] = frozenset()
         self._cut_until = 0.0
         self.lockstep = lockstep
         self.vehicle_t: float | None = None  # newest vehicle time seen going down (s)
@@ -229,6 +239,11 @@ class Relay:
 
     def set_faults(self, changes: dict) -> None:
         self.faults = self.faults.updated(changes)
+
+    def block_commands(self, *commands: int) -> None:
+        """Lose every COMMAND_LONG of these ids from the companion (none: pass them all again):
+        one command lost for good, e.g. the abort's LOITER, while everything else goes through."""
+        self.blocked_commands = frozenset(commands)
 
     def stats(self) -> dict:
         return {
