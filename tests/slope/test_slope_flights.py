@@ -248,6 +248,10 @@ def test_a_pilot_slope_of_0_over_the_east_falling_roof_is_refused_along_the_head
     with Rig(slope_deg=45.0, seed=42, scenario=EAST) as rig:
         rig.take_off(3.0)
         flight, est, _took, _p, _first = fly(rig, 0.0, over_roof=True, height_m=1.5)
+    check_refused_along_the_heading(flight, est)
+
+
+def check_refused_along_the_heading(flight, est) -> None:
     assert flight.end == "ABORTED", flight.history
     last = flight.history[-1]
     assert last["from"] == "CHECKS", flight.history
@@ -259,9 +263,10 @@ def test_a_pilot_slope_of_0_over_the_east_falling_roof_is_refused_along_the_head
 @pytest.mark.xdist_group("arducopter")
 @pytest.mark.timeout(1200)  # a long flight
 def test_on_arducopter_the_cross_slope_is_faced_and_landed() -> None:
-    """The 45 deg roof falling east on real ArduCopter: its GUIDED takes the survey's headings (the
-    JSON physics turns with the motors' yaw torque), the vehicle faces the fall line, and lands
-    there with the 45 deg preset."""
+    """The 45 deg roof falling east on real ArduCopter, one vehicle: a pilot's ``--slope 0`` is
+    refused in CHECKS along the heading it turned to; then its GUIDED takes the survey's headings
+    (the JSON physics turns with the motors' yaw torque), the vehicle faces the fall line, and
+    lands there with the 45 deg preset."""
     try:
         binary = arducopter_binary()
     except ArduCopterMissingError as exc:
@@ -270,6 +275,9 @@ def test_on_arducopter_the_cross_slope_is_faced_and_landed() -> None:
         pytest.skip(str(exc))
     with Rig(slope_deg=45.0, seed=43, scenario=EAST, autopilot="ardupilot", arducopter=str(binary)) as rig:
         rig.take_off(3.0)
+        flight, est, _took, _p, _first = fly(rig, 0.0, over_roof=True, height_m=1.5)
+        check_refused_along_the_heading(flight, est)
+        back_to_guided(rig)
         flight, est, took, preset, first = fly(rig, "auto", over_roof=True, height_m=1.5)
         yaw = math.degrees(rig.link.last["ATTITUDE"].yaw)
     check_east_landing(flight, est, took, preset, first, yaw, "ardupilot")
