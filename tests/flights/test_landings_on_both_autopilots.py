@@ -428,25 +428,35 @@ def test_the_leg_board_unplugged_in_the_descent_aborts_to_loiter_before_the_cut(
     """Leg failure row: the port vanishes in DESCEND; the landing aborts before the motors stop
     and the pilot is told; the vehicle holds in LOITER clear of the roof."""
     with roof_rig(autopilot, seed=22) as rig:
-        ready_over_roof(rig)
-        lander = Lander(
-            rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG
-        )
-        told: list[str] = []
-        send = lander.link.send_statustext
-        lander.link.send_statustext = lambda text, *a: (told.append(text), send(text, *a))[1]
-        run_until(rig, lander, ("DESCEND",))
-        t0 = rig.now
-        with BoardControl(rig.board.control) as ctl:
-            ctl.inject("unplug")
-        assert lander.run(40.0, until=("ABORTED", "LANDED")) == "ABORTED", story(rig, lander)
+        lander, told, t0 = unplugged_in_the_descent(rig)
         rig.read_events()
         h = lander.machine.history[-1]
         assert h["reason"].startswith("leg failure") and h["from"] in ("DESCEND", "ARMED"), story(rig, lander)
         assert not rig.track.event_times("EV_STOP", t0)  # aborted before the motors stop
         assert any(t.startswith("SL ABORTED: leg failure") for t in told), told
-        rig.legs = None  # the port is gone
         assert_hovering_safe(rig, lander, "leg failure")
+
+
+def unplugged_in_the_descent(
+    rig: Rig, lose_commands: tuple[int, ...] = ()
+) -> tuple[Lander, list[str], float]:
+    """A landing over the roof whose leg board is unplugged once it descends (the relay losing
+    ``lose_commands`` from then on), run to its abort: the lander, what it told the pilot, and the
+    vehicle time of the unplugging."""
+    ready_over_roof(rig)
+    lander = Lander(rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG)
+    told: list[str] = []
+    send = lander.link.send_statustext
+    lander.link.send_statustext = lambda text, *a: (told.append(text), send(text, *a))[1]
+    run_until(rig, lander, ("DESCEND",))
+    if lose_commands:
+        rig.relay.block_commands(*lose_commands)
+    t0 = rig.now
+    with BoardControl(rig.board.control) as ctl:
+        ctl.inject("unplug")
+    assert lander.run(40.0, until=("ABORTED", "LANDED")) == "ABORTED", story(rig, lander)
+    rig.legs = None  # the port is gone
+    return lander, told, t0
 
 
 def test_an_abort_whose_loiter_is_lost_still_stops_the_descent_and_climbs(autopilot):
@@ -456,20 +466,8 @@ def test_an_abort_whose_loiter_is_lost_still_stops_the_descent_and_climbs(autopi
     in the descent: the abort's climb setpoint comes first, so the vehicle stops, rises clear of
     the roof in GUIDED, and the pilot is told after five lost asks to take over."""
     with roof_rig(autopilot, seed=24, relay=True) as rig:
-        ready_over_roof(rig)
-        lander = Lander(
-            rig.link, config(reflex={**LOW_ARM, **CUT}), PRESET, legs=rig.legs, slope_deg=ROOF_DEG
-        )
-        told: list[str] = []
-        send = lander.link.send_statustext
-        lander.link.send_statustext = lambda text, *a: (told.append(text), send(text, *a))[1]
-        run_until(rig, lander, ("DESCEND",))
-        rig.relay.block_commands(176)  # MAV_CMD_DO_SET_MODE: every LOITER asked is lost
-        t0 = rig.now
-        with BoardControl(rig.board.control) as ctl:
-            ctl.inject("unplug")
-        assert lander.run(40.0, until=("ABORTED", "LANDED")) == "ABORTED", story(rig, lander)
-        rig.legs = None  # the port is gone
+        # MAV_CMD_DO_SET_MODE (176): every LOITER asked is lost
+        lander, told, t0 = unplugged_in_the_descent(rig, lose_commands=(176,))
         t_abort = next(h["t"] for h in lander.machine.history if h["to"] == "ABORTED")
         h_abort = next(p[2] - rig.surface_z(p[1]) for p in rig.track.pos if p[0] >= t_abort)
         rig.wait(8.0, tick=lander.poll)  # five asks of LOITER, each lost
