@@ -1095,6 +1095,22 @@ def test_a_link_lost_in_the_takeoff_and_back_never_leaves_it_armed_on_the_roof_i
         assert ("set_mode", "LOITER") not in act.calls[n:]
 
 
+def test_the_legs_reaching_their_preset_say_the_angles_the_board_reported_within_a_statustext():
+    """The pilot's log keeps the companion's STATUSTEXT (ArduPilot logs it as MSG), so the angles
+    the board reported when the legs reached the preset are in the autopilot's own log for
+    ``slopelander compare FLIGHT.bin``: within the 50 characters a STATUSTEXT carries."""
+    m, act, _ = make()
+    legs = replace(OK, uphill_angles_deg=(25.6, 25.8), downhill_angles_deg=(37.5, 37.5))
+    run_to(m, "DESCEND", base=legs)
+    reason = next(h["reason"] for h in m.history if h["to"] == "CHECKS")
+    assert reason == "legs within tolerance at 25.7/37.5 deg", reason
+    said = f"SL CHECKS: {reason}"
+    assert len(said) <= 50 and said in [c[1] for c in act.calls if c[0] == "statustext"], act.calls
+    m2, _, _ = make()
+    run_to(m2, "DESCEND")  # a board that reports no angles: nothing made up
+    assert next(h["reason"] for h in m2.history if h["to"] == "CHECKS") == "legs within tolerance"
+
+
 class RefusesToArm(Recorder):
     """An autopilot that answers every arm with a refusal (ArduCopter with the pilot's throttle
     stick up: "Arm: Throttle (RC3) is not neutral")."""

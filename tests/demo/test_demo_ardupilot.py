@@ -33,6 +33,13 @@ def landed_legs(printed: str) -> tuple[float, float]:
     return float(m.group(1)), float(m.group(2))
 
 
+def reported_uphill(printed: str) -> float:
+    """The uphill legs' angle the demo says the board reported ("board reported 25.7 deg")."""
+    m = re.search(r"board reported (\d+\.\d+) deg", printed)
+    assert m, printed[:400]
+    return float(m.group(1))
+
+
 def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path: Path) -> None:
     try:
         arducopter_binary()
@@ -70,6 +77,12 @@ def test_the_demo_flies_on_real_arducopter_and_ends_disarmed_then_reset(tmp_path
         c = r_.cond.conditions
         assert abs(c.slope_deg - 35.0) <= max(1.5, 2 * r_.cond.slope.sigma_deg), r_.cond.slope.describe()
         assert (c.tau_up, c.tau_down) == landed_legs(r.stdout)
+        # the legs as the board reported them: from the companion's message, which ArduPilot logs
+        # (the companion's tlog holds what it heard, not what it said: transitions.jsonl beside it)
+        source = r_.cond.sources["leg angles"]
+        where = "the companion's message" if r_ is from_bin else "transitions.jsonl beside the log"
+        assert source.startswith(f"as the leg board reported them, {where}"), source
+        assert abs(c.angle_up_deg - reported_uphill(r.stdout)) <= 0.3, (c.angle_up_deg, r.stdout[:400])
 
 
 def test_the_demo_without_a_binary_says_how_to_get_one(tmp_path: Path) -> None:

@@ -92,6 +92,30 @@ def test_the_conditions_are_the_landing_as_flown() -> None:
     assert c.reverse_delay + c.reverse_duration == pytest.approx(said - contact, abs=0.05)
 
 
+def test_the_legs_as_the_board_reported_them_are_read_where_the_companion_wrote_them(tmp_path) -> None:
+    """The shipped log predates the companion saying the board's angles at CHECKS; a landing's
+    transitions.jsonl beside the log says them too ("legs within tolerance at UP/DOWN deg"), and
+    the conditions take them from there instead of the lookup table."""
+    log_path = tmp_path / "flight.bin"
+    shutil.copy(EXAMPLE, log_path)
+    log = read_log(log_path)
+    [ev] = find_landings(log)
+    contact, _ = contact_time(log, ev)
+    entry = {
+        "t": contact - 3.0,
+        "from": "LEGS_WAIT",
+        "to": "CHECKS",
+        "reason": "legs within tolerance at 30.2/36.9 deg",
+    }
+    (tmp_path / "transitions.jsonl").write_text(json.dumps(entry) + "\n")
+    cond = landing_conditions(log, ev, contact, Given())
+    assert (cond.conditions.angle_up_deg, cond.conditions.angle_down_deg) == (30.2, 36.9)
+    assert (
+        cond.sources["leg angles"]
+        == f"as the leg board reported them, transitions.jsonl beside the log ({contact - 3.0:.2f} s)"
+    )
+
+
 def test_the_model_at_those_conditions_follows_the_logged_landing(model) -> None:
     """The log was flown on the model's own physics (ArduCopter SITL behind the JSON bridge): its
     pitch, pitch rate and time to rest must agree; the first contact's accelerometer peak is the

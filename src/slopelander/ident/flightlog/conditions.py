@@ -44,6 +44,8 @@ from slopelander.model import ConditionError, LandingConditions
 from slopelander.model.conditions import MAX_REVERSE_DURATION, MAX_REVERSE_RAMP
 
 TORQUES = re.compile(r"legs commanded to (\d+(?:\.\d+)?)/(\d+(?:\.\d+)?) N\*m")
+#: the legs' angles as the board reported them when they reached their preset (controller/states/legs_wait.py)
+ANGLES = re.compile(r"legs within tolerance at (-?\d+(?:\.\d+)?)/(-?\d+(?:\.\d+)?) deg")
 """The reason of the companion's move to LEGS_WAIT, which names the friction torques it commanded
 (controller/states/preset.py); its STATUSTEXT is ``SL LEGS_WAIT: <reason>``."""
 LATERAL_M = 1.0
@@ -190,11 +192,26 @@ def impact_velocity(log: FlightLog, contact: float) -> tuple[np.ndarray, float]:
 
 def preset_torques(log: FlightLog, before: float) -> tuple[tuple[float, float], str] | None:
     """The torques the companion commanded last before ``before``, and where it said so."""
+    return _companion_pair(log, before, "LEGS_WAIT", TORQUES)
+
+
+def preset_angles(log: FlightLog, before: float) -> tuple[tuple[float, float], str] | None:
+    """The legs' (uphill, downhill) angles the board reported last before ``before`` as they reached
+    their preset, and where the companion said so."""
+    return _companion_pair(log, before, "CHECKS", ANGLES)
+
+
+def _companion_pair(
+    log: FlightLog, before: float, state: str, pattern: re.Pattern
+) -> tuple[tuple[float, float], str] | None:
+    """Two numbers the companion gave in its last transition to ``state`` before ``before``: from
+    its STATUSTEXT, which ArduPilot logs (MSG, "SRC=..:SL STATE: reason"), else from the landing's
+    transitions.jsonl beside the log."""
     found = None
     for t, text in log.texts:
         if t > before:
             break
-        m = TORQUES.search(text) if "SL LEGS_WAIT:" in text else None
+        m = pattern.search(text) if f"SL {state}:" in text else None
         if m:
             found = ((float(m.group(1)), float(m.group(2))), f"the companion's message at {t:.2f} s")
     if found is not None:
@@ -205,7 +222,7 @@ def preset_torques(log: FlightLog, before: float) -> tuple[tuple[float, float], 
 
         last = None
         for entry in read_transitions(beside):
-            m = TORQUES.search(str(entry.get("reason", ""))) if entry.get("to") == "LEGS_WAIT" else None
+            m = pattern.search(str(entry.get("reason", ""))) if entry.get("to") == state else None
             t = entry.get("t")
             if m and isinstance(t, (int, float)) and t <= before:
                 last = ((float(m.group(1)), float(m.group(2))), f"{beside.name} beside the log ({t:.2f} s)")
@@ -334,9 +351,15 @@ def landing_conditions(log: FlightLog, ev: LandingEvents, contact: float, given:
                 "give --tau-up UP --tau-down DOWN",
             )
         tau, sources["legs"] = found
+    reported = None if given.angles is not None else preset_angles(log, contact)
     if given.angles is not None:
         angles = given.angles
         sources["leg angles"] = "given"
+    elif reported is not None:
+        # the board reads a leg at its stop within its sensor's tenths of a degree: held to the
+        # joint's range (LandingConditions.validate), 0..37.5 deg
+        angles = tuple(min(max(a, 0.0), 37.5) for a in reported[0])
+        sources["leg angles"] = f"as the leg board reported them, {reported[1]}"
     else:
         try:
             angles = table_angles(slope_deg, speed)
