@@ -77,7 +77,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 #: ``diagnose``'s exit codes by verdict (1: an error, 2: a usage error, as every command)
-DIAGNOSE_EXIT = {"nothing_missing": 0, "missing": 3, "not_among": 4, "too_small": 5, "unknown": 5}
+DIAGNOSE_EXIT = {
+    "nothing_missing": 0,
+    "missing": 3,
+    "not_among": 4,
+    "too_small": 5,
+    "base_physics": 5,
+    "unknown": 5,
+}
 
 
 def run(args: argparse.Namespace) -> int:
