@@ -87,12 +87,15 @@ def named(row: dict, alternatives: bool = True, **rule) -> str | None:
     if "alternatives" not in row:  # saved before the rule: the verdict it printed
         return row["missing"]
     g = np.array(next(c["log_gains"] for c in cands if c["name"] == m))
-    for a in row["alternatives"]:
-        if (
-            a["gain"] >= MIN_GAIN
-            and sign_flip_test(g - np.array(a["log_gains"]), ALPHA, row["seed"]).p[0] > ALPHA
-        ):
-            return None
+    for a in row["alternatives"]:  # as Diagnosis.base_physics
+        ga = np.array(a["log_gains"])
+        if a["gain"] < MIN_GAIN or sign_flip_test(g - ga, ALPHA, row["seed"]).p[0] <= ALPHA:
+            continue
+        t = a.get("on_top")
+        more = t is not None and 1.0 - t["heldout"] / a["heldout"] >= MIN_GAIN
+        if more and sign_flip_test(np.array(t["log_gains"]) - ga, ALPHA, row["seed"]).p[0] <= ALPHA:
+            continue
+        return None
     return m
 
 
@@ -345,6 +348,13 @@ def main() -> int:
                     "gain": d.gain(a),
                     "log_gains": d.log_gains(a).tolist(),
                     "values": a.values(),
+                    "on_top": None
+                    if (t := d.on_top.get(a.candidate.name)) is None
+                    else {
+                        "heldout": t.validation_nrmse,
+                        "log_gains": d.log_gains(t).tolist(),
+                        "values": t.values(),
+                    },
                 }
                 for a in d.alternatives
             ],
