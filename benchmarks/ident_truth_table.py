@@ -220,8 +220,10 @@ def table(rows: list[dict], **rule) -> str:
         other = len(rs) - len(right) - len(bad) - len(nothing)
         errs = []
         for par in (rs[0]["truth"] or {}) if right else ():
-            e = sorted(abs(r["errors"][par]) for r in right)
-            errs.append(f"{par} {100 * e[len(e) // 2]:.1f} %, {100 * e[-1]:.1f} %")
+            # a run recounted under another rule than its own has no refit on every drop: no error
+            e = sorted(abs(r["errors"][par]) for r in right if par in r["errors"])
+            if e:
+                errs.append(f"{par} {100 * e[len(e) // 2]:.1f} %, {100 * e[-1]:.1f} % ({len(e)} runs)")
         label = (f"{name} ({r0})" if r0 else "control (none)") + (f", base {dep}" if dep != "exact" else "")
         seeds = ", ".join(str(r["seed"]) for r in rs)
         # runs saved before the second search existed have no count
