@@ -27,12 +27,14 @@ Real data always differs a little from any model in its base physics. ``--depart
 every set on truths whose base physics departs from the analysed model's in a small,
 documented way (slopelander.ident.truth.DEPARTURES: feet on tanh-regularised friction instead
 of stick/slip; joints whose friction weakens with speed, breaking away at 1.5 times their slip
-torque), as well as on the exact one: an effect named there with nothing hidden, or another
+torque, in the shape of diagnose's joint_breakaway alternative or another), as well as on the
+exact one: an effect named there with nothing hidden, or another
 than the hidden one, only absorbed the departure. Printed per departure: its size (the shipped
 base model's NRMSE on the set, in noise floors), the rate of wrongly named effects with its 95 %
 interval (Clopper-Pearson) and the most residual a candidate explained on a control set (in
-noise floors). ``--small``: 6 drops a set (5 on the steep sets), CMA-ES 40, refits 30, least
-squares 5; ``--table`` recounts saved runs under the current decision rule.
+noise floors). ``--small``: 6 drops a set (4 on the steep sets: too few for any p to reach 5 %),
+CMA-ES 40, refits 30, least squares 5; ``--table`` recounts saved runs under the current decision
+rule (``--no-alternatives``: the rule before diagnose weighed base-physics alternatives).
 
     python benchmarks/ident_truth_table.py --small --sets control point_force \
         --departures exact tanh_friction joint_stribeck --seeds 1 3 --out dep.jsonl
