@@ -30,10 +30,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Refit the model with each candidate effect it lacks (built-in: leg_flex, "
         "downhill_torque_growth, downhill_friction_growth; plus --candidates), predict each drop "
         "with fits that did not see it, and name a candidate missing only when its held-out gains "
-        "pass a sign-flip test over drops (5 % level, corrected for the candidates tried); "
+        "pass a sign-flip test over drops (5 % level, corrected for the candidates tried) and it "
+        "explains more than the base physics' own shape freed (joint breakaway, friction width); "
         "compare the residual with the recordings' noise floor. Exit codes: 0 nothing missing, "
         "3 missing and named, 4 missing but not among the candidates, 5 too small to tell (or no "
-        "noise declared to tell it by), 1 an error.",
+        "noise declared to tell it by, or not told from a difference in the base physics), 1 an error.",
     )
     add_dataset_argument(p)
     p.add_argument(
@@ -77,7 +78,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 #: ``diagnose``'s exit codes by verdict (1: an error, 2: a usage error, as every command)
-DIAGNOSE_EXIT = {"nothing_missing": 0, "missing": 3, "not_among": 4, "too_small": 5, "unknown": 5}
+DIAGNOSE_EXIT = {
+    "nothing_missing": 0,
+    "missing": 3,
+    "not_among": 4,
+    "too_small": 5,
+    "base_physics": 5,
+    "unknown": 5,
+}
 
 
 def run(args: argparse.Namespace) -> int:

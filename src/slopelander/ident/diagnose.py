@@ -7,10 +7,13 @@ candidates, the base itself is refitted from its optimum with the same budget a 
 (the control): a candidate must beat the base given as much search, not a base that stopped
 sooner. A candidate is named **missing** when its per-drop held-out gains pass a sign-flip
 test over drops at the 5 % level, corrected for the number of candidates tried
-(:mod:`slopelander.ident.evidence`). Otherwise the verdict compares the held-out residual with
-the recordings' noise floor: at the floor, nothing is missing (nothing larger than what these
-drops can see); clearly above it, something is, but not among these candidates, or too little
-of it to tell with these drops.
+(:mod:`slopelander.ident.evidence`), and, for each base-physics alternative that explains part of
+the residual (:mod:`slopelander.ident.base_alternatives`: the base laws' own shape freed), beats
+it on held-out drops or still passes the test refitted on top of it; if not, the data cannot tell
+it from a difference in the base physics, and it is not named. Otherwise the verdict compares the
+held-out residual with the recordings' noise floor: at the floor, nothing is missing (nothing
+larger than what these drops can see); clearly above it, something is, but not among these
+candidates, or too little of it to tell with these drops.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from slopelander.ident.base_alternatives import BASE_ALTERNATIVES
 from slopelander.ident.compare import compare, state_ranges
 from slopelander.ident.evidence import (
     MIN_GAIN,
@@ -46,6 +50,7 @@ from slopelander.ident.fit import (
 from slopelander.ident.optimizers import CMA
 from slopelander.ident.recording import STATES, Drop
 from slopelander.model import Model, UserEffect
+from slopelander.model.effects import EffectError
 
 BUILTIN_CANDIDATES: dict[str, tuple[str, ...]] = {
     "leg_flex": ("flex_stiffness", "flex_damping"),
@@ -220,6 +225,13 @@ class Diagnosis:
     alpha: float = ALPHA
     final: FitResult | None = None
     """The missing candidate refitted on every drop: its values and their intervals over drops."""
+    alternatives: list[CandidateResult] = field(default_factory=list)
+    """Base-physics alternatives refitted like candidates once one passed the test (not candidates:
+    never named, not in the test's family; :mod:`slopelander.ident.base_alternatives`)."""
+    on_top: dict[str, CandidateResult] = field(default_factory=dict)
+    """By alternative: the candidate that passed refitted with it (base + alternative + candidate),
+    when it did not beat the alternative alone."""
+    seed: int = 0
 
     @property
     def base_validation(self) -> float:
@@ -238,11 +250,56 @@ class Diagnosis:
         return [r for r in self.results if r.fits]
 
     @property
-    def missing(self) -> CandidateResult | None:
+    def passed(self) -> CandidateResult | None:
+        """The candidate whose held-out gains pass the test (named missing unless a base-physics
+        alternative explains the residual as well: :attr:`missing`)."""
         fitted = {r.candidate.name: r for r in self.fitted}
         heldout = {n: (r.validation_nrmse, r.p) for n, r in fitted.items()}
         name = names_missing(heldout, self.base_validation, self.floor, self.alpha)
         return None if name is None else fitted[name]
+
+    @property
+    def missing(self) -> CandidateResult | None:
+        m = self.passed
+        return None if m is None or self.base_physics(m) is not None else m
+
+    def beats(self, r: CandidateResult, a: CandidateResult) -> float:
+        """p of a one-sided sign-flip test of log(a's held-out error / r's) over drops: ``r``
+        explains these drops better than the alternative ``a``."""
+        return float(sign_flip_test(self.log_gains(r) - self.log_gains(a), self.alpha, self.seed).p[0])
+
+    def beyond(self, a: CandidateResult) -> tuple[float, float] | None:
+        """The passed candidate refitted on top of alternative ``a``: its held-out gain over ``a``
+        (relative fall of the NRMSE) and the p of its per-drop gains over ``a``'s (one-sided
+        sign-flip test); None when not refitted."""
+        t = self.on_top.get(a.candidate.name)
+        if t is None or t.heldout_mse is None:
+            return None
+        g = self.log_gains(t) - self.log_gains(a)
+        return 1.0 - t.validation_nrmse / a.validation_nrmse, float(
+            sign_flip_test(g, self.alpha, self.seed).p[0]
+        )
+
+    def base_physics(self, r: CandidateResult) -> tuple[CandidateResult, float] | None:
+        """The base-physics alternative that explains ``r`` away, with the p that failed, or None.
+        An alternative lowering the held-out NRMSE by at least :data:`MIN_GAIN` stops ``r`` unless
+        ``r`` beats it on held-out drops (:meth:`beats`) or, refitted on top of it, still lowers
+        its NRMSE by :data:`MIN_GAIN` and passes the test over drops (:meth:`beyond`; not refitted:
+        stops it). An effect that only absorbed a departure of the base laws explains nothing once
+        the freed law is in; a real one still does, on whichever drops it acts."""
+        worst = None
+        for a in self.alternatives:
+            if a.heldout_mse is None or r.heldout_mse is None or self.gain(a) < MIN_GAIN:
+                continue
+            if self.beats(r, a) <= self.alpha:
+                continue
+            more = self.beyond(a)
+            if more is not None and more[0] >= MIN_GAIN and more[1] <= self.alpha:
+                continue
+            p = 1.0 if more is None else more[1]
+            if worst is None or p > worst[1]:
+                worst = (a, p)
+        return worst
 
     def evidence(self, r: CandidateResult) -> str:
         t = self.test
@@ -312,6 +369,24 @@ class Diagnosis:
                 f"missing: {m.candidate.name} (held-out NRMSE {self.base_validation:.4f} -> "
                 f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % lower; {self.evidence(m)}; {vals})"
             )
+        told = self.passed
+        confused = None if told is None else self.base_physics(told)
+        if told is not None and confused is not None:
+            a, p = confused
+            more = self.beyond(a)
+            top = (
+                f"added to {a.candidate.name}, {told.candidate.name} lowers it {100 * more[0]:+.0f} % more, "
+                f"p = {p:.3g}"
+                if more is not None
+                else f"not refitted with {a.candidate.name}"
+            )
+            return (
+                f"missing, but the data cannot tell {told.candidate.name} from a difference in the base "
+                f"physics ({a.candidate.name}, {a.candidate.user.description if a.candidate.user else ''}): "
+                f"{told.candidate.name} lowers the held-out NRMSE {100 * self.gain(told):.0f} % "
+                f"({self.evidence(told)}), {a.candidate.name} {100 * self.gain(a):.0f} %; {top}; not named "
+                "(drops where the two differ would tell them apart)"
+            )
         best = max(self.fitted, key=self.gain, default=None)
         tried = (
             f"best candidate {best.candidate.name}: {100 * self.gain(best):+.1f} %, {self.evidence(best)}"
@@ -353,11 +428,14 @@ class Diagnosis:
     @property
     def kind(self) -> str:
         """The verdict as one word, the same rules as :meth:`verdict`: ``missing`` (a candidate
-        named), ``nothing_missing`` (at the noise floor), ``not_among`` (far above the floor, no
+        named), ``base_physics`` (one passed the test but does not beat a base-physics alternative),
+        ``nothing_missing`` (at the noise floor), ``not_among`` (far above the floor, no
         candidate explains it), ``too_small`` (above the floor by less than that), ``unknown``
         (no candidate named and no noise declared: nothing to measure the residual against)."""
         if self.missing is not None:
             return "missing"
+        if self.passed is not None:
+            return "base_physics"
         if self.floor is None:
             return "unknown"
         ratio = self.base_validation / self.floor if self.floor else math.inf
@@ -476,6 +554,25 @@ class Diagnosis:
                 {"name": o.candidate.name, "gain": self.gain(o), "gain_correlation": c}
                 for o, c in self.alike(best)
             ]
+        if self.alternatives:
+            told = self.passed
+            out["base_alternatives"] = [
+                {
+                    "name": a.candidate.name,
+                    "heldout_nrmse": a.validation_nrmse,
+                    "gain": self.gain(a),
+                    "values": a.values(),
+                    "beaten_p": None if told is None else self.beats(told, a),
+                    "on_top": None
+                    if (more := self.beyond(a)) is None
+                    else {"gain": more[0], "p": more[1], "values": self.on_top[a.candidate.name].values()},
+                }
+                for a in self.alternatives
+            ]
+            confused = None if told is None else self.base_physics(told)
+            out["base_physics"] = (
+                None if confused is None else {"name": confused[0].candidate.name, "p": confused[1]}
+            )
         m = self.missing
         if m is not None and self.final is not None:
             out["missing"] = {
@@ -520,6 +617,15 @@ class Diagnosis:
         for o, corr in self.alike(best):
             how = "" if math.isnan(corr) else f", per-drop gains correlated {corr:+.2f} with {name}'s"
             lines.append(f"{o.candidate.name} explains nearly as much: gain {100 * self.gain(o):+.1f} %{how}")
+        for a in self.alternatives:
+            more = self.beyond(a)
+            top = (
+                "" if more is None else f"; {name} added to it: {100 * more[0]:+.1f} % more, p {more[1]:.3g}"
+            )
+            lines.append(
+                f"{a.candidate.name} (the base physics' shape freed, not a mechanism): gain "
+                f"{100 * self.gain(a):+.1f} %; {name} over it: p {self.beats(best, a):.3g}{top}"
+            )
         return "\n".join(lines)
 
     def table(self) -> str:
@@ -542,6 +648,13 @@ class Diagnosis:
                 )
             else:
                 lines.append(f"| {i} | {name} | {100 * r.screening:.0f} % | not refitted | | | | |")
+        for a in self.alternatives:
+            lines.append(
+                f"| - | {a.candidate.name} (base physics) | - | {a.train_nrmse:.4f} "
+                f"| {a.validation_nrmse:.4f} | {100 * self.gain(a):+.1f} % | - | "
+                + ", ".join(f"{k} {v:.4g}" for k, v in a.values().items())
+                + " |"
+            )
         if self.floor is not None:
             lines.append(f"\nnoise floor (the recordings' declared noise alone): NRMSE {self.floor:.4f}")
         for r in self.results:
@@ -842,6 +955,46 @@ def _final(cf: CrossFit, m: CandidateResult, intervals: str = "sandwich") -> Fit
     return one.fit(cf.drops).result_  # type: ignore[return-value]
 
 
+def _on_top(cf: CrossFit, told: CandidateResult, alt: CandidateResult) -> CandidateResult:
+    """The candidate ``told`` refitted on the base plus alternative ``alt`` (every parameter
+    free): what it explains that the freed base law does not. Each group's search starts from the
+    group's fit of ``alt`` with the candidate off and also tries its fit of ``told`` with the
+    alternative off (both fitted on the group's training drops), so neither explanation must be
+    found again within the refit budget."""
+    assert alt.candidate.user is not None
+    c = told.candidate
+    model = cf.model.with_user_effect(alt.candidate.user)
+    with_alt = candidate_params(cf.model, alt.candidate, cf.base_params, cf.bounds)
+    params = candidate_params(model, c, with_alt, cf.bounds)
+
+    def off(cand: Candidate, extra: list[FitParam]) -> dict[str, float]:
+        return {**{p.name: p.value(0.5) for p in extra}, **neutral_values(cand)}
+
+    c_off = off(c, params[len(with_alt) :])
+    a_off = off(alt.candidate, with_alt[len(cf.base_params) :])
+    ident = cf.refit.with_(model=c.add_to(model), params=params)
+    res = CandidateResult(c, math.nan)
+    for k in range(len(cf.splits)):
+        start = {**alt.fits[k].values, **c_off}
+        res.fits.append(cf.fit(ident, k, start=start, also=[{**told.fits[k].values, **a_off}]))
+    res.heldout, res.heldout_mse = cf.heldout(res.fits)
+    return res
+
+
+def _alternatives(model: Model, effects: list[UserEffect]) -> list[Candidate]:
+    """The base-physics alternatives that can be added to ``model`` (not already in it, no clash
+    of names or seams with its own user effects)."""
+    out = []
+    for e in effects:
+        try:
+            model.with_user_effect(e)
+        except EffectError:
+            continue
+        if e.name not in {u.name for u in model.user_effects}:
+            out.append(Candidate(e.name, tuple(e.parameters), e))
+    return out
+
+
 def diagnose(
     model: Model,
     drops: list[Drop],
@@ -857,6 +1010,7 @@ def diagnose(
     alpha: float = ALPHA,
     stall: int | None = STALL,
     final_intervals: str = "sandwich",
+    base_alternatives: list[UserEffect] | None = None,
     **search: object,
 ) -> Diagnosis:
     """Find the effect ``model`` is missing to explain ``drops``.
@@ -873,7 +1027,10 @@ def diagnose(
     ``stall``) stops after this many generations without a lower cost (None: every search runs
     its whole budget, as before 2026-12-06). ``final_intervals``: the kind of 95 % interval of
     a named candidate's refit on every drop (``"jackknife"``: one least-squares refit per drop
-    left out, :func:`slopelander.ident.fit.jackknife`). ``search``: the base fit's settings,
+    left out, :func:`slopelander.ident.fit.jackknife`). ``base_alternatives``: the base physics'
+    freed shapes a candidate that passes the test must beat on held-out drops to be named (default
+    :data:`~slopelander.ident.base_alternatives.BASE_ALTERNATIVES`; ``[]``: none, the rule before
+    2026-12-07). ``search``: the base fit's settings,
     those of an :class:`~slopelander.ident.fit.Identifier` (``seed``, ``cma_evals`` 400,
     ``ls_evals`` 20, ``optimizer``, ``workers``, ``client``, ``progress``); ``seed`` also seeds
     the splits, the test and the noise floor.
@@ -920,8 +1077,18 @@ def diagnose(
         floor=noise_floor(control[0].model, drops, ranges, seed=seed),
         folds=folds,
         alpha=alpha,
+        seed=seed,
     )
     results.sort(key=lambda r: (not r.fits, -d.gain(r) if r.fits else -r.screening))
+    told = d.passed
+    if told is not None:
+        # only then can an alternative change the verdict: refitted like a candidate, same budget
+        for a in _alternatives(model, BASE_ALTERNATIVES if base_alternatives is None else base_alternatives):
+            res = CandidateResult(a, math.nan)
+            _refit_candidate(cf, res, base, control)
+            d.alternatives.append(res)
+            if d.gain(res) >= MIN_GAIN and d.beats(told, res) > alpha:
+                d.on_top[a.name] = _on_top(cf, told, res)
     m = d.missing
     if m is not None:
         d.final = m.final = _final(cf, m, final_intervals)

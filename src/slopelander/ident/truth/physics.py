@@ -124,12 +124,16 @@ class Departure:
     at tau, where the model's joint has one torque."""
     joint_stribeck_rate: float = 1.0
     """rad/s: w_s, the leg's rate at which the excess has fallen to 1/e."""
+    joint_stribeck_power: float = 2.0
+    """The excess falls as exp(-(|w| / w_s)^power): 2 is the Gaussian shape of diagnose's own
+    ``joint_breakaway`` alternative, 1 an exponential one outside that family."""
 
     def joint_torque(self, rate: float, tau: float) -> float:
         """The joint's slip torque at the leg's rate (rad/s) given the model's."""
         if self.joint_static <= 0.0:
             return tau
-        return tau * (1.0 + self.joint_static * math.exp(-((rate / self.joint_stribeck_rate) ** 2)))
+        w = abs(rate) / self.joint_stribeck_rate
+        return tau * (1.0 + self.joint_static * math.exp(-(w**self.joint_stribeck_power)))
 
     def truth_model(self, model: Model) -> Model:
         """The model the truth integrates: ``model`` with the friction law swapped, if any."""
@@ -161,6 +165,16 @@ DEPARTURES: dict[str, Departure] = {
             "torque",
             joint_static=0.5,
             joint_stribeck_rate=5.0,
+        ),
+        # the same excess with an exponential fall: a shape outside the Gaussian family of
+        # diagnose's joint_breakaway alternative (benchmarks/results/2026-12-07-departures-after.md)
+        Departure(
+            "joint_exp_weakening",
+            "another joint model: the joints' friction weakens with speed as tau (1 + 0.5 "
+            "exp(-|w| / 5 rad/s)), a slower fall than joint_stribeck's",
+            joint_static=0.5,
+            joint_stribeck_rate=5.0,
+            joint_stribeck_power=1.0,
         ),
     )
 }
