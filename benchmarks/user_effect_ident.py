@@ -4,14 +4,20 @@ Prints diagnose's ranking table and verdict for a hidden joint-torque law (docs/
 effect_joint_torque.py), foot-friction law (tests/ident/effects/slip_weakening.py), normal-force
 law (docs/examples/effect_normal_force.py) or point force (tests/ident/effects/
 rotor_spin_down.py), with the base model fitting k_g's damping and the leg's flex, and with
---fit-mu-k also mu_k. The joint and foot laws are shown on the steeper half of the paper's
+--fit-mu-k also mu_k. ``backlash`` and ``round_pads`` are issue 38's case: lead-screw backlash
+(3.0 deg) or round foot pads (0.040 m) hidden, the candidates the docs' seven example files
+(docs/examples/effect_*.py). The joint and foot laws are shown on the steeper half of the paper's
 spread (8 drops), the normal force and the point force on the whole spread (10 drops).
 
 With ``--intervals jackknife`` the named candidate's intervals are the leave-one-drop-out
 jackknife's; the last line says whether the printed interval holds the hidden value.
 
-Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction,normal_force,point_force}
-       [--seed 1] [--fit-mu-k] [--intervals sandwich|jackknife] [--align-ms MS]
+Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction,normal_force,point_force,
+       backlash,round_pads}
+       [--seed 1] [--fit-mu-k] [--intervals sandwich|jackknife] [--align-ms MS] [--full-budgets]
+       [--refit-from-centre]
+
+``--full-budgets``: diagnose's own search budgets (as the command runs), not the small ones.
 """
 
 from __future__ import annotations
@@ -20,6 +26,8 @@ import argparse
 import time
 from pathlib import Path
 
+from slopelander.ident.clocks import align_windows
+from slopelander.ident.compare import compare
 from slopelander.ident.diagnose import diagnose
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize
 from slopelander.model import Model, load_effects
@@ -37,8 +45,12 @@ HIDDEN = {
     "foot_friction": ("slip_weakening", "slip_weakening", 1.0),
     "normal_force": ("hunt_crossley_ground", "hc_damping", 0.5),
     "point_force": ("rotor_spin_down", "spin_down_thrust", 3.0),
+    "backlash": ("lead_screw_backlash", "backlash_deg", 3.0),
+    "round_pads": ("round_foot_pads", "pad_radius", 0.040),
 }
-WHOLE_SPREAD = ("normal_force", "point_force")
+FROM_DOCS = ("backlash", "round_pads")
+"""Hidden effects whose candidates are the docs' example files."""
+WHOLE_SPREAD = ("normal_force", "point_force", "round_pads")
 """Seams that act on every drop, shown on the whole spread."""
 
 
@@ -51,8 +63,14 @@ def main() -> None:
     ap.add_argument(
         "--align-ms", type=float, default=None, help="fit each drop's clock within +- this many ms"
     )
+    ap.add_argument("--full-budgets", action="store_true", help="diagnose's default search budgets")
+    ap.add_argument("--refit-from-centre", action="store_true", help="diagnose's refit_from_centre")
     args = ap.parse_args()
-    effects = {n: load_effects(p)[0] for n, p in FILES.items()}
+    if args.seam in FROM_DOCS:
+        files = sorted((ROOT / "docs" / "examples").glob("effect_*.py"))
+        effects = {e.name: e for f in files for e in load_effects(f)}
+    else:
+        effects = {n: load_effects(p)[0] for n, p in FILES.items()}
     base = Model.default().without("downhill_torque_growth", "downhill_friction_growth")
     name, param, value = HIDDEN[args.seam]
     truth = base.with_user_effect(effects[name]).with_params(**{param: value})
@@ -71,10 +89,9 @@ def main() -> None:
         user_effects=list(effects.values()),
         names=names,
         seed=args.seed,
-        cma_evals=150,
-        refit_evals=100,
-        ls_evals=10,
+        **({} if args.full_budgets else {"cma_evals": 150, "refit_evals": 100, "ls_evals": 10}),
         final_intervals=args.intervals,
+        refit_from_centre=args.refit_from_centre,
         align_s=None if args.align_ms is None else args.align_ms / 1e3,
     )
     print(
@@ -89,6 +106,11 @@ def main() -> None:
         v, half = d.final.values[param], d.final.ci95[param]
         held = "holds" if abs(v - value) <= half else "misses"
         print(f"{args.intervals}: {param} = {v:.4g} +- {half:.2g}; the hidden {value:g} {held}")
+        # did the refit reach the optimum? the truth's own NRMSE on the same drops and clocks
+        align = align_windows(drops, None if args.align_ms is None else args.align_ms / 1e3)
+        fitted = compare(d.final.model, drops, align=align).nrmse
+        own = compare(truth, drops, align=align).nrmse
+        print(f"NRMSE on all drops: the refit {fitted:.4f}, the truth itself {own:.4f}")
 
 
 if __name__ == "__main__":

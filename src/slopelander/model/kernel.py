@@ -1478,17 +1478,28 @@ def init_landing(p, fl, cond, st, ctx, ws):
 def _start_user(sx, w, p, fl, ctx, st):
     """What user effects change at the start of a landing (``st`` just made by init_landing):
     their memory starts at its initial values, and with a contact geometry the vehicle is
-    lifted until the lowest contact point just touches (the feet's pads, not their tips)."""
+    lifted until the lowest contact point just touches (the feet's pads, not their tips).
+
+    The lift is the lowest point's height with the pads less its height with the tips (where
+    init_landing put it, touching up to rounding): a geometry that reaches nowhere lifts by
+    exactly 0, so at its neutral values a landing is the base model's to the last bit."""
     start_memory(sx, w, st)
     if has_contact_geometry(sx, w):
         w.pitch_cos, w.pitch_sin = kinematics(p, st, w.M, w.f, w.pts, w.vel, w.J)
+        tips = _lowest(ctx, w.pts)
         contact_points(sx, w, p, st, ctx, 0.0)
-        dmin = 1e300
-        for i in range(N_POINTS):
-            d = ctx[C_SIN] * w.pts[i, 0] + ctx[C_COS] * w.pts[i, 1]
-            if d < dmin:
-                dmin = d
-        st[S_Q + 1] -= dmin / ctx[C_COS]
+        st[S_Q + 1] -= (_lowest(ctx, w.pts) - tips) / ctx[C_COS]
+
+
+@njit(cache=True, forceinline=True)
+def _lowest(ctx, pts):
+    """The lowest of the contact points' heights above the surface (m)."""
+    dmin = 1e300
+    for i in range(N_POINTS):
+        d = ctx[C_SIN] * pts[i, 0] + ctx[C_COS] * pts[i, 1]
+        if d < dmin:
+            dmin = d
+    return dmin
 
 
 @njit(cache=True)
