@@ -297,3 +297,8 @@ def test_a_take_off_entered_with_a_faulted_script_is_refused():
     m.transition("TAKEOFF", "take-off commanded", replace(OK, t=0.04, armed=False, script_state=S.FAULT))
     assert "takeoff" not in act.names() and "release_for_takeoff" not in act.names()
     assert m.name == "LANDED" and "script fault" in m.history[-1]["reason"]
+    # the pilot's request still standing: refused for the fault (the soak's FAULT_LANDED reads
+    # it), not "take-off failed: release and ask again"
+    m.step(replace(OK, t=0.06, armed=False, script_state=S.FAULT, takeoff_request=True))
+    assert m.name == "LANDED" and "takeoff_refused" in m.ctx.marks, m.ctx.marks
+    assert ("statustext", "SL take-off failed: release and ask again") not in act.calls

@@ -30,23 +30,22 @@ class Landed(State):
     name = "LANDED"
 
     def enter(self, ctx: Context, inp: Inputs) -> str | None:
-        if ctx.previous == "TAKEOFF":
+        if ctx.previous == "TAKEOFF" and not faulted(inp.script_state, inp.script_present):
             ctx.marks["takeoff_release"] = True
             ctx.act.statustext("SL take-off failed: release and ask again")
         return None
 
     def step(self, ctx: Context, inp: Inputs):
-        if ctx.marks.get("takeoff_release"):
-            if inp.takeoff_request:
-                return self._disarm_if_armed(ctx, inp)
-            ctx.marks.pop("takeoff_release")
-        if inp.takeoff_request:
-            if not faulted(inp.script_state, inp.script_present):
-                ctx.marks.pop("takeoff_refused", None)
-                return ("TAKEOFF", "take-off commanded")
+        if inp.takeoff_request and faulted(inp.script_state, inp.script_present):
             if ctx.marks.get("takeoff_refused") is None:
                 ctx.marks["takeoff_refused"] = f"take-off refused: {FAULT_REFUSAL}"
                 ctx.act.statustext("SL take-off refused: script fault, reboot")
+        elif ctx.marks.get("takeoff_release"):
+            if not inp.takeoff_request:  # let go: the next request is a new one
+                ctx.marks.pop("takeoff_release")
+        elif inp.takeoff_request:
+            ctx.marks.pop("takeoff_refused", None)
+            return ("TAKEOFF", "take-off commanded")
         return self._disarm_if_armed(ctx, inp)
 
     @staticmethod
