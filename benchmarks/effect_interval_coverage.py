@@ -34,7 +34,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "benchmarks")]
 
-from interval_coverage import wilson  # noqa: E402
+from interval_coverage import print_coverage, tally  # noqa: E402
 
 from slopelander.ident.fit import Identifier  # noqa: E402
 from slopelander.ident.synth import NoiseModel, paper_drops, synthesize  # noqa: E402
@@ -94,26 +94,13 @@ def main() -> int:
         )
         r = ident.fit(drops).result_
         half = {"sandwich": r.ci95, "jackknife": ident.jackknife_ci95(drops)}
-        line = []
-        for name, value in truth_values.items():
-            words = []
-            for kind in kinds:
-                inside = abs(r.values[name] - value) <= half[kind][name]
-                held[kind][name] += inside
-                words.append(f"{kind} +-{half[kind][name]:.2g} {'holds' if inside else 'misses'}")
-            line.append(f"{name} {r.values[name]:.5g} ({', '.join(words)})")
+        line = tally(r.values, truth_values, half, held)
         base = ", ".join(f"{n} {r.values[n]:.4g}" for n in BASE)
         base += f"; cost {r.cost:.4g} (start {r.start_cost:.4g})"
         print(
             f"  seed {seed}: " + "; ".join(line) + f"; {base}; {time.perf_counter() - t0:.0f} s", flush=True
         )
-    for kind in kinds:
-        for name, k in held[kind].items():
-            lo, hi = wilson(k, args.seeds)
-            print(
-                f"{kind:>9} {name}: the 95 % interval held the hidden {truth_values[name]:g} in {k} of "
-                f"{args.seeds} fits (95 % range {100 * lo:.0f}-{100 * hi:.0f} %)"
-            )
+    print_coverage(held, args.seeds, lambda name: f"the hidden {truth_values[name]:g}")
     return 0
 
 

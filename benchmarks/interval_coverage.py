@@ -46,6 +46,32 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
+def tally(values: dict, truth: dict, half: dict, held: dict) -> list[str]:
+    """Whether each kind's 95 % interval (``half[kind][name]``) around each fitted value holds the
+    truth: counted into ``held[kind][name]``; one printable phrase per parameter."""
+    line = []
+    for name, value in truth.items():
+        words = []
+        for kind in held:
+            inside = abs(values[name] - value) <= half[kind][name]
+            held[kind][name] += inside
+            words.append(f"{kind} +-{half[kind][name]:.2g} {'holds' if inside else 'misses'}")
+        line.append(f"{name} {values[name]:.5g} ({', '.join(words)})")
+    return line
+
+
+def print_coverage(held: dict, n: int, what: str) -> None:
+    """Each kind's count of fits whose interval held ``what`` (a phrase, e.g. "the truth"), with its
+    95 % range."""
+    for kind in held:
+        for name, k in held[kind].items():
+            lo, hi = wilson(k, n)
+            print(
+                f"{kind:>9} {name}: the 95 % interval held {what(name)} in {k} of {n} fits "
+                f"({100 * k / n:.0f} %, 95 % range {100 * lo:.0f}-{100 * hi:.0f} %)"
+            )
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--truth", choices=("model", "independent"), default="model")
@@ -100,22 +126,9 @@ def main() -> int:
         )
         r = ident.fit(drops).result_
         half = {"sandwich": r.ci95, "jackknife": ident.jackknife_ci95(drops)}
-        line = []
-        for name, value in TRUTH.items():
-            words = []
-            for kind in kinds:
-                inside = abs(r.values[name] - value) <= half[kind][name]
-                held[kind][name] += inside
-                words.append(f"{kind} +-{half[kind][name]:.2g} {'holds' if inside else 'misses'}")
-            line.append(f"{name} {r.values[name]:.5g} ({', '.join(words)})")
+        line = tally(r.values, TRUTH, half, held)
         print(f"  seed {seed:2d}: " + "; ".join(line), flush=True)
-    for kind in kinds:
-        for name, k in held[kind].items():
-            lo, hi = wilson(k, args.seeds)
-            print(
-                f"{kind:>9} {name}: the 95 % interval held the truth in {k} of {args.seeds} fits "
-                f"({100 * k / args.seeds:.0f} %, 95 % range {100 * lo:.0f}-{100 * hi:.0f} %)"
-            )
+    print_coverage(held, args.seeds, lambda name: "the truth")
     return 0
 
 
