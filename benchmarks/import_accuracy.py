@@ -82,32 +82,10 @@ def shipped(tmp: Path) -> None:
 
 def reseeded(tmp: Path, seeds: int) -> None:
     from slopelander.ident.truth.lab import EXAMPLE as TAKES
-    from slopelander.ident.truth.lab import frame_times, observe, write_take
-    from slopelander.ident.truth.physics import truth_states
-    from slopelander.model import LandingConditions, Model
+    from slopelander.ident.truth.lab import contact_errors
 
-    model = Model.default()
-    grid = np.arange(-0.2, 0.56, 1 / 4000)
-    dense = {n: truth_states(model, LandingConditions(**c), grid)[0] for n, (c, _) in TAKES.items()}
-    errs, inside, inside2 = [], 0, 0
-    for seed in range(seeds):
-        rng = np.random.default_rng(1000 + seed)
-        folder = tmp / f"seed{seed}"
-        folder.mkdir()
-        true_tc = {}
-        for name, (cd, lab) in TAKES.items():
-            t = frame_times(rng, 200.0, 0.15, 0.55)
-            st = np.column_stack([np.interp(t, grid, dense[name][:, c]) for c in range(6)])
-            labels, pts = observe(st, t, cd["slope_deg"], lab, rng)
-            write_take(folder / f"{name}.c3d", labels, pts, 200.0)
-            true_tc[name] = -t[0]
-        import_takes([folder], EXAMPLE / "markers.yaml", tmp / f"out{seed}", keep_nonplanar=True)
-        for d in load_dataset(tmp / f"out{seed}"):
-            e = d.meta["quality"]["contact_time_in_take_s"] - true_tc[d.name]
-            errs.append(e)
-            inside += abs(e) <= d.meta["quality"]["contact_sd_s"]
-            inside2 += abs(e) <= 2 * d.meta["quality"]["contact_sd_s"]
-    e = np.array(errs)
+    e, sd = contact_errors(tmp / "reseeded", EXAMPLE / "markers.yaml", seeds, first_seed=1000)
+    inside, inside2 = int(np.sum(np.abs(e) <= sd)), int(np.sum(np.abs(e) <= 2 * sd))
     print(
         f"{seeds} noise seeds x {len(TAKES)} landings: contact error {1000 * e.mean():+.2f} ms mean, "
         f"{1000 * e.std():.2f} ms sd, |error| < 3 ms in {100 * np.mean(np.abs(e) < 0.003):.0f} %; "

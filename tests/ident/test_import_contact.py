@@ -7,11 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slopelander.ident.mocap.importer import import_takes
-from slopelander.ident.recording import load_dataset
-from slopelander.ident.truth.lab import EXAMPLE, frame_times, observe, write_take
-from slopelander.ident.truth.physics import truth_states
-from slopelander.model import LandingConditions, Model
+from slopelander.ident.truth.lab import contact_errors as lab_contact_errors
 from tests.ident.test_import_walkthrough import ROOT
 
 #: its tests share the imported takes (a module fixture): one worker runs them
@@ -25,26 +21,7 @@ SEEDS = 3
 def contact_errors(tmp_path_factory) -> tuple[np.ndarray, np.ndarray]:
     """Contact-time errors (s) and printed half-widths over the shipped takes' seven landings,
     each seen again at SEEDS new frame phases and noise draws (the benchmark's setting)."""
-    model = Model.default()
-    grid = np.arange(-0.2, 0.56, 1 / 4000)
-    dense = {n: truth_states(model, LandingConditions(**c), grid)[0] for n, (c, _) in EXAMPLE.items()}
-    errs, sds = [], []
-    for seed in range(SEEDS):
-        rng = np.random.default_rng(500 + seed)
-        folder = tmp_path_factory.mktemp(f"takes{seed}")
-        true_tc = {}
-        for name, (cd, lab) in EXAMPLE.items():
-            t = frame_times(rng, 200.0, 0.15, 0.55)
-            st = np.column_stack([np.interp(t, grid, dense[name][:, c]) for c in range(6)])
-            labels, pts = observe(st, t, cd["slope_deg"], lab, rng)
-            write_take(folder / f"{name}.c3d", labels, pts, 200.0)
-            true_tc[name] = -t[0]
-        out = folder / "out"
-        import_takes([folder], MARKERS, out, keep_nonplanar=True)
-        for d in load_dataset(out):
-            errs.append(d.meta["quality"]["contact_time_in_take_s"] - true_tc[d.name])
-            sds.append(d.meta["quality"]["contact_sd_s"])
-    return np.array(errs), np.array(sds)
+    return lab_contact_errors(tmp_path_factory.mktemp("takes"), MARKERS, SEEDS, first_seed=500)
 
 
 def test_contact_time_is_not_systematically_early(contact_errors):

@@ -245,3 +245,35 @@ if __name__ == "__main__":
     import sys
 
     make_example(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("docs/examples/mocap"))
+
+
+def contact_errors(folder: Path, markers: Path, seeds: int, first_seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The shipped takes' landings seen again at ``seeds`` new frame phases and marker noises
+    (from ``first_seed`` on), written as C3D under ``folder`` and imported: each landing's first
+    contact error against the truth (s) and the half-width the import printed for it (s)."""
+    from slopelander.ident.mocap.importer import import_takes
+    from slopelander.ident.recording import load_dataset
+    from slopelander.ident.truth.physics import truth_states
+    from slopelander.model import LandingConditions, Model
+
+    model = Model.default()
+    grid = np.arange(-0.2, 0.56, 1 / 4000)
+    dense = {n: truth_states(model, LandingConditions(**c), grid)[0] for n, (c, _) in EXAMPLE.items()}
+    errs, sds = [], []
+    for seed in range(seeds):
+        rng = np.random.default_rng(first_seed + seed)
+        takes = folder / f"seed{seed}"
+        takes.mkdir(parents=True)
+        true_tc = {}
+        for name, (cd, lab) in EXAMPLE.items():
+            t = frame_times(rng, 200.0, 0.15, 0.55)
+            st = np.column_stack([np.interp(t, grid, dense[name][:, c]) for c in range(6)])
+            labels, pts = observe(st, t, cd["slope_deg"], lab, rng)
+            write_take(takes / f"{name}.c3d", labels, pts, 200.0)
+            true_tc[name] = -t[0]
+        out = folder / f"out{seed}"
+        import_takes([takes], markers, out, keep_nonplanar=True)
+        for d in load_dataset(out):
+            errs.append(d.meta["quality"]["contact_time_in_take_s"] - true_tc[d.name])
+            sds.append(d.meta["quality"]["contact_sd_s"])
+    return np.array(errs), np.array(sds)
