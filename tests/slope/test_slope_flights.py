@@ -229,14 +229,17 @@ def check_east_landing(flight, est, took, preset, first, yaw: float, autopilot: 
     print(f"{autopilot}: {est.describe()}; {est.plane_text()}; survey and turns {took:.1f} s")
     assert took > 0, ctx
     assert est.fall_azimuth_deg == pytest.approx(90.0, abs=2.0), ctx
-    assert est.heading_deg == pytest.approx(90.0, abs=2.0) and abs(est.cross_deg) <= 1.5, ctx
+    # the turn stops within 1.5 deg across the estimated fall line (half of slope.max_cross_deg:
+    # about 1.5 deg of heading on 45 deg), which is itself within 2 deg of the truth: 3.5 in all
+    # (ArduCopter ended a turn at 92.1 deg, 1.5 across, once)
+    assert est.heading_deg == pytest.approx(90.0, abs=3.5) and abs(est.cross_deg) <= 1.5, ctx
     assert abs(est.slope_deg - 45.0) <= 1.5 and est.sigma_deg <= 2.0, ctx
     want = preset_for(45.0, flight.cfg)
     assert math.isclose(preset.tau_up, want.tau_up, abs_tol=0.3), (preset, want)
     assert math.isclose(preset.tau_down, want.tau_down, abs_tol=0.3), (preset, want)
     assert flight.end == "LANDED", ctx
     assert flight.contact is not None and abs(flight.contact["slope"] - 45.0) < 0.5, (flight.contact, ctx)
-    assert abs(yaw - 90.0) < 2.0, yaw
+    assert abs(yaw - 90.0) < 3.5, yaw
     rec = first["slope_estimate"]
     assert rec["fall_azimuth_deg"] == pytest.approx(est.fall_azimuth_deg, abs=0.01)
     assert rec["heading_deg"] == pytest.approx(est.heading_deg, abs=0.01)
