@@ -77,7 +77,7 @@ def main() -> int:
     start = {n: effect.parameters[n].neutral for n in truth_values}
     if args.start == "truth":
         start = dict(truth_values)
-    kinds = ("sandwich", "jackknife")
+    kinds = ("sandwich", "jackknife", "profile")
     held = {k: dict.fromkeys(truth_values, 0) for k in kinds}
     for seed in range(args.seeds):
         t0 = time.perf_counter()
@@ -94,7 +94,10 @@ def main() -> int:
         )
         r = ident.fit(drops).result_
         half = {"sandwich": r.ci95, "jackknife": ident.jackknife_ci95(drops)}
-        line = tally(r.values, truth_values, half, held)
+        line = tally(r.values, truth_values, half, held, kinds[:2])
+        p = ident.with_(intervals="profile").fit(drops).result_
+        line += tally(p.values, truth_values, {"profile": p.ci95}, held, kinds[2:])
+        line.append(f"profile's cost {p.cost:.4g}")
         base = ", ".join(f"{n} {r.values[n]:.4g}" for n in BASE)
         base += f"; cost {r.cost:.4g} (start {r.start_cost:.4g})"
         print(

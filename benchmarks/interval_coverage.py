@@ -46,13 +46,14 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def tally(values: dict, truth: dict, half: dict, held: dict) -> list[str]:
+def tally(values: dict, truth: dict, half: dict, held: dict, kinds=None) -> list[str]:
     """Whether each kind's 95 % interval (``half[kind][name]``) around each fitted value holds the
-    truth: counted into ``held[kind][name]``; one printable phrase per parameter."""
+    truth: counted into ``held[kind][name]``; one printable phrase per parameter. ``kinds``: only
+    these of ``held``'s kinds (default all)."""
     line = []
     for name, value in truth.items():
         words = []
-        for kind in held:
+        for kind in kinds or held:
             inside = abs(values[name] - value) <= half[kind][name]
             held[kind][name] += inside
             words.append(f"{kind} +-{half[kind][name]:.2g} {'holds' if inside else 'misses'}")

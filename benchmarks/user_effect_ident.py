@@ -14,7 +14,7 @@ jackknife's; the last line says whether the printed interval holds the hidden va
 
 Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction,normal_force,point_force,
        backlash,round_pads}
-       [--seed 1] [--fit-mu-k] [--intervals sandwich|jackknife] [--align-ms MS] [--full-budgets]
+       [--seed 1] [--fit-mu-k] [--intervals sandwich|jackknife|profile] [--align-ms MS] [--full-budgets]
        [--refit-from-centre]
 
 ``--full-budgets``: diagnose's own search budgets (as the command runs), not the small ones.
@@ -59,7 +59,7 @@ def main() -> None:
     ap.add_argument("seam", choices=sorted(HIDDEN))
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--fit-mu-k", action="store_true", help="fit friction_kinetic with the base parameters")
-    ap.add_argument("--intervals", choices=("sandwich", "jackknife"), default="sandwich")
+    ap.add_argument("--intervals", choices=("sandwich", "jackknife", "profile"), default="sandwich")
     ap.add_argument(
         "--align-ms", type=float, default=None, help="fit each drop's clock within +- this many ms"
     )

@@ -510,6 +510,7 @@ def identifiability(
     values: dict[str, float],
     groups: np.ndarray | None = None,
     cov: tuple[np.ndarray, float] | None = None,
+    halves: np.ndarray | None = None,
 ) -> tuple[dict[str, float], list[str]]:
     """95 % half-widths and warnings for parameters the data cannot identify: a flat direction
     (tiny singular value), a strong correlation, or an interval wider than half the value.
@@ -520,20 +521,22 @@ def identifiability(
     is one observation; the half-width uses Student's t with (drops - 1) degrees of freedom.
     Without, the Gauss-Newton covariance treats every sample as independent (optimistic).
     ``cov`` (the unit-cube covariance and its 95 % quantile, e.g. :func:`jackknife`) replaces
-    either; the flat directions are still read from ``J``."""
+    either; the flat directions are still read from ``J``. ``halves`` (unit-cube 95 % half-widths,
+    e.g. from the profiles, :mod:`slopelander.ident.profile`) replace the covariance's own."""
     unknown, warnings = _flat(params, J)
     cov, quantile = covariance(J, r, groups) if cov is None else cov
-    sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
+    half_u = quantile * np.sqrt(np.clip(np.diag(cov), 0, None)) if halves is None else halves
     ci = {}
     for i, p in enumerate(params):
-        ci[p.name] = math.inf if unknown[i] else quantile * sd_u[i] * p.slope(float(u[i]))
+        ci[p.name] = math.inf if unknown[i] else float(half_u[i]) * p.slope(float(u[i]))
         warnings += _value_warnings(p, values[p.name], ci[p.name], float(u[i]), bool(unknown[i]))
     return ci, warnings + _correlated(params, cov, unknown)
 
 
-INTERVALS = ("sandwich", "jackknife")
-"""The kinds of 95 % interval a fit prints: the sandwich over drops, or the leave-one-drop-out
-jackknife of refits (:func:`jackknife`)."""
+INTERVALS = ("sandwich", "jackknife", "profile")
+"""The kinds of 95 % interval a fit prints: the sandwich over drops, the leave-one-drop-out
+jackknife of refits (:func:`jackknife`), or each parameter's profile with the drops as units
+(:mod:`slopelander.ident.profile`)."""
 
 
 def jackknife(refits: list[np.ndarray]) -> tuple[np.ndarray, float]:
@@ -805,13 +808,16 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
         u = polish.run(task.best_u, task.best_cost, ident.ls_evals)
         r, J = polish.fun(u), _interval_jacobian(ev, np.asarray(u, dtype=float))
         polish.tick(2 * len(u))
+        cov, stuck, halves, warns = None, [], None, []
+        if ident.intervals == "profile":
+            u, r, J, halves, warns = _profiles(ident, ev, polish, prob, u, r, J)
         values = dict(zip([p.name for p in params], prob.values(u), strict=True))
-        cov, stuck = None, []
         if ident.intervals == "jackknife":
             refits = _leave_one_out(ident, prob, u)
             cov = jackknife(refits)
             stuck = [k for k, v in enumerate(refits) if np.array_equal(v, u)]
-        ci, warns = identifiability(params, J, u, r, values, prob.groups(), cov)
+        ci, more = identifiability(params, J, u, r, values, prob.groups(), cov, halves)
+        warns += more
         if 2 * len(stuck) >= len(prob.drops):
             warns.append(
                 f"jackknife: {len(stuck)} of {len(prob.drops)} refits without one drop ended where the "
@@ -832,6 +838,41 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
         validation=validation,
         seconds=time.perf_counter() - t0,
     )
+
+
+def _profiles(
+    ident: Identifier, ev: Evaluator, polish: _Polish, prob: Problem, u: np.ndarray, r: np.ndarray, J: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """Profile intervals (:mod:`slopelander.ident.profile`): a coarse scan of each parameter for
+    a lower cost than the fit's (the search stopped short: polished on from there, said), then
+    each parameter's profile about the optimum, its first span twice the sandwich's half-width.
+    The point, its residual and interval Jacobian, the unit-cube half-widths and warnings."""
+    from slopelander.ident import profile
+
+    tick = ident.progress or (lambda k: None)
+    params, warns = prob.params, []
+    cost = float(r @ r)
+    for k, p in enumerate(params):
+        best, c = profile.coarse_scan(ev.residuals, u, k, ident.ls_evals, tick)
+        if c < cost * (1 - 1e-6):
+            moved = polish.run(best, c, ident.ls_evals)
+            r_new = polish.fun(moved)
+            warns.append(
+                f"the search had stopped short: {p.name}'s profile found a cost {float(r_new @ r_new):.4g} "
+                f"below the fit's {cost:.4g}; the fit goes on from there"
+            )
+            u, r, cost = np.asarray(moved, dtype=float), r_new, float(r_new @ r_new)
+    J = _interval_jacobian(ev, u)
+    tick(2 * len(u))
+    sandwich, quantile = covariance(J, r, prob.groups())
+    spans = 2 * quantile * np.sqrt(np.clip(np.diag(sandwich), 0, None))
+    halves = np.empty(len(params))
+    for k, p in enumerate(params):
+        prof = profile.profile_interval(ev.residuals, u, prob.groups(), k, float(spans[k]), ident.ls_evals, tick)
+        halves[k] = prof.half_about(float(u[k]))
+        if prof.note:
+            warns.append(f"{p.name}: {prof.note}")
+    return u, r, J, halves, warns
 
 
 def _leave_one_out(ident: Identifier, prob: Problem, u: np.ndarray) -> list[np.ndarray]:
