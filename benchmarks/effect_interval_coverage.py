@@ -7,11 +7,12 @@ effect_round_pads.py). The drops come from the model with the effect switched on
 has neither seam). Each seed's drops get new noise and are fitted with the candidate and the
 base parameters diagnose's final fit frees (ground damping, leg flex), the effect's parameters
 starting at their neutral values as diagnose's do (the files' defaults are the hidden values
-themselves, where a fit would start at the answer); both kinds of interval
-are judged on the same fit: the sandwich over drops (default) and the leave-one-drop-out
-jackknife. Backlash acts while joints slide: the steeper half of the paper's spread (8 drops);
-round pads on every drop: the whole spread (10 drops). ``--departure tanh_friction`` makes the
-truth's base physics depart from the fitted model's as the project's departures do
+themselves, where a fit would start at the answer); both kinds of interval are judged on the
+same fit: the sandwich over drops (default) and the leave-one-drop-out jackknife; the profile's
+(``intervals="profile"``) on a second fit, which goes on from a lower cost its scan across the
+bounds finds. Backlash acts while joints slide: the steeper half of the paper's spread (8
+drops); round pads on every drop: the whole spread (10 drops). ``--departure tanh_friction``
+makes the truth's base physics depart from the fitted model's as the project's departures do
 (``slopelander.ident.truth.physics.DEPARTURES``: feet that slide on a tanh law and never stick),
 so part of the residual is model error, as in the issue's independent simulator.
 

@@ -67,7 +67,7 @@ def test_the_profile_follows_the_valley_and_its_span_follows_the_interval():
 
 
 def test_the_coarse_scan_finds_the_valley_a_search_stopped_short_of():
-    residuals, groups, best = _problem(np.random.default_rng(5))
+    residuals, _, best = _problem(np.random.default_rng(5))
     short = np.array([0.95, 0.05])
     point, cost = coarse_scan(residuals, short, 0, ls_evals=20)
     r = residuals([short])[0]

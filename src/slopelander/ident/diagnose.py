@@ -35,6 +35,7 @@ from slopelander.ident.evidence import (
 )
 from slopelander.ident.fit import (
     DEFAULT_BOUNDS,
+    INTERVAL_WORDS,
     INTERVALS,
     PAPER_SEVEN,
     FitError,
@@ -360,10 +361,7 @@ class Diagnosis:
                     f"{k} = {self.final.values[k]:.4g} +- {self.final.ci95[k]:.2g}"
                     for k in m.candidate.params
                 )
-                how = {
-                    "sandwich": "over drops",
-                    "jackknife": "by the jackknife, one drop left out at a time",
-                }[self.final.intervals]
+                how = INTERVAL_WORDS[self.final.intervals]
                 vals += f" (refitted on all {len(self.drops)} drops; 95 % intervals {how})"
             return (
                 f"missing: {m.candidate.name} (held-out NRMSE {self.base_validation:.4f} -> "

@@ -537,6 +537,12 @@ INTERVALS = ("sandwich", "jackknife", "profile")
 """The kinds of 95 % interval a fit prints: the sandwich over drops, the leave-one-drop-out
 jackknife of refits (:func:`jackknife`), or each parameter's profile with the drops as units
 (:mod:`slopelander.ident.profile`)."""
+INTERVAL_WORDS = {
+    "sandwich": "over drops",
+    "jackknife": "by the jackknife, one drop left out at a time",
+    "profile": "from each value's profile, over drops",
+}
+"""How each kind of interval is named where it is printed."""
 
 
 def jackknife(refits: list[np.ndarray]) -> tuple[np.ndarray, float]:
@@ -840,8 +846,19 @@ def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None)
     )
 
 
+PROFILE_ROUNDS = 3
+"""How often a profile that meets a lower cost than the fit's moves the fit there and starts
+again (then the intervals are read about the last point, lower or not)."""
+
+
 def _profiles(
-    ident: Identifier, ev: Evaluator, polish: _Polish, prob: Problem, u: np.ndarray, r: np.ndarray, J: np.ndarray
+    ident: Identifier,
+    ev: Evaluator,
+    polish: _Polish,
+    prob: Problem,
+    u: np.ndarray,
+    r: np.ndarray,
+    J: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """Profile intervals (:mod:`slopelander.ident.profile`): a coarse scan of each parameter for
     a lower cost than the fit's (the search stopped short: polished on from there, said), then
@@ -852,26 +869,41 @@ def _profiles(
     tick = ident.progress or (lambda k: None)
     params, warns = prob.params, []
     cost = float(r @ r)
+
+    def go_on(point: np.ndarray, c: float, name: str) -> None:
+        nonlocal u, r, cost
+        moved = polish.run(point, c, ident.ls_evals)
+        r_new = polish.fun(moved)
+        warns.append(
+            f"the search had stopped short: {name}'s profile found a cost {float(r_new @ r_new):.4g} "
+            f"below the fit's {cost:.4g}; the fit goes on from there"
+        )
+        u, r, cost = np.asarray(moved, dtype=float), r_new, float(r_new @ r_new)
+
     for k, p in enumerate(params):
         best, c = profile.coarse_scan(ev.residuals, u, k, ident.ls_evals, tick)
         if c < cost * (1 - 1e-6):
-            moved = polish.run(best, c, ident.ls_evals)
-            r_new = polish.fun(moved)
-            warns.append(
-                f"the search had stopped short: {p.name}'s profile found a cost {float(r_new @ r_new):.4g} "
-                f"below the fit's {cost:.4g}; the fit goes on from there"
-            )
-            u, r, cost = np.asarray(moved, dtype=float), r_new, float(r_new @ r_new)
-    J = _interval_jacobian(ev, u)
-    tick(2 * len(u))
-    sandwich, quantile = covariance(J, r, prob.groups())
-    spans = 2 * quantile * np.sqrt(np.clip(np.diag(sandwich), 0, None))
+            go_on(best, c, p.name)
     halves = np.empty(len(params))
-    for k, p in enumerate(params):
-        prof = profile.profile_interval(ev.residuals, u, prob.groups(), k, float(spans[k]), ident.ls_evals, tick)
-        halves[k] = prof.half_about(float(u[k]))
-        if prof.note:
-            warns.append(f"{p.name}: {prof.note}")
+    for rnd in range(PROFILE_ROUNDS):
+        J = _interval_jacobian(ev, u)
+        tick(2 * len(u))
+        sandwich, quantile = covariance(J, r, prob.groups())
+        spans = 2 * quantile * np.sqrt(np.clip(np.diag(sandwich), 0, None))
+        notes, lower = [], None
+        for k, p in enumerate(params):
+            groups = prob.groups()
+            prof = profile.profile_interval(ev.residuals, u, groups, k, float(spans[k]), ident.ls_evals, tick)
+            halves[k] = prof.half_about(float(u[k]))
+            notes += [f"{p.name}: {prof.note}"] if prof.note else []
+            last = rnd == PROFILE_ROUNDS - 1
+            if prof.lowest is not None and prof.lowest_cost < cost * (1 - 1e-6) and not last:
+                lower = (prof.lowest, prof.lowest_cost, p.name)
+                break
+        if lower is None:
+            break
+        go_on(*lower)
+    warns += notes
     return u, r, J, halves, warns
 
 

@@ -11,9 +11,9 @@ squares from the neighbouring point's values), so it follows the valley rather t
 it. Each drop's share of the cost along the profile is fitted by a parabola over the whole span,
 which smooths the kinks; the minimum of the parabolas with one drop left out, for each drop in
 turn, gives the jackknife's variance over drops (no refits), Student's t with drops - 1 degrees
-of freedom, as the sandwich over drops uses. The interval is centred on that minimum and widened to contain the
-fitted value. A coarse scan across the bounds first looks for a lower cost than the fit's: if it
-finds one, the search had stopped short, and the caller refits from there.
+of freedom, as the sandwich over drops uses. The interval is centred on that minimum and widened
+to contain the fitted value. A coarse scan across the bounds first looks for a lower cost than
+the fit's: if it finds one, the search had stopped short, and the caller refits from there.
 
 Pure numerics on a residual function: no model, no files (tested on a linear problem whose
 coverage is known)."""
@@ -37,9 +37,10 @@ SPAN_MIN = 0.01
 """The narrowest half-span (share of the bounds): wider than the cost's kinks (the sandwich's
 :data:`~slopelander.ident.fit.INTERVAL_STEP`)."""
 SPAN_MAX = 0.25
-SPAN_TRIES = 3
-"""How often the span is refitted to the interval it gave (between once and four times its
-half-width): the parabola is read where the interval lies."""
+SPAN_TRIES = 4
+"""How often the span is moved and refitted to the interval it gave (its middle to the
+parabolas' minimum, its half-width between one and four of the interval's): the parabola is read
+where the interval lies, not about a fitted value that sits on one side of a kink."""
 NUISANCE_STEP = 1e-3
 
 
@@ -56,6 +57,9 @@ class Profile:
     points: list[tuple[float, float]] = field(default_factory=list)
     """(unit value, cost) along the fine profile."""
     note: str = ""
+    lowest: np.ndarray | None = None
+    """The full point (unit cube) of the lowest cost the profile met."""
+    lowest_cost: float = math.inf
 
     def half_about(self, u: float) -> float:
         """The half-width about ``u`` (the fitted value) that holds this interval."""
@@ -107,7 +111,7 @@ class _Settle:
             return np.column_stack([(c - r) / s for c, s in zip(cols, steps, strict=True)])
 
         v0 = np.clip(np.asarray(v0, dtype=float), 1e-6, 1 - 1e-6)
-        ls = least_squares(
+        least_squares(  # its points are all in the cache; the best of them is kept
             fun, v0, jac=jac, bounds=(0.0, 1.0), x_scale="jac", max_nfev=self.ls_evals, xtol=1e-8, ftol=1e-10
         )
         best = min(cache, key=lambda key: float(cache[key] @ cache[key]))
@@ -115,12 +119,18 @@ class _Settle:
         return self.full(theta, v), cache[best]
 
 
-def _march(settle: _Settle, u: np.ndarray, thetas: Sequence[float]) -> dict[float, tuple[np.ndarray, np.ndarray]]:
+Points = dict[float, tuple[np.ndarray, np.ndarray]]
+"""Along a profile: each held value's full point and residual."""
+
+
+def _march(settle: _Settle, u: np.ndarray, thetas: Sequence[float]) -> Points:
     """The profile at each of ``thetas``, marching outward from ``u``'s own value on each side
     so that each point starts from its inner neighbour's settled values."""
     k, here = settle.k, float(u[settle.k])
-    out: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-    for side in (sorted(t for t in thetas if t >= here), sorted((t for t in thetas if t < here), reverse=True)):
+    out: Points = {}
+    up = sorted(t for t in thetas if t >= here)
+    down = sorted((t for t in thetas if t < here), reverse=True)
+    for side in (up, down):
         v = np.delete(u, k)
         for t in side:
             point, r = settle.at(float(t), v)
@@ -191,26 +201,34 @@ def profile_interval(
     quantile = float(student.ppf(0.975, n - 1))
     settle = _Settle(residuals, len(u), k, ls_evals, tick)
     span = float(min(max(span, SPAN_MIN), SPAN_MAX))
-    seen: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-    result = Profile(k, float(u[k]), math.inf, span, note="the profile has no minimum across its span")
+    seen: Points = {}
+    flat = "the profile has no minimum across its span"
+    lone = "one drop alone makes the profile's minimum (left out, the rest have none)"
+    result = Profile(k, float(u[k]), math.inf, span, note=flat)
+    mid = float(u[k])  # the span's middle: moved to the parabolas' minimum until it holds it
     for _ in range(SPAN_TRIES + 1):
-        lo, hi = max(0.0, u[k] - span), min(1.0, u[k] + span)
+        lo, hi = max(0.0, mid - span), min(1.0, mid + span)
         thetas = [t for t in np.linspace(lo, hi, FINE_POINTS) if float(t) not in seen]
         seen.update(_march(settle, u, thetas))
         inside = sorted(t for t in seen if lo - 1e-12 <= t <= hi + 1e-12)
-        th = np.array(inside)
         shares = np.array([np.bincount(inverse, weights=seen[t][1] ** 2, minlength=n) for t in inside])
-        coef, (_, b, c) = _parabolas(th, shares, float(u[k]))
+        coef, (_, b, c) = _parabolas(np.array(inside), shares, mid)
         points = [(t, float(seen[t][1] @ seen[t][1])) for t in inside]
-        if c <= 0:
-            result = Profile(k, float(u[k]), math.inf, span, points, "the profile has no minimum across its span")
+        var = _jackknife_var(coef, b, c) if c > 0 else math.inf
+        if not math.isfinite(var):  # no minimum, or none once some drop is left out: wider
+            result = Profile(k, mid, math.inf, span, points, flat if c <= 0 else lone)
+            if span >= SPAN_MAX:
+                break
             span = min(2 * span, SPAN_MAX)
             continue
-        d0 = float(np.clip(-b / (2 * c), lo - u[k], hi - u[k]))
-        half = quantile * math.sqrt(_jackknife_var(coef, b, c))
-        result = Profile(k, float(u[k]) + d0, half, span, points)
-        reach = abs(d0) + half
-        if reach <= span <= 4 * reach or (span >= SPAN_MAX and reach > span) or (span <= SPAN_MIN and reach < span):
+        d0 = float(np.clip(-b / (2 * c), lo - mid, hi - mid))
+        result = Profile(k, mid + d0, quantile * math.sqrt(var), span, points)
+        held = abs(d0) <= span / 2
+        if held and (result.half <= span <= 4 * result.half or (span <= SPAN_MIN and result.half < span)):
             break
-        span = float(min(max(2 * reach, SPAN_MIN), SPAN_MAX))
+        if span >= SPAN_MAX and result.half > span:
+            break
+        mid, span = mid + d0, float(min(max(2 * result.half, SPAN_MIN), SPAN_MAX))
+    low = min(seen, key=lambda t: float(seen[t][1] @ seen[t][1]))
+    result.lowest, result.lowest_cost = seen[low][0], float(seen[low][1] @ seen[low][1])
     return result
