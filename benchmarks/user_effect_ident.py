@@ -9,8 +9,9 @@ rotor_spin_down.py), with the base model fitting k_g's damping and the leg's fle
 (docs/examples/effect_*.py). The joint and foot laws are shown on the steeper half of the paper's
 spread (8 drops), the normal force and the point force on the whole spread (10 drops).
 
-With ``--intervals jackknife`` the named candidate's intervals are the leave-one-drop-out
-jackknife's; the last line says whether the printed interval holds the hidden value.
+The named candidate's intervals are diagnose's default (each value's profile; ``--intervals
+sandwich`` or ``jackknife`` the other kinds); the last line says whether the printed interval
+holds the hidden value.
 
 Usage: python benchmarks/user_effect_ident.py {joint_torque,foot_friction,normal_force,point_force,
        backlash,round_pads}
@@ -59,7 +60,7 @@ def main() -> None:
     ap.add_argument("seam", choices=sorted(HIDDEN))
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--fit-mu-k", action="store_true", help="fit friction_kinetic with the base parameters")
-    ap.add_argument("--intervals", choices=("sandwich", "jackknife", "profile"), default="sandwich")
+    ap.add_argument("--intervals", choices=("sandwich", "jackknife", "profile"), default="profile")
     ap.add_argument(
         "--align-ms", type=float, default=None, help="fit each drop's clock within +- this many ms"
     )

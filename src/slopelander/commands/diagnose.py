@@ -66,7 +66,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--json", type=Path, metavar="FILE", help="also write the verdict and its evidence as JSON"
     )
-    add_intervals_option(p, "a named candidate's values (its refit on every drop)")
+    add_intervals_option(p, "a named candidate's values (its refit on every drop)", "profile")
     add_model_options(p, "analysed")
     add_search_options(
         p,

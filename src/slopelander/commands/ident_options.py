@@ -184,17 +184,18 @@ def add_search_options(p: argparse.ArgumentParser, repeats: int, repeats_help: s
     g.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def add_intervals_option(p: argparse.ArgumentParser, what: str) -> None:
+def add_intervals_option(p: argparse.ArgumentParser, what: str, default: str = "sandwich") -> None:
     """``--intervals``: how the 95 % intervals of ``what`` are made (docs/ident.md)."""
     p.add_argument(
         "--intervals",
         choices=("sandwich", "jackknife", "profile"),  # slopelander.ident.fit.INTERVALS
-        default="sandwich",
+        default=default,
         help=f"95 %% intervals of {what}: sandwich (over drops, from central differences at the "
         "optimum; held the truth in 20 of 20 test fits), jackknife (one refit per drop left "
         "out: --ls-evals each; its refits can stay at a kink of the cost and understate) or "
         "profile (each value's profile, the others settled at each point, over drops; a scan "
-        "across the bounds goes on from a lower cost the search stopped short of)",
+        "across the bounds goes on from a lower cost the search stopped short of); "
+        f"default {default}",
     )
 
 

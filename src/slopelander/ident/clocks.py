@@ -21,10 +21,12 @@ ALIGN_SIGMAS = 3.0
 ALIGN_MAX_S = 0.05
 
 
-def align_windows(drops: Sequence[Drop], align_s: float | None = None) -> list[float]:
+def align_windows(drops: Sequence[Drop], align_s: float | None = None, *, frame: bool = False) -> list[float]:
     """Each drop's alignment window (s): ``align_s`` for all, or by default
     :data:`ALIGN_SIGMAS` times the contact's standard deviation an imported take records
-    (``meta.quality.contact_sd_s``), 0 where none is recorded (a simulator's drops)."""
+    (``meta.quality.contact_sd_s``), 0 where none is recorded (a simulator's drops) or, with
+    ``frame``, one frame there (the median sample interval: a t = 0 found in the frames is the
+    contact only to a frame)."""
     if align_s is not None:
         ok = isinstance(align_s, (int, float)) and not isinstance(align_s, bool)
         if not (ok and 0 <= align_s <= ALIGN_MAX_S):
@@ -35,8 +37,14 @@ def align_windows(drops: Sequence[Drop], align_s: float | None = None) -> list[f
         quality = d.meta.get("quality") if isinstance(d.meta, dict) else None
         sd = quality.get("contact_sd_s") if isinstance(quality, dict) else None
         ok = isinstance(sd, (int, float)) and not isinstance(sd, bool) and math.isfinite(sd) and sd >= 0
-        out.append(min(ALIGN_SIGMAS * float(sd), ALIGN_MAX_S) if ok else 0.0)
+        out.append(min(ALIGN_SIGMAS * float(sd) if ok else _frame(d) if frame else 0.0, ALIGN_MAX_S))
     return out
+
+
+def _frame(drop: Drop) -> float:
+    """The drop's median sample interval (s; 0 with fewer than two samples)."""
+    t = np.asarray(drop.t, dtype=float)
+    return float(np.median(np.diff(t))) if len(t) > 1 else 0.0
 
 
 ALIGN_GRID = 5

@@ -215,8 +215,13 @@ class Problem:
         return float(r @ r)
 
 
-def windows(drops: Sequence[Drop], align_s: float | None) -> list[float]:
-    """:func:`~slopelander.ident.clocks.align_windows`, refused as a :class:`FitError`."""
+def windows(drops: Sequence[Drop], align_s: float | Sequence[float] | None) -> list[float]:
+    """:func:`~slopelander.ident.clocks.align_windows`, refused as a :class:`FitError`;
+    ``align_s`` may also give each drop its own window."""
+    if isinstance(align_s, (list, tuple)):
+        if len(align_s) != len(drops):
+            raise FitError(f"align_s: {len(align_s)} windows for {len(drops)} drops")
+        return [w for a in align_s for w in windows(drops[:1], a)]
     try:
         return align_windows(drops, align_s)
     except ValueError as exc:
@@ -610,7 +615,7 @@ class Identifier:
     progress: Callable[[int], None] | None = None
     optimizer: Optimizer | None = None
     intervals: str = "sandwich"
-    align_s: float | None = None
+    align_s: float | Sequence[float] | None = None
     result_: FitResult | None = field(default=None, init=False, repr=False)
 
     def with_(self, **changes: object) -> Identifier:
