@@ -305,3 +305,19 @@ def test_noise_floor_counts_the_edges_as_the_recording_has_them(model):
     floor = noise_floor(model, drops, ranges, draws=2, seed=1)
     score = compare(model, drops, ranges).nrmse
     assert floor == pytest.approx(score, rel=0.04)
+
+
+def test_a_named_candidates_refit_far_above_the_floor_says_its_values_are_where_it_stopped():
+    """Round pads hidden (seed 1): the refit on all drops ended at 3.4 noise floors and printed
+    a radius of 0.0580 +- 0.0008 m against the truth's 0.040. Above 1.2 floors the verdict says
+    the values hold only where the search stopped; at the floor it says nothing more."""
+    from types import SimpleNamespace
+
+    d = _diagnosis([0.03] * 10, [0.012] * 10, 0.010, 0.002)
+    final = dict(values={"flex_stiffness": 12.0}, ci95={"flex_stiffness": 0.5}, intervals="profile", lags={})
+    d.final = SimpleNamespace(train_nrmse=0.034, **final)
+    text = d.verdict()
+    assert text.startswith("missing: leg_flex") and "flex_stiffness = 12 +- 0.5" in text
+    assert "3.4x the noise floor (NRMSE 0.0340)" in text and "hold only where it stopped" in text
+    d.final = SimpleNamespace(train_nrmse=0.0105, **final)
+    assert "stopped" not in d.verdict()

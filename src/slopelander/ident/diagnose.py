@@ -351,6 +351,21 @@ class Diagnosis:
             )
         return text
 
+    def _refit_short(self) -> str:
+        """A warning when the named candidate's refit on all drops ends above the noise floor's
+        threshold: its intervals describe where its search stopped, not the optimum (round pads
+        hidden: a refit at 3.4 floors printed a radius of 0.0580 +- 0.0008 m against 0.040)."""
+        if self.final is None or not self.floor:
+            return ""
+        ratio = self.final.train_nrmse / self.floor
+        if ratio <= ABOVE_FLOOR:
+            return ""
+        return (
+            f"; but that refit ends at {ratio:.1f}x the noise floor (NRMSE {self.final.train_nrmse:.4f}): "
+            "its search stopped short or more is missing, and the values and intervals hold only "
+            "where it stopped (try --refit-from-centre or more --cma-evals)"
+        )
+
     def _verdict(self) -> str:
         m = self.missing
         vis = f"{self.visible:.4f}" if self.visible is not None else "an unknown amount"
@@ -365,6 +380,7 @@ class Diagnosis:
                 how = INTERVAL_WORDS[self.final.intervals]
                 clocks = ", each clock free within its window" if self.final.lags else ""
                 vals += f" (refitted on all {len(self.drops)} drops{clocks}; 95 % intervals {how})"
+                vals += self._refit_short()
             return (
                 f"missing: {m.candidate.name} (held-out NRMSE {self.base_validation:.4f} -> "
                 f"{m.validation_nrmse:.4f}, {100 * self.gain(m):.0f} % lower; {self.evidence(m)}; {vals})"
