@@ -590,8 +590,10 @@ class Identifier:
     ``optimizer`` is the global search (:mod:`slopelander.ident.optimizers`; default
     :class:`~slopelander.ident.optimizers.CMA`), given ``cma_evals`` evaluations whichever it is.
     ``intervals``: how the 95 % intervals are made, ``"sandwich"`` (over drops, from central
-    differences at :data:`INTERVAL_STEP` at the optimum: cheap) or ``"jackknife"`` (one polish
-    per drop left out, from the optimum, ``ls_evals`` each; :func:`jackknife`).
+    differences at :data:`INTERVAL_STEP` at the optimum: cheap), ``"jackknife"`` (one polish
+    per drop left out, from the optimum, ``ls_evals`` each; :func:`jackknife`) or ``"profile"``
+    (each parameter's profile, :mod:`slopelander.ident.profile`: the dearest; a lower cost met
+    on the way moves the fit on, and says so in the warnings).
 
     After :meth:`fit`: ``result_`` (the :class:`FitResult`: values, intervals, warnings),
     ``model_`` (the fitted model) and ``values_``.
