@@ -932,10 +932,8 @@ def _refit_candidate(
         # also the control's optimum with the candidate off: a nested candidate's training cost
         # cannot end above the control's
         res.fits.append(cf.fit(cand, k, start={**base[k].values, **off}, also=[{**control[k].values, **off}]))
-    stuck = [stuck_at_neutral(f.values, extra, neutral) for f in res.fits]
-    if guard:
-        stuck = [True] * len(res.fits)
-    if guard or (any(stuck) and not all(stuck)):
+    stuck = [guard or stuck_at_neutral(f.values, extra, neutral) for f in res.fits]
+    if any(stuck) and (guard or not all(stuck)):
         # some groups' searches left "off" and others never did: from the base optimum the effect
         # can need the base parameters to move with it (a valley no step of the search enters).
         # Those are searched again from the centre of the candidate's bounds, a start no drop

@@ -887,19 +887,20 @@ def _profiles(
         )
         u, r, cost = np.asarray(moved, dtype=float), r_new, float(r_new @ r_new)
 
+    j_at = u  # the caller's J is at the caller's u
     for k, p in enumerate(params):
         best, c = profile.coarse_scan(ev.residuals, u, k, ident.ls_evals, tick)
         if c < cost * (1 - 1e-6):
             go_on(best, c, p.name)
-    halves = np.empty(len(params))
+    halves, groups = np.empty(len(params)), prob.groups()
     for rnd in range(PROFILE_ROUNDS):
-        J = _interval_jacobian(ev, u)
-        tick(2 * len(u))
-        sandwich, quantile = covariance(J, r, prob.groups())
+        if u is not j_at:  # the fit moved on: the slopes the first spans come from, there
+            J, j_at = _interval_jacobian(ev, u), u
+            tick(2 * len(u))
+        sandwich, quantile = covariance(J, r, groups)
         spans = 2 * quantile * np.sqrt(np.clip(np.diag(sandwich), 0, None))
         notes, lower = [], None
         for k, p in enumerate(params):
-            groups = prob.groups()
             prof = profile.profile_interval(ev.residuals, u, groups, k, float(spans[k]), ident.ls_evals, tick)
             halves[k] = prof.half_about(float(u[k]))
             notes += [f"{p.name}: {prof.note}"] if prof.note else []
