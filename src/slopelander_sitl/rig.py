@@ -27,6 +27,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from slopelander.controller.config import Config, load_config, merge
 from slopelander.controller.link import Link
 from slopelander.controller.runner import Lander
+from slopelander.controller.script_rules import MOTORS_HELD
 from slopelander.controller.session import SESSION_MESSAGES, Session, SessionError
 from slopelander.controller.table import DEFAULT_TABLE, LookupTable
 from slopelander.legs.calibration import load_calibration
@@ -688,7 +689,13 @@ class Rig:
         held_since: list[float] = []
 
         def held() -> bool:
-            if held_s is None or lander.machine.name != "SETTLED":
+            # counted only while the script holds the motors: a script silent for under a second
+            # still reads as its last state (CUT), SETTLED may say the slide then, and once it
+            # reads silent the companion disarms by itself (Settled.without_script), which the
+            # hold's count must not cut short (a dead script's landing ended SETTLED so, 1 in 24)
+            holding = lander.link.script_present and lander.link.script_state in MOTORS_HELD
+            if held_s is None or lander.machine.name != "SETTLED" or not holding:
+                held_since.clear()
                 return False
             if "slide" not in lander.ctx.marks.get("said", set()):
                 return False
