@@ -315,9 +315,26 @@ def test_a_named_candidates_refit_far_above_the_floor_says_its_values_are_where_
 
     d = _diagnosis([0.03] * 10, [0.012] * 10, 0.010, 0.002)
     final = dict(values={"flex_stiffness": 12.0}, ci95={"flex_stiffness": 0.5}, intervals="profile", lags={})
-    d.final = SimpleNamespace(train_nrmse=0.034, **final)
+    d.final = SimpleNamespace(train_nrmse=0.034, warnings=[], **final)
     text = d.verdict()
     assert text.startswith("missing: leg_flex") and "flex_stiffness = 12 +- 0.5" in text
     assert "3.4x the noise floor (NRMSE 0.0340)" in text and "hold only where it stopped" in text
-    d.final = SimpleNamespace(train_nrmse=0.0105, **final)
+    d.final = SimpleNamespace(train_nrmse=0.0105, warnings=[], **final)
     assert "stopped" not in d.verdict()
+    assert d.to_dict()["missing"]["refit_nrmse"] == 0.0105
+
+
+def test_a_named_candidates_verdict_carries_what_its_intervals_reading_said_of_its_values():
+    """Round pads hidden (seed 1): the inset's profile was rough (a flip came and went along it)
+    and its interval was widened; the verdict says so beside the values, and leaves out what was
+    said of a base parameter's interval (the JSON keeps every warning)."""
+    from types import SimpleNamespace
+
+    d = _diagnosis([0.03] * 10, [0.012] * 10, 0.010, 0.002)
+    rough = "flex_stiffness: its profile is rough (...), the interval widened 3.2x"
+    warnings = [rough, "ground_damping: one drop alone makes the profile's minimum"]
+    final = dict(values={"flex_stiffness": 12.0}, ci95={"flex_stiffness": 1.6}, intervals="profile", lags={})
+    d.final = SimpleNamespace(train_nrmse=0.0105, warnings=warnings, **final)
+    text = d.verdict()
+    assert f"over drops; {rough})" in text and "ground_damping" not in text
+    assert d.to_dict()["missing"]["warnings"] == warnings

@@ -79,3 +79,48 @@ def test_one_drop_gives_no_interval_and_says_why():
     residuals, groups, best = _problem(np.random.default_rng(1))
     prof = profile_interval(residuals, best, np.zeros_like(groups), 0, span=0.02, ls_evals=5)
     assert prof.half == np.inf and "one drop" in prof.note
+
+
+def _switching(residuals, groups, period: float = 0.003, jump: float = 0.1):
+    """``residuals`` with drop 0's outcome switching as the slope crosses bands ``period`` wide
+    (a flip that comes and goes with a pad's radius): its residuals ``jump`` higher in every
+    other band."""
+    first = groups == 0
+
+    def out(points):
+        rs = residuals(points)
+        for u, r in zip(points, rs, strict=True):
+            if int(np.floor(u[0] / period)) % 2:
+                r[first] += jump
+        return rs
+
+    return out
+
+
+def test_a_profile_made_rough_by_a_switching_drop_widens_its_interval_and_says_so(monkeypatch):
+    """With one drop's outcome switching along the slope the parabolas read a minimum the jumps
+    placed; the profile's misfit to its parabola is then far above the interval's own rise: the
+    interval is widened by it and the note says the profile is rough. Over 40 problems the
+    widened intervals held the truth in 35 (rough said in 21), the same unwidened in 22; the
+    smooth problems' intervals are left as they were (35 of 40, nothing said)."""
+    from slopelander.ident import profile
+
+    def run(rough: float, switching: bool) -> tuple[int, int]:
+        monkeypatch.setattr(profile, "ROUGH", rough)
+        rng = np.random.default_rng(5)
+        held = said = 0
+        for _ in range(40):
+            residuals, groups, best = _problem(rng)
+            if switching:
+                residuals = _switching(residuals, groups)
+            prof = profile_interval(residuals, best, groups, 0, span=0.02, ls_evals=20)
+            held += abs(prof.centre - 0.5) <= prof.half
+            said += "rough" in prof.note
+        return held, said
+
+    held, said = run(1.0, True)
+    bare, _ = run(np.inf, True)
+    smooth, smooth_said = run(1.0, False)
+    print(f"switching: widened held {held}/40 (rough said {said}), unwidened {bare}/40; smooth {smooth}/40")
+    assert held >= 34 and bare <= 26 and said >= 15
+    assert smooth_said == 0

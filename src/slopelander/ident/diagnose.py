@@ -47,6 +47,7 @@ from slopelander.ident.fit import (
     effect_of,
     make_param,
     resolve_params,
+    scan,
     windows,
 )
 from slopelander.ident.optimizers import CMA
@@ -363,7 +364,7 @@ class Diagnosis:
         again = any(w.startswith("the refit ended at") for w in getattr(self.final, "warnings", []))
         return (
             f"; but that refit ends at {ratio:.1f}x the noise floor (NRMSE {self.final.train_nrmse:.4f}"
-            + (", searched from the centre of the bounds too" if again else "")
+            + (", searched again from a scan of its own values too" if again else "")
             + "): its search stopped short or more is missing, and the values and intervals hold "
             "only where it stopped (try --refit-from-centre or more --cma-evals)"
         )
@@ -381,7 +382,13 @@ class Diagnosis:
                 )
                 how = INTERVAL_WORDS[self.final.intervals]
                 clocks = ", each clock free within its window" if self.final.lags else ""
-                vals += f" (refitted on all {len(self.drops)} drops{clocks}; 95 % intervals {how})"
+                # what the intervals' own reading said of the candidate's values (a rough profile,
+                # one drop alone making a minimum): a user weighs the interval by it
+                notes = [
+                    w for w in self.final.warnings if any(w.startswith(f"{k}: ") for k in m.candidate.params)
+                ]
+                vals += f" (refitted on all {len(self.drops)} drops{clocks}; 95 % intervals {how}"
+                vals += "".join(f"; {w}" for w in notes) + ")"
                 vals += self._refit_short()
             return (
                 f"missing: {m.candidate.name} (held-out NRMSE {self.base_validation:.4f} -> "
@@ -598,6 +605,8 @@ class Diagnosis:
                 "values": {k: float(self.final.values[k]) for k in m.candidate.params},
                 "ci95": {k: float(self.final.ci95[k]) for k in m.candidate.params},
                 "intervals": self.final.intervals,
+                "refit_nrmse": float(self.final.train_nrmse),
+                "warnings": list(self.final.warnings),
             }
         return out
 
@@ -961,7 +970,11 @@ def _test(
 
 
 def _final(
-    cf: CrossFit, m: CandidateResult, intervals: str = "profile", floor: float | None = None
+    cf: CrossFit,
+    m: CandidateResult,
+    intervals: str = "profile",
+    floor: float | None = None,
+    base: list[FitResult] | None = None,
 ) -> FitResult:
     """The missing candidate refitted on every drop, from the groups' mean: the decision used
     held-out drops, the estimate uses them all; its intervals of the kind ``intervals``. Each
@@ -969,7 +982,9 @@ def _final(
     user set one): a lag of 2 ms read as a hidden 3.0 deg backlash of 3.14 and 3.23 deg, the
     truth outside the interval (benchmarks/results/2026-12-08-effect-intervals.md). A refit
     ending above :data:`ABOVE_FLOOR` times the noise ``floor`` searches once more from the
-    centre of the bounds, and the lower is kept."""
+    best point of a scan of the candidate's own values (:func:`~slopelander.ident.fit.scan`), the
+    rest where it stopped, at the model's own values or at the ``base`` fits' mean; the lower
+    is kept."""
     align = cf.refit.align_s
     if align is None:
         align = align_windows(cf.drops, frame=True)
@@ -987,12 +1002,19 @@ def _final(
     )
     out = one.fit(cf.drops).result_
     if floor and out is not None and out.train_nrmse > ABOVE_FLOOR * floor:
-        # far above the floor: the search may have stopped in another valley (round pads'
-        # radius and inset trade); one more run from the centre of the bounds, the lower kept
-        again = one.with_(starts=[{}], seed=cf.seed + 1).fit(cf.drops).result_
+        # far above the floor: the search may have stopped beside a thin valley (round pads'
+        # radius and inset trade); the candidate's own values scanned across their bounds (the
+        # rest where the refit ended), one more run from the best point, the lower kept
+        names = [p for p in m.candidate.params if p in out.values]
+        anchors = [out.values, {}]  # where it stopped; the base at the model's own values
+        if base:
+            anchors.append({k: float(np.mean([f.values[k] for f in base])) for k in base[0].values})
+        best, _ = scan(one, cf.drops, names, anchors)
+        again = one.with_(start=best, also=[out.values], seed=cf.seed + 1).fit(cf.drops).result_
         note = (
             f"the refit ended at {out.train_nrmse / floor:.1f}x the noise floor; searched again from "
-            f"the centre of the bounds: {again.train_nrmse / floor:.1f}x"
+            f"the best of a scan of {', '.join(names)}: "
+            f"{again.train_nrmse / floor:.1f}x"
         )
         out = again if again is not None and again.cost < out.cost else out
         out.warnings.append(note)
@@ -1135,7 +1157,7 @@ def diagnose(
                 d.on_top[a.name] = _on_top(cf, told, res)
     m = d.missing
     if m is not None:
-        d.final = m.final = _final(cf, m, final_intervals, d.floor)
+        d.final = m.final = _final(cf, m, final_intervals, d.floor, control)
     return d
 
 

@@ -804,6 +804,46 @@ def _global_search(
     return task, costs0[0]
 
 
+def scan(
+    ident: Identifier,
+    drops: list[Drop],
+    names: Sequence[str],
+    anchors: Sequence[dict[str, float]],
+    n: int = 128,
+) -> tuple[dict[str, float], float]:
+    """The best of ``n`` points per anchor (a scrambled Sobol set, seeded by ``ident.seed``)
+    spread over the bounds of the parameters ``names``, the others of ``ident`` held at each
+    anchor's values (the model's own where an anchor names none): its values by name and its
+    cost. For a valley too thin for a search from one side to enter: round pads' radius and
+    inset trade along a curve where a landing's reach stays the same, and a drop whose outcome
+    switches (a flip, a slide) makes the cost rough across it; a refit from the groups' mean
+    ended with the legs' flex at its bound and the pads at 3.1 noise floors, a scan anchored
+    there found nothing better, one anchored at the model's own values found the valley
+    (benchmarks/results/2026-12-08-pad-scan.md)."""
+    from scipy.stats import qmc
+
+    params = ident.fit_params()
+    free = [i for i, p in enumerate(params) if p.name in names]
+    if not free:
+        raise FitError(f"none of {', '.join(names)} is fitted here")
+    ranges = state_ranges(drops) if ident.ranges is None else ident.ranges
+    prob = Problem(ident.model, drops, params, ranges, windows(drops, ident.align_s))
+    here = {p.name: ident.model.parameter(p.name) for p in params}
+    cube = qmc.Sobol(len(free), seed=ident.seed).random(n)
+    points = []
+    for anchor in anchors:
+        u0 = _start(params, anchor, here)
+        for q in cube:
+            u = u0.copy()
+            u[free] = q
+            points.append(u)
+    with threadpool_limits(1), Evaluator(prob, ident.workers, ident.client) as ev:
+        costs = [float(r @ r) for r in ev.residuals(points)]
+        (ident.progress or (lambda k: None))(len(points))
+    best = int(np.argmin(costs))
+    return dict(zip([p.name for p in params], prob.values(points[best]), strict=True)), costs[best]
+
+
 def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None) -> FitResult:
     """The global search from the start, then least squares; intervals and warnings at the optimum."""
     t0 = time.perf_counter()
