@@ -331,7 +331,7 @@ def test_a_named_candidates_verdict_carries_what_its_intervals_reading_said_of_i
     from types import SimpleNamespace
 
     d = _diagnosis([0.03] * 10, [0.012] * 10, 0.010, 0.002)
-    rough = "flex_stiffness: its profile is rough (...), the interval widened 3.2x"
+    rough = "flex_stiffness: rough profile (...), interval widened 3.2x"
     warnings = [rough, "ground_damping: one drop alone makes the profile's minimum"]
     final = dict(values={"flex_stiffness": 12.0}, ci95={"flex_stiffness": 1.6}, intervals="profile", lags={})
     d.final = SimpleNamespace(train_nrmse=0.0105, warnings=warnings, **final)

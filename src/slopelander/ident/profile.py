@@ -196,9 +196,8 @@ def _rough(result: Profile, d: np.ndarray, total: np.ndarray, abc: tuple[float, 
     if c > 0 and misfit > ROUGH * rise:
         widened = math.sqrt(result.half**2 + misfit / c)
         result.note = (
-            f"its profile is rough (the cost departs from a parabola by {misfit / max(rise, 1e-300):.1f}x "
-            f"the interval's own rise: an outcome switching along it), the interval widened "
-            f"{widened / max(result.half, 1e-300):.1f}x"
+            f"rough profile (off its parabola by {misfit / max(rise, 1e-300):.1f}x the interval's rise: "
+            f"kinks, or an outcome switching), interval widened {widened / max(result.half, 1e-300):.1f}x"
         )
         result.half = widened
 
