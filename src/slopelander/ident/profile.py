@@ -181,8 +181,9 @@ def _jackknife_var(coef: np.ndarray, b: float, c: float) -> float:
 
 ROUGH = 1.0
 """A profile whose cost departs from its parabola by more than this share of the interval's
-own rise is rough: a drop's outcome switches along it (round pads hidden: a flip on a 34.6 deg
-roof came and went within 0.2 mm of pad radius, its NRMSE 0.014 <-> 0.14)."""
+own rise is rough: kinks (a backlash's gap crossed), or a drop whose outcome switches along it
+(round pads hidden: a flip on a 34.6 deg roof came and went within 0.2 mm of pad radius, its
+NRMSE 0.014 <-> 0.14)."""
 
 
 def _rough(result: Profile, d: np.ndarray, total: np.ndarray, abc: tuple[float, float, float]) -> None:
