@@ -689,19 +689,20 @@ class Rig:
         held_since: list[float] = []
 
         def held() -> bool:
-            # counted only while the script holds the motors: a script silent for under a second
-            # still reads as its last state (CUT), SETTLED may say the slide then, and once it
-            # reads silent the companion disarms by itself (Settled.without_script), which the
-            # hold's count must not cut short (a dead script's landing ended SETTLED so, 1 in 24)
-            holding = lander.link.script_present and lander.link.script_state in MOTORS_HELD
-            if held_s is None or lander.machine.name != "SETTLED" or not holding:
-                held_since.clear()
+            if held_s is None or lander.machine.name != "SETTLED":
                 return False
             if "slide" not in lander.ctx.marks.get("said", set()):
                 return False
             if not held_since:
                 held_since.append(self.now)
-            return self.now - held_since[0] >= held_s
+            # ended only while the script is heard holding the motors: a script silent for under
+            # a second still reads as its last state (CUT), SETTLED may say the slide then, and
+            # once it reads silent the companion disarms by itself (Settled.without_script), which
+            # the hold's end must not cut short (a dead script's landing ended SETTLED so, 1 in
+            # 24). The count runs from the slide all the same: a hold past HELD_S may slide on to
+            # the roof's edge, where the script gives the motors back and the companion aborts
+            holding = lander.link.script_present and lander.link.script_state in MOTORS_HELD
+            return holding and self.now - held_since[0] >= held_s
 
         start = time.monotonic()
         end = lander.run(timeout_s, until=("ARMED", *until))
