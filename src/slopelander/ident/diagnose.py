@@ -1013,8 +1013,7 @@ def _final(
         again = one.with_(start=best, also=[out.values], seed=cf.seed + 1).fit(cf.drops).result_
         note = (
             f"the refit ended at {out.train_nrmse / floor:.1f}x the noise floor; searched again from "
-            f"the best of a scan of {', '.join(names)}: "
-            f"{again.train_nrmse / floor:.1f}x"
+            f"the best of a scan of {', '.join(names)}: {again.train_nrmse / floor:.1f}x"
         )
         out = again if again is not None and again.cost < out.cost else out
         out.warnings.append(note)

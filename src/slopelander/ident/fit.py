@@ -804,6 +804,13 @@ def _global_search(
     return task, costs0[0]
 
 
+def _problem(ident: Identifier, drops: list[Drop], validation: list[Drop] | None = None) -> Problem:
+    """``ident``'s residuals over ``drops``: its parameters, its states' ranges (those of the
+    drops fitted and validated on unless fixed) and each drop's clock window."""
+    ranges = state_ranges(drops + (validation or [])) if ident.ranges is None else ident.ranges
+    return Problem(ident.model, drops, ident.fit_params(), ranges, windows(drops, ident.align_s))
+
+
 def scan(
     ident: Identifier,
     drops: list[Drop],
@@ -822,12 +829,11 @@ def scan(
     (benchmarks/results/2026-12-08-pad-scan.md)."""
     from scipy.stats import qmc
 
-    params = ident.fit_params()
+    prob = _problem(ident, drops)
+    params = prob.params
     free = [i for i, p in enumerate(params) if p.name in names]
     if not free:
         raise FitError(f"none of {', '.join(names)} is fitted here")
-    ranges = state_ranges(drops) if ident.ranges is None else ident.ranges
-    prob = Problem(ident.model, drops, params, ranges, windows(drops, ident.align_s))
     here = {p.name: ident.model.parameter(p.name) for p in params}
     cube = qmc.Sobol(len(free), seed=ident.seed).random(n)
     points = []
@@ -847,9 +853,8 @@ def scan(
 def _search(ident: Identifier, drops: list[Drop], validation: list[Drop] | None) -> FitResult:
     """The global search from the start, then least squares; intervals and warnings at the optimum."""
     t0 = time.perf_counter()
-    params = ident.fit_params()
-    ranges = state_ranges(drops + (validation or [])) if ident.ranges is None else ident.ranges
-    prob = Problem(ident.model, drops, params, ranges, windows(drops, ident.align_s))
+    prob = _problem(ident, drops, validation)
+    params = prob.params
     here = {} if ident.from_centre else {p.name: ident.model.parameter(p.name) for p in params}
     x0 = _start(params, ident.start or {}, here)
     # the search's own linear algebra (tall, narrow matrices) on one thread: threaded BLAS gains
